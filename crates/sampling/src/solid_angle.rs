@@ -1,0 +1,91 @@
+//! Solid angle sampling (technique 3) and clipped solid angle sampling (technique 4).
+//!
+//! s is uniform on [s_begin, s_end] of the (clipped) segment, so p_R = 1/Ω_R on the support.
+//! Inverse: ξ = (s − s_begin)/(s_end − s_begin).
+
+use crate::geometry::{unit_normal, LineFrame, Segment};
+use crate::sampler::{clamp_xi, LineSampler};
+use glam::Vec3;
+
+/// s uniform on an interval of the line; shared by the clipped and the unclipped variant.
+#[derive(Clone, Copy, Debug)]
+pub struct SolidAngle {
+    frame: LineFrame,
+    inv_solid_angle: f32,
+}
+
+impl SolidAngle {
+    /// Uniform in solid angle over the whole segment (no horizon clipping). The normal only
+    /// decides nothing here; it is validated so that every technique rejects the same inputs.
+    pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
+        unit_normal(n)?;
+        Self::on_frame(LineFrame::new(segment, x)?)
+    }
+
+    /// Uniform in solid angle over the part of the segment above the horizon of `n`.
+    pub fn prepare_clipped(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
+        let n = unit_normal(n)?;
+        Self::on_frame(LineFrame::new(segment, x)?.clip_to_horizon(n)?)
+    }
+
+    /// Uniform in solid angle over an already prepared interval.
+    pub fn on_frame(frame: LineFrame) -> Option<Self> {
+        let omega = frame.solid_angle();
+        (omega > 0.0 && omega.is_finite()).then(|| Self { frame, inv_solid_angle: 1.0 / omega })
+    }
+}
+
+impl LineSampler for SolidAngle {
+    fn sample(&self, xi: f32) -> Vec3 {
+        let f = &self.frame;
+        let s = f.s_begin + clamp_xi(xi) * (f.s_end - f.s_begin);
+        f.direction(s.clamp(f.s_begin, f.s_end))
+    }
+
+    fn pdf(&self, dir: Vec3) -> f32 {
+        if self.frame.contains_s(self.frame.s_of(dir)) {
+            self.inv_solid_angle
+        } else {
+            0.0
+        }
+    }
+
+    fn support(&self) -> &LineFrame {
+        &self.frame
+    }
+
+    fn inverse(&self, dir: Vec3) -> Option<f32> {
+        let f = &self.frame;
+        let s = f.s_of(dir);
+        f.contains_s(s).then(|| ((s - f.s_begin) / (f.s_end - f.s_begin)).clamp(0.0, 1.0))
+    }
+
+    fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
+        (self.sample(xi), self.inv_solid_angle)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uniform_density_and_round_trip() {
+        let seg = Segment::new(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0));
+        let s = SolidAngle::prepare(&seg, Vec3::ZERO, Vec3::Z).unwrap();
+        assert!((s.pdf(s.sample(0.3)) - 1.0 / (2.0 * 2f32.sqrt())).abs() < 1e-6);
+        for &xi in &[0.0f32, 0.25, 0.5, 0.9, 1.0] {
+            assert!((s.inverse(s.sample(xi)).unwrap() - xi).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn clipped_support_is_above_the_horizon() {
+        let seg = Segment::new(Vec3::new(1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0));
+        let c = SolidAngle::prepare_clipped(&seg, Vec3::ZERO, Vec3::Z).unwrap();
+        for i in 0..=10 {
+            assert!(c.sample(i as f32 / 10.0).z >= -1e-6);
+        }
+        assert_eq!(c.pdf(Vec3::new(1.0, 0.0, -1.0).normalize()), 0.0);
+    }
+}

@@ -1,0 +1,2 @@
+//! Certification machinery: goodness of fit of line samplers (STATISTICS.md §1) and image
+//! difference statistics (STATISTICS.md §2).

@@ -1,0 +1,4 @@
+//! One module per subcommand; each exposes `Args` (clap) and `run(Args) -> ExitCode`.
+
+pub mod backward_error;
+pub mod samplers;

@@ -1,0 +1,32 @@
+//! `linlight`: certify importance sampling of linear lights and renders against Mitsuba 3.
+//!
+//! Exit codes of every subcommand: 0 = success / consistent, 1 = a check failed,
+//! 2 = bad usage or unusable input.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod cmd;
+
+#[derive(Parser)]
+#[command(name = "linlight", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Chi-square certification of every line-sampling technique (exit 0 only if all pass).
+    Samplers(cmd::samplers::Args),
+    /// Worst backward error of the projected-solid-angle inversion, per iteration count.
+    BackwardError(cmd::backward_error::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Samplers(a) => cmd::samplers::run(a),
+        Command::BackwardError(a) => cmd::backward_error::run(a),
+    }
+}
