@@ -1,0 +1,283 @@
+//! Chi-square goodness of fit of a line sampler (STATISTICS.md §1).
+//!
+//! Domain: φ = asin s ∈ [φ_begin, φ_end] of the sampler's `support()`, cut into M equal bins.
+//! The probability of bin i is ∫_bin p_R(ω(φ)) · (2/d) cos φ dφ (dΩ_R = (2/d) ds, ds = cos φ dφ),
+//! integrated in f64 by adaptive Gauss–Legendre with the sampler's own `pdf`, the quantity under
+//! test. ω(φ) = sin φ·u + cos φ·ĉ is built in f64 and cast to f32 for the call.
+
+use crate::quadrature::Adaptive;
+use glam::{DVec3, Vec3};
+use linlight_sampling::{LineFrame, LineSampler};
+use serde::Serialize;
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+/// A sample whose s = u·ω lies this far outside [s_begin, s_end] is outside the support
+/// (≈ 8 f32 ulps at 1; samples within it are assigned to the end bins).
+pub const SUPPORT_TOLERANCE_S: f64 = 1e-6;
+
+/// A sample must point at the line: unit length and in the plane through x and the line, on the
+/// side of the line (components checked in f64 against these tolerances).
+pub const DIRECTION_TOLERANCE: f64 = 1e-4;
+
+/// Pooled bins must reach this expected count.
+pub const MIN_EXPECTED: f64 = 5.0;
+
+/// M equal bins in φ over a frame's interval.
+#[derive(Clone, Copy, Debug)]
+pub struct PhiBinning {
+    u: DVec3,
+    c_hat: DVec3,
+    /// 2/d: dΩ_R/ds.
+    two_over_d: f64,
+    s_begin: f64,
+    s_end: f64,
+    phi_begin: f64,
+    phi_end: f64,
+    bins: usize,
+}
+
+/// Where a sampled direction falls.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BinLookup {
+    Bin(usize),
+    /// s outside the support by more than [`SUPPORT_TOLERANCE_S`].
+    OutsideSupport,
+    /// Not a unit direction toward the line (or not finite).
+    NotTowardLine,
+}
+
+impl PhiBinning {
+    pub fn new(frame: &LineFrame, bins: usize) -> Self {
+        let s_begin = frame.s_begin as f64;
+        let s_end = frame.s_end as f64;
+        Self {
+            u: frame.u.as_dvec3(),
+            c_hat: frame.c_hat.as_dvec3(),
+            two_over_d: 2.0 / frame.d as f64,
+            s_begin,
+            s_end,
+            phi_begin: s_begin.clamp(-1.0, 1.0).asin(),
+            phi_end: s_end.clamp(-1.0, 1.0).asin(),
+            bins: bins.max(1),
+        }
+    }
+
+    pub fn bins(&self) -> usize {
+        self.bins
+    }
+
+    /// Lower edge of bin i (i = M gives φ_end).
+    pub fn edge(&self, i: usize) -> f64 {
+        if i >= self.bins {
+            return self.phi_end;
+        }
+        self.phi_begin + (self.phi_end - self.phi_begin) * (i as f64 / self.bins as f64)
+    }
+
+    /// ω(φ) in f64, cast to f32.
+    pub fn direction(&self, phi: f64) -> Vec3 {
+        (phi.sin() * self.u + phi.cos() * self.c_hat).as_vec3()
+    }
+
+    /// dΩ_R/dφ = (2/d) cos φ.
+    pub fn jacobian(&self, phi: f64) -> f64 {
+        self.two_over_d * phi.cos()
+    }
+
+    /// The bin of a sampled direction.
+    pub fn lookup(&self, dir: Vec3) -> BinLookup {
+        let w = dir.as_dvec3();
+        if !w.is_finite()
+            || (w.length() - 1.0).abs() > DIRECTION_TOLERANCE
+            || w.dot(self.u.cross(self.c_hat)).abs() > DIRECTION_TOLERANCE
+            || w.dot(self.c_hat) < -DIRECTION_TOLERANCE
+        {
+            return BinLookup::NotTowardLine;
+        }
+        let s = w.dot(self.u);
+        if s < self.s_begin - SUPPORT_TOLERANCE_S || s > self.s_end + SUPPORT_TOLERANCE_S {
+            return BinLookup::OutsideSupport;
+        }
+        let phi = s.clamp(-1.0, 1.0).asin();
+        let x = (phi - self.phi_begin) / (self.phi_end - self.phi_begin) * self.bins as f64;
+        // NaN (zero-width domain) and out-of-range positions go to the end bins.
+        let i = if x > 0.0 { (x as usize).min(self.bins - 1) } else { 0 };
+        BinLookup::Bin(i)
+    }
+
+    /// ∫_bin p_R dΩ_R for every bin (probability masses under the sampler's own pdf).
+    pub fn masses(&self, sampler: &dyn LineSampler, quad: &Adaptive) -> Masses {
+        let mut out = Masses { mass: Vec::with_capacity(self.bins), converged: true, evaluations: 0 };
+        let mut non_finite = false;
+        let mut f = |phi: f64| {
+            let p = sampler.pdf(self.direction(phi)) as f64;
+            if !p.is_finite() {
+                non_finite = true;
+                return 0.0;
+            }
+            p * self.jacobian(phi)
+        };
+        for i in 0..self.bins {
+            let r = quad.integrate(self.edge(i), self.edge(i + 1), &mut f);
+            out.mass.push(r.value);
+            out.converged &= r.converged;
+            out.evaluations += r.evaluations;
+        }
+        if non_finite {
+            out.converged = false;
+            out.mass.iter_mut().for_each(|m| *m = f64::NAN);
+        }
+        out
+    }
+}
+
+/// Probability masses of the bins.
+#[derive(Clone, Debug)]
+pub struct Masses {
+    pub mass: Vec<f64>,
+    /// False if some panel hit the depth cap without meeting the tolerance, or the pdf returned
+    /// a non-finite value (then every mass is NaN).
+    pub converged: bool,
+    pub evaluations: usize,
+}
+
+impl Masses {
+    /// ∫ p_R dΩ_R over the whole support (should be 1).
+    pub fn total(&self) -> f64 {
+        self.mass.iter().sum()
+    }
+}
+
+/// Outcome of the pooled chi-square test.
+#[derive(Clone, Debug, Serialize)]
+pub struct Chi2Outcome {
+    pub statistic: f64,
+    pub dof: usize,
+    pub p_value: f64,
+    /// Number of cells after pooling.
+    pub cells: usize,
+    /// Samples that fell into bins of zero expected count (any is an immediate failure: then
+    /// `p_value` is 0).
+    pub zero_bin_samples: u64,
+}
+
+/// χ² of observed counts against expected counts (expected[i] = N · mass[i], not rescaled: a
+/// density that integrates to 1.01 shifts every expectation). Bins with expected 0 are dropped;
+/// a sample in one forces p = 0. The remaining bins are sorted by expectation (ascending) and
+/// pooled until each cell expects ≥ [`MIN_EXPECTED`]; a remainder below it joins the last cell.
+/// dof = cells − 1, p = P(χ²_dof ≥ statistic).
+pub fn pooled_chi_square(observed: &[u64], expected: &[f64]) -> Chi2Outcome {
+    assert_eq!(observed.len(), expected.len());
+    let mut zero_bin_samples = 0;
+    let mut bins: Vec<(f64, u64)> = Vec::with_capacity(expected.len());
+    for (&o, &e) in observed.iter().zip(expected) {
+        if e > 0.0 {
+            bins.push((e, o));
+        } else {
+            zero_bin_samples += o;
+        }
+    }
+    bins.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut cells: Vec<(f64, u64)> = Vec::new();
+    let mut acc = (0.0, 0u64);
+    for (e, o) in bins {
+        acc.0 += e;
+        acc.1 += o;
+        if acc.0 >= MIN_EXPECTED {
+            cells.push(acc);
+            acc = (0.0, 0);
+        }
+    }
+    if acc.0 > 0.0 || acc.1 > 0 {
+        match cells.last_mut() {
+            Some(last) => {
+                last.0 += acc.0;
+                last.1 += acc.1;
+            }
+            None => cells.push(acc),
+        }
+    }
+    let statistic: f64 = cells.iter().map(|&(e, o)| (o as f64 - e).powi(2) / e).sum();
+    let dof = cells.len().saturating_sub(1);
+    let p_value = if zero_bin_samples > 0 || !statistic.is_finite() {
+        0.0
+    } else if dof == 0 {
+        1.0
+    } else {
+        ChiSquared::new(dof as f64).map(|d| d.sf(statistic)).unwrap_or(0.0)
+    };
+    Chi2Outcome { statistic, dof, p_value, cells: cells.len(), zero_bin_samples }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use linlight_sampling::rng::Pcg32;
+    use linlight_sampling::solid_angle::SolidAngle;
+    use linlight_sampling::Segment;
+
+    #[test]
+    fn pooling_reaches_five_and_keeps_totals() {
+        let expected = [0.5, 1.0, 2.0, 3.0, 10.0, 20.0, 0.0, 1.5];
+        let observed = [1, 0, 3, 2, 11, 19, 0, 2];
+        let r = pooled_chi_square(&observed, &expected);
+        // Sorted, zero dropped: 0.5+1+1.5+2 = 5 → cell (6 observed); 3+10 → cell; 20 → cell.
+        assert_eq!(r.cells, 3);
+        assert_eq!(r.dof, 2);
+        let s = (6.0f64 - 5.0).powi(2) / 5.0 + (13.0f64 - 13.0).powi(2) / 13.0 + 1.0 / 20.0;
+        assert!((r.statistic - s).abs() < 1e-12);
+        assert!(r.p_value > 0.5);
+    }
+
+    #[test]
+    fn remainder_joins_the_last_cell_and_zero_bins_fail() {
+        let r = pooled_chi_square(&[5, 5, 1], &[6.0, 6.0, 1.0]);
+        assert_eq!(r.cells, 2);
+        let r = pooled_chi_square(&[5, 5, 1], &[6.0, 6.0, 0.0]);
+        assert_eq!(r.zero_bin_samples, 1);
+        assert_eq!(r.p_value, 0.0);
+    }
+
+    #[test]
+    fn p_value_is_the_upper_tail() {
+        // 11 cells with expected 100 and observed 100 ± 10 alternating (one at 100):
+        // χ² = 10 · 100/100 = 10 on 10 dof; P(χ²₁₀ ≥ 10) = 0.44049.
+        let observed = [110, 90, 110, 90, 110, 90, 110, 90, 110, 90, 100];
+        let r = pooled_chi_square(&observed, &[100.0; 11]);
+        assert_eq!(r.dof, 10);
+        assert!((r.statistic - 10.0).abs() < 1e-12);
+        assert!((r.p_value - 0.440_493).abs() < 1e-5, "{}", r.p_value);
+    }
+
+    #[test]
+    fn solid_angle_masses_are_uniform_in_s() {
+        let seg = Segment::new(Vec3::new(-1.0, 0.3, 1.0), Vec3::new(2.0, -0.2, 0.5));
+        let s = SolidAngle::prepare(&seg, Vec3::ZERO, Vec3::Z).unwrap();
+        let f = *s.support();
+        let b = PhiBinning::new(&f, 11);
+        let m = b.masses(&s, &Adaptive::new(8, 1e-6, 20));
+        assert!((m.total() - 1.0).abs() < 1e-6, "{}", m.total());
+        for i in 0..11 {
+            let ds = b.edge(i + 1).sin() - b.edge(i).sin();
+            let want = ds / (f.s_end - f.s_begin) as f64;
+            assert!((m.mass[i] - want).abs() < 1e-6, "bin {i}: {} vs {want}", m.mass[i]);
+        }
+    }
+
+    #[test]
+    fn lookup_rejects_directions_off_the_line() {
+        let seg = Segment::new(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0));
+        let s = SolidAngle::prepare(&seg, Vec3::ZERO, Vec3::Z).unwrap();
+        let b = PhiBinning::new(s.support(), 51);
+        let mut rng = Pcg32::new(1, 2);
+        for _ in 0..1000 {
+            assert!(matches!(b.lookup(s.sample(rng.next_f32())), BinLookup::Bin(_)));
+        }
+        assert_eq!(b.lookup(Vec3::new(0.0, 1.0, 1.0).normalize()), BinLookup::NotTowardLine);
+        assert_eq!(b.lookup(Vec3::new(0.0, 0.0, -1.0)), BinLookup::NotTowardLine);
+        assert_eq!(b.lookup(Vec3::new(0.0, 0.0, 2.0)), BinLookup::NotTowardLine);
+        assert_eq!(b.lookup(Vec3::new(1.0, 0.0, 0.1).normalize()), BinLookup::OutsideSupport);
+        assert_eq!(b.lookup(Vec3::new(0.0, 0.0, 1.0)), BinLookup::Bin(25));
+        assert_eq!(b.lookup(Vec3::NAN), BinLookup::NotTowardLine);
+    }
+}
