@@ -51,6 +51,9 @@ pub struct LineFrame {
 /// contain the shading point); every technique then reports "no contribution".
 const MIN_RELATIVE_DISTANCE: f32 = 1e-7;
 
+/// Bound on |s_of(direction(s)) − s| for s in a frame's interval (a few ulps at 1).
+pub const S_ROUNDING: f32 = 4.0 * f32::EPSILON;
+
 #[inline]
 fn s_of_l(l: f32, d: f32) -> f32 {
     // l / √(l² + d²), robust for large |l| (hypot avoids overflow).
@@ -70,8 +73,13 @@ impl LineFrame {
             return None;
         }
         let u = axis / length;
-        let sigma = u.dot(b);
-        let c = b - sigma * u;
+        let mut sigma = u.dot(b);
+        let mut c = b - sigma * u;
+        // Second Gram–Schmidt pass: when d ≪ |b| the first leaves u·ĉ ~ ε|b|/d, which shifts
+        // s_of(direction(s)) by up to t·(u·ĉ) (measured 1.9e-5 on random segments).
+        let delta = u.dot(c);
+        sigma += delta;
+        c -= delta * u;
         let d = c.length();
         let scale = length.max(b.length()).max(e.length());
         if !(d > MIN_RELATIVE_DISTANCE * scale) || !d.is_finite() {
@@ -176,10 +184,12 @@ impl LineFrame {
         self.d * s / t
     }
 
-    /// Whether s lies in this frame's interval (inclusive).
+    /// Whether s lies in this frame's interval (inclusive), up to the rounding of
+    /// `s_of(direction(s))` ([`S_ROUNDING`]): a sample drawn at the end of the interval must not
+    /// get density 0 from `pdf`.
     #[inline]
     pub fn contains_s(&self, s: f32) -> bool {
-        s >= self.s_begin && s <= self.s_end
+        s >= self.s_begin - S_ROUNDING && s <= self.s_end + S_ROUNDING
     }
 
     /// n_s = n·u and n_t = n·ĉ, so that n·ω = n_s s + n_t t.

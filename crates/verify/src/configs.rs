@@ -203,7 +203,7 @@ const EDGES: &[Edge] = &[
     Edge { name: "long-symmetric", class: ConfigClass::VeryLong, begin: [-1e4, 0.5, 1.0], end: [1e4, 0.5, 1.0], n: Z },
     Edge { name: "long-one-sided", class: ConfigClass::VeryLong, begin: [0.0, 0.0, 0.5], end: [1e3, 0.0, 0.5], n: Z },
     Edge { name: "long-crossing", class: ConfigClass::VeryLong, begin: [-1e3, 1.0, -1e2], end: [1e3, 1.0, 1e2], n: Z },
-    Edge { name: "long-far", class: ConfigClass::VeryLong, begin: [-100.0, 50.0, 3.0], end: [100.0, 50.0, 3.0], n: Z },
+    Edge { name: "long-far", class: ConfigClass::VeryLong, begin: [-1e4, 50.0, 3.0], end: [1e4, 50.0, 3.0], n: Z },
     // The shading point is close to the infinite line.
     Edge { name: "close-spanning", class: ConfigClass::CloseToLine, begin: [-1.0, 0.0, 1e-4], end: [1.0, 0.0, 1e-4], n: Z },
     Edge { name: "close-beside", class: ConfigClass::CloseToLine, begin: [0.1, 0.0, 1e-3], end: [1.0, 0.0, 1e-3], n: Z },

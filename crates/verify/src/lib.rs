@@ -4,3 +4,7 @@
 pub mod chi2;
 pub mod configs;
 pub mod quadrature;
+pub mod subjects;
+pub mod suite;
+
+pub use suite::{run_suite, Settings, SuiteReport};
