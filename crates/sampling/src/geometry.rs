@@ -73,13 +73,8 @@ impl LineFrame {
             return None;
         }
         let u = axis / length;
-        let mut sigma = u.dot(b);
-        let mut c = b - sigma * u;
-        // Second Gram–Schmidt pass: when d ≪ |b| the first leaves u·ĉ ~ ε|b|/d, which shifts
-        // s_of(direction(s)) by up to t·(u·ĉ) (measured 1.9e-5 on random segments).
-        let delta = u.dot(c);
-        sigma += delta;
-        c -= delta * u;
+        let sigma = u.dot(b);
+        let c = b - sigma * u;
         let d = c.length();
         let scale = length.max(b.length()).max(e.length());
         if !(d > MIN_RELATIVE_DISTANCE * scale) || !d.is_finite() {
