@@ -38,6 +38,7 @@ fn print_techniques(rows: &[SubjectReport]) {
             println!("{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  panicked: {p}", t.name, "-", t.configs.len(), 0, 0, "-", "-");
             continue;
         }
+        println!("{:<24} ({:.1} s)", t.name, t.elapsed_seconds);
         for c in &t.classes {
             println!(
                 "{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  {}",

@@ -227,6 +227,8 @@ pub struct SubjectReport {
     pub max_normalisation_error: Option<f64>,
     pub classes: Vec<ClassSummary>,
     pub configs: Vec<ConfigResult>,
+    /// Wall-clock time of this subject.
+    pub elapsed_seconds: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -555,12 +557,26 @@ fn summarise(subject: &Subject, configs: Vec<ConfigResult>, panic: Option<String
         max_normalisation_error: classes.iter().filter_map(|c| c.max_normalisation_error).reduce(f64::max),
         classes,
         configs,
+        elapsed_seconds: 0.0,
     }
 }
 
 /// Run one subject over all configurations (in parallel). Configuration 0 runs first on its
 /// own: if the subject panics there (unimplemented), the rest are not run.
 pub fn run_subject(
+    subject: &Subject,
+    subject_index: usize,
+    configs: &[Config],
+    settings: &Settings,
+    levels: (f64, f64),
+) -> SubjectReport {
+    let started = std::time::Instant::now();
+    let mut report = run_subject_inner(subject, subject_index, configs, settings, levels);
+    report.elapsed_seconds = started.elapsed().as_secs_f64();
+    report
+}
+
+fn run_subject_inner(
     subject: &Subject,
     subject_index: usize,
     configs: &[Config],
