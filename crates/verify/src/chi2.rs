@@ -1,6 +1,12 @@
 //! Chi-square goodness of fit of a line sampler (STATISTICS.md §1).
 //!
 //! Domain: φ = asin s ∈ [φ_begin, φ_end] of the sampler's `support()`, cut into M equal bins.
+//! The ends are asin of the support's f32 s_begin, s_end: a sampler parametrised by s samples
+//! exactly that interval and normalises over it, so it is the support the density claims (near
+//! |s| → 1 it differs from the segment's l-interval at f32 precision; for ℓ/d ≳ 3000 s_end
+//! rounds to 1, and a density must then vanish beyond the segment's end by itself). A sample's
+//! φ is atan2(u·ω, ĉ·ω), which keeps the angular precision of the f32 direction where
+//! asin(u·ω) would not.
 //! The probability of bin i is ∫_bin p_R(ω(φ)) · (2/d) cos φ dφ (dΩ_R = (2/d) ds, ds = cos φ dφ),
 //! integrated in f64 by adaptive Gauss–Legendre with the sampler's own `pdf`, the quantity under
 //! test. ω(φ) = sin φ·u + cos φ·ĉ is built in f64 and cast to f32 for the call.
@@ -11,9 +17,11 @@ use linlight_sampling::{LineFrame, LineSampler};
 use serde::Serialize;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
-/// A sample whose s = u·ω lies this far outside [s_begin, s_end] is outside the support
-/// (≈ 8 f32 ulps at 1; samples within it are assigned to the end bins).
+/// A sample is outside the support when its s = u·ω lies more than this outside
+/// [s_begin, s_end] (≈ 8 f32 ulps at 1) *and* its φ more than [`SUPPORT_TOLERANCE_PHI`] outside
+/// [φ_begin, φ_end]; samples within either tolerance are assigned to the end bins.
 pub const SUPPORT_TOLERANCE_S: f64 = 1e-6;
+pub const SUPPORT_TOLERANCE_PHI: f64 = 1e-6;
 
 /// A sample must point at the line: unit length and in the plane through x and the line, on the
 /// side of the line (components checked in f64 against these tolerances).
@@ -127,10 +135,13 @@ impl PhiBinning {
             return BinLookup::NotTowardLine;
         }
         let s = w.dot(self.u);
-        if s < self.s_begin - SUPPORT_TOLERANCE_S || s > self.s_end + SUPPORT_TOLERANCE_S {
+        let phi = s.atan2(w.dot(self.c_hat));
+        let outside_s = s < self.s_begin - SUPPORT_TOLERANCE_S || s > self.s_end + SUPPORT_TOLERANCE_S;
+        let outside_phi = phi < self.phi_begin - SUPPORT_TOLERANCE_PHI
+            || phi > self.phi_end + SUPPORT_TOLERANCE_PHI;
+        if outside_s && outside_phi {
             return BinLookup::OutsideSupport;
         }
-        let phi = s.clamp(-1.0, 1.0).asin();
         let x = (phi - self.phi_begin) / (self.phi_end - self.phi_begin) * self.bins as f64;
         // NaN (zero-width domain) and out-of-range positions go to the end bins.
         let i = if x > 0.0 { (x as usize).min(self.bins - 1) } else { 0 };
