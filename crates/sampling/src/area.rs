@@ -70,14 +70,15 @@ impl Area {
 
     #[inline]
     fn l_of_xi(&self, xi: f32) -> f32 {
-        let f = &self.frame;
-        (f.l_begin + clamp_xi(xi) * (f.l_end - f.l_begin)).clamp(f.l_begin, f.l_end)
+        // Weighted form: exact at both ends even when |l_begin| ≫ |l_end| (or the reverse).
+        let (f, xi) = (&self.frame, clamp_xi(xi));
+        ((1.0 - xi) * f.l_begin + xi * f.l_end).clamp(f.l_begin, f.l_end)
     }
 }
 
 impl LineSampler for Area {
     fn sample(&self, xi: f32) -> Vec3 {
-        self.frame.point(self.l_of_xi(xi)).normalize()
+        self.frame.direction_to(self.l_of_xi(xi))
     }
 
     fn pdf(&self, dir: Vec3) -> f32 {
@@ -111,7 +112,7 @@ impl LineSampler for Area {
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
         let l = self.l_of_xi(xi);
         (
-            self.frame.point(l).normalize(),
+            self.frame.direction_to(l),
             self.density_at_t(t_at(l, self.frame.d)),
         )
     }
