@@ -4,7 +4,9 @@
 //! ds/dl = d²/(l² + d²)^{3/2} = t³/d with t = √(1 − s²) = d/r, r = √(l² + d²). With
 //! dΩ_R = (2/d) ds = (2t³/d²) dl the density per radius is
 //!
-//!     p_R = (1/ℓ) / (2t³/d²) = d²/(2ℓ t³) = r²/(2ℓ sin α),   sin α = t.
+//! ```text
+//! p_R = (1/ℓ) / (2t³/d²) = d²/(2ℓ t³) = r²/(2ℓ sin α),   sin α = t.
+//! ```
 //!
 //! Numerics: for a long segment seen nearly along its axis t is tiny and s ≈ ±1, where
 //! √(1 − s²) loses everything in f32. t is therefore read as ĉ·ω (accurate for small t) and the
@@ -32,8 +34,9 @@ const ENDPOINT_ULPS: f32 = 4.0;
 /// t = d/√(l² + d²) of the line point at parameter l, in f64.
 #[inline]
 fn t_at(l: f32, d: f32) -> f64 {
+    // Squares of f32 values cannot overflow in f64: no need for the slower hypot.
     let (l, d) = (l as f64, d as f64);
-    d / l.hypot(d)
+    d / (l * l + d * d).sqrt()
 }
 
 impl Area {
