@@ -189,4 +189,39 @@ proptest! {
             );
         }
     }
+
+    /// The density returned with a sample equals `pdf` of that direction (up to rounding), on
+    /// well-conditioned configurations: unit scale, support not tiny and not along the axis,
+    /// ξ away from the ends. Tolerance relative to the larger density plus 1e-4 of the
+    /// technique's natural density scale (1/Ω_R or 1/Ω⊥_R of the support).
+    #[test]
+    fn sample_with_pdf_agrees_with_pdf(
+        begin in vec_at_scale(0),
+        end in vec_at_scale(0),
+        x in vec_at_scale(-1),
+        n in vec_at_scale(0),
+        xi in 0.01f32..=0.99,
+    ) {
+        let segment = Segment::new(begin, end);
+        for technique in Technique::UNBIASED {
+            if PENDING.contains(&technique) {
+                continue;
+            }
+            let Some(p) = technique.prepare(&segment, x, n) else { continue };
+            let f = *p.support();
+            let nn = unit_normal(n).unwrap();
+            let scale = (1.0 / f.solid_angle()).max(1.0 / f.projected_solid_angle(nn));
+            if f.s_end - f.s_begin < 1e-3 || f.s_begin < -0.9999 || f.s_end > 0.9999 {
+                continue;
+            }
+            let (dir, p_sampled) = p.sample_with_pdf(xi);
+            let p_eval = p.pdf(dir);
+            let tol = 1e-3 * p_sampled.max(p_eval) + 1e-4 * scale;
+            prop_assert!(
+                (p_sampled - p_eval).abs() <= tol,
+                "{technique}: sample_with_pdf {p_sampled} vs pdf {p_eval} at ξ = {xi} for \
+                 {segment:?}, x = {x}, n = {n}"
+            );
+        }
+    }
 }
