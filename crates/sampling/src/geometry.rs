@@ -160,7 +160,13 @@ impl LineFrame {
     /// Unit direction toward the line point at parameter l.
     #[inline]
     pub fn direction_to(&self, l: f32) -> Vec3 {
-        // Scaled by max(d, |l|) first: d ĉ + l u itself may overflow near f32::MAX.
+        let p = self.point(l);
+        let len2 = p.length_squared();
+        if len2 > 1e-30 && len2 <= f32::MAX {
+            return p / len2.sqrt();
+        }
+        // Outside ~[1e-19, 1e19] the squares leave the normal range (or d ĉ + l u overflows):
+        // scale by max(d, |l|) first.
         let m = self.d.max(l.abs());
         let p = (self.d / m) * self.c_hat + (l / m) * self.u;
         p / p.length()

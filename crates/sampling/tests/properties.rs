@@ -176,11 +176,12 @@ proptest! {
                 continue;
             }
             let Some(p) = technique.prepare(&segment, x, n) else { continue };
-            // Probes: directions toward the whole line (not only the support), its endpoints'
-            // neighbourhood, and an arbitrary vector.
+            // Probes: directions toward the whole line (not only the support), its endpoints,
+            // and an arbitrary unit direction (`pdf` takes directions, i.e. unit vectors).
             let f = *p.support();
             let mut probes: Vec<Vec3> = probe_s.iter().map(|&s| f.direction(s)).collect();
-            probes.extend([f.direction(f.s_begin), f.direction(f.s_end), junk, Vec3::ZERO]);
+            probes.extend([f.direction(f.s_begin), f.direction(f.s_end)]);
+            probes.extend(unit_normal(junk));
             let result = check(technique, &p, n, &xis, &probes);
             prop_assert!(
                 result.is_ok(),
