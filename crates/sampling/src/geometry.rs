@@ -79,7 +79,7 @@ impl LineFrame {
         let c = b - sigma * u;
         let d = c.length();
         let scale = length.max(b.length()).max(e.length());
-        if !(d > MIN_RELATIVE_DISTANCE as f64 * scale) || !d.is_finite() {
+        if !(d.is_finite() && d > MIN_RELATIVE_DISTANCE as f64 * scale) {
             return None;
         }
         let c_hat = (c / d).as_vec3();
