@@ -225,4 +225,17 @@ proptest! {
             );
         }
     }
+
+    /// The frame every technique builds on is orthonormal to f32 precision at any scale (f32
+    /// cancellation in c = b − σu used to leave |u·ĉ| ~ 1e-4 near the line, and squared
+    /// lengths of tiny or huge vectors left the f32 range).
+    #[test]
+    fn line_frame_is_orthonormal((segment, x, _n) in configuration()) {
+        if let Some(f) = LineFrame::new(&segment, x) {
+            let (u, c) = (f.u.as_dvec3(), f.c_hat.as_dvec3());
+            prop_assert!((u.length() - 1.0).abs() < 1e-6 && (c.length() - 1.0).abs() < 1e-6);
+            prop_assert!(u.dot(c).abs() < 1e-6, "u·ĉ = {:e} for {f:?}", u.dot(c));
+            prop_assert!(f.d > 0.0 && f.d.is_finite() && f.s_begin < f.s_end);
+        }
+    }
 }
