@@ -361,6 +361,15 @@ impl ProjectedSolidAngle {
         self.n
     }
 
+    /// Exact CDF at the line parameter l (clamped to the support): the fraction of Ω⊥_R between
+    /// l_begin and l. τ(l) = atan2((l − l_b)d, d² + l_b l) avoids the cancellation of φ − φ_b.
+    pub fn cdf_of_l(&self, l: f32) -> f32 {
+        let f = &self.frame;
+        let l = l.clamp(f.l_begin, f.l_end);
+        let tau = ((l - f.l_begin) * f.d).atan2(f.d * f.d + f.l_begin * l);
+        self.core.cdf(tau)
+    }
+
     /// τ = φ − φ_b of the sample for ξ (for analysis).
     pub fn sample_tau(&self, xi: f32) -> f32 {
         self.core.solve(clamp_xi(xi), self.iterations)
@@ -574,8 +583,8 @@ mod tests {
             let (one, two, three) = (worst(1), worst(2), worst(3));
             assert!(two < 2e-5, "{seg:?} two iterations: {two}");
             assert!(three < 2e-6, "{seg:?} three iterations: {three}");
-            // (On short or symmetric intervals one step already reaches the f32 floor.)
-            assert!(one >= 0.0 && two >= 0.0);
+            // (On short or symmetric intervals one step already reaches the f32 floor, so the
+            // negative control is asserted on the worst configuration only.)
             worst_one = worst_one.max(one);
         }
         assert!(worst_one > 1e-3, "one iteration should be visibly worse: {worst_one}");
