@@ -59,7 +59,6 @@ pub(crate) trait Real:
     fn to_f64(self) -> f64;
     fn sin_cos(self) -> (Self, Self);
     fn sin(self) -> Self;
-    fn asin(self) -> Self;
     fn atan2(self, x: Self) -> Self;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
@@ -108,10 +107,6 @@ macro_rules! impl_real {
             #[inline]
             fn sin(self) -> Self {
                 <$t>::sin(self)
-            }
-            #[inline]
-            fn asin(self) -> Self {
-                <$t>::asin(self)
             }
             #[inline]
             fn atan2(self, x: Self) -> Self {
@@ -166,8 +161,8 @@ pub(crate) struct PsaCore<T> {
     /// sin φ_b, cos φ_b.
     pub s_b: T,
     pub c_b: T,
-    /// sin φ_e: the solid-angle start value interpolates s_b and s_e.
-    pub s_e: T,
+    /// sin φ_e − sin φ_b = 2 cos(φ_b + Δ/2) sin(Δ/2), for the solid-angle start value.
+    pub delta_s: T,
     /// Δ = φ_e − φ_b.
     pub width: T,
     pub total: T,
@@ -175,15 +170,19 @@ pub(crate) struct PsaCore<T> {
 
 impl<T: Real> PsaCore<T> {
     /// From the endpoint angles (analysis; the sampler uses [`Self::with_frame_values`]).
+    #[cfg(test)]
     pub fn from_angles(ns: T, nt: T, phi_b: T, phi_e: T) -> Option<Self> {
         let (s_b, c_b) = phi_b.sin_cos();
-        Self::with_frame_values(ns, nt, s_b, c_b, phi_e.sin(), phi_e - phi_b)
+        Self::with_frame_values(ns, nt, s_b, c_b, phi_e - phi_b)
     }
 
-    /// From sin φ_b, cos φ_b, sin φ_e and Δ. `None` if the interval carries no finite, positive
+    /// From sin φ_b, cos φ_b and Δ. `None` if the interval carries no finite, positive
     /// projected solid angle.
-    pub fn with_frame_values(ns: T, nt: T, s_b: T, c_b: T, s_e: T, width: T) -> Option<Self> {
-        let mut core = Self { ns, nt, s_b, c_b, s_e, width, total: T::ZERO };
+    pub fn with_frame_values(ns: T, nt: T, s_b: T, c_b: T, width: T) -> Option<Self> {
+        let mut core =
+            Self { ns, nt, s_b, c_b, delta_s: T::ZERO, width, total: T::ZERO };
+        let (sh, ch) = (width * T::HALF).sin_cos();
+        core.delta_s = T::TWO * core.rotate(sh, ch).1 * sh;
         core.total = core.delta_c(width);
         (width > T::ZERO && core.total > T::ZERO && core.total.is_finite()).then_some(core)
     }
@@ -220,7 +219,11 @@ impl<T: Real> PsaCore<T> {
         xi < g || xi > T::ONE - g
     }
 
-    /// Start value: τ of the solid-angle sample for the same ξ (exact at ξ = 0 and 1).
+    /// Start value: τ of the solid-angle sample for the same ξ, i.e. sin(φ_b + τ) = s_b + ξ·Δs.
+    /// Computed without forming s = s_b + ξΔs and asin(s) − φ_b (with y = ξΔs, cos φ_b = c_b):
+    /// c = √(c_b² − y(2s_b + y)) = cos(φ_b + τ), sin τ = y c_b + s_b·y(2s_b + y)/(c_b + c),
+    /// cos τ = c c_b + (s_b + y)s_b. The textbook form is quantised to a few values in f32 when
+    /// s_b ≈ ±1 (then two iterations do not recover). Exact at ξ = 0 and 1.
     #[inline]
     pub fn start(&self, xi: T) -> T {
         if xi <= T::ZERO {
@@ -229,10 +232,13 @@ impl<T: Real> PsaCore<T> {
         if xi >= T::ONE {
             return self.width;
         }
-        let s = ((T::ONE - xi) * self.s_b + xi * self.s_e).clamp(-T::ONE, T::ONE);
-        let c = (T::ONE - s * s).max(T::ZERO).sqrt();
-        // τ = angle from (s_b, c_b) to (s, c).
-        (s * self.c_b - c * self.s_b).atan2(c * self.c_b + s * self.s_b).clamp(T::ZERO, self.width)
+        let y = xi * self.delta_s;
+        let q = y * (T::TWO * self.s_b + y);
+        let c = (self.c_b * self.c_b - q).max(T::ZERO).sqrt();
+        let denom = self.c_b + c;
+        let sin_tau = if denom > T::ZERO { y * self.c_b + self.s_b * q / denom } else { y };
+        let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
+        sin_tau.atan2(cos_tau).clamp(T::ZERO, self.width)
     }
 
     /// One step of Halley's irrational formula on G(τ) = C(φ_b + τ) − C(φ_b) − ξ·total, clamped
@@ -339,7 +345,7 @@ impl ProjectedSolidAngle {
         let c_b = d / lb.hypot(d);
         let width = ((le - lb) * d).atan2(d * d + lb * le);
         let core =
-            PsaCore::with_frame_values(ns, nt, frame.s_begin, c_b, frame.s_end, width)?;
+            PsaCore::with_frame_values(ns, nt, frame.s_begin, c_b, width)?;
         let inv_psa = d / core.total;
         (inv_psa.is_finite() && inv_psa > 0.0).then_some(Self {
             frame,
@@ -514,7 +520,6 @@ mod tests {
                 0.8f32 as f64,
                 c32.s_b as f64,
                 c32.c_b as f64,
-                c32.s_e as f64,
                 c32.width as f64,
             )
             .unwrap();
@@ -568,7 +573,6 @@ mod tests {
                     c.nt as f64,
                     c.s_b as f64,
                     c.c_b as f64,
-                    c.s_e as f64,
                     c.width as f64,
                 )
                 .unwrap();
