@@ -288,17 +288,55 @@ impl<T: Real> PsaCore<T> {
         self.rotate(st, ct)
     }
 
-    /// τ of a unit direction with components (s, t) along (u, ĉ).
-    #[inline]
-    pub fn tau_of(&self, s: T, t: T) -> T {
-        (s * self.c_b - t * self.s_b).atan2(t * self.c_b + s * self.s_b)
-    }
-
     /// Exact CDF: ξ of τ (clamped to the interval).
     #[inline]
     pub fn cdf(&self, tau: T) -> T {
         let tau = tau.clamp(T::ZERO, self.width);
         (self.delta_c(tau) / self.total).clamp(T::ZERO, T::ONE)
+    }
+}
+
+/// The directions toward an interval of a line as an arc φ ∈ [φ_b, φ_b + Δ] in the plane of
+/// (u, ĉ), for accurate support tests and directions (s = u·ω is quantised near ±1, the offset τ
+/// from the begin of the arc is not).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Arc {
+    pub s_b: f32,
+    pub c_b: f32,
+    pub width: f32,
+    /// Rounding tolerance of the support test in τ (radians).
+    pub tolerance: f32,
+}
+
+impl Arc {
+    pub fn of(frame: &LineFrame) -> Self {
+        let (lb, le, d) = (frame.l_begin, frame.l_end, frame.d);
+        // cos φ_b = d/r_b is accurate where s_b ≈ ±1 is not; Δ = φ_e − φ_b from
+        // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
+        let width = ((le - lb) * d).atan2(d * d + lb * le);
+        Self {
+            s_b: frame.s_begin,
+            c_b: d / lb.hypot(d),
+            width,
+            tolerance: 2.5e-7 + 1e-6 * width,
+        }
+    }
+
+    /// τ of a direction if it points into the arc (up to rounding).
+    #[inline]
+    pub fn tau_in_support(&self, frame: &LineFrame, dir: Vec3) -> Option<f32> {
+        let (s, t) = (frame.u.dot(dir), frame.c_hat.dot(dir));
+        let tau = (s * self.c_b - t * self.s_b).atan2(t * self.c_b + s * self.s_b);
+        (t >= 0.0 && tau >= -self.tolerance && tau <= self.width + self.tolerance).then_some(tau)
+    }
+
+    /// Unit direction at offset τ ∈ [0, Δ] (clamped).
+    #[inline]
+    pub fn direction(&self, frame: &LineFrame, tau: f32) -> Vec3 {
+        let (st, ct) = tau.clamp(0.0, self.width).sin_cos();
+        let s = self.s_b * ct + self.c_b * st;
+        let t = (self.c_b * ct - self.s_b * st).max(0.0);
+        s * frame.u + t * frame.c_hat
     }
 }
 
@@ -311,8 +349,7 @@ pub struct ProjectedSolidAngle {
     core: PsaCore<f32>,
     /// 1/Ω⊥_R = d / (C(φ_e) − C(φ_b)).
     inv_psa: f32,
-    /// Rounding tolerance of the support test in τ (radians).
-    tau_tolerance: f32,
+    arc: Arc,
     iterations: u32,
 }
 
@@ -339,20 +376,15 @@ impl ProjectedSolidAngle {
     /// On an already clipped frame (n unit, frame clipped to its horizon).
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
         let (ns, nt) = frame.normal_coefficients(n);
-        let (lb, le, d) = (frame.l_begin, frame.l_end, frame.d);
-        // cos φ_b = d/r_b is accurate where s_b ≈ ±1 is not; Δ = φ_e − φ_b from
-        // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
-        let c_b = d / lb.hypot(d);
-        let width = ((le - lb) * d).atan2(d * d + lb * le);
-        let core =
-            PsaCore::with_frame_values(ns, nt, frame.s_begin, c_b, width)?;
-        let inv_psa = d / core.total;
+        let arc = Arc::of(&frame);
+        let core = PsaCore::with_frame_values(ns, nt, arc.s_b, arc.c_b, arc.width)?;
+        let inv_psa = frame.d / core.total;
         (inv_psa.is_finite() && inv_psa > 0.0).then_some(Self {
             frame,
             n,
             core,
             inv_psa,
-            tau_tolerance: 2.5e-7 + 1e-6 * width,
+            arc,
             iterations,
         })
     }
@@ -392,10 +424,7 @@ impl ProjectedSolidAngle {
     /// τ of a direction if it points into the support (up to rounding).
     #[inline]
     fn tau_in_support(&self, dir: Vec3) -> Option<f32> {
-        let t = self.frame.c_hat.dot(dir);
-        let tau = self.core.tau_of(self.frame.u.dot(dir), t);
-        (t >= 0.0 && tau >= -self.tau_tolerance && tau <= self.core.width + self.tau_tolerance)
-            .then_some(tau)
+        self.arc.tau_in_support(&self.frame, dir)
     }
 }
 
