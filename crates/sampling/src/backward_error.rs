@@ -61,7 +61,12 @@ pub struct SweepConfig {
 
 impl Default for SweepConfig {
     fn default() -> Self {
-        Self { iterations: vec![1, 2, 3], normals: 64, xi_per_interval: 1024, seed: 1 }
+        Self {
+            iterations: vec![1, 2, 3],
+            normals: 64,
+            xi_per_interval: 1024,
+            seed: 1,
+        }
     }
 }
 
@@ -117,11 +122,19 @@ pub fn case_backward_error(case: &Case, precision: Precision, iterations: u32) -
         Precision::F32 => {
             let (core, exact) = cores::<f32>(ns, nt, case.phi_begin, case.width)?;
             let xi = case.xi as f32;
-            Some(backward_error(&exact, xi as f64, core.solve(xi, iterations) as f64))
+            Some(backward_error(
+                &exact,
+                xi as f64,
+                core.solve(xi, iterations) as f64,
+            ))
         }
         Precision::F64 => {
             let (core, exact) = cores::<f64>(ns, nt, case.phi_begin, case.width)?;
-            Some(backward_error(&exact, case.xi, core.solve(case.xi, iterations)))
+            Some(backward_error(
+                &exact,
+                case.xi,
+                core.solve(case.xi, iterations),
+            ))
         }
     }
 }
@@ -148,9 +161,21 @@ pub fn intervals(psi: f64) -> Vec<(f64, f64)> {
 
 /// ξ values: stratified uniform plus the guard band, its edges and the ends.
 fn xi_values(rng: &mut Pcg32, k: u32) -> Vec<f64> {
-    let mut xs: Vec<f64> = (0..k).map(|i| (i as f64 + rng.next_f64()) / k as f64).collect();
+    let mut xs: Vec<f64> = (0..k)
+        .map(|i| (i as f64 + rng.next_f64()) / k as f64)
+        .collect();
     let g = XI_GUARD;
-    for v in [0.0, 1e-7, 1e-6, 5e-6, 0.999 * g, g, 1.001 * g, 2.0 * g, 1e-4] {
+    for v in [
+        0.0,
+        1e-7,
+        1e-6,
+        5e-6,
+        0.999 * g,
+        g,
+        1.001 * g,
+        2.0 * g,
+        1e-4,
+    ] {
         xs.push(v);
         xs.push(1.0 - v);
     }
@@ -158,7 +183,9 @@ fn xi_values(rng: &mut Pcg32, k: u32) -> Vec<f64> {
 }
 
 fn normal_angles(n: u32) -> Vec<f64> {
-    let mut psis: Vec<f64> = (0..n).map(|i| -PI + (i as f64 + 0.5) * 2.0 * PI / n as f64).collect();
+    let mut psis: Vec<f64> = (0..n)
+        .map(|i| -PI + (i as f64 + 0.5) * 2.0 * PI / n as f64)
+        .collect();
     psis.extend([0.0, FRAC_PI_2, -FRAC_PI_2]);
     psis
 }
@@ -196,8 +223,14 @@ fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepR
                     if let Some((core, exact)) = cores::<f32>(ns, nt, phi_b, width) {
                         for &xi in &xis {
                             let x = xi as f32;
-                            let e = backward_error(&exact, x as f64, core.solve(x, iterations) as f64);
-                            let case = Case { psi, phi_begin: phi_b, width, xi };
+                            let e =
+                                backward_error(&exact, x as f64, core.solve(x, iterations) as f64);
+                            let case = Case {
+                                psi,
+                                phi_begin: phi_b,
+                                width,
+                                xi,
+                            };
                             record(&mut row, case, e.abs(), PsaCore::<f32>::in_guard(x));
                         }
                     }
@@ -206,7 +239,12 @@ fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepR
                     if let Some((core, exact)) = cores::<f64>(ns, nt, phi_b, width) {
                         for &xi in &xis {
                             let e = backward_error(&exact, xi, core.solve(xi, iterations));
-                            let case = Case { psi, phi_begin: phi_b, width, xi };
+                            let case = Case {
+                                psi,
+                                phi_begin: phi_b,
+                                width,
+                                xi,
+                            };
                             record(&mut row, case, e.abs(), PsaCore::<f64>::in_guard(xi));
                         }
                     }
@@ -242,13 +280,24 @@ mod tests {
 
     #[test]
     fn small_sweep_orders_iterations() {
-        let cfg = SweepConfig { iterations: vec![1, 2, 3], normals: 8, xi_per_interval: 64, seed: 7 };
+        let cfg = SweepConfig {
+            iterations: vec![1, 2, 3],
+            normals: 8,
+            xi_per_interval: 64,
+            seed: 7,
+        };
         let rows = sweep(&cfg);
         let get = |k: u32, p: Precision| {
-            *rows.iter().find(|r| r.iterations == k && r.precision == p).unwrap()
+            *rows
+                .iter()
+                .find(|r| r.iterations == k && r.precision == p)
+                .unwrap()
         };
-        let (one, two, three) =
-            (get(1, Precision::F64), get(2, Precision::F64), get(3, Precision::F64));
+        let (one, two, three) = (
+            get(1, Precision::F64),
+            get(2, Precision::F64),
+            get(3, Precision::F64),
+        );
         assert!(one.samples > 10_000);
         assert!(one.worst_outside_guard > 1e-3, "{one:?}");
         assert!(two.worst_outside_guard < 2e-5, "{two:?}");
@@ -267,7 +316,12 @@ mod tests {
     #[test]
     fn exact_solution_has_zero_backward_error() {
         // With many iterations in f64 the backward error is at rounding level.
-        let case = Case { psi: 0.3, phi_begin: -0.2, width: 1.1, xi: 0.37 };
+        let case = Case {
+            psi: 0.3,
+            phi_begin: -0.2,
+            width: 1.1,
+            xi: 0.37,
+        };
         let e = case_backward_error(&case, Precision::F64, 8).unwrap();
         assert!(e.abs() < 1e-14, "{e}");
         // And the definition is in units of ξ: a perturbed τ gives the expected first-order error.

@@ -45,14 +45,22 @@ impl Li2018 {
         let frame = LineFrame::new(segment, x)?.clip_to_horizon(n)?;
         let exact = ProjectedSolidAngle::on_frame(frame, n, DEFAULT_ITERATIONS)?;
         let (ns, nt) = frame.normal_coefficients(n);
-        Some(Self { exact, n_dot_c: frame.d * nt, ns, max_iterations: MAX_ITERATIONS })
+        Some(Self {
+            exact,
+            n_dot_c: frame.d * nt,
+            ns,
+            max_iterations: MAX_ITERATIONS,
+        })
     }
 
     /// Change the iteration limit. Analysis and testing only: the density is not corrected, so a
     /// small limit (e.g. 2) samples a different density than `pdf` reports, which the
     /// chi-square suite must detect (its power control).
     pub fn with_max_iterations(self, k: u32) -> Self {
-        Self { max_iterations: k, ..self }
+        Self {
+            max_iterations: k,
+            ..self
+        }
     }
 
     /// l of the sample for ξ, and the number of iterations used.
@@ -74,10 +82,15 @@ impl Li2018 {
             }
             // F'(l)/total = 2d(n·c + l n_s)/(r⁴ Ω⊥_R)  (total = F(l_e) − F(l_b) = Ω⊥_R).
             let r2 = l * l + d * d;
-            let slope = 2.0 * d * (self.n_dot_c + l * self.ns) / (r2 * r2)
+            let slope = 2.0 * d * (self.n_dot_c + l * self.ns)
+                / (r2 * r2)
                 / self.exact.projected_solid_angle();
             let newton = l - g / slope;
-            l = if newton > lo && newton < hi { newton } else { 0.5 * (lo + hi) };
+            l = if newton > lo && newton < hi {
+                newton
+            } else {
+                0.5 * (lo + hi)
+            };
         }
         (l, self.max_iterations)
     }
@@ -167,7 +180,10 @@ mod tests {
                 assert!((back - xi).abs() < 3e-5, "{seg:?} ξ={xi}: inverse {back}");
                 let pd = peters.sample(xi);
                 let back_p = peters.inverse(pd).unwrap();
-                assert!((back - back_p).abs() < 4e-5, "{seg:?} ξ={xi}: {back} vs {back_p}");
+                assert!(
+                    (back - back_p).abs() < 4e-5,
+                    "{seg:?} ξ={xi}: {back} vs {back_p}"
+                );
                 assert!(li.pdf(dir) >= 0.0 && li.pdf(dir).is_finite());
             }
         }

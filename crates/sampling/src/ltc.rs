@@ -113,10 +113,13 @@ impl LineSampler for LtcLine {
     fn sample(&self, xi: f32) -> Vec3 {
         let w = (self.to_world * self.transformed.sample(xi)).normalize_or_zero();
         // Snap onto the original line's support (removes rounding off the line / past its ends).
-        let tau = self.arc.tau_in_support(&self.support, w).unwrap_or_else(|| {
-            let (s, t) = (self.support.u.dot(w), self.support.c_hat.dot(w).max(0.0));
-            (s * self.arc.c_b - t * self.arc.s_b).atan2(t * self.arc.c_b + s * self.arc.s_b)
-        });
+        let tau = self
+            .arc
+            .tau_in_support(&self.support, w)
+            .unwrap_or_else(|| {
+                let (s, t) = (self.support.u.dot(w), self.support.c_hat.dot(w).max(0.0));
+                (s * self.arc.c_b - t * self.arc.s_b).atan2(t * self.arc.c_b + s * self.arc.s_b)
+            });
         self.arc.direction(&self.support, tau)
     }
 
@@ -166,13 +169,17 @@ mod tests {
     /// Isotropic LTC form M = [[a,0,b],[0,c,0],[d,0,1]] (rows), and some general ones.
     fn matrices() -> Vec<Mat3> {
         let iso = |a: f32, b: f32, c: f32, d: f32| {
-            Mat3::from_cols(Vec3::new(a, 0.0, d), Vec3::new(0.0, c, 0.0), Vec3::new(b, 0.0, 1.0))
+            Mat3::from_cols(
+                Vec3::new(a, 0.0, d),
+                Vec3::new(0.0, c, 0.0),
+                Vec3::new(b, 0.0, 1.0),
+            )
         };
         vec![
             Mat3::IDENTITY,
             iso(1.0, 0.0, 1.0, 0.0),
             iso(0.3, 0.1, 0.35, -0.05),
-            iso(0.05, 0.02, 0.06, 0.0), // sharp lobe: κ ≫ 1
+            iso(0.05, 0.02, 0.06, 0.0),  // sharp lobe: κ ≫ 1
             iso(0.02, -0.01, 0.5, 0.03), // anisotropic and sharp
             Mat3::from_cols(
                 Vec3::new(0.4, 0.1, -0.2),
@@ -224,7 +231,9 @@ mod tests {
         let mut tested = 0;
         for (seg, x, frame) in scenes() {
             for a in matrices() {
-                let Some(ltc) = LtcLine::prepare(&seg, x, frame, a) else { continue };
+                let Some(ltc) = LtcLine::prepare(&seg, x, frame, a) else {
+                    continue;
+                };
                 tested += 1;
                 max_kappa = max_kappa.max(ltc.kappa());
                 let total = integrate(&ltc, ltc.arc.width as f64, 400_000);
@@ -236,7 +245,10 @@ mod tests {
             }
         }
         assert!(tested >= 15, "{tested}");
-        assert!(max_kappa > 10.0, "no strongly anisotropic case tested: {max_kappa}");
+        assert!(
+            max_kappa > 10.0,
+            "no strongly anisotropic case tested: {max_kappa}"
+        );
     }
 
     /// The sampler follows its density: the CDF of the pdf (quadrature) at a sample equals ξ.
@@ -244,14 +256,21 @@ mod tests {
     fn samples_follow_the_density() {
         for (seg, x, frame) in scenes() {
             for a in matrices() {
-                let Some(ltc) = LtcLine::prepare(&seg, x, frame, a) else { continue };
+                let Some(ltc) = LtcLine::prepare(&seg, x, frame, a) else {
+                    continue;
+                };
                 let arc = ltc.arc;
                 for &xi in &[0.0f32, 0.05, 0.3, 0.5, 0.77, 0.999, 1.0] {
                     let dir = ltc.sample(xi);
                     assert!((dir.length() - 1.0).abs() < 1e-5);
-                    let tau = arc.tau_in_support(ltc.support(), dir).expect("outside support");
+                    let tau = arc
+                        .tau_in_support(ltc.support(), dir)
+                        .expect("outside support");
                     let cdf = integrate(&ltc, (tau.max(0.0)) as f64, 100_000);
-                    assert!((cdf - xi as f64).abs() < 2e-3, "A = {a:?} ξ = {xi}: CDF {cdf}");
+                    assert!(
+                        (cdf - xi as f64).abs() < 2e-3,
+                        "A = {a:?} ξ = {xi}: CDF {cdf}"
+                    );
                     let back = ltc.inverse(dir).unwrap();
                     assert!((back - xi).abs() < 1e-3, "ξ = {xi}: inverse {back}");
                     if xi > 0.0 && xi < 1.0 {

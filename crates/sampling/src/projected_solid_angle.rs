@@ -179,8 +179,15 @@ impl<T: Real> PsaCore<T> {
     /// From sin φ_b, cos φ_b and Δ. `None` if the interval carries no finite, positive
     /// projected solid angle.
     pub fn with_frame_values(ns: T, nt: T, s_b: T, c_b: T, width: T) -> Option<Self> {
-        let mut core =
-            Self { ns, nt, s_b, c_b, delta_s: T::ZERO, width, total: T::ZERO };
+        let mut core = Self {
+            ns,
+            nt,
+            s_b,
+            c_b,
+            delta_s: T::ZERO,
+            width,
+            total: T::ZERO,
+        };
         let (sh, ch) = (width * T::HALF).sin_cos();
         core.delta_s = T::TWO * core.rotate(sh, ch).1 * sh;
         core.total = core.delta_c(width);
@@ -190,7 +197,10 @@ impl<T: Real> PsaCore<T> {
     /// (sin, cos) of φ_b + τ given (sin, cos) of τ.
     #[inline]
     fn rotate(&self, sin_tau: T, cos_tau: T) -> (T, T) {
-        (self.s_b * cos_tau + self.c_b * sin_tau, self.c_b * cos_tau - self.s_b * sin_tau)
+        (
+            self.s_b * cos_tau + self.c_b * sin_tau,
+            self.c_b * cos_tau - self.s_b * sin_tau,
+        )
     }
 
     /// C(φ_b + τ) − C(φ_b), cancellation-free (see the module documentation), and the
@@ -201,8 +211,8 @@ impl<T: Real> PsaCore<T> {
         let (sm, cm) = self.rotate(sh, ch); // midpoint m = φ_b + τ/2
         let sin_tau = T::TWO * sh * ch;
         let cos_tau = T::ONE - T::TWO * sh * sh;
-        let dc = T::TWO * cm * sin_tau * (self.ns * sm + self.nt * cm)
-            + self.nt * delta_minus_sin(tau);
+        let dc =
+            T::TWO * cm * sin_tau * (self.ns * sm + self.nt * cm) + self.nt * delta_minus_sin(tau);
         let (s, t) = self.rotate(sin_tau, cos_tau);
         (dc, s, t)
     }
@@ -236,7 +246,11 @@ impl<T: Real> PsaCore<T> {
         let q = y * (T::TWO * self.s_b + y);
         let c = (self.c_b * self.c_b - q).max(T::ZERO).sqrt();
         let denom = self.c_b + c;
-        let sin_tau = if denom > T::ZERO { y * self.c_b + self.s_b * q / denom } else { y };
+        let sin_tau = if denom > T::ZERO {
+            y * self.c_b + self.s_b * q / denom
+        } else {
+            y
+        };
         let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
         sin_tau.atan2(cos_tau).clamp(T::ZERO, self.width)
     }
@@ -521,7 +535,10 @@ mod tests {
             // Ω⊥_R agrees with the frame's (naive) formula where that one is accurate.
             let naive = p.support().projected_solid_angle(p.normal());
             let ours = p.projected_solid_angle();
-            assert!((naive - ours).abs() < 1e-3 * ours + 1e-6, "{naive} vs {ours}");
+            assert!(
+                (naive - ours).abs() < 1e-3 * ours + 1e-6,
+                "{naive} vs {ours}"
+            );
         }
     }
 
@@ -530,17 +547,29 @@ mod tests {
         let (seg, x, n) = configs()[0];
         let p = ProjectedSolidAngle::prepare(&seg, x, n).unwrap();
         let psa = p.projected_solid_angle();
-        assert!((psa - (1.0 + std::f32::consts::FRAC_PI_2)).abs() < 1e-6, "{psa}");
+        assert!(
+            (psa - (1.0 + std::f32::consts::FRAC_PI_2)).abs() < 1e-6,
+            "{psa}"
+        );
     }
 
     #[test]
     fn stable_difference_matches_naive_f64() {
         let c = |phi: f64| 0.3 * phi.sin().powi(2) + 0.8 * (phi.sin() * phi.cos() + phi);
-        for &(a, b) in &[(0.5, -1.2), (1.4, 1.3999), (-0.2, -0.2001), (1.0, -1.0), (1.3, 0.9)] {
+        for &(a, b) in &[
+            (0.5, -1.2),
+            (1.4, 1.3999),
+            (-0.2, -0.2001),
+            (1.0, -1.0),
+            (1.3, 0.9),
+        ] {
             let core = PsaCore::from_angles(0.3f64, 0.8, b, a).unwrap();
             let stable = core.delta_c(a - b);
             let naive = c(a) - c(b);
-            assert!((stable - naive).abs() < 1e-12, "{a} {b}: {stable} vs {naive}");
+            assert!(
+                (stable - naive).abs() < 1e-12,
+                "{a} {b}: {stable} vs {naive}"
+            );
             // f32 arithmetic on the same (f32-representable) problem, relative to f64.
             let (a32, b32) = (a as f32, b as f32);
             let c32 = PsaCore::from_angles(0.3f32, 0.8, b32, a32).unwrap();
@@ -553,7 +582,10 @@ mod tests {
             )
             .unwrap();
             let (s32, exact) = (c32.total as f64, c64.total);
-            assert!((s32 - exact).abs() <= 1e-6 * exact, "{a} {b}: {s32} vs {exact}");
+            assert!(
+                (s32 - exact).abs() <= 1e-6 * exact,
+                "{a} {b}: {s32} vs {exact}"
+            );
         }
         for &x in &[1e-8f64, 1e-3, 0.3, 0.999, 1.0, 2.0, 3.1] {
             let direct = x - x.sin();
@@ -581,7 +613,10 @@ mod tests {
                 let back = p.inverse(dir).expect("sample outside the support");
                 assert!((back - xi).abs() < 2e-5, "{seg:?} ξ={xi}: {back}");
                 let full = p.pdf(dir);
-                assert!((full - pdf).abs() <= 1e-4 * pdf.max(1e-3), "{xi}: {full} vs {pdf}");
+                assert!(
+                    (full - pdf).abs() <= 1e-4 * pdf.max(1e-3),
+                    "{xi}: {full} vs {pdf}"
+                );
             }
             // A direction at the line outside the clipped part, and one not toward the line.
             assert_eq!(p.pdf(-f.c_hat), 0.0);
@@ -620,7 +655,10 @@ mod tests {
             // negative control is asserted on the worst configuration only.)
             worst_one = worst_one.max(one);
         }
-        assert!(worst_one > 1e-3, "one iteration should be visibly worse: {worst_one}");
+        assert!(
+            worst_one > 1e-3,
+            "one iteration should be visibly worse: {worst_one}"
+        );
         // ξ = 0 and 1 are exact endpoints; out-of-range ξ is clamped.
         let (seg, x, n) = configs()[1];
         let p = ProjectedSolidAngle::prepare(&seg, x, n).unwrap();
@@ -638,7 +676,11 @@ mod tests {
         // Shading point on the line.
         assert!(ProjectedSolidAngle::prepare(&seg, Vec3::new(0.0, 0.0, 1.0), Vec3::Z).is_none());
         // Tiny d relative to the segment is still fine and finite.
-        let p = ProjectedSolidAngle::prepare(&seg, Vec3::new(0.0, 0.0, 1.0 - 1e-4), Vec3::new(0.3, 0.0, 1.0));
+        let p = ProjectedSolidAngle::prepare(
+            &seg,
+            Vec3::new(0.0, 0.0, 1.0 - 1e-4),
+            Vec3::new(0.3, 0.0, 1.0),
+        );
         let p = p.unwrap();
         for i in 0..=100 {
             let (dir, pdf) = p.sample_with_pdf(i as f32 / 100.0);
