@@ -649,6 +649,7 @@ mod tests {
                 w
             };
             let (one, two, three) = (worst(1), worst(2), worst(3));
+            eprintln!("{seg:?}: worst |e| for 1/2/3 iterations: {one:.2e} {two:.2e} {three:.2e}");
             assert!(two < 2e-5, "{seg:?} two iterations: {two}");
             assert!(three < 2e-6, "{seg:?} three iterations: {three}");
             // (On short or symmetric intervals one step already reaches the f32 floor, so the
