@@ -172,8 +172,12 @@ mod tests {
         for (seg, x, n) in configs() {
             let li = Li2018::prepare(&seg, x, n).unwrap();
             let peters = ProjectedSolidAngle::prepare(&seg, x, n).unwrap();
+            let mut max_k = 0;
             for i in 0..=2000 {
                 let xi = i as f32 / 2000.0;
+                let (_, k) = li.sample_l(xi);
+                assert!(k < MAX_ITERATIONS, "{seg:?} ξ={xi}: no convergence");
+                max_k = max_k.max(k);
                 let dir = li.sample(xi);
                 assert!(dir.is_finite() && (dir.length() - 1.0).abs() < 1e-5);
                 let back = li.inverse(dir).expect("Li sample outside the support");
@@ -186,6 +190,7 @@ mod tests {
                 );
                 assert!(li.pdf(dir) >= 0.0 && li.pdf(dir).is_finite());
             }
+            eprintln!("{seg:?}: at most {max_k} iterations");
         }
     }
 
