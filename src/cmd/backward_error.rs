@@ -82,7 +82,7 @@ pub fn run(args: Args) -> ExitCode {
     println!(
         "sweep: d = 1, {} normal directions in the line's plane, sub-intervals of the visible arc \
          down to 1e-4 rad, {} jittered ξ per interval + guard band (|ξ − 0|, |ξ − 1| < 1e-5), seed {}",
-        cfg.normals + 3,
+        cfg.normals + 13,
         cfg.xi_per_interval,
         cfg.seed
     );
@@ -119,7 +119,7 @@ pub fn run(args: Args) -> ExitCode {
     if let Some(path) = &args.json {
         let doc = json!({
             "measure": "backward error in units of xi, evaluated in f64",
-            "normals": cfg.normals + 3,
+            "normals": cfg.normals + 13,
             "xi_per_interval": cfg.xi_per_interval,
             "seed": cfg.seed,
             "guard": linlight_sampling::projected_solid_angle::XI_GUARD,
