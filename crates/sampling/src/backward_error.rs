@@ -18,6 +18,8 @@
 //!
 //! Floor of f32: the sample is an f32 offset τ̂ ≤ Δ and G is evaluated in f32, so f32 rows cannot
 //! go much below ~1e-7 (three iterations reach ~6e-7 in f32, ~2e-7 in f64).
+// `!(x > 0.0)` is deliberate throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::projected_solid_angle::{PsaCore, Real, XI_GUARD};
 use crate::rng::Pcg32;

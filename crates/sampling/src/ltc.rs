@@ -15,6 +15,8 @@
 //!   p_s(ω) = p_o(ω_o) · κ · J = κ/Ω⊥_o · max(0, (Aω)_z) · |det A| / |Aω|⁴   (ω in shading coords),
 //!
 //! on the support, 0 elsewhere.
+// `!(x > 0.0)` is deliberate throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::geometry::{unit_normal, LineFrame, Segment};
 use crate::projected_solid_angle::{Arc, ProjectedSolidAngle, DEFAULT_ITERATIONS};

@@ -10,6 +10,8 @@
 //! irrelevant); if the technique weights W vanish both, the weighted heuristics fall back to the
 //! balance heuristic. With p_s + p_o > 0 the weights of the two techniques sum to 1, which keeps
 //! the combined estimator unbiased.
+// `!(x > 0.0)` is deliberate throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 /// Balance heuristic p_s/(p_s + p_o) (scaled by the larger density: no overflow of the sum).
 #[inline]
