@@ -156,7 +156,10 @@ impl<'a> Builder<'a> {
                     let Some(target) = self.tree.ids.get(id) else {
                         return err(&loc, format!("reference to unknown id '{id}'"));
                     };
-                    (c.attr("name").map(String::from), Value::Object(target.clone()))
+                    (
+                        c.attr("name").map(String::from),
+                        Value::Object(target.clone()),
+                    )
                 }
                 "translate" | "rotate" | "scale" | "matrix" | "lookat" => {
                     return err(
@@ -179,11 +182,11 @@ impl<'a> Builder<'a> {
     pub fn scene(&mut self, root: &Rc<Elem>) -> Result<Scene, SceneError> {
         root.check_attrs(&[])?;
         let p = self.props(root)?;
-        for (t, _) in p.objects("texture") {
+        if let Some((t, _)) = p.objects("texture").first() {
             let ty = t.attr("type").unwrap_or("");
             return err(&t.loc, format!("unsupported texture type '{ty}'"));
         }
-        for (em, _) in p.objects("emitter") {
+        if let Some((em, _)) = p.objects("emitter").first() {
             let ty = em.attr("type").unwrap_or("");
             let hint = if ty == "area" {
                 " (an area emitter must be nested in a cylinder shape)"
@@ -233,7 +236,11 @@ impl<'a> Builder<'a> {
         })
     }
 
-    fn sensor(&mut self, e: Option<&Elem>, scene_loc: &SourceLocation) -> Result<Sensor, SceneError> {
+    fn sensor(
+        &mut self,
+        e: Option<&Elem>,
+        scene_loc: &SourceLocation,
+    ) -> Result<Sensor, SceneError> {
         let Some(e) = e else {
             // Mitsuba's default sensor: perspective, 50 mm lens, default film and sampler.
             self.warnings.push(format!(
@@ -265,7 +272,10 @@ impl<'a> Builder<'a> {
         let film = self.film(p.object("film")?.as_deref(), &e.loc)?;
         let (sample_count, seed) = self.sampler(p.object("sampler")?.as_deref())?;
         let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
-        for (i, axis) in [to_world.x_axis, to_world.y_axis, to_world.z_axis].iter().enumerate() {
+        for (i, axis) in [to_world.x_axis, to_world.y_axis, to_world.z_axis]
+            .iter()
+            .enumerate()
+        {
             let n2 = axis.truncate().length_squared();
             if (n2 - 1.0).abs() > 1e-4 {
                 return err(
@@ -324,7 +334,7 @@ impl<'a> Builder<'a> {
             }
         };
         let fov_x = horizontal_fov(fov_deg, fov_axis, aspect);
-        if !(fov_x > 0.0 && fov_x < 180.0) {
+        if fov_x <= 0.0 || fov_x >= 180.0 || !fov_x.is_finite() {
             return err(
                 &e.loc,
                 format!("the horizontal field of view ({fov_x:.4}°) must lie in (0, 180)"),
@@ -332,10 +342,10 @@ impl<'a> Builder<'a> {
         }
         let near_clip = p.float("near_clip")?.unwrap_or(1e-2);
         let far_clip = p.float("far_clip")?.unwrap_or(1e4);
-        if !(near_clip > 0.0) {
+        if near_clip <= 0.0 {
             return err(&e.loc, "near_clip must be greater than zero");
         }
-        if !(near_clip < far_clip) {
+        if near_clip >= far_clip {
             return err(&e.loc, "near_clip must be smaller than far_clip");
         }
         let ppx = p.float("principal_point_offset_x")?.unwrap_or(0.0);
@@ -372,7 +382,10 @@ impl<'a> Builder<'a> {
         };
         let ty = plugin_type(e)?;
         if ty != "hdrfilm" {
-            return err(&e.loc, format!("unsupported film type '{ty}' (supported: hdrfilm)"));
+            return err(
+                &e.loc,
+                format!("unsupported film type '{ty}' (supported: hdrfilm)"),
+            );
         }
         let p = self.props(e)?;
         let dim = |name: &str, default: i64| -> Result<u32, SceneError> {
@@ -383,7 +396,12 @@ impl<'a> Builder<'a> {
         if width == 0 || height == 0 {
             return err(&e.loc, format!("film size {width}×{height} is empty"));
         }
-        let names = ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"];
+        let names = [
+            "crop_offset_x",
+            "crop_offset_y",
+            "crop_width",
+            "crop_height",
+        ];
         let any_crop = names
             .iter()
             .map(|n| p.integer(n).map(|v| v.is_some()))
@@ -452,7 +470,9 @@ impl<'a> Builder<'a> {
             );
         }
         let p = self.props(e)?;
-        let spp = p.integer_in("sample_count", 1, u32::MAX as i64)?.unwrap_or(4) as u32;
+        let spp = p
+            .integer_in("sample_count", 1, u32::MAX as i64)?
+            .unwrap_or(4) as u32;
         let seed = p.integer_in("seed", 0, u32::MAX as i64)?.unwrap_or(0) as u64;
         p.finish()?;
         Ok((spp, seed))
@@ -586,7 +606,10 @@ impl<'a> Builder<'a> {
                 };
                 let path = self.tree.resolve(&name);
                 let data = std::fs::read(&path).or_else(|io| {
-                    err(&nloc, format!("cannot read mesh file '{}': {io}", path.display()))
+                    err(
+                        &nloc,
+                        format!("cannot read mesh file '{}': {io}", path.display()),
+                    )
                 })?;
                 let raw = if ty == "obj" {
                     obj::parse_obj(&String::from_utf8_lossy(&data), face_normals)
@@ -594,14 +617,21 @@ impl<'a> Builder<'a> {
                     ply::parse_ply(&data, face_normals)
                 }
                 .or_else(|m| {
-                    err(&loc, format!("error loading {} file '{}': {m}", ty.to_uppercase(), path.display()))
+                    err(
+                        &loc,
+                        format!(
+                            "error loading {} file '{}': {m}",
+                            ty.to_uppercase(),
+                            path.display()
+                        ),
+                    )
                 })?;
                 mesh(self, raw, face_normals, true)?
             }
             "sphere" => {
                 let center = p.vec3("center")?.unwrap_or(DVec3::ZERO);
                 let r = p.float("radius")?.unwrap_or(1.0);
-                if !(r > 0.0) {
+                if r <= 0.0 {
                     return err(&loc, format!("sphere radius must be positive (got {r})"));
                 }
                 let Some(s) = uniform_scale(&m) else {
@@ -631,7 +661,7 @@ impl<'a> Builder<'a> {
                 let p0 = p.vec3("p0")?.unwrap_or(DVec3::ZERO);
                 let p1 = p.vec3("p1")?.unwrap_or(DVec3::Z);
                 let r = p.float("radius")?.unwrap_or(1.0);
-                if !(r > 0.0) {
+                if r <= 0.0 {
                     return err(&loc, format!("cylinder radius must be positive (got {r})"));
                 }
                 let Some(s) = uniform_scale(&m) else {

@@ -74,10 +74,7 @@ pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, 
         location: Some(tree::file_location(path)),
         message: "scene file is not valid UTF-8".into(),
     })?;
-    let top_dir = path
-        .parent()
-        .map(Path::to_path_buf)
-        .unwrap_or_default();
+    let top_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut tb = tree::TreeBuilder::new(top_dir, overrides);
     let root = tb.parse_top(path, &text)?;
     let mut warnings: Vec<String> = tb

@@ -27,7 +27,10 @@ pub fn parse_obj(text: &str, face_normals: bool) -> Result<RawMesh, String> {
                 .collect::<Result<_, _>>()
                 .map_err(|_| format!("line {ln}: could not parse '{}'", line.trim()))?;
             if vals.len() < n {
-                return Err(format!("line {ln}: expected {n} numbers in '{}'", line.trim()));
+                return Err(format!(
+                    "line {ln}: expected {n} numbers in '{}'",
+                    line.trim()
+                ));
             }
             if vals.iter().any(|x| !x.is_finite()) {
                 return Err(format!("line {ln}: non-finite number in '{}'", line.trim()));
@@ -132,7 +135,8 @@ mod tests {
 
     #[test]
     fn normals_key_splits_vertices() {
-        let t = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 2\nf 1//1 2//1 3//1\nf 1//2 3//2 2//2\n";
+        let t =
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 2\nf 1//1 2//1 3//1\nf 1//2 3//2 2//2\n";
         let m = parse_obj(t, false).unwrap();
         assert_eq!(m.positions.len(), 6);
         let n = m.normals.unwrap();
@@ -151,11 +155,10 @@ mod tests {
             .contains("invalid vertex 2"));
         assert!(parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -3\n", false).is_err());
         assert!(parse_obj("v nan 0 0\n", false).is_err());
-        assert!(parse_obj(
-            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2 3\n",
-            false
-        )
-        .unwrap_err()
-        .contains("some face corners"));
+        assert!(
+            parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2 3\n", false)
+                .unwrap_err()
+                .contains("some face corners")
+        );
     }
 }

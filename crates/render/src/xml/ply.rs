@@ -412,7 +412,12 @@ mod tests {
 
     #[test]
     fn all_formats_agree() {
-        let pos = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.5], [0.0, 1.0, 0.0]];
+        let pos = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.5],
+            [0.0, 1.0, 0.0],
+        ];
         let nrm = [[0.0, 0.0, 1.0]; 4];
         let faces = vec![vec![0, 1, 2, 3]];
         for fmt in ["ascii", "binary_little_endian", "binary_big_endian"] {
@@ -438,7 +443,9 @@ mod tests {
         extra.push(0);
         assert!(parse_ply(&extra, false).unwrap_err().contains("trailing"));
         let bad = write_ply("ascii", &pos, None, &[vec![0, 1, 7]]);
-        assert!(parse_ply(&bad, false).unwrap_err().contains("invalid vertex 7"));
+        assert!(parse_ply(&bad, false)
+            .unwrap_err()
+            .contains("invalid vertex 7"));
         assert!(parse_ply(b"ply\nformat ascii 1.0\n", false).is_err());
         assert!(parse_ply(b"hello", false).is_err());
     }

@@ -147,7 +147,7 @@ pub fn uniform_scale(m: &DMat4) -> Option<f64> {
     let a = DMat3::from_mat4(*m);
     let g = a.transpose() * a; // = s² I for a similarity
     let s2 = (g.x_axis.x + g.y_axis.y + g.z_axis.z) / 3.0;
-    if !(s2 > 0.0) || !s2.is_finite() {
+    if s2 <= 0.0 || !s2.is_finite() {
         return None;
     }
     let tol = 1e-6 * s2;
@@ -190,7 +190,12 @@ mod tests {
     #[test]
     fn look_at_axes() {
         // Forward +z, up +y: left = up × forward = +x.
-        let m = look_at(DVec3::new(1.0, 2.0, 3.0), DVec3::new(1.0, 2.0, 10.0), DVec3::Y).unwrap();
+        let m = look_at(
+            DVec3::new(1.0, 2.0, 3.0),
+            DVec3::new(1.0, 2.0, 10.0),
+            DVec3::Y,
+        )
+        .unwrap();
         assert!(close(m.x_axis.truncate(), DVec3::X));
         assert!(close(m.y_axis.truncate(), DVec3::Y));
         assert!(close(m.z_axis.truncate(), DVec3::Z));

@@ -62,10 +62,6 @@ pub fn is_plugin_tag(tag: &str) -> bool {
             | "bsdf"
             | "emitter"
             | "texture"
-            | "medium"
-            | "phase"
-            | "volume"
-            | "shapegroup"
     )
 }
 
@@ -151,7 +147,12 @@ impl TreeBuilder {
             );
         }
         match root.attribute("version") {
-            None => return err(&loc, "<scene> is missing the version attribute (use \"3.0.0\")"),
+            None => {
+                return err(
+                    &loc,
+                    "<scene> is missing the version attribute (use \"3.0.0\")",
+                )
+            }
             Some(v) => check_version(v, &loc)?,
         }
         let mut out = Vec::new();
@@ -205,9 +206,11 @@ impl TreeBuilder {
         }
         let tag = node.tag_name().name().to_string();
         let mut attrs = Vec::new();
+        let is_root = node.parent().is_some_and(|p| p.is_root());
         for a in node.attributes() {
-            if a.name() == "version" && tag == "scene" {
-                continue; // checked by the caller
+            if a.name() == "version" && is_root {
+                check_version(a.value(), &loc)?;
+                continue;
             }
             attrs.push((a.name().to_string(), self.substitute(a.value(), &loc)?));
         }

@@ -44,7 +44,10 @@ pub fn parse_list(s: &str, loc: &SourceLocation, what: &str) -> Result<Vec<f64>,
 pub fn parse_vec3_exact(s: &str, loc: &SourceLocation, what: &str) -> Result<DVec3, SceneError> {
     let v = parse_list(s, loc, what)?;
     if v.len() != 3 {
-        return err(loc, format!("{what} must have exactly 3 values (got '{s}')"));
+        return err(
+            loc,
+            format!("{what} must have exactly 3 values (got '{s}')"),
+        );
     }
     Ok(DVec3::new(v[0], v[1], v[2]))
 }
@@ -64,7 +67,10 @@ pub fn parse_xyz(e: &Elem, default: f64) -> Result<DVec3, SceneError> {
         return match l.len() {
             1 => Ok(DVec3::splat(l[0])),
             3 => Ok(DVec3::new(l[0], l[1], l[2])),
-            _ => err(&e.loc, format!("{what}: 'value' must have 1 or 3 numbers (got '{v}')")),
+            _ => err(
+                &e.loc,
+                format!("{what}: 'value' must have 1 or 3 numbers (got '{v}')"),
+            ),
         };
     }
     let mut out = DVec3::splat(default);
@@ -293,7 +299,10 @@ impl Props {
         if v.len() > 1 {
             return err(
                 &v[1].1,
-                format!("{} has more than one {tag} (only one is allowed)", self.owner),
+                format!(
+                    "{} has more than one {tag} (only one is allowed)",
+                    self.owner
+                ),
             );
         }
         Ok(v.pop().map(|(o, _)| o))
@@ -308,7 +317,11 @@ impl Props {
             return match (&e.name, &e.value) {
                 (Some(n), Value::Object(o)) if o.tag != "ref" => err(
                     &e.loc,
-                    format!("unexpected {} named '{n}' inside {}", o.describe(), self.owner),
+                    format!(
+                        "unexpected {} named '{n}' inside {}",
+                        o.describe(),
+                        self.owner
+                    ),
                 ),
                 (None, Value::Object(o)) => err(
                     &e.loc,
