@@ -810,3 +810,102 @@ fn mesh_file_errors() {
         .to_string();
     assert!(e.contains("nonexistent.xml"), "{e}");
 }
+
+/// Numbers printed by Mitsuba 3.9.1 (`scalar_rgb`, `mi.load_file` + `mi.traverse`) for the same
+/// scene: camera world transform, angle-weighted normals of a mesh without normals, inverse-
+/// transpose normals under a sheared to_world, sphere and cylinder placement.
+#[test]
+fn matches_mitsuba_3_9_1() {
+    let d = dir("mitsuba");
+    write(
+        &d,
+        "tent.obj",
+        "v -1 0 0\nv 0 0 1\nv 0 1 1\nv 1 0 0\nv 0.5 2 0.3\nf 1 2 3\nf 2 4 3\nf 3 4 5\n",
+    );
+    write(
+        &d,
+        "quad.obj",
+        "v 0 0 0\nv 1 0 1\nv 1 1 1\nv 0 1 0\nvn -1 0 1\nvn 0 1 1\nf 1//1 2//2 3//1 4//2\n",
+    );
+    let xml = r#"<scene version="3.0.0">
+  <integrator type="direct"/>
+  <sensor type="perspective"><float name="fov" value="33"/>
+    <transform name="to_world">
+      <lookat origin="1, 2, 3" target="0, 0.2, 0" up="0, 0, 1"/>
+      <rotate y="1" angle="20"/>
+      <translate x="0.5" y="-1" z="2"/>
+    </transform>
+    <film type="hdrfilm"><rfilter type="box"/></film>
+  </sensor>
+  <shape type="obj"><string name="filename" value="tent.obj"/>
+    <transform name="to_world"><scale x="2" y="0.5" z="1"/><rotate x="0.6" y="0.8" angle="30"/><translate z="1"/></transform></shape>
+  <shape type="obj"><string name="filename" value="quad.obj"/>
+    <transform name="to_world"><rotate z="1" angle="45"/><scale x="3" y="1" z="0.5"/><matrix value="1 0.2 0 1  0 1 0 2  0.1 0 1 3  0 0 0 1"/></transform></shape>
+  <shape type="sphere"><point name="center" x="1" y="2" z="3"/><float name="radius" value="0.5"/>
+    <transform name="to_world"><rotate z="1" angle="90"/><scale value="2"/></transform></shape>
+  <shape type="cylinder"><point name="p0" value="0 0 0"/><point name="p1" value="1 1 0"/><float name="radius" value="0.01"/>
+    <transform name="to_world"><rotate x="1" angle="90"/><scale value="3"/><translate y="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="2 3 4"/></emitter></shape>
+  <shape type="rectangle"><transform name="to_world"><lookat origin="0,0,0" target="0,-1,0.2"/></transform></shape>
+</scene>"#;
+    let p = write(&d, "scene.xml", xml);
+    let s = load_scene(&p, &[]).unwrap();
+    let near = |a: Vec3, b: [f32; 3]| (a - Vec3::from(b)).abs().max_element() < 1e-4;
+    // Rows of Mitsuba's camera-to-world matrix.
+    let m = s.sensor.to_world.transpose();
+    assert!(near(m.x_axis.truncate(), [0.82144, -0.1827, -0.54024]));
+    assert!(near(m.y_axis.truncate(), [-0.48564, -0.72072, -0.49468]));
+    assert!(near(m.z_axis.truncate(), [-0.29898, 0.66872, -0.68076]));
+    assert!(near(
+        s.sensor.to_world.w_axis.truncate(),
+        [2.46575, 1.0, 4.47706]
+    ));
+    let (pos, n, t) = mesh(&s, 0);
+    assert_eq!(t, &vec![[0, 1, 2], [1, 3, 2], [2, 3, 4]]);
+    assert!(near(pos[4], [1.09856, 0.92608, 1.15981]));
+    let n = n.as_ref().unwrap();
+    let want = [
+        [-0.0511, -0.29709, 0.95348],
+        [0.4, -0.3, 0.86603],
+        [0.49319, -0.24622, 0.83435],
+        [0.78967, -0.0736, 0.6091],
+        [0.79262, -0.00827, 0.60967],
+    ];
+    for (a, b) in n.iter().zip(want) {
+        assert!(near(*a, b), "{a} vs {b:?}");
+    }
+    let (pos, n, _) = mesh(&s, 1);
+    assert!(near(pos[1], [3.26274, 2.70711, 3.71213]));
+    let n = n.as_ref().unwrap();
+    assert!(near(n[0], [-0.20372, -0.28988, 0.93513]));
+    assert!(near(n[1], [-0.19844, 0.36174, 0.91091]));
+    let (c, r) = sphere(&s, 2);
+    assert!(near(c, [-4.0, 2.0, 6.0]) && (r - 1.0).abs() < 1e-6);
+    // Rectangle from a lookat without 'up': Mitsuba's to_world columns are
+    // x = (0, −0.19612, −0.98058), y = (1, 0, 0), z = (0, −0.98058, 0.19612).
+    let (pos, _, t) = mesh(&s, 3);
+    assert!(near(pos[0], [-1.0, 0.19612, 0.98058]));
+    assert!(near(face_normal(pos, t[0]), [0.0, -0.98058, 0.19612]));
+    // Cylinder: translation (0,1,0), axis column (3,0,3), radius |column 0| = 0.03.
+    let l = &s.lights[0];
+    assert!(near(l.begin, [0.0, 1.0, 0.0]) && near(l.end, [3.0, 1.0, 3.0]));
+    assert!((l.radius - 0.03).abs() < 1e-7);
+    assert!(near(
+        Vec3::from(l.radiance_times_radius),
+        [0.06, 0.09, 0.12]
+    ));
+}
+
+#[test]
+fn no_sensor_uses_mitsuba_defaults() {
+    let s = load_in(
+        "nosensor",
+        "<scene version=\"3.0.0\"><integrator type=\"direct\"/><shape type=\"cube\"/></scene>",
+        &[],
+    )
+    .unwrap();
+    assert_eq!(s.sensor.to_world, glam::Mat4::IDENTITY);
+    assert_eq!((s.sensor.film.width, s.sensor.film.height), (768, 576));
+    assert_eq!((s.sensor.sample_count, s.sensor.seed), (4, 0));
+    assert!(s.warnings.iter().any(|w| w.contains("no sensor")));
+}
