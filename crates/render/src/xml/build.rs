@@ -604,6 +604,10 @@ impl<'a> Builder<'a> {
                 let Some((name, nloc)) = p.string("filename")? else {
                     return err(&loc, format!("shape '{ty}' needs a 'filename'"));
                 };
+                if ty == "obj" {
+                    // Only affects texture coordinates, which this renderer does not use.
+                    p.boolean("flip_tex_coords")?;
+                }
                 let path = self.tree.resolve(&name);
                 let data = std::fs::read(&path).or_else(|io| {
                     err(

@@ -463,7 +463,7 @@ fn obj_meshes() {
         &d,
         r#"<shape type="obj"><string name="filename" value="meshes/quad.obj"/>
              <transform name="to_world"><scale x="2"/></transform></shape>
-           <shape type="obj"><string name="filename" value="meshes/quad.obj"/><boolean name="face_normals" value="true"/></shape>
+           <shape type="obj"><string name="filename" value="meshes/quad.obj"/><boolean name="face_normals" value="true"/><boolean name="flip_tex_coords" value="false"/></shape>
            <shape type="obj"><string name="filename" value="meshes/tent.obj"/></shape>
            <shape type="obj"><string name="filename" value="meshes/tent.obj"/><boolean name="flip_normals" value="true"/><boolean name="face_normals" value="true"/></shape>"#,
     );

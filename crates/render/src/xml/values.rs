@@ -10,9 +10,10 @@ use std::cell::Cell;
 use std::collections::HashMap;
 use std::rc::Rc;
 
-/// Splits a list of numbers written with spaces and/or commas ("1, 2, 3" or "1 2 3").
+/// Splits a list of numbers written with spaces and/or commas ("1, 2, 3" or "1 2 3"), as
+/// Mitsuba's tokenizer (XML has already turned tabs and newlines in attributes into spaces).
 pub fn tokenize(s: &str) -> Vec<&str> {
-    s.split(|c: char| c == ',' || c == ';' || c.is_whitespace())
+    s.split(|c: char| c == ',' || c.is_whitespace())
         .filter(|t| !t.is_empty())
         .collect()
 }
