@@ -302,6 +302,7 @@ pub fn parse_ply(data: &[u8], face_normals: bool) -> Result<RawMesh, String> {
                 }
                 saw_faces = true;
             }
+            _ if e.props.is_empty() => {} // nothing to read, however large the count
             _ => {
                 for _ in 0..e.count {
                     for p in &e.props {
@@ -447,6 +448,20 @@ mod tests {
             .unwrap_err()
             .contains("invalid vertex 7"));
         assert!(parse_ply(b"ply\nformat ascii 1.0\n", false).is_err());
+        // Every truncation of a valid file is an error, never a panic.
+        for fmt in ["ascii", "binary_little_endian"] {
+            let f = write_ply(fmt, &pos, Some(&pos), &[vec![0, 1, 2], vec![2, 1, 0]]);
+            for n in 0..f.len() {
+                let r = parse_ply(&f[..n], false);
+                // ASCII may end inside the last number, which still parses.
+                assert!(
+                    r.is_err() || (fmt == "ascii" && n + 3 >= f.len()),
+                    "{fmt} {n}"
+                );
+            }
+        }
+        let huge = b"ply\nformat ascii 1.0\nelement junk 1000000000000\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n";
+        assert!(parse_ply(huge, false).unwrap().triangles.is_empty());
         assert!(parse_ply(b"hello", false).is_err());
     }
 }

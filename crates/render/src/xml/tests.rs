@@ -909,3 +909,39 @@ fn no_sensor_uses_mitsuba_defaults() {
     assert_eq!((s.sensor.sample_count, s.sensor.seed), (4, 0));
     assert!(s.warnings.iter().any(|w| w.contains("no sensor")));
 }
+
+/// Deterministic single-character mutations of a valid scene: loading may fail, never panic.
+#[test]
+fn mutated_scenes_never_panic() {
+    let base = wrap(
+        r#"<default name="r" value="0.001"/>
+<bsdf type="diffuse" id="b"><rgb name="reflectance" value="0.2, 0.3, 0.4"/></bsdf>
+<shape type="rectangle"><ref id="b"/><transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform></shape>
+<shape type="sphere"><point name="center" value="0 1 0"/><float name="radius" value="0.5"/></shape>
+<shape type="cylinder"><point name="p0" x="-1" y="2"/><point name="p1" x="1" y="2"/><float name="radius" value="$r"/>
+  <emitter type="area"><spectrum name="radiance" value="1000"/></emitter></shape>"#,
+    );
+    assert!(load_in("mutate-base", &base, &[]).is_ok());
+    let d = dir("mutate");
+    let p = d.join("scene.xml");
+    let bytes = base.as_bytes();
+    let replacements = [b'0', b'-', b'<', b'"', b'$', b'x', b' ', b'9', b'e', b'/'];
+    let mut state: u64 = 0x853c49e6748fea9b;
+    let mut failures = 0;
+    for i in 0..400 {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let pos = (state >> 33) as usize % bytes.len();
+        let mut m = bytes.to_vec();
+        if i % 3 == 0 {
+            m.remove(pos);
+        } else {
+            m[pos] = replacements[(state >> 20) as usize % replacements.len()];
+        }
+        std::fs::write(&p, &m).unwrap();
+        failures += load_scene(&p, &[]).is_err() as usize;
+    }
+    // Sanity: the mutations do hit things the loader rejects.
+    assert!(failures > 50, "{failures}");
+}
