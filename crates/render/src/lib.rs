@@ -2,3 +2,4 @@
 //! R → 0 limit as linear lights.
 
 pub mod scene;
+pub mod xml;
