@@ -126,29 +126,40 @@ pub fn z_heatmap(cmp: &Comparison) -> Rgb8 {
     out
 }
 
-/// Per tile the smallest Holm-adjusted p over channels, −log10 p on a sequential map
-/// (white = 1, dark red ≤ 10^−P_DECADES). Rejected tiles get a black outline; untested grey.
+/// Per pixel the smallest Holm-adjusted p over channels and over the tiles covering it (one per
+/// grid), −log10 p on a sequential map (white = 1, dark red ≤ 10^−P_DECADES); pixels in no
+/// tested tile grey; every rejected tile outlined in black.
 pub fn tile_heatmap(cmp: &Comparison) -> Rgb8 {
     let (w, h) = (cmp.width, cmp.height);
-    let t = cmp.config.tile.max(1);
-    let mut out = Rgb8::filled(w, h, [255; 3]);
-    for ty in 0..cmp.maps.tiles_y {
-        for tx in 0..cmp.maps.tiles_x {
-            let ps = cmp.maps.tile_p_holm[ty * cmp.maps.tiles_x + tx];
-            let p = ps.iter().flatten().copied().min_by(f64::total_cmp);
-            let (colour, rejected) = match p {
-                None => (UNTESTED_TILE, false),
-                Some(p) => {
-                    let decades = -(p.max(1e-300)).log10();
-                    (sequential(decades / P_DECADES), p <= cmp.alpha_test)
-                }
-            };
-            let (x0, y0) = (tx * t, ty * t);
-            let (x1, y1) = ((x0 + t).min(w), (y0 + t).min(h));
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let edge = x == x0 || y == y0 || x + 1 == x1 || y + 1 == y1;
-                    out.set(x, y, if rejected && edge { [0; 3] } else { colour });
+    let mut best: Vec<Option<f64>> = vec![None; w * h];
+    let mut rejected = Vec::new();
+    for (r, ps) in &cmp.maps.tiles {
+        let Some(p) = ps.iter().flatten().copied().min_by(f64::total_cmp) else {
+            continue;
+        };
+        if p <= cmp.alpha_test {
+            rejected.push(*r);
+        }
+        for y in r.y..(r.y + r.height).min(h) {
+            for x in r.x..(r.x + r.width).min(w) {
+                let b = &mut best[y * w + x];
+                *b = Some(b.map_or(p, |q| q.min(p)));
+            }
+        }
+    }
+    let mut out = Rgb8::filled(w, h, UNTESTED_TILE);
+    for (i, p) in best.iter().enumerate() {
+        if let Some(p) = p {
+            let decades = -(p.max(1e-300)).log10();
+            out.set(i % w, i / w, sequential(decades / P_DECADES));
+        }
+    }
+    for r in rejected {
+        let (x1, y1) = ((r.x + r.width).min(w), (r.y + r.height).min(h));
+        for y in r.y..y1 {
+            for x in r.x..x1 {
+                if x == r.x || y == r.y || x + 1 == x1 || y + 1 == y1 {
+                    out.set(x, y, [0; 3]);
                 }
             }
         }
@@ -255,7 +266,15 @@ mod tests {
         assert_eq!(z.get(20, 5), diverging(-1.0)); // A − B < 0: saturated blue
         let tiles = tile_heatmap(&cmp);
         assert_eq!(tiles.get(16, 0), [0; 3], "rejected tile is outlined");
-        assert_ne!(tiles.get(5, 5), tiles.get(20, 5));
+        // (0, 0) is the mismatching zero-variance pixel, which also shifts its tiles' means;
+        // (5, 18) lies in untouched tiles of both grids.
+        assert_ne!(tiles.get(5, 18), tiles.get(20, 5));
+        assert_eq!(
+            tiles.get(5, 18)[0],
+            255,
+            "untouched tiles stay light: {:?}",
+            tiles.get(5, 18)
+        );
         let both = comparison_heatmap(&cmp);
         assert_eq!((both.width, both.height), (84, 20));
         let path = std::env::temp_dir().join(format!("linlight-heat-{}.png", std::process::id()));

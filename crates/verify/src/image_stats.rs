@@ -8,7 +8,8 @@
 //! Null hypothesis of the difference tests: E[m_A] = E[m_B] everywhere. They run on three
 //! scales, four tests per channel, twelve families in all:
 //!   a. global mean per channel (Welch t-test on the image mean),
-//!   b. tile means (Welch t-tests, Holm over the tiles of a channel),
+//!   b. tile means (Welch t-tests, Holm over the tiles of a channel; two grids, the second
+//!      shifted by half a tile, so that an unaligned t×t region is still mostly in one tile),
 //!   c. pixels: Σz² against χ²(N), and max|z| against its Šidák threshold,
 //! each at the Šidák level α_test = 1 − (1 − α)^(1/12), so the family-wise false-alarm rate is
 //! α for independent tests (and at most about α for the positively dependent ones here).
@@ -46,6 +47,8 @@ pub struct CompareConfig {
     pub tolerance: f64,
     /// Tile edge length in pixels.
     pub tile: usize,
+    /// Also test the tile grid shifted by half a tile (Holm then runs over both grids).
+    pub shifted_tiles: bool,
     /// Absolute agreement required of zero-variance pixels.
     pub zero_var_abs: f64,
     /// Relative agreement required of zero-variance pixels.
@@ -58,6 +61,7 @@ impl Default for CompareConfig {
             alpha: 0.01,
             tolerance: 0.005,
             tile: 16,
+            shifted_tiles: true,
             zero_var_abs: 1e-6,
             zero_var_rel: 1e-5,
         }
@@ -205,10 +209,53 @@ pub struct Maps {
     /// Normal score per pixel and channel (0 for zero-variance pixels), |z| ≤ Z_MAX.
     pub z: Vec<[f32; 3]>,
     pub state: Vec<[PixelState; 3]>,
-    pub tiles_x: usize,
-    pub tiles_y: usize,
-    /// Holm-adjusted p per tile and channel; None where the tile was not tested.
-    pub tile_p_holm: Vec<[Option<f64>; 3]>,
+    /// Every tile of both grids with its Holm-adjusted p per channel (None: not tested).
+    pub tiles: Vec<(Region, [Option<f64>; 3])>,
+}
+
+/// A grid of t×t tiles whose interior boundaries lie at x ≡ offset (mod t): offset = t is the
+/// aligned grid, offset = t/2 the half-shifted one. Border tiles are clipped to the image.
+#[derive(Clone, Copy, Debug)]
+struct TileGrid {
+    t: usize,
+    offset: usize,
+    nx: usize,
+    ny: usize,
+}
+
+impl TileGrid {
+    fn new(t: usize, offset: usize, w: usize, h: usize) -> Self {
+        let shift = t - offset;
+        Self {
+            t,
+            offset,
+            nx: (w + shift).div_ceil(t),
+            ny: (h + shift).div_ceil(t),
+        }
+    }
+    fn len(&self) -> usize {
+        self.nx * self.ny
+    }
+    fn index(&self, x: usize, y: usize) -> usize {
+        let shift = self.t - self.offset;
+        ((y + shift) / self.t) * self.nx + (x + shift) / self.t
+    }
+    fn region(&self, k: usize, w: usize, h: usize) -> Region {
+        let shift = self.t - self.offset;
+        let span = |i: usize, size: usize| {
+            let start = (i * self.t).saturating_sub(shift);
+            let end = ((i + 1) * self.t - shift).min(size);
+            (start, end - start)
+        };
+        let (x, width) = span(k % self.nx, w);
+        let (y, height) = span(k / self.nx, h);
+        Region {
+            x,
+            y,
+            width,
+            height,
+        }
+    }
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -356,14 +403,27 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
     let alpha_test = sidak(cfg.alpha, TESTS_PER_CHANNEL * CHANNELS.len());
     let alpha_eq = sidak(cfg.alpha, CHANNELS.len());
     let t = cfg.tile;
-    let (tiles_x, tiles_y) = (w.div_ceil(t), h.div_ceil(t));
+    // The aligned grid, plus (if enabled) the grid shifted by half a tile in x and y: every
+    // t×t region then overlaps one tile of one grid by at least (3t/4)², instead of possibly
+    // only (t/2)² of four tiles.
+    let mut grids = vec![TileGrid::new(t, t, w, h)];
+    if cfg.shifted_tiles && t >= 2 {
+        grids.push(TileGrid::new(t, t / 2, w, h));
+    }
+    let grid_base: Vec<usize> = grids
+        .iter()
+        .scan(0, |acc, g| Some(std::mem::replace(acc, *acc + g.len())))
+        .collect();
+    let tile_count: usize = grids.iter().map(TileGrid::len).sum();
+    let tile_regions: Vec<Region> = grids
+        .iter()
+        .flat_map(|g| (0..g.len()).map(move |k| g.region(k, w, h)))
+        .collect();
 
     let mut maps = Maps {
         z: vec![[0.0; 3]; n],
         state: vec![[PixelState::Tested; 3]; n],
-        tiles_x,
-        tiles_y,
-        tile_p_holm: vec![[None; 3]; tiles_x * tiles_y],
+        tiles: tile_regions.iter().map(|r| (*r, [None; 3])).collect(),
     };
     let mut zero = ZeroVarianceReport {
         count: 0,
@@ -376,7 +436,7 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
 
     for (c, &cname) in CHANNELS.iter().enumerate() {
         let mut global = Sums::default();
-        let mut tiles = vec![Sums::default(); tiles_x * tiles_y];
+        let mut tiles = vec![Sums::default(); tile_count];
         let (mut sum_z2, mut tested, mut max_abs_z, mut max_at) = (0.0f64, 0usize, 0.0f64, None);
 
         for y in 0..h {
@@ -385,7 +445,9 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
                 let (ma, mb) = (a.mean[i][c] as f64, b.mean[i][c] as f64);
                 let (va, vb) = (a.var[i][c] as f64, b.var[i][c] as f64);
                 global.add(ma, mb, va, vb);
-                tiles[(y / t) * tiles_x + x / t].add(ma, mb, va, vb);
+                for (g, base) in grids.iter().zip(&grid_base) {
+                    tiles[base + g.index(x, y)].add(ma, mb, va, vb);
+                }
                 let s = va + vb;
                 if s > 0.0 {
                     let nu = welch_dof([(va, nu_a), (vb, nu_b)]).unwrap_or(f64::INFINITY);
@@ -493,13 +555,7 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
         for (k, s) in tiles.iter().enumerate() {
             if let Some((tt, nu, se)) = s.welch(nu_a, nu_b) {
                 tile_idx.push(k);
-                let (tx, ty) = (k % tiles_x, k / tiles_x);
-                let region = Region {
-                    x: tx * t,
-                    y: ty * t,
-                    width: t.min(w - tx * t),
-                    height: t.min(h - ty * t),
-                };
+                let region = tile_regions[k];
                 let mean_diff = (s.ma - s.mb) / s.n as f64;
                 let p = t_two_sided_p(tt, nu);
                 tile_res.push(TileResult {
@@ -515,7 +571,7 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
         let raw: Vec<f64> = tile_res.iter().map(|r| r.p).collect();
         for ((r, adj), &k) in tile_res.iter_mut().zip(holm_adjust(&raw)).zip(&tile_idx) {
             r.p_holm = adj;
-            maps.tile_p_holm[k][c] = Some(adj);
+            maps.tiles[k].1[c] = Some(adj);
         }
         let rejected = tile_res.iter().filter(|r| r.p_holm <= alpha_test).count();
         let worst = tile_res
@@ -922,6 +978,52 @@ mod tests {
         eprintln!("5 % tile: tile test rejected 10/10 seeds, global test {global_hits}/10");
     }
 
+    /// Tile-test rejections over 10 seed pairs of a 5 % error in the 16×16 region at (x0, y0).
+    fn unaligned_region_hits(x0: usize, y0: usize, cfg: &CompareConfig, seed: u64) -> usize {
+        let inside = |x: usize, y: usize| (x0..x0 + 16).contains(&x) && (y0..y0 + 16).contains(&y);
+        let mut hits = 0;
+        for s in 0..10 {
+            let a = render(
+                seed + 2 * s,
+                NOISE,
+                |x, y| if inside(x, y) { 1.05 } else { 1.0 },
+            );
+            let b = render(seed + 1 + 2 * s, NOISE, |_, _| 1.0);
+            let cmp = compare(&a, &b, cfg).unwrap();
+            if let Some(f) = cmp.failures.iter().find(|f| f.test == TestKind::Tile) {
+                hits += 1;
+                let r = f.region.unwrap();
+                assert!(
+                    r.x < x0 + 16 && x0 < r.x + r.width && r.y < y0 + 16 && y0 < r.y + r.height,
+                    "worst tile {r:?} must overlap the region"
+                );
+            }
+        }
+        hits
+    }
+
+    #[test]
+    fn five_percent_error_in_an_unaligned_region_is_caught_by_the_shifted_grid() {
+        let both = CompareConfig::default();
+        let aligned_only = CompareConfig {
+            shifted_tiles: false,
+            ..CompareConfig::default()
+        };
+        // Region half a tile off the aligned grid: there it is split 8×8 into four tiles, the
+        // shifted grid holds it whole.
+        let half_both = unaligned_region_hits(40, 24, &both, 5000);
+        let half_aligned = unaligned_region_hits(40, 24, &aligned_only, 5000);
+        // Worst case for two grids: 4 px off one and 12 px off the other in x and y, the best
+        // tile holds 12×12 of its pixels.
+        let quarter_both = unaligned_region_hits(44, 28, &both, 6000);
+        eprintln!(
+            "unaligned 5 % region, tile-test rejections out of 10: half-tile offset {half_both} \
+             (aligned grid only: {half_aligned}), quarter-tile offset {quarter_both}"
+        );
+        assert_eq!(half_both, 10);
+        assert_eq!(quarter_both, 10);
+    }
+
     #[test]
     fn noisy_render_of_a_one_percent_off_truth_is_not_consistent() {
         let cfg = CompareConfig::default();
@@ -1061,7 +1163,8 @@ mod tests {
         assert_eq!(json["channels"][1]["channel"], "G");
         assert!(json["channels"][0]["pixels"]["chi2_p"].is_number());
         assert!(json["channels"][0]["tiles"]["worst"]["p_holm"].is_number());
-        assert_eq!(json["channels"][0]["tiles"]["tiles_total"], 5 * 3);
+        // Aligned grid 5 × 3 tiles, half-shifted grid (boundaries at 4, 12, ...) also 5 × 3.
+        assert_eq!(json["channels"][0]["tiles"]["tiles_total"], 5 * 3 + 5 * 3);
         // The edge tile is clipped to the image.
         let w = &cmp.channels[0].tiles.worst.as_ref().unwrap().region;
         assert!(w.x + w.width <= 33 && w.y + w.height <= 17);
