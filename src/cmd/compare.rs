@@ -143,8 +143,8 @@ fn table(cmp: &Comparison, args: &Args) -> String {
         );
     }
     s += &format!(
-        "zero-variance pixel values: {} ({} disagree)\n",
-        cmp.zero_variance.count, cmp.zero_variance.mismatched
+        "zero-variance pixel values: {} ({} disagree); zero variance in one image only: {}\n",
+        cmp.zero_variance.count, cmp.zero_variance.mismatched, cmp.zero_variance.one_sided
     );
     for f in &cmp.failures {
         s += &format!("FAIL {:?} [{}]: {}\n", f.test, f.channel, f.detail);

@@ -191,6 +191,10 @@ pub struct ZeroVarianceReport {
     /// Pixel-channels with v_A + v_B = 0.
     pub count: usize,
     pub mismatched: usize,
+    /// Pixel-channels where exactly one image has zero variance (tested with the other's
+    /// variance alone). Many of these in dark regions hint at too few passes: a variance
+    /// estimate of 0 from passes that all returned 0 understates the true variance.
+    pub one_sided: usize,
     /// The worst mismatch: region, channel, both means.
     pub worst: Option<(Region, &'static str, f64, f64)>,
 }
@@ -428,6 +432,7 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
     let mut zero = ZeroVarianceReport {
         count: 0,
         mismatched: 0,
+        one_sided: 0,
         worst: None,
     };
     let mut worst_zero_gap = -1.0f64;
@@ -450,6 +455,7 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
                 }
                 let s = va + vb;
                 if s > 0.0 {
+                    zero.one_sided += (va == 0.0 || vb == 0.0) as usize;
                     let nu = welch_dof([(va, nu_a), (vb, nu_b)]).unwrap_or(f64::INFINITY);
                     let z = t_to_z((ma - mb) / s.sqrt(), nu);
                     maps.z[i][c] = z as f32;
@@ -1073,13 +1079,16 @@ mod tests {
         let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
         assert_eq!(cmp.zero_variance.count, 60);
         assert_eq!(cmp.zero_variance.mismatched, 0);
+        assert_eq!(cmp.zero_variance.one_sided, 0);
         assert_eq!(cmp.channels[0].pixels.tested, 180);
         assert_eq!(cmp.verdict, Verdict::Consistent, "{:?}", cmp.failures);
 
         b.mean[7][1] = 3.001;
+        b.var[30][2] = 0.0;
         let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
         assert_eq!(cmp.verdict, Verdict::Different);
         assert_eq!(cmp.zero_variance.mismatched, 1);
+        assert_eq!(cmp.zero_variance.one_sided, 1);
         let f = &cmp.failures[0];
         assert_eq!((f.test, f.channel), (TestKind::ZeroVariance, "G"));
         assert_eq!(

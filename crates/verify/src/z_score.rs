@@ -11,7 +11,8 @@ use statrs::function::erf::erfc_inv;
 /// Smallest one-sided tail probability that is mapped to a normal score; smaller tails (and
 /// tails that underflow to 0) are clamped here. Φ⁻¹(1e-300) ≈ −37.05, so |z| ≤ [`Z_MAX`].
 /// Any |z| this large is rejected by every test at every sensible α (thresholds are ≈ 4–7),
-/// so the clamp never changes a decision; it only keeps Σz² and reports finite.
+/// so the clamp never changes the verdict (max|z| rejects anyway); it only keeps Σz² and
+/// reports finite.
 pub const TAIL_MIN: f64 = 1e-300;
 /// The largest |z| produced: −Φ⁻¹(TAIL_MIN) as evaluated by `normal_score_of_tail` (statrs erfc_inv).
 pub const Z_MAX: f64 = 37.047_096_299_361_21;
