@@ -61,9 +61,14 @@ impl LineFrame {
     /// The frame of `segment` seen from `x`. `None` when the segment has zero (or non-finite)
     /// length, when `x` lies on the infinite line (d = 0, relative to the segment scale), or when
     /// any input is not finite.
+    ///
+    /// Computed in f64 and rounded once: in f32 the closest point c = b − σu cancels for x near
+    /// the line (or a far segment seen along its axis), with an error ~ε|b| above
+    /// `MIN_RELATIVE_DISTANCE`·|b|, which left ĉ far from orthogonal to u; and the squares in
+    /// |b| leave the f32 range for coordinates beyond ~1e±19.
     pub fn new(segment: &Segment, x: Vec3) -> Option<Self> {
-        let b = segment.begin - x;
-        let e = segment.end - x;
+        let b = segment.begin.as_dvec3() - x.as_dvec3();
+        let e = segment.end.as_dvec3() - x.as_dvec3();
         let axis = e - b;
         let length = axis.length();
         if !(length > 0.0 && length.is_finite() && b.is_finite() && e.is_finite()) {
@@ -74,14 +79,17 @@ impl LineFrame {
         let c = b - sigma * u;
         let d = c.length();
         let scale = length.max(b.length()).max(e.length());
-        if !(d > MIN_RELATIVE_DISTANCE * scale) || !d.is_finite() {
+        if !(d.is_finite() && d > MIN_RELATIVE_DISTANCE as f64 * scale) {
             return None;
         }
-        let c_hat = c / d;
-        let l_begin = sigma;
-        let l_end = sigma + length;
+        let c_hat = (c / d).as_vec3();
+        let (d, l_begin, l_end) = (d as f32, sigma as f32, (sigma + length) as f32);
+        // Rounded to f32, d may underflow to 0 and l overflow to ±inf.
+        if !(d > 0.0 && l_begin.is_finite() && l_end.is_finite()) {
+            return None;
+        }
         let frame = Self {
-            u,
+            u: u.as_vec3(),
             c_hat,
             d,
             l_begin,
@@ -149,6 +157,21 @@ impl LineFrame {
         self.d * self.c_hat + l * self.u
     }
 
+    /// Unit direction toward the line point at parameter l.
+    #[inline]
+    pub fn direction_to(&self, l: f32) -> Vec3 {
+        let p = self.point(l);
+        let len2 = p.length_squared();
+        if len2 > 1e-30 && len2 <= f32::MAX {
+            return p / len2.sqrt();
+        }
+        // Outside ~[1e-19, 1e19] the squares leave the normal range (or d ĉ + l u overflows):
+        // scale by max(d, |l|) first.
+        let m = self.d.max(l.abs());
+        let p = (self.d / m) * self.c_hat + (l / m) * self.u;
+        p / p.length()
+    }
+
     /// Unit direction with u·ω = s.
     #[inline]
     pub fn direction(&self, s: f32) -> Vec3 {
@@ -212,12 +235,24 @@ pub fn projected_antiderivative(ns: f32, nt: f32, s: f32) -> f32 {
     ns * s * s + nt * (s * t + s.asin())
 }
 
+/// |v| without underflow or overflow of the squares, which leave the normal f32 range for |v|
+/// outside ~[1e-19, 1e19] (glam's `length` then loses all precision or returns inf/0).
+#[inline]
+pub fn stable_length(v: Vec3) -> f32 {
+    let m = v.abs().max_element();
+    if m > 0.0 && m.is_finite() {
+        m * (v / m).length()
+    } else {
+        v.length()
+    }
+}
+
 /// Normalise a user-supplied normal. Policy of this crate: normals are *normalised*; a zero,
 /// denormal-length or non-finite normal is rejected (`None`), which makes the light contribute
 /// nothing at that shading point.
 #[inline]
 pub fn unit_normal(n: Vec3) -> Option<Vec3> {
-    let len = n.length();
+    let len = stable_length(n);
     (len > 1e-20 && len.is_finite()).then(|| n / len)
 }
 

@@ -100,7 +100,7 @@ impl LineSampler for Li2018 {
     fn sample(&self, xi: f32) -> Vec3 {
         let f = self.exact.support();
         let l = self.sample_l(xi).0.clamp(f.l_begin, f.l_end);
-        f.point(l).normalize()
+        f.direction_to(l) // overflow-safe, unlike point(l).normalize()
     }
 
     fn pdf(&self, dir: Vec3) -> f32 {

@@ -357,7 +357,9 @@ impl Arc {
         let (lb, le, d) = (frame.l_begin, frame.l_end, frame.d);
         // cos φ_b = d/r_b is accurate where s_b ≈ ±1 is not; Δ = φ_e − φ_b from
         // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
-        let width = ((le - lb) * d).atan2(d * d + lb * le);
+        // Both arguments divided by d² (atan2 is invariant under positive scaling): d² and
+        // (l_e − l_b)d overflow f32 for d ≳ 1e19, while |l|/d < 1e7 by the frame's invariants.
+        let width = ((le - lb) / d).atan2(1.0 + (lb / d) * (le / d));
         Self {
             s_b: frame.s_begin,
             c_b: d / lb.hypot(d),
@@ -448,7 +450,8 @@ impl ProjectedSolidAngle {
     pub fn cdf_of_l(&self, l: f32) -> f32 {
         let f = &self.frame;
         let l = l.clamp(f.l_begin, f.l_end);
-        let tau = ((l - f.l_begin) * f.d).atan2(f.d * f.d + f.l_begin * l);
+        // Divided by d² as in `Arc::of` (no overflow for huge d).
+        let tau = ((l - f.l_begin) / f.d).atan2(1.0 + (f.l_begin / f.d) * (l / f.d));
         self.core.cdf(tau)
     }
 
