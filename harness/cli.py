@@ -48,7 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--spp", type=int, default=64)
     s.add_argument("--variant")
     s.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
-    s.add_argument("--limit-subsamples", type=int, default=8, help="N x N midpoint samples per pixel")
+    s.add_argument("--limit-subsamples", type=int, default=16, help="N x N midpoint samples per pixel")
 
     v = sub.add_parser("preview", help="tone-mapped sRGB PNG of an image file's mean")
     v.add_argument("image", type=Path)

@@ -59,7 +59,7 @@ def load_scene(path: Path, overrides: Mapping[str, str], radius: float | None) -
         scene = mi.load_file(str(path), **overrides)
     else:
         new_text, lights = scene_xml.override_radius(text, radius, overrides)
-        resolver = mi.Thread.thread().file_resolver()
+        resolver = mi.file_resolver()  # process-wide: the directory stays on it
         resolver.prepend(str(path.parent.resolve()))
         scene = mi.load_string(new_text, **overrides)
     return LoadedScene(scene, path, sha256_file(path), lights, radius)
