@@ -108,4 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     except (scene_xml.SceneError, FileNotFoundError, ValueError) as e:
         print(f"harness: error: {e}", file=sys.stderr)
         return 2
+    except RuntimeError as e:  # Mitsuba's loader and renderer report bad scenes this way
+        print(f"harness: mitsuba error: {e}", file=sys.stderr)
+        return 2
     return 2
