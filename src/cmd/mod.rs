@@ -1,4 +1,5 @@
 //! One module per subcommand; each exposes `Args` (clap) and `run(Args) -> ExitCode`.
 
 pub mod backward_error;
+pub mod render;
 pub mod samplers;

@@ -31,7 +31,10 @@ impl SolidAngle {
     /// Uniform in solid angle over an already prepared interval.
     pub fn on_frame(frame: LineFrame) -> Option<Self> {
         let omega = frame.solid_angle();
-        (omega > 0.0 && omega.is_finite()).then(|| Self { frame, inv_solid_angle: 1.0 / omega })
+        (omega > 0.0 && omega.is_finite()).then(|| Self {
+            frame,
+            inv_solid_angle: 1.0 / omega,
+        })
     }
 }
 
@@ -57,7 +60,8 @@ impl LineSampler for SolidAngle {
     fn inverse(&self, dir: Vec3) -> Option<f32> {
         let f = &self.frame;
         let s = f.s_of(dir);
-        f.contains_s(s).then(|| ((s - f.s_begin) / (f.s_end - f.s_begin)).clamp(0.0, 1.0))
+        f.contains_s(s)
+            .then(|| ((s - f.s_begin) / (f.s_end - f.s_begin)).clamp(0.0, 1.0))
     }
 
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
