@@ -14,10 +14,10 @@ impl Welford {
     pub fn push(&mut self, x: [f64; 3]) {
         self.n += 1;
         let inv = 1.0 / self.n as f64;
-        for c in 0..3 {
-            let delta = x[c] - self.mean[c];
-            self.mean[c] += delta * inv;
-            self.m2[c] += delta * (x[c] - self.mean[c]);
+        for ((xc, mean), m2) in x.iter().zip(&mut self.mean).zip(&mut self.m2) {
+            let delta = xc - *mean;
+            *mean += delta * inv;
+            *m2 += delta * (xc - *mean);
         }
     }
 

@@ -1,6 +1,9 @@
 //! CPU renderer for Mitsuba 3 XML scenes whose lights are thin cylinders, rendered in the exact
 //! R → 0 limit as linear lights.
 
+// `!(x > 0.0)` is deliberate throughout: it rejects NaN together with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod build;
 pub mod bvh;
 pub mod camera;

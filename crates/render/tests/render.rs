@@ -349,3 +349,18 @@ fn metadata() {
     assert_eq!(img.meta.extra["technique"], "solid-angle");
     assert_eq!(img.meta.extra["seed"], "42");
 }
+
+#[test]
+fn progress_reaches_the_tile_count() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let sc = floor_scene(40, tilted()); // 3 × 3 tiles of 16
+    let last = AtomicUsize::new(0);
+    let calls = AtomicUsize::new(0);
+    let progress = |done: usize, total: usize| {
+        assert_eq!(total, 9);
+        last.fetch_max(done, Ordering::Relaxed);
+        calls.fetch_add(1, Ordering::Relaxed);
+    };
+    render(&sc, &opts(1, 1, 0, Technique::SolidAngle), &progress).unwrap();
+    assert_eq!((last.into_inner(), calls.into_inner()), (9, 9));
+}
