@@ -293,6 +293,20 @@ mod tests {
                 shape: 300 + i,
             });
         }
+        for i in 0..5 {
+            let to_world = glam::Mat4::from_scale_rotation_translation(
+                Vec3::splat(0.8),
+                glam::Quat::from_axis_angle((r3() - 0.5).normalize_or(Vec3::X), 1.0),
+                r3() * 10.0,
+            );
+            let to_local = to_world.inverse();
+            let normal = crate::shapes::transformed_normal(&to_local);
+            prims.push(Primitive::Disk {
+                to_local,
+                normal,
+                shape: 500 + i,
+            });
+        }
         prims.push(Primitive::Cylinder {
             p0: Vec3::splat(1.0),
             axis: Vec3::new(1.0, 1.0, 0.0).normalize(),

@@ -128,7 +128,6 @@ impl RenderScene {
                         let to_local = to_world.inverse();
                         let normal = transformed_normal(&to_local);
                         prims.push(Primitive::Disk {
-                            to_world: *to_world,
                             to_local,
                             normal,
                             shape: s,

@@ -72,9 +72,9 @@ pub enum Primitive {
         radius: f32,
         shape: u32,
     },
-    /// Unit disk of the local xy-plane; `to_local` is the inverse of its to_world.
+    /// Unit disk of the local xy-plane; `to_local` is the inverse of its to_world (only the
+    /// inverse is stored: it keeps every primitive small, which matters for large meshes).
     Disk {
-        to_world: Mat4,
         to_local: Mat4,
         normal: Vec3,
         shape: u32,
@@ -118,7 +118,8 @@ impl Primitive {
                 b.grow(center - Vec3::splat(radius));
                 b.grow(center + Vec3::splat(radius));
             }
-            Primitive::Disk { to_world, .. } => {
+            Primitive::Disk { to_local, .. } => {
+                let to_world = to_local.inverse();
                 for (x, y) in [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)] {
                     b.grow(to_world.transform_point3(Vec3::new(x, y, 0.0)));
                 }
@@ -353,7 +354,6 @@ mod tests {
         let to_local = to_world.inverse();
         let normal = transformed_normal(&to_local);
         let d = Primitive::Disk {
-            to_world,
             to_local,
             normal,
             shape: 0,
