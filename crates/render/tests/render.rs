@@ -364,3 +364,88 @@ fn progress_reaches_the_tile_count() {
     render(&sc, &opts(1, 1, 0, Technique::SolidAngle), &progress).unwrap();
     assert_eq!((last.into_inner(), calls.into_inner()), (9, 9));
 }
+
+/// First hit of a camera ray with the unit sphere at the origin (f64, independent of the
+/// renderer's intersection code).
+fn unit_sphere_hit(cam: &Camera, x: f32, y: f32) -> Option<glam::DVec3> {
+    let r = cam.ray(x, y);
+    let (o, d) = (r.o.as_dvec3(), r.d.as_dvec3());
+    let b = o.dot(d);
+    let disc = b * b - (o.dot(o) - 1.0);
+    (disc > 0.0).then(|| o + (-b - disc.sqrt()) * d)
+}
+
+/// A diffuse sphere lit by one light: on a convex surface self-shadowing is exactly horizon
+/// clipping, so every pixel inside the silhouette must match ρ/π·K·Ω⊥_R(x, n) averaged over the
+/// pixel. Bonferroni over the tested pixels, two-sided α = 0.01.
+#[test]
+fn sphere_matches_closed_form() {
+    let v = Vec3::new;
+    let seg = Segment::new(v(-1.5, 1.2, 0.8), v(1.5, 1.5, 1.6));
+    let cam_sensor = sensor(v(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 30.0, 16, 16);
+    let ball = linlight_render::scene::Geometry::Sphere {
+        center: Vec3::ZERO,
+        radius: 1.0,
+    };
+    let sc = scene(
+        cam_sensor,
+        vec![diffuse(ball, RHO)],
+        vec![light(seg.begin, seg.end, K)],
+    );
+    let cam = Camera::new(&sc.sensor).unwrap();
+    let img = render(
+        &sc,
+        &opts(4096, 1, 21, Technique::ClippedSolidAngle),
+        &quiet,
+    )
+    .unwrap();
+    assert_finite(&img);
+    let radiance = |p: glam::DVec3| {
+        let (x, n) = (p.as_vec3(), p.normalize().as_vec3());
+        LineFrame::new(&seg, x)
+            .and_then(|f| f.clip_to_horizon(n))
+            .map_or(0.0, |f| f.projected_solid_angle(n) as f64)
+            * (RHO[0] * K[0]) as f64
+            / std::f64::consts::PI
+    };
+    let mut z = Vec::new();
+    let mut lit = 0;
+    for py in 0..16u32 {
+        for px in 0..16u32 {
+            let inside = (0..=4).all(|i| {
+                (0..=4).all(|j| {
+                    unit_sphere_hit(&cam, px as f32 + i as f32 / 4.0, py as f32 + j as f32 / 4.0)
+                        .is_some()
+                })
+            });
+            if !inside {
+                continue;
+            }
+            let m = 16;
+            let mut e = 0.0;
+            for a in 0..m {
+                for b in 0..m {
+                    let (x, y) = (
+                        px as f32 + (a as f32 + 0.5) / m as f32,
+                        py as f32 + (b as f32 + 0.5) / m as f32,
+                    );
+                    e += radiance(unit_sphere_hit(&cam, x, y).unwrap());
+                }
+            }
+            e /= (m * m) as f64;
+            let k = (py * 16 + px) as usize;
+            let se = (img.var[k][0] as f64).sqrt();
+            if e == 0.0 {
+                assert_eq!(img.mean[k][0], 0.0, "pixel {px},{py} should be black");
+                continue;
+            }
+            lit += 1;
+            z.push((img.mean[k][0] as f64 - e) / se);
+        }
+    }
+    // Two-sided per-pixel p < 1e-4 (|z| > 3.89) for n ≤ 100 pixels: family-wise α ≤ 0.01.
+    let worst = z.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    eprintln!("sphere: {lit} lit pixels inside the silhouette, worst |z| {worst:.2}");
+    assert!((60..=100).contains(&lit), "unexpected number of lit pixels: {lit}");
+    assert!(worst < 3.89, "worst |z| = {worst}");
+}
