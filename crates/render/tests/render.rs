@@ -107,29 +107,35 @@ fn z_scores(img: &Image, cam: &Camera, seg: &Segment, bias: f64) -> Vec<f64> {
 /// Unshadowed diffuse floor: every pixel agrees with the closed form. 256 pixels, two-sided
 /// α = 0.01 with Bonferroni: |z| < Φ⁻¹(1 − 0.01/512) = 4.11 (dof = 4095, normal enough).
 /// Power: a 3 % error of the expectation must be rejected by the same test.
+/// Each technique is tested at its own α = 0.01.
 #[test]
 fn floor_matches_closed_form() {
+    for t in [
+        Technique::ClippedSolidAngle,
+        Technique::ProjectedSolidAngle,
+        Technique::Li2018,
+    ] {
+        floor_matches_closed_form_with(t);
+    }
+}
+
+fn floor_matches_closed_form_with(technique: Technique) {
     let seg = tilted();
     let sc = floor_scene(16, seg);
     let cam = Camera::new(&sc.sensor).unwrap();
-    let img = render(
-        &sc,
-        &opts(4096, 1, 11, Technique::ClippedSolidAngle),
-        &quiet,
-    )
-    .unwrap();
+    let img = render(&sc, &opts(4096, 1, 11, technique), &quiet).unwrap();
     assert_finite(&img);
     assert_eq!(img.meta.dof, 4095.0);
     let z = z_scores(&img, &cam, &seg, 1.0);
     let worst = z.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-    assert!(worst < 4.11, "worst |z| = {worst}");
+    assert!(worst < 4.11, "{technique}: worst |z| = {worst}");
     let chi2: f64 = z.iter().map(|z| z * z).sum();
     // χ²(256) upper 0.1 % point ≈ 336.
-    assert!(chi2 < 336.0, "sum z² = {chi2}");
+    assert!(chi2 < 336.0, "{technique}: sum z² = {chi2}");
     let z_wrong = z_scores(&img, &cam, &seg, 1.03);
     let worst_wrong = z_wrong.iter().fold(0.0f64, |a, b| a.max(b.abs()));
     eprintln!(
-        "closed form: worst |z| {worst:.2}, sum z² {chi2:.1}, worst |z| at +3 %: {worst_wrong:.1}"
+        "closed form, {technique}: worst |z| {worst:.2}, sum z² {chi2:.1}, worst |z| at +3 %: {worst_wrong:.1}"
     );
     assert!(
         worst_wrong > 4.11,
@@ -446,6 +452,9 @@ fn sphere_matches_closed_form() {
     // Two-sided per-pixel p < 1e-4 (|z| > 3.89) for n ≤ 100 pixels: family-wise α ≤ 0.01.
     let worst = z.iter().fold(0.0f64, |a, b| a.max(b.abs()));
     eprintln!("sphere: {lit} lit pixels inside the silhouette, worst |z| {worst:.2}");
-    assert!((60..=100).contains(&lit), "unexpected number of lit pixels: {lit}");
+    assert!(
+        (60..=100).contains(&lit),
+        "unexpected number of lit pixels: {lit}"
+    );
     assert!(worst < 3.89, "worst |z| = {worst}");
 }
