@@ -106,7 +106,7 @@ impl Bvh {
     }
 
     /// Visit leaves front to back; `visit` returns true to stop.
-    #[inline]
+    #[inline(always)]
     fn traverse(&self, ray: &mut Ray, mut visit: impl FnMut(u32, &Primitive, &mut Ray) -> bool) {
         if self.nodes.is_empty() {
             return;

@@ -144,6 +144,7 @@ impl Primitive {
     }
 
     /// Closest intersection in (t_min, t_max), as (t, b1, b2).
+    #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, f32, f32)> {
         match *self {
             Primitive::Triangle { v, .. } => intersect_triangle(ray, v),
