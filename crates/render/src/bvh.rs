@@ -8,6 +8,9 @@ const BINS: usize = 16;
 const MAX_LEAF: usize = 4;
 /// Cost of one traversal step relative to one primitive test.
 const TRAVERSAL_COST: f32 = 1.0;
+/// Below this depth the builder stops using SAH and splits at the median, which halves the
+/// count: the tree depth stays ≤ SAH_DEPTH + log2(n) ≤ 64, the traversal stack size.
+const SAH_DEPTH: u32 = 30;
 
 #[derive(Clone, Copy, Debug)]
 struct Node {
@@ -51,7 +54,7 @@ impl Bvh {
         let mut nodes = Vec::with_capacity(2 * items.len().max(1));
         if !items.is_empty() {
             let n = items.len();
-            build_node(&mut items, 0, n, &mut nodes);
+            build_node(&mut items, 0, n, 0, &mut nodes);
         }
         let ordered = items
             .iter()
@@ -159,7 +162,13 @@ fn slab(b: &Aabb, ray: &Ray, inv: Vec3) -> bool {
     tmin <= tmax
 }
 
-fn build_node(items: &mut [BuildItem], start: usize, end: usize, nodes: &mut Vec<Node>) -> u32 {
+fn build_node(
+    items: &mut [BuildItem],
+    start: usize,
+    end: usize,
+    depth: u32,
+    nodes: &mut Vec<Node>,
+) -> u32 {
     let index = nodes.len() as u32;
     let mut bounds = Aabb::EMPTY;
     let mut cbounds = Aabb::EMPTY;
@@ -177,7 +186,11 @@ fn build_node(items: &mut [BuildItem], start: usize, end: usize, nodes: &mut Vec
     if n <= 1 {
         return index;
     }
-    let split = best_split(&items[start..end], &bounds, &cbounds);
+    let split = if depth < SAH_DEPTH {
+        best_split(&items[start..end], &bounds, &cbounds)
+    } else {
+        None
+    };
     let mid = match split {
         Some((axis, bin, _cost)) => {
             let lo = cbounds.min[axis];
@@ -196,7 +209,8 @@ fn build_node(items: &mut [BuildItem], start: usize, end: usize, nodes: &mut Vec
         }
         None if n <= MAX_LEAF => return index,
         None => {
-            // No useful SAH split (coincident centroids): median split on the widest axis.
+            // No useful SAH split (coincident centroids, or too deep): median split on the
+            // widest centroid axis.
             let axis = (cbounds.max - cbounds.min).max_position();
             items[start..end].sort_by(|a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
             nodes[index as usize].axis = axis as u8;
@@ -206,8 +220,8 @@ fn build_node(items: &mut [BuildItem], start: usize, end: usize, nodes: &mut Vec
     if mid == start || mid == end {
         return index; // keep as leaf (cannot happen with the binning above, kept for safety)
     }
-    build_node(items, start, mid, nodes);
-    let right = build_node(items, mid, end, nodes);
+    build_node(items, start, mid, depth + 1, nodes);
+    let right = build_node(items, mid, end, depth + 1, nodes);
     let node = &mut nodes[index as usize];
     node.offset = right;
     node.count = 0;
@@ -338,5 +352,55 @@ mod tests {
             hits += brute.is_some() as usize;
         }
         assert!(hits > 200, "too few hits to test anything: {hits}");
+    }
+
+    /// Geometrically spaced and coincident primitives: bounded depth, still exact.
+    #[test]
+    fn pathological_distributions() {
+        let mut prims = Vec::new();
+        for i in 0..3000 {
+            let x = 0.99f32.powi(i);
+            let v = [
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x, 1.0, 0.0),
+                Vec3::new(x, 0.0, 1.0),
+            ];
+            prims.push(Primitive::Triangle {
+                v,
+                n: None,
+                shape: i as u32,
+            });
+            // Many copies of one triangle (identical centroids).
+            let w = [
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(2.0, 1.0, 0.0),
+                Vec3::new(2.0, 0.0, 1.0),
+            ];
+            prims.push(Primitive::Triangle {
+                v: w,
+                n: None,
+                shape: 5000,
+            });
+        }
+        let bvh = Bvh::build(prims.clone());
+        for k in 0..200 {
+            let y = 0.101 + 0.004 * k as f32; // never on the edge y + z = 1
+            let ray = Ray {
+                o: Vec3::new(-1.0, y, 0.2),
+                d: Vec3::X,
+                t_min: 0.0,
+                t_max: 10.0,
+            };
+            let brute = prims
+                .iter()
+                .filter_map(|p| p.intersect(&ray).map(|(t, ..)| t))
+                .min_by(f32::total_cmp);
+            assert_eq!(brute, bvh.intersect(&ray).map(|h| h.t));
+            let far = Ray {
+                o: Vec3::new(1.5, y, 0.2),
+                ..ray
+            };
+            assert_eq!(bvh.occluded(&far), y + 0.2 <= 1.0, "y = {y}");
+        }
     }
 }
