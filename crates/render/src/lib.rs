@@ -12,5 +12,6 @@ pub mod integrator;
 pub mod render;
 pub mod scene;
 pub mod shapes;
+pub mod xml;
 
 pub use render::{render, RenderError, RenderOptions};

@@ -150,9 +150,9 @@ pub(crate) fn delta_minus_sin<T: Real>(x: T) -> T {
         let mut acc = T::ONE;
         // Coefficient ratios −x²/((2k+2)(2k+3)) of the series x³/3! − x⁵/5! + …
         for den in [342.0, 272.0, 210.0, 156.0, 110.0, 72.0, 42.0, 20.0] {
-            acc = T::ONE - x2 / T::from_f64(den) * acc;
+            acc = T::ONE - x2 * T::from_f64(1.0 / den) * acc;
         }
-        x * x2 / T::from_f64(6.0) * acc
+        x * x2 * T::from_f64(1.0 / 6.0) * acc
     } else {
         x - x.sin()
     }
@@ -459,9 +459,11 @@ impl ProjectedSolidAngle {
 
     #[inline]
     fn direction_of_tau(&self, tau: f32) -> (Vec3, f32) {
-        let e = self.core.eval(tau);
-        let dir = e.s * self.frame.u + e.t.max(0.0) * self.frame.c_hat;
-        (dir, e.n_dot_w)
+        let (st, ct) = tau.sin_cos();
+        let c = &self.core;
+        let (s, t) = (c.s_b * ct + c.c_b * st, c.c_b * ct - c.s_b * st);
+        let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
+        (dir, c.p0 * ct + c.p1 * st)
     }
 
     /// τ of a direction if it points into the support (up to rounding).
