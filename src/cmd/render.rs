@@ -9,9 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-// MERGE: once `linlight_render::xml` exists, replace the next line by
-// `use linlight_render::xml;` and delete the module `xml_stub` at the end of this file.
-use xml_stub as xml;
+use linlight_render::xml;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -161,29 +159,6 @@ pub fn run(args: Args) -> ExitCode {
         );
     }
     ExitCode::SUCCESS
-}
-
-/// STUB(render-core): stands in for `linlight_render::xml::load_scene` until the XML loader is
-/// merged; it rejects every file. The coordinator deletes it at merge (see `use` above).
-mod xml_stub {
-    use linlight_render::scene::Scene;
-    use std::path::Path;
-
-    #[derive(Debug)]
-    pub struct SceneError(String);
-
-    impl std::fmt::Display for SceneError {
-        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-            f.write_str(&self.0)
-        }
-    }
-
-    pub fn load_scene(path: &Path, _overrides: &[(String, String)]) -> Result<Scene, SceneError> {
-        Err(SceneError(format!(
-            "{}: the XML scene loader is not part of this build yet",
-            path.display()
-        )))
-    }
 }
 
 #[cfg(test)]
