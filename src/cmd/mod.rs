@@ -2,4 +2,5 @@
 
 pub mod backward_error;
 pub mod compare;
+pub mod render;
 pub mod samplers;
