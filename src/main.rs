@@ -21,6 +21,10 @@ enum Command {
     Samplers(cmd::samplers::Args),
     /// Worst backward error of the projected-solid-angle inversion, per iteration count.
     BackwardError(cmd::backward_error::Args),
+    /// Render a Mitsuba-XML scene with linear lights to EXR (mean + variance of the mean).
+    Render(cmd::render::Args),
+    /// Statistical comparison of two mean+variance EXRs (exit 0 consistent, 1 different).
+    Compare(cmd::compare::Args),
 }
 
 fn main() -> ExitCode {
@@ -28,5 +32,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Samplers(a) => cmd::samplers::run(a),
         Command::BackwardError(a) => cmd::backward_error::run(a),
+        Command::Render(a) => cmd::render::run(a),
+        Command::Compare(a) => cmd::compare::run(a),
     }
 }

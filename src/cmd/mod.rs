@@ -1,4 +1,6 @@
 //! One module per subcommand; each exposes `Args` (clap) and `run(Args) -> ExitCode`.
 
 pub mod backward_error;
+pub mod compare;
+pub mod render;
 pub mod samplers;

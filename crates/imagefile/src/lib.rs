@@ -2,10 +2,22 @@
 //! R, G, B hold the pixel mean; `var.R`, `var.G`, `var.B` the variance of that mean. Header
 //! attributes: `dof`, `spp`, `passes`, `renderer`, `scene_sha256` (+ free-form extras).
 //! Both the Rust renderer and the Mitsuba harness write this format.
-//! STUB: to be implemented.
+//!
+//! Writing is strict and canonical: one part, scan lines in increasing order, ZIP (lossless)
+//! compression, float32 channels, every header attribute as an EXR string attribute.
+//! Reading is lenient about everything that does not change the numbers: channel order, line
+//! order, compression, tiling, half-float channels, and the type of the numeric attributes
+//! (string, int, float or double — Mitsuba's `Bitmap` writes numbers as float attributes).
+//! It is strict about content: every one of the six channels must exist, all values must be
+//! finite, variances non-negative, and `dof` present.
 
 use std::collections::BTreeMap;
 use std::path::Path;
+
+use exr::prelude::{
+    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Layer, LayerAttributes,
+    ReadChannels, ReadLayers, Text, WritableImage,
+};
 
 /// Header metadata of an image file.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -46,6 +58,72 @@ impl std::fmt::Display for ImageError {
 }
 impl std::error::Error for ImageError {}
 
+/// Channel names of the mean, in RGB order.
+pub const MEAN_CHANNELS: [&str; 3] = ["R", "G", "B"];
+/// Channel names of the variance of the mean, in RGB order.
+pub const VAR_CHANNELS: [&str; 3] = ["var.R", "var.G", "var.B"];
+
+const KEY_DOF: &str = "dof";
+const KEY_SPP: &str = "spp";
+const KEY_PASSES: &str = "passes";
+const KEY_RENDERER: &str = "renderer";
+const KEY_SCENE: &str = "scene_sha256";
+const OWN_KEYS: [&str; 5] = [KEY_DOF, KEY_SPP, KEY_PASSES, KEY_RENDERER, KEY_SCENE];
+
+/// Attribute names the OpenEXR standard (and the `exr` crate) give a meaning of their own. An
+/// extra with such a name would be misread or corrupt the header, so writing one is an error.
+const EXR_STANDARD_KEYS: [&str; 49] = [
+    "tiles",
+    "name",
+    "type",
+    "version",
+    "chunkCount",
+    "maxSamplesPerPixel",
+    "channels",
+    "compression",
+    "dataWindow",
+    "displayWindow",
+    "lineOrder",
+    "pixelAspectRatio",
+    "screenWindowCenter",
+    "screenWindowWidth",
+    "whiteLuminance",
+    "adoptedNeutral",
+    "renderingTransform",
+    "lookModTransform",
+    "xDensity",
+    "owner",
+    "comments",
+    "capDate",
+    "utcOffset",
+    "longitude",
+    "latitude",
+    "altitude",
+    "focus",
+    "expTime",
+    "aperture",
+    "isoSpeed",
+    "envmap",
+    "keyCode",
+    "timeCode",
+    "wrapmodes",
+    "framesPerSecond",
+    "multiView",
+    "worldToCamera",
+    "worldToNDC",
+    "deepImageState",
+    "originalDataWindow",
+    "dwaCompressionLevel",
+    "preview",
+    "view",
+    "chromaticities",
+    "near",
+    "far",
+    "fieldOfViewHorizontal",
+    "fieldOfViewVertical",
+    "software",
+];
+
 impl Image {
     pub fn new(width: usize, height: usize) -> Self {
         Self {
@@ -57,16 +135,638 @@ impl Image {
         }
     }
 
-    pub fn read(_path: &Path) -> Result<Self, ImageError> {
-        todo!()
+    /// Checks the invariants every image of the shared format satisfies: non-zero size, buffer
+    /// lengths, finite means, finite non-negative variances, finite non-negative `dof`.
+    pub fn validate(&self) -> Result<(), ImageError> {
+        if self.width == 0 || self.height == 0 {
+            return Err(ImageError::Format(format!(
+                "image has zero size ({}×{})",
+                self.width, self.height
+            )));
+        }
+        let n = self.width.checked_mul(self.height).ok_or_else(|| {
+            ImageError::Format(format!(
+                "image size {}×{} overflows",
+                self.width, self.height
+            ))
+        })?;
+        if self.mean.len() != n || self.var.len() != n {
+            return Err(ImageError::Format(format!(
+                "buffer lengths (mean {}, var {}) do not match {}×{} = {n} pixels",
+                self.mean.len(),
+                self.var.len(),
+                self.width,
+                self.height
+            )));
+        }
+        for (i, (m, v)) in self.mean.iter().zip(&self.var).enumerate() {
+            let (x, y) = (i % self.width, i / self.width);
+            for c in 0..3 {
+                if !m[c].is_finite() {
+                    return Err(ImageError::Format(format!(
+                        "channel {} has a non-finite value ({}) at pixel ({x}, {y})",
+                        MEAN_CHANNELS[c], m[c]
+                    )));
+                }
+                if !v[c].is_finite() {
+                    return Err(ImageError::Format(format!(
+                        "channel {} has a non-finite value ({}) at pixel ({x}, {y})",
+                        VAR_CHANNELS[c], v[c]
+                    )));
+                }
+                if v[c] < 0.0 {
+                    return Err(ImageError::Format(format!(
+                        "channel {} has a negative variance ({}) at pixel ({x}, {y})",
+                        VAR_CHANNELS[c], v[c]
+                    )));
+                }
+            }
+        }
+        if !(self.meta.dof.is_finite() && self.meta.dof >= 0.0) {
+            return Err(ImageError::Format(format!(
+                "attribute dof must be finite and non-negative, is {}",
+                self.meta.dof
+            )));
+        }
+        Ok(())
     }
 
-    pub fn write(&self, _path: &Path) -> Result<(), ImageError> {
-        todo!()
+    pub fn read(path: &Path) -> Result<Self, ImageError> {
+        let file = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_file(path)
+            .map_err(|e| match e {
+                exr::error::Error::Io(io) => {
+                    ImageError::Io(format!("cannot read {}: {io}", path.display()))
+                }
+                other => ImageError::Format(format!(
+                    "{} is not a readable OpenEXR file: {other}",
+                    path.display()
+                )),
+            })?;
+        let ctx = |msg: String| ImageError::Format(format!("{}: {msg}", path.display()));
+
+        // Single part expected; be lenient and take the first part that holds a mean.
+        let layer = file
+            .layer_data
+            .iter()
+            .find(|l| l.channel_data.list.iter().any(|c| c.name.eq("R")))
+            .ok_or_else(|| {
+                let names: Vec<String> = file
+                    .layer_data
+                    .iter()
+                    .flat_map(|l| l.channel_data.list.iter().map(|c| c.name.to_string()))
+                    .collect();
+                ctx(format!("missing channel R (found: {})", names.join(", ")))
+            })?;
+
+        let (width, height) = (layer.size.x(), layer.size.y());
+        let n = width * height;
+        if n == 0 {
+            return Err(ctx(format!("image has zero size ({width}×{height})")));
+        }
+        let found = || {
+            layer
+                .channel_data
+                .list
+                .iter()
+                .map(|c| c.name.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let channel = |name: &str| -> Result<Vec<f32>, ImageError> {
+            let ch = layer
+                .channel_data
+                .list
+                .iter()
+                .find(|c| c.name.eq(name))
+                .ok_or_else(|| ctx(format!("missing channel {name} (found: {})", found())))?;
+            if ch.sampling.x() != 1 || ch.sampling.y() != 1 {
+                return Err(ctx(format!("channel {name} is subsampled")));
+            }
+            let values: Vec<f32> = match &ch.sample_data {
+                FlatSamples::F32(v) => v.clone(),
+                FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
+                FlatSamples::U32(v) => v.iter().map(|&u| u as f32).collect(),
+            };
+            if values.len() != n {
+                return Err(ctx(format!(
+                    "channel {name} holds {} values, expected {width}×{height} = {n}",
+                    values.len()
+                )));
+            }
+            Ok(values)
+        };
+
+        let mut img = Image::new(width, height);
+        for c in 0..3 {
+            let m = channel(MEAN_CHANNELS[c])?;
+            let v = channel(VAR_CHANNELS[c])?;
+            for i in 0..n {
+                img.mean[i][c] = m[i];
+                img.var[i][c] = v[i];
+            }
+        }
+
+        let attrs = &layer.attributes.other;
+        let get = |key: &str| attrs.iter().find(|(k, _)| Text::eq(k, key)).map(|(_, v)| v);
+        let dof = get(KEY_DOF)
+            .ok_or_else(|| ctx("missing header attribute dof".into()))
+            .and_then(|v| attr_f64(KEY_DOF, v).map_err(ctx))?;
+        img.meta.dof = dof;
+        if let Some(v) = get(KEY_SPP) {
+            img.meta.spp = attr_u64(KEY_SPP, v).map_err(ctx)?;
+        }
+        if let Some(v) = get(KEY_PASSES) {
+            img.meta.passes = attr_u64(KEY_PASSES, v).map_err(ctx)?;
+        }
+        if let Some(v) = get(KEY_RENDERER) {
+            img.meta.renderer = attr_string(v).unwrap_or_default();
+        }
+        if let Some(v) = get(KEY_SCENE) {
+            img.meta.scene_sha256 = attr_string(v).unwrap_or_default();
+        }
+        for (k, v) in attrs {
+            let key = k.to_string();
+            if OWN_KEYS.contains(&key.as_str()) {
+                continue;
+            }
+            if let Some(s) = attr_string(v) {
+                img.meta.extra.insert(key, s);
+            }
+        }
+
+        img.validate().map_err(|e| ctx(e.to_string()))?;
+        Ok(img)
+    }
+
+    pub fn write(&self, path: &Path) -> Result<(), ImageError> {
+        self.validate()?;
+        let n = self.width * self.height;
+        let mut channels = exr::prelude::SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
+        for c in 0..3 {
+            let m: Vec<f32> = (0..n).map(|i| self.mean[i][c]).collect();
+            let v: Vec<f32> = (0..n).map(|i| self.var[i][c]).collect();
+            channels.push(AnyChannel::new(MEAN_CHANNELS[c], FlatSamples::F32(m)));
+            channels.push(AnyChannel::new(VAR_CHANNELS[c], FlatSamples::F32(v)));
+        }
+
+        let mut attributes = LayerAttributes::default();
+        let text = |key: &str, value: &str| {
+            Text::new_or_none(value).ok_or_else(|| {
+                ImageError::Format(format!(
+                    "attribute {key} has characters outside Latin-1: {value:?}"
+                ))
+            })
+        };
+        let own = [
+            (KEY_DOF, self.meta.dof.to_string()),
+            (KEY_SPP, self.meta.spp.to_string()),
+            (KEY_PASSES, self.meta.passes.to_string()),
+            (KEY_RENDERER, self.meta.renderer.clone()),
+            (KEY_SCENE, self.meta.scene_sha256.clone()),
+        ];
+        for (k, v) in &own {
+            attributes
+                .other
+                .insert(Text::from(*k), AttributeValue::Text(text(k, v)?));
+        }
+        for (k, v) in &self.meta.extra {
+            if OWN_KEYS.contains(&k.as_str()) || EXR_STANDARD_KEYS.contains(&k.as_str()) {
+                return Err(ImageError::Format(format!(
+                    "extra attribute name {k:?} is reserved"
+                )));
+            }
+            if k.is_empty() {
+                return Err(ImageError::Format(
+                    "extra attribute with an empty name".into(),
+                ));
+            }
+            attributes
+                .other
+                .insert(text(k, k)?, AttributeValue::Text(text(k, v)?));
+        }
+
+        let encoding = Encoding {
+            compression: exr::prelude::Compression::ZIP16,
+            blocks: exr::prelude::Blocks::ScanLines,
+            line_order: exr::prelude::LineOrder::Increasing,
+        };
+        let layer = Layer::new(
+            (self.width, self.height),
+            attributes,
+            encoding,
+            AnyChannels::sort(channels),
+        );
+        exr::prelude::Image::from_layer(layer)
+            .write()
+            .to_file(path)
+            .map_err(|e| match e {
+                exr::error::Error::Io(io) => {
+                    ImageError::Io(format!("cannot write {}: {io}", path.display()))
+                }
+                other => ImageError::Format(format!("cannot write {}: {other}", path.display())),
+            })
     }
 
     /// Tone-mapped sRGB preview (exposure 1, clamp) as PNG.
-    pub fn write_preview_png(&self, _path: &Path) -> Result<(), ImageError> {
-        todo!()
+    pub fn write_preview_png(&self, path: &Path) -> Result<(), ImageError> {
+        self.validate()?;
+        let buf: Vec<u8> = self
+            .mean
+            .iter()
+            .flat_map(|p| [srgb8(p[0]), srgb8(p[1]), srgb8(p[2])])
+            .collect();
+        write_rgb8_png(path, self.width, self.height, &buf)
+    }
+}
+
+/// Linear radiance → 8-bit sRGB: clamp to [0, 1], sRGB OETF, round. NaN maps to 0.
+pub fn srgb8(linear: f32) -> u8 {
+    let x = if linear.is_nan() {
+        0.0
+    } else {
+        linear.clamp(0.0, 1.0)
+    };
+    let s = if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5).clamp(0.0, 255.0) as u8
+}
+
+/// Writes an 8-bit RGB buffer (row-major, row 0 at the top) as PNG.
+pub fn write_rgb8_png(
+    path: &Path,
+    width: usize,
+    height: usize,
+    rgb: &[u8],
+) -> Result<(), ImageError> {
+    if width == 0 || height == 0 || rgb.len() != width * height * 3 {
+        return Err(ImageError::Format(format!(
+            "PNG buffer of {} bytes does not match {width}×{height}×3",
+            rgb.len()
+        )));
+    }
+    let (w, h) = (
+        u32::try_from(width).map_err(|_| ImageError::Format("PNG too wide".into()))?,
+        u32::try_from(height).map_err(|_| ImageError::Format("PNG too high".into()))?,
+    );
+    image::save_buffer_with_format(
+        path,
+        rgb,
+        w,
+        h,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| ImageError::Io(format!("cannot write {}: {e}", path.display())))
+}
+
+/// Numeric attribute of any scalar EXR type (string, int, float, double).
+fn attr_f64(key: &str, v: &AttributeValue) -> Result<f64, String> {
+    let x = match v {
+        AttributeValue::F64(x) => *x,
+        AttributeValue::F32(x) => *x as f64,
+        AttributeValue::I32(x) => *x as f64,
+        AttributeValue::Text(t) => t
+            .to_string()
+            .trim()
+            .parse::<f64>()
+            .map_err(|_| format!("attribute {key} is not a number: {:?}", t.to_string()))?,
+        other => {
+            return Err(format!(
+                "attribute {key} has a non-numeric type ({other:?})"
+            ))
+        }
+    };
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("attribute {key} is not finite ({x})"))
+    }
+}
+
+/// Non-negative integer attribute; a float that is not a whole number is an error.
+fn attr_u64(key: &str, v: &AttributeValue) -> Result<u64, String> {
+    if let AttributeValue::Text(t) = v {
+        if let Ok(u) = t.to_string().trim().parse::<u64>() {
+            return Ok(u);
+        }
+    }
+    let x = attr_f64(key, v)?;
+    if x >= 0.0 && x.fract() == 0.0 && x <= 9_007_199_254_740_992.0 {
+        Ok(x as u64)
+    } else {
+        Err(format!(
+            "attribute {key} is not a non-negative integer ({x})"
+        ))
+    }
+}
+
+/// Scalar attributes as text (numbers formatted); other attribute types are not metadata.
+fn attr_string(v: &AttributeValue) -> Option<String> {
+    match v {
+        AttributeValue::Text(t) => Some(t.to_string()),
+        AttributeValue::F64(x) => Some(x.to_string()),
+        AttributeValue::F32(x) => Some(x.to_string()),
+        AttributeValue::I32(x) => Some(x.to_string()),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("linlight-imagefile-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join(name)
+    }
+
+    /// Deterministic awkward bit patterns: subnormals, large, tiny, negative means.
+    fn sample_image(w: usize, h: usize) -> Image {
+        let mut img = Image::new(w, h);
+        let mut s: u32 = 0x1234_5678;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            s
+        };
+        for i in 0..w * h {
+            for c in 0..3 {
+                let mut m = f32::from_bits(next() & 0x7fff_ffff);
+                if !m.is_finite() {
+                    m = 1.5e38;
+                }
+                img.mean[i][c] = if next() % 3 == 0 { -m } else { m };
+                let mut v = f32::from_bits(next() & 0x7fff_ffff);
+                if !v.is_finite() {
+                    v = 0.0;
+                }
+                img.var[i][c] = v;
+            }
+        }
+        img.mean[0] = [1.0, 0.5, f32::MIN_POSITIVE / 4.0];
+        img.var[0] = [0.0, 1e-30, 3.0];
+        img.meta = Metadata {
+            dof: 31.0,
+            spp: 4096,
+            passes: 32,
+            renderer: "linlight 0.1.0".into(),
+            scene_sha256: "ab".repeat(32),
+            extra: [
+                ("technique".to_string(), "ltc".to_string()),
+                ("R".to_string(), "0.01".into()),
+            ]
+            .into_iter()
+            .collect(),
+        };
+        img
+    }
+
+    #[test]
+    fn round_trip_is_bit_exact() {
+        let img = sample_image(37, 23);
+        let path = tmp("round_trip.exr");
+        img.write(&path).unwrap();
+        let back = Image::read(&path).unwrap();
+        assert_eq!((back.width, back.height), (37, 23));
+        for i in 0..img.mean.len() {
+            for c in 0..3 {
+                assert_eq!(
+                    back.mean[i][c].to_bits(),
+                    img.mean[i][c].to_bits(),
+                    "mean {i} {c}"
+                );
+                assert_eq!(
+                    back.var[i][c].to_bits(),
+                    img.var[i][c].to_bits(),
+                    "var {i} {c}"
+                );
+            }
+        }
+        assert_eq!(back.meta, img.meta);
+        // Non-integral dof survives the string attribute exactly.
+        let mut img2 = Image::new(2, 3);
+        img2.meta.dof = 0.1 + 0.2;
+        img2.write(&path).unwrap();
+        assert_eq!(Image::read(&path).unwrap().meta.dof, 0.1 + 0.2);
+    }
+
+    /// Writes an EXR with arbitrary channels/attributes straight through the exr crate, the way
+    /// another program might.
+    fn write_raw(
+        path: &Path,
+        w: usize,
+        h: usize,
+        chans: Vec<(&str, FlatSamples)>,
+        attrs: Vec<(&str, AttributeValue)>,
+        encoding: Encoding,
+    ) {
+        let mut a = LayerAttributes::default();
+        for (k, v) in attrs {
+            a.other.insert(Text::from(k), v);
+        }
+        let list = chans
+            .into_iter()
+            .map(|(n, s)| AnyChannel::new(n, s))
+            .collect();
+        let layer = Layer::new((w, h), a, encoding, AnyChannels::sort(list));
+        exr::prelude::Image::from_layer(layer)
+            .write()
+            .to_file(path)
+            .unwrap();
+    }
+
+    fn const_f32(n: usize, x: f32) -> FlatSamples {
+        FlatSamples::F32(vec![x; n])
+    }
+
+    #[test]
+    fn lenient_reader_accepts_half_floats_numeric_attributes_and_other_encodings() {
+        let (w, h) = (5, 4);
+        let n = w * h;
+        let path = tmp("lenient.exr");
+        let half = |x: f32| FlatSamples::F16(vec![exr::prelude::f16::from_f32(x); n]);
+        let ramp: Vec<f32> = (0..n).map(|i| i as f32).collect();
+        write_raw(
+            &path,
+            w,
+            h,
+            vec![
+                ("R", FlatSamples::F32(ramp.clone())),
+                ("G", half(0.5)),
+                ("B", const_f32(n, 2.0)),
+                ("var.R", const_f32(n, 0.25)),
+                ("var.G", half(0.125)),
+                ("var.B", const_f32(n, 0.0)),
+            ],
+            vec![
+                ("dof", AttributeValue::F32(31.0)),
+                ("spp", AttributeValue::F64(1024.0)),
+                ("passes", AttributeValue::I32(32)),
+                (
+                    "renderer",
+                    AttributeValue::Text(Text::from("mitsuba 3.9.1")),
+                ),
+                ("seed", AttributeValue::I32(7)),
+            ],
+            Encoding::SMALL_FAST_LOSSLESS, // PIZ, 256² tiles, unspecified line order
+        );
+        let img = Image::read(&path).unwrap();
+        assert_eq!((img.width, img.height), (w, h));
+        // Row-major, row 0 at the top.
+        assert_eq!(img.mean[w + 2][0], (w + 2) as f32);
+        assert_eq!(img.mean[3], [3.0, 0.5, 2.0]);
+        assert_eq!(img.var[7], [0.25, 0.125, 0.0]);
+        assert_eq!(img.meta.dof, 31.0);
+        assert_eq!(img.meta.spp, 1024);
+        assert_eq!(img.meta.passes, 32);
+        assert_eq!(img.meta.renderer, "mitsuba 3.9.1");
+        assert_eq!(img.meta.extra.get("seed").map(String::as_str), Some("7"));
+    }
+
+    fn expect_format_error(path: &Path, needle: &str) {
+        match Image::read(path) {
+            Err(ImageError::Format(m)) => assert!(m.contains(needle), "{m:?} lacks {needle:?}"),
+            other => panic!("expected a format error mentioning {needle:?}, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn missing_variance_channel_is_a_clear_error() {
+        let n = 6;
+        let path = tmp("missing_var.exr");
+        write_raw(
+            &path,
+            3,
+            2,
+            vec![
+                ("R", const_f32(n, 1.0)),
+                ("G", const_f32(n, 1.0)),
+                ("B", const_f32(n, 1.0)),
+                ("var.R", const_f32(n, 1.0)),
+                ("var.B", const_f32(n, 1.0)),
+            ],
+            vec![("dof", AttributeValue::Text(Text::from("31")))],
+            Encoding::UNCOMPRESSED,
+        );
+        expect_format_error(&path, "missing channel var.G");
+    }
+
+    #[test]
+    fn plain_rgb_exr_is_rejected() {
+        let path = tmp("plain_rgb.exr");
+        write_raw(
+            &path,
+            2,
+            2,
+            vec![
+                ("R", const_f32(4, 1.0)),
+                ("G", const_f32(4, 1.0)),
+                ("B", const_f32(4, 1.0)),
+            ],
+            vec![],
+            Encoding::UNCOMPRESSED,
+        );
+        expect_format_error(&path, "missing channel var.R");
+    }
+
+    #[test]
+    fn missing_dof_is_an_error() {
+        let path = tmp("no_dof.exr");
+        let chans = MEAN_CHANNELS
+            .iter()
+            .chain(&VAR_CHANNELS)
+            .map(|c| (*c, const_f32(4, 1.0)));
+        write_raw(&path, 2, 2, chans.collect(), vec![], Encoding::UNCOMPRESSED);
+        expect_format_error(&path, "dof");
+    }
+
+    #[test]
+    fn nan_inf_and_negative_variance_are_rejected_on_read_and_write() {
+        let path = tmp("bad_values.exr");
+        let cases: [(&str, f32, &str); 3] = [
+            ("G", f32::NAN, "non-finite"),
+            ("var.B", f32::INFINITY, "non-finite"),
+            ("var.R", -1.0, "negative variance"),
+        ];
+        for (bad_channel, bad_value, needle) in cases {
+            let chans = MEAN_CHANNELS
+                .iter()
+                .chain(&VAR_CHANNELS)
+                .map(|c| {
+                    let mut v = vec![1.0f32; 6];
+                    if *c == bad_channel {
+                        v[4] = bad_value;
+                    }
+                    (*c, FlatSamples::F32(v))
+                })
+                .collect();
+            write_raw(
+                &path,
+                3,
+                2,
+                chans,
+                vec![("dof", AttributeValue::F64(3.0))],
+                Encoding::UNCOMPRESSED,
+            );
+            expect_format_error(&path, needle);
+            expect_format_error(&path, &format!("{bad_channel} has"));
+            expect_format_error(&path, "pixel (1, 1)");
+        }
+        let mut img = Image::new(2, 2);
+        img.mean[3][1] = f32::NAN;
+        assert!(matches!(
+            img.write(&tmp("nan_write.exr")),
+            Err(ImageError::Format(_))
+        ));
+    }
+
+    #[test]
+    fn unreadable_and_reserved_inputs() {
+        let garbage = tmp("garbage.exr");
+        std::fs::write(&garbage, b"not an exr").unwrap();
+        assert!(matches!(Image::read(&garbage), Err(ImageError::Format(_))));
+        assert!(matches!(
+            Image::read(&tmp("does_not_exist.exr")),
+            Err(ImageError::Io(_))
+        ));
+        let mut img = Image::new(1, 1);
+        img.meta.extra.insert("channels".into(), "x".into());
+        assert!(matches!(
+            img.write(&tmp("reserved.exr")),
+            Err(ImageError::Format(_))
+        ));
+        assert!(matches!(
+            Image::new(0, 3).write(&tmp("empty.exr")),
+            Err(ImageError::Format(_))
+        ));
+    }
+
+    #[test]
+    fn preview_png_is_tone_mapped_srgb() {
+        assert_eq!(srgb8(0.0), 0);
+        assert_eq!(srgb8(-3.0), 0);
+        assert_eq!(srgb8(1.0), 255);
+        assert_eq!(srgb8(7.0), 255);
+        assert_eq!(srgb8(f32::NAN), 0);
+        // sRGB(0.5 linear) = 0.7354 → 188; sRGB(0.0031308) = 0.04045 → 10.
+        assert_eq!(srgb8(0.5), 188);
+        assert_eq!(srgb8(0.003_130_8), 10);
+        let mut img = Image::new(4, 2);
+        img.mean[1] = [0.5, 2.0, 0.0];
+        let path = tmp("preview.png");
+        img.write_preview_png(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
     }
 }

@@ -1,4 +1,17 @@
 //! CPU renderer for Mitsuba 3 XML scenes whose lights are thin cylinders, rendered in the exact
 //! R → 0 limit as linear lights.
 
+// `!(x > 0.0)` is deliberate throughout: it rejects NaN together with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod build;
+pub mod bvh;
+pub mod camera;
+pub mod film;
+pub mod integrator;
+pub mod render;
 pub mod scene;
+pub mod shapes;
+pub mod xml;
+
+pub use render::{render, RenderError, RenderOptions};

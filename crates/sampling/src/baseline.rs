@@ -13,15 +13,17 @@ pub struct Baseline {
 impl Baseline {
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
         unit_normal(n)?;
-        Some(Self { frame: LineFrame::new(segment, x)? })
+        Some(Self {
+            frame: LineFrame::new(segment, x)?,
+        })
     }
 }
 
 impl LineSampler for Baseline {
     fn sample(&self, xi: f32) -> Vec3 {
         let f = &self.frame;
-        let l = f.l_begin + clamp_xi(xi) * (f.l_end - f.l_begin);
-        f.point(l).normalize()
+        let l = (f.l_begin + clamp_xi(xi) * (f.l_end - f.l_begin)).min(f.l_end);
+        f.direction_to(l)
     }
     /// Not a density: 1 wherever the segment is, on purpose.
     fn pdf(&self, dir: Vec3) -> f32 {

@@ -64,9 +64,14 @@ impl LineFrame {
     /// The frame of `segment` seen from `x`. `None` when the segment has zero (or non-finite)
     /// length, when `x` lies on the infinite line (d = 0, relative to the segment scale), or when
     /// any input is not finite.
+    ///
+    /// Computed in f64 and rounded once: in f32 the closest point c = b − σu cancels for x near
+    /// the line (or a far segment seen along its axis), with an error ~ε|b| above
+    /// `MIN_RELATIVE_DISTANCE`·|b|, which left ĉ far from orthogonal to u; and the squares in
+    /// |b| leave the f32 range for coordinates beyond ~1e±19.
     pub fn new(segment: &Segment, x: Vec3) -> Option<Self> {
-        let b = segment.begin - x;
-        let e = segment.end - x;
+        let b = segment.begin.as_dvec3() - x.as_dvec3();
+        let e = segment.end.as_dvec3() - x.as_dvec3();
         let axis = e - b;
         let length = axis.length();
         if !(length > 0.0 && length.is_finite() && b.is_finite() && e.is_finite()) {
@@ -77,14 +82,17 @@ impl LineFrame {
         let c = b - sigma * u;
         let d = c.length();
         let scale = length.max(b.length()).max(e.length());
-        if !(d > MIN_RELATIVE_DISTANCE * scale) || !d.is_finite() {
+        if !(d.is_finite() && d > MIN_RELATIVE_DISTANCE as f64 * scale) {
             return None;
         }
-        let c_hat = c / d;
-        let l_begin = sigma;
-        let l_end = sigma + length;
+        let c_hat = (c / d).as_vec3();
+        let (d, l_begin, l_end) = (d as f32, sigma as f32, (sigma + length) as f32);
+        // Rounded to f32, d may underflow to 0 and l overflow to ±inf.
+        if !(d > 0.0 && l_begin.is_finite() && l_end.is_finite()) {
+            return None;
+        }
         let frame = Self {
-            u,
+            u: u.as_vec3(),
             c_hat,
             d,
             l_begin,
@@ -152,6 +160,21 @@ impl LineFrame {
         self.d * self.c_hat + l * self.u
     }
 
+    /// Unit direction toward the line point at parameter l.
+    #[inline]
+    pub fn direction_to(&self, l: f32) -> Vec3 {
+        let p = self.point(l);
+        let len2 = p.length_squared();
+        if len2 > 1e-30 && len2 <= f32::MAX {
+            return p / len2.sqrt();
+        }
+        // Outside ~[1e-19, 1e19] the squares leave the normal range (or d ĉ + l u overflows):
+        // scale by max(d, |l|) first.
+        let m = self.d.max(l.abs());
+        let p = (self.d / m) * self.c_hat + (l / m) * self.u;
+        p / p.length()
+    }
+
     /// Unit direction with u·ω = s.
     #[inline]
     pub fn direction(&self, s: f32) -> Vec3 {
@@ -204,7 +227,8 @@ impl LineFrame {
     #[inline]
     pub fn projected_solid_angle(&self, n: Vec3) -> f32 {
         let (ns, nt) = self.normal_coefficients(n);
-        (projected_antiderivative(ns, nt, self.s_end) - projected_antiderivative(ns, nt, self.s_begin))
+        (projected_antiderivative(ns, nt, self.s_end)
+            - projected_antiderivative(ns, nt, self.s_begin))
             / self.d
     }
 }
@@ -217,12 +241,24 @@ pub fn projected_antiderivative(ns: f32, nt: f32, s: f32) -> f32 {
     ns * s * s + nt * (s * t + s.asin())
 }
 
+/// |v| without underflow or overflow of the squares, which leave the normal f32 range for |v|
+/// outside ~[1e-19, 1e19] (glam's `length` then loses all precision or returns inf/0).
+#[inline]
+pub fn stable_length(v: Vec3) -> f32 {
+    let m = v.abs().max_element();
+    if m > 0.0 && m.is_finite() {
+        m * (v / m).length()
+    } else {
+        v.length()
+    }
+}
+
 /// Normalise a user-supplied normal. Policy of this crate: normals are *normalised*; a zero,
 /// denormal-length or non-finite normal is rejected (`None`), which makes the light contribute
 /// nothing at that shading point.
 #[inline]
 pub fn unit_normal(n: Vec3) -> Option<Vec3> {
-    let len = n.length();
+    let len = stable_length(n);
     (len > 1e-20 && len.is_finite()).then(|| n / len)
 }
 
@@ -240,7 +276,10 @@ mod tests {
         let f = sanity_frame();
         assert!((f.solid_angle() - 2.0 * 2f32.sqrt()).abs() < 1e-6);
         let psa = f.projected_solid_angle(Vec3::Z);
-        assert!((psa - (1.0 + std::f32::consts::FRAC_PI_2)).abs() < 1e-6, "{psa}");
+        assert!(
+            (psa - (1.0 + std::f32::consts::FRAC_PI_2)).abs() < 1e-6,
+            "{psa}"
+        );
     }
 
     #[test]
@@ -262,7 +301,9 @@ mod tests {
         assert!((c.point(c.l_begin) - Vec3::new(1.0, 0.0, 0.0)).length() < 1e-6);
         assert_eq!(c.l_end, f.l_end);
         // Entirely below.
-        assert!(f.clip_to_horizon(Vec3::new(0.0, 0.0, 1.0).normalize() * 1.0).is_some());
+        assert!(f
+            .clip_to_horizon(Vec3::new(0.0, 0.0, 1.0).normalize() * 1.0)
+            .is_some());
         let below = Segment::new(Vec3::new(1.0, 0.0, -2.0), Vec3::new(1.0, 0.0, -1.0));
         let fb = LineFrame::new(&below, Vec3::ZERO).unwrap();
         assert!(fb.clip_to_horizon(Vec3::Z).is_none());
@@ -294,7 +335,10 @@ mod tests {
     fn projected_solid_angle_matches_quadrature() {
         let seg = Segment::new(Vec3::new(-0.3, 0.5, 0.4), Vec3::new(1.2, -0.2, 1.1));
         let n = Vec3::new(0.2, 0.1, 1.0).normalize();
-        let f = LineFrame::new(&seg, Vec3::ZERO).unwrap().clip_to_horizon(n).unwrap();
+        let f = LineFrame::new(&seg, Vec3::ZERO)
+            .unwrap()
+            .clip_to_horizon(n)
+            .unwrap();
         // Midpoint rule in s on (n·ω)(2/d).
         let m = 200_000;
         let mut sum = 0.0f64;

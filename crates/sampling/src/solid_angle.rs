@@ -30,8 +30,10 @@ impl SolidAngle {
 
     /// Uniform in solid angle over an already prepared interval.
     pub fn on_frame(frame: LineFrame) -> Option<Self> {
-        let omega = frame.solid_angle();
-        (omega > 0.0 && omega.is_finite()).then(|| Self { frame, inv_solid_angle: 1.0 / omega })
+        // Ω_R may be subnormal (far line, tiny Δs): its reciprocal must be finite too.
+        let inv_solid_angle = 1.0 / frame.solid_angle();
+        (inv_solid_angle > 0.0 && inv_solid_angle.is_finite())
+            .then_some(Self { frame, inv_solid_angle })
     }
 }
 

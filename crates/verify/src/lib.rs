@@ -3,8 +3,11 @@
 
 pub mod chi2;
 pub mod configs;
+pub mod heatmap;
+pub mod image_stats;
 pub mod quadrature;
 pub mod subjects;
 pub mod suite;
+pub mod z_score;
 
 pub use suite::{run_suite, Settings, SuiteReport};

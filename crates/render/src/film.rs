@@ -1,0 +1,65 @@
+//! Per-pixel accumulation: mean and variance of the mean from independent samples (Welford, in
+//! f64), and the combination of independent passes.
+
+/// Running mean and sum of squared deviations of independent RGB samples.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Welford {
+    n: u64,
+    mean: [f64; 3],
+    m2: [f64; 3],
+}
+
+impl Welford {
+    #[inline]
+    pub fn push(&mut self, x: [f64; 3]) {
+        self.n += 1;
+        let inv = 1.0 / self.n as f64;
+        for ((xc, mean), m2) in x.iter().zip(&mut self.mean).zip(&mut self.m2) {
+            let delta = xc - *mean;
+            *mean += delta * inv;
+            *m2 += delta * (xc - *mean);
+        }
+    }
+
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+
+    pub fn mean(&self) -> [f64; 3] {
+        self.mean
+    }
+
+    /// Unbiased estimate of the variance of the mean, M2/((n − 1)·n); 0 when n < 2 (the
+    /// image then reports dof = 0).
+    pub fn variance_of_mean(&self) -> [f64; 3] {
+        if self.n < 2 {
+            return [0.0; 3];
+        }
+        let k = 1.0 / ((self.n - 1) as f64 * self.n as f64);
+        self.m2.map(|m| (m * k).max(0.0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn matches_two_pass_formulas() {
+        let xs = [1.0, 2.5, -0.5, 4.0, 3.25];
+        let mut w = Welford::default();
+        for &x in &xs {
+            w.push([x, 2.0 * x, 0.0]);
+        }
+        let n = xs.len() as f64;
+        let mean = xs.iter().sum::<f64>() / n;
+        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0) / n;
+        assert!((w.mean()[0] - mean).abs() < 1e-12);
+        assert!((w.variance_of_mean()[0] - var).abs() < 1e-12);
+        assert!((w.variance_of_mean()[1] - 4.0 * var).abs() < 1e-12);
+        assert_eq!(w.variance_of_mean()[2], 0.0);
+        let mut one = Welford::default();
+        one.push([1.0; 3]);
+        assert_eq!(one.variance_of_mean(), [0.0; 3]);
+    }
+}

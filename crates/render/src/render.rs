@@ -1,0 +1,287 @@
+//! Rendering a scene into an image of per-pixel means and variances of the mean.
+//!
+//! Pixel samples are uniform over the pixel (box filter). With one pass, the variance of the
+//! mean comes from the spp independent samples (dof = spp − 1); with P > 1 passes, from the P
+//! pass means (dof = P − 1). The random stream of a pixel depends only on (seed, pass, full-film
+//! pixel index), so an image is bit-identical for any thread count and a crop equals the same
+//! window of the full render.
+
+use crate::bvh::Bvh;
+use crate::camera::Camera;
+use crate::film::Welford;
+use crate::integrator::{radiance, RenderScene};
+use crate::scene::{Geometry, Scene};
+use crate::shapes::{transformed_normal, Primitive};
+use glam::Vec3;
+use linlight_imagefile::{Image, Metadata};
+use linlight_sampling::rng::Pcg32;
+use linlight_sampling::{Segment, Technique};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Side of the square tiles distributed over threads.
+const TILE: u32 = 16;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Samples per pixel in each pass.
+    pub spp: u32,
+    /// Independent passes (≥ 1).
+    pub passes: u32,
+    pub seed: u64,
+    pub technique: Technique,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum RenderError {
+    /// The scene cannot be rendered as given (film size, crop, camera).
+    Scene(String),
+    /// The options cannot be used (spp or passes zero).
+    Options(String),
+}
+
+impl std::fmt::Display for RenderError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RenderError::Scene(m) | RenderError::Options(m) => f.write_str(m),
+        }
+    }
+}
+impl std::error::Error for RenderError {}
+
+/// Pixel window actually rendered: the crop, or the whole film.
+fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
+    let film = &scene.sensor.film;
+    if film.width == 0 || film.height == 0 {
+        return Err(RenderError::Scene(format!(
+            "film has zero size ({}x{})",
+            film.width, film.height
+        )));
+    }
+    match film.crop {
+        None => Ok((0, 0, film.width, film.height)),
+        Some(c) => {
+            let fits = c.width > 0
+                && c.height > 0
+                && c.offset_x
+                    .checked_add(c.width)
+                    .is_some_and(|e| e <= film.width)
+                && c.offset_y
+                    .checked_add(c.height)
+                    .is_some_and(|e| e <= film.height);
+            if !fits {
+                return Err(RenderError::Scene(format!(
+                    "crop window {}x{}+{}+{} does not fit the {}x{} film",
+                    c.width, c.height, c.offset_x, c.offset_y, film.width, film.height
+                )));
+            }
+            Ok((c.offset_x, c.offset_y, c.width, c.height))
+        }
+    }
+}
+
+impl RenderScene {
+    /// Acceleration structure, camera and lights of a scene.
+    pub fn new(scene: &Scene) -> Result<Self, RenderError> {
+        window(scene)?;
+        let camera = Camera::new(&scene.sensor).ok_or_else(|| {
+            RenderError::Scene(
+                "unusable perspective sensor (field of view outside (0°, 180°) or singular \
+                 to_world)"
+                    .into(),
+            )
+        })?;
+        let mut prims = Vec::new();
+        for (i, shape) in scene.shapes.iter().enumerate() {
+            let s = i as u32;
+            match &shape.geometry {
+                Geometry::Mesh {
+                    positions,
+                    normals,
+                    indices,
+                } => {
+                    let normals = normals.as_ref().filter(|n| n.len() == positions.len());
+                    for tri in indices {
+                        let Some(v) = tri
+                            .iter()
+                            .map(|&k| positions.get(k as usize).copied())
+                            .collect::<Option<Vec<_>>>()
+                        else {
+                            continue; // out-of-range index (the loader should have rejected it)
+                        };
+                        let n = normals.map(|n| tri.map(|k| n[k as usize]));
+                        prims.push(Primitive::Triangle {
+                            v: [v[0], v[1], v[2]],
+                            n,
+                            shape: s,
+                        });
+                    }
+                }
+                Geometry::Sphere { center, radius } => prims.push(Primitive::Sphere {
+                    center: *center,
+                    radius: radius.abs(),
+                    shape: s,
+                }),
+                Geometry::Disk { to_world } => {
+                    let det = to_world.determinant();
+                    if det != 0.0 && det.is_finite() {
+                        let to_local = to_world.inverse();
+                        let normal = transformed_normal(&to_local);
+                        prims.push(Primitive::Disk {
+                            to_local,
+                            normal,
+                            shape: s,
+                        });
+                    }
+                }
+                Geometry::Cylinder { p0, p1, radius } => {
+                    let axis = *p1 - *p0;
+                    let length = axis.length();
+                    if length > 0.0 && length.is_finite() && *radius != 0.0 {
+                        prims.push(Primitive::Cylinder {
+                            p0: *p0,
+                            axis: axis / length,
+                            length,
+                            radius: radius.abs(),
+                            shape: s,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(Self {
+            camera,
+            bvh: Bvh::build(prims),
+            surfaces: scene
+                .shapes
+                .iter()
+                .map(|s| (s.bsdf.clone(), s.flip_normals))
+                .collect(),
+            lights: scene
+                .lights
+                .iter()
+                .map(|l| {
+                    (
+                        Segment::new(l.begin, l.end),
+                        Vec3::from_array(l.radiance_times_radius),
+                    )
+                })
+                .collect(),
+        })
+    }
+}
+
+/// SplitMix64 finaliser: decorrelates (seed, pass) before they become a PCG state.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Random stream of one pixel (full-film index) in one pass.
+pub fn pixel_rng(seed: u64, pass: u32, pixel_index: u64) -> Pcg32 {
+    Pcg32::new(mix(seed ^ mix(pass as u64)), pixel_index)
+}
+
+/// Render `scene`. `progress(done, total)` is called (from worker threads) after each tile.
+/// Runs on the current rayon pool (use `ThreadPool::install` to choose the thread count).
+pub fn render(
+    scene: &Scene,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    if opts.spp == 0 || opts.passes == 0 {
+        return Err(RenderError::Options(
+            "spp and passes must be at least 1".into(),
+        ));
+    }
+    let (x0, y0, w, h) = window(scene)?;
+    let rs = RenderScene::new(scene)?;
+    let full_width = scene.sensor.film.width as u64;
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let done = AtomicUsize::new(0);
+    let total = tiles.len();
+    let results: Vec<Vec<([f32; 3], [f32; 3])>> = tiles
+        .par_iter()
+        .map(|&(tx, ty)| {
+            let mut out = Vec::with_capacity((TILE * TILE) as usize);
+            for y in ty..(ty + TILE).min(h) {
+                for x in tx..(tx + TILE).min(w) {
+                    let (fx, fy) = (x0 + x, y0 + y);
+                    let index = fy as u64 * full_width + fx as u64;
+                    out.push(render_pixel(&rs, opts, fx, fy, index));
+                }
+            }
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(d, total);
+            out
+        })
+        .collect();
+    let mut image = Image::new(w as usize, h as usize);
+    for (&(tx, ty), tile) in tiles.iter().zip(&results) {
+        let mut it = tile.iter();
+        for y in ty..(ty + TILE).min(h) {
+            for x in tx..(tx + TILE).min(w) {
+                let (m, v) = it.next().copied().unwrap_or_default();
+                let k = (y * w + x) as usize;
+                image.mean[k] = m;
+                image.var[k] = v;
+            }
+        }
+    }
+    let dof = if opts.passes > 1 {
+        opts.passes - 1
+    } else {
+        opts.spp - 1
+    };
+    let mut meta = Metadata {
+        dof: dof as f64,
+        spp: opts.spp as u64 * opts.passes as u64,
+        passes: opts.passes as u64,
+        renderer: format!("linlight {}", env!("CARGO_PKG_VERSION")),
+        scene_sha256: scene.sha256.clone(),
+        ..Default::default()
+    };
+    meta.extra
+        .insert("technique".into(), opts.technique.name().into());
+    meta.extra.insert("seed".into(), opts.seed.to_string());
+    meta.extra
+        .insert("spp_per_pass".into(), opts.spp.to_string());
+    image.meta = meta;
+    Ok(image)
+}
+
+/// Mean and variance of the mean of one pixel (full-film coordinates).
+fn render_pixel(
+    rs: &RenderScene,
+    opts: &RenderOptions,
+    fx: u32,
+    fy: u32,
+    index: u64,
+) -> ([f32; 3], [f32; 3]) {
+    let mut passes = Welford::default();
+    let mut single = Welford::default();
+    for pass in 0..opts.passes {
+        let mut rng = pixel_rng(opts.seed, pass, index);
+        let mut acc = Welford::default();
+        for _ in 0..opts.spp {
+            let u = rng.next_f32();
+            let v = rng.next_f32();
+            let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
+            let l = radiance(rs, opts.technique, &ray, &mut rng);
+            acc.push(l.map(|c| c as f64));
+        }
+        passes.push(acc.mean());
+        single = acc;
+    }
+    let (mean, var) = if opts.passes > 1 {
+        (passes.mean(), passes.variance_of_mean())
+    } else {
+        (single.mean(), single.variance_of_mean())
+    };
+    // Every sample is finite (the integrator drops non-finite contributions), so are these.
+    (mean.map(|m| m as f32), var.map(|v| v as f32))
+}

@@ -1,0 +1,808 @@
+//! Element tree → Scene IR: one function per plugin kind, each reading its properties through
+//! [`Props`] so that anything unread is reported.
+
+use super::shapes::{self, RawMesh};
+use super::transform::{parse_transform, uniform_scale};
+use super::tree::{Elem, TreeBuilder};
+use super::values::{parse_f64, parse_i64, parse_list, parse_xyz, Entry, Props, Value};
+use super::{err, obj, ply, SceneError};
+use crate::scene::{
+    Bsdf, CropWindow, Film, FovAxis, Geometry, Integrator, LinearLight, Scene, Sensor, Shape,
+    SourceLocation,
+};
+use glam::{DMat3, DMat4, DVec3, Vec3};
+use std::rc::Rc;
+
+const SHAPES: &str = "rectangle, cube, sphere, disk, cylinder, obj, ply";
+const BSDFS: &str = "diffuse, twosided";
+
+pub struct Builder<'a> {
+    tree: &'a TreeBuilder,
+    warnings: Vec<String>,
+}
+
+fn f32_of(v: f64, loc: &SourceLocation, what: &str) -> Result<f32, SceneError> {
+    let f = v as f32;
+    if f.is_finite() {
+        Ok(f)
+    } else {
+        err(loc, format!("{what} is out of single-precision range"))
+    }
+}
+
+fn vec3_of(v: DVec3, loc: &SourceLocation, what: &str) -> Result<Vec3, SceneError> {
+    let f = v.as_vec3();
+    if f.is_finite() {
+        Ok(f)
+    } else {
+        err(loc, format!("{what} is out of single-precision range"))
+    }
+}
+
+fn rgb_of(c: DVec3, loc: &SourceLocation, what: &str) -> Result<[f32; 3], SceneError> {
+    Ok(vec3_of(c, loc, what)?.to_array())
+}
+
+fn mat4_of(m: &DMat4, loc: &SourceLocation) -> Result<glam::Mat4, SceneError> {
+    let f = m.as_mat4();
+    if f.is_finite() {
+        Ok(f)
+    } else {
+        err(loc, "to_world is out of single-precision range")
+    }
+}
+
+fn plugin_type(e: &Elem) -> Result<&str, SceneError> {
+    e.check_attrs(&["type", "id", "name"])?;
+    match e.attr("type") {
+        Some(t) => Ok(t),
+        None => err(&e.loc, format!("<{}> needs a 'type' attribute", e.tag)),
+    }
+}
+
+impl<'a> Builder<'a> {
+    pub fn new(tree: &'a TreeBuilder) -> Builder<'a> {
+        Builder {
+            tree,
+            warnings: Vec::new(),
+        }
+    }
+
+    /// The properties (child elements) of a plugin element.
+    fn props(&self, e: &Elem) -> Result<Props, SceneError> {
+        let mut entries: Vec<Entry> = Vec::new();
+        for c in &e.children {
+            let loc = c.loc.clone();
+            let named = |c: &Elem| -> Result<String, SceneError> {
+                match c.attr("name") {
+                    Some(n) => Ok(n.to_string()),
+                    None => err(&c.loc, format!("<{}> needs a 'name' attribute", c.tag)),
+                }
+            };
+            let value_attr = |c: &Elem| -> Result<String, SceneError> {
+                match c.attr("value") {
+                    Some(v) => Ok(v.to_string()),
+                    None => err(&c.loc, format!("<{}> needs a 'value' attribute", c.tag)),
+                }
+            };
+            let what = |c: &Elem| format!("<{}>", c.tag);
+            let (name, value) = match c.tag.as_str() {
+                "float" => {
+                    c.check_attrs(&["name", "value"])?;
+                    let v = parse_f64(&value_attr(c)?, &loc, &what(c))?;
+                    (Some(named(c)?), Value::Float(v))
+                }
+                "integer" => {
+                    c.check_attrs(&["name", "value"])?;
+                    let v = parse_i64(&value_attr(c)?, &loc, &what(c))?;
+                    (Some(named(c)?), Value::Integer(v))
+                }
+                "boolean" => {
+                    c.check_attrs(&["name", "value"])?;
+                    let v = match value_attr(c)?.trim().to_ascii_lowercase().as_str() {
+                        "true" => true,
+                        "false" => false,
+                        other => {
+                            return err(
+                                &loc,
+                                format!("<boolean> value must be true or false (got '{other}')"),
+                            )
+                        }
+                    };
+                    (Some(named(c)?), Value::Boolean(v))
+                }
+                "string" => {
+                    c.check_attrs(&["name", "value"])?;
+                    (Some(named(c)?), Value::String(value_attr(c)?))
+                }
+                "point" | "vector" => {
+                    c.check_attrs(&["name", "value", "x", "y", "z"])?;
+                    (Some(named(c)?), Value::Vec3(parse_xyz(c, 0.0)?))
+                }
+                "rgb" => {
+                    c.check_attrs(&["name", "value"])?;
+                    let v = value_attr(c)?;
+                    let l = parse_list(&v, &loc, "<rgb>")?;
+                    let rgb = match l.len() {
+                        1 => DVec3::splat(l[0]),
+                        3 => DVec3::new(l[0], l[1], l[2]),
+                        _ => return err(&loc, format!("<rgb> needs 1 or 3 values (got '{v}')")),
+                    };
+                    (Some(named(c)?), Value::Rgb(rgb))
+                }
+                "spectrum" => {
+                    if c.attr("type").is_some() {
+                        (c.attr("name").map(String::from), Value::Object(c.clone()))
+                    } else {
+                        c.check_attrs(&["name", "value", "filename"])?;
+                        let v = c.attr("value").unwrap_or("");
+                        let toks: Vec<&str> = super::values::tokenize(v);
+                        if c.attr("filename").is_some() || toks.len() != 1 || v.contains(':') {
+                            return err(
+                                &loc,
+                                "only constant spectra (<spectrum value=\"0.5\"/>) are supported",
+                            );
+                        }
+                        let s = parse_f64(toks[0], &loc, "<spectrum>")?;
+                        (Some(named(c)?), Value::Spectrum(s))
+                    }
+                }
+                "transform" => (Some(named(c)?), Value::Transform(parse_transform(c)?)),
+                "ref" => {
+                    c.check_attrs(&["id", "name"])?;
+                    let Some(id) = c.attr("id") else {
+                        return err(&loc, "<ref> needs an 'id'");
+                    };
+                    let Some(target) = self.tree.ids.get(id) else {
+                        return err(&loc, format!("reference to unknown id '{id}'"));
+                    };
+                    (
+                        c.attr("name").map(String::from),
+                        Value::Object(target.clone()),
+                    )
+                }
+                "translate" | "rotate" | "scale" | "matrix" | "lookat" => {
+                    return err(
+                        &loc,
+                        format!("<{}> can only occur inside a <transform>", c.tag),
+                    )
+                }
+                _ => (c.attr("name").map(String::from), Value::Object(c.clone())),
+            };
+            if let Some(n) = &name {
+                if n.starts_with('_') {
+                    return err(&loc, format!("invalid property name '{n}'"));
+                }
+            }
+            entries.push(Props::entry(name, value, loc));
+        }
+        Props::new(e, entries)
+    }
+
+    pub fn scene(&mut self, root: &Rc<Elem>) -> Result<Scene, SceneError> {
+        root.check_attrs(&[])?;
+        let p = self.props(root)?;
+        if let Some((t, _)) = p.objects("texture").first() {
+            let ty = t.attr("type").unwrap_or("");
+            return err(&t.loc, format!("unsupported texture type '{ty}'"));
+        }
+        if let Some((em, _)) = p.objects("emitter").first() {
+            let ty = em.attr("type").unwrap_or("");
+            let hint = if ty == "area" {
+                " (an area emitter must be nested in a cylinder shape)"
+            } else {
+                " (supported: area emitters on cylinders)"
+            };
+            return err(&em.loc, format!("unsupported emitter type '{ty}'{hint}"));
+        }
+        // Top-level BSDFs are only used through `ref`, but unsupported ones are still errors.
+        for (b, _) in p.objects("bsdf") {
+            self.bsdf(&b, false)?;
+        }
+        let sensors = p.objects("sensor");
+        if sensors.len() > 1 {
+            return err(&sensors[1].1, "only one sensor is supported");
+        }
+        let sensor = self.sensor(sensors.first().map(|s| &*s.0), &root.loc)?;
+        let integrators = p.objects("integrator");
+        if integrators.len() > 1 {
+            return err(&integrators[1].1, "only one integrator is supported");
+        }
+        let Some((integ, _)) = integrators.first() else {
+            return err(
+                &root.loc,
+                "the scene has no integrator; Mitsuba's default is 'path', which is not \
+                 supported (add <integrator type=\"direct\"/>)",
+            );
+        };
+        let integrator = self.integrator(integ)?;
+        let mut shapes = Vec::new();
+        let mut lights = Vec::new();
+        for (s, _) in p.objects("shape") {
+            match self.shape(&s)? {
+                Built::Shape(sh) => shapes.push(sh),
+                Built::Light(l) => lights.push(l),
+            }
+        }
+        p.finish()?;
+        self.light_size_warnings(&shapes, &lights);
+        Ok(Scene {
+            sensor,
+            integrator,
+            shapes,
+            lights,
+            sha256: String::new(),
+            warnings: std::mem::take(&mut self.warnings),
+        })
+    }
+
+    fn sensor(
+        &mut self,
+        e: Option<&Elem>,
+        scene_loc: &SourceLocation,
+    ) -> Result<Sensor, SceneError> {
+        let Some(e) = e else {
+            // Mitsuba's default sensor: perspective, 50 mm lens, default film and sampler.
+            self.warnings.push(format!(
+                "{scene_loc}: the scene has no sensor; using Mitsuba's default perspective camera"
+            ));
+            let film = self.film(None, scene_loc)?;
+            let (fov_deg, fov_axis) = (focal_length_fov(50.0) as f32, FovAxis::Diagonal);
+            return Ok(Sensor {
+                to_world: glam::Mat4::IDENTITY,
+                fov_deg,
+                fov_axis,
+                principal_point_offset_x: 0.0,
+                principal_point_offset_y: 0.0,
+                near_clip: 1e-2,
+                far_clip: 1e4,
+                film,
+                sample_count: 4,
+                seed: 0,
+            });
+        };
+        let ty = plugin_type(e)?;
+        if ty != "perspective" {
+            return err(
+                &e.loc,
+                format!("unsupported sensor type '{ty}' (supported: perspective)"),
+            );
+        }
+        let p = self.props(e)?;
+        let film = self.film(p.object("film")?.as_deref(), &e.loc)?;
+        let (sample_count, seed) = self.sampler(p.object("sampler")?.as_deref())?;
+        let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        for (i, axis) in [to_world.x_axis, to_world.y_axis, to_world.z_axis]
+            .iter()
+            .enumerate()
+        {
+            let n2 = axis.truncate().length_squared();
+            if (n2 - 1.0).abs() > 1e-4 {
+                return err(
+                    &e.loc,
+                    format!(
+                        "sensor to_world scales camera axis {} by {:.6}; scale factors in the \
+                         camera-to-world transformation are not allowed",
+                        ["x", "y", "z"][i],
+                        n2.sqrt()
+                    ),
+                );
+            }
+        }
+        let aspect = film.width as f64 / film.height as f64;
+        let fov = p.float("fov")?;
+        let focal = p.string("focal_length")?;
+        let (fov_deg, fov_axis) = match (fov, focal) {
+            (Some(_), Some((_, loc))) => {
+                return err(&loc, "give either 'fov' or 'focal_length', not both")
+            }
+            (Some(f), None) => {
+                let axis = match p.string("fov_axis")? {
+                    None => FovAxis::X,
+                    Some((s, loc)) => match s.to_ascii_lowercase().as_str() {
+                        "x" => FovAxis::X,
+                        "y" => FovAxis::Y,
+                        "diagonal" => FovAxis::Diagonal,
+                        "smaller" => FovAxis::Smaller,
+                        "larger" => FovAxis::Larger,
+                        _ => {
+                            return err(
+                                &loc,
+                                format!(
+                                    "fov_axis must be x, y, diagonal, smaller or larger (got \
+                                     '{s}')"
+                                ),
+                            )
+                        }
+                    },
+                };
+                (f, axis)
+            }
+            (None, focal) => {
+                let mm = match focal {
+                    None => 50.0,
+                    Some((s, loc)) => {
+                        let t = s.trim().strip_suffix("mm").unwrap_or(s.trim());
+                        let v = parse_f64(t, &loc, "focal_length")?;
+                        if v <= 0.0 {
+                            return err(&loc, "focal_length must be positive");
+                        }
+                        v
+                    }
+                };
+                (focal_length_fov(mm), FovAxis::Diagonal)
+            }
+        };
+        let fov_x = horizontal_fov(fov_deg, fov_axis, aspect);
+        if fov_x <= 0.0 || fov_x >= 180.0 || !fov_x.is_finite() {
+            return err(
+                &e.loc,
+                format!("the horizontal field of view ({fov_x:.4}°) must lie in (0, 180)"),
+            );
+        }
+        let near_clip = p.float("near_clip")?.unwrap_or(1e-2);
+        let far_clip = p.float("far_clip")?.unwrap_or(1e4);
+        if near_clip <= 0.0 {
+            return err(&e.loc, "near_clip must be greater than zero");
+        }
+        if near_clip >= far_clip {
+            return err(&e.loc, "near_clip must be smaller than far_clip");
+        }
+        let ppx = p.float("principal_point_offset_x")?.unwrap_or(0.0);
+        let ppy = p.float("principal_point_offset_y")?.unwrap_or(0.0);
+        p.finish()?;
+        Ok(Sensor {
+            to_world: mat4_of(&to_world, &e.loc)?,
+            fov_deg: f32_of(fov_deg, &e.loc, "fov")?,
+            fov_axis,
+            principal_point_offset_x: f32_of(ppx, &e.loc, "principal_point_offset_x")?,
+            principal_point_offset_y: f32_of(ppy, &e.loc, "principal_point_offset_y")?,
+            near_clip: f32_of(near_clip, &e.loc, "near_clip")?,
+            far_clip: f32_of(far_clip, &e.loc, "far_clip")?,
+            film,
+            sample_count,
+            seed,
+        })
+    }
+
+    fn film(&mut self, e: Option<&Elem>, sensor_loc: &SourceLocation) -> Result<Film, SceneError> {
+        let no_box = |loc: &SourceLocation| {
+            format!(
+                "{loc}: no <rfilter type=\"box\"/>: Mitsuba uses its default gaussian filter \
+                 here, this renderer a box filter, so the images will differ slightly"
+            )
+        };
+        let Some(e) = e else {
+            self.warnings.push(no_box(sensor_loc));
+            return Ok(Film {
+                width: 768,
+                height: 576,
+                crop: None,
+            });
+        };
+        let ty = plugin_type(e)?;
+        if ty != "hdrfilm" {
+            return err(
+                &e.loc,
+                format!("unsupported film type '{ty}' (supported: hdrfilm)"),
+            );
+        }
+        let p = self.props(e)?;
+        let dim = |name: &str, default: i64| -> Result<u32, SceneError> {
+            Ok(p.integer_in(name, 0, u32::MAX as i64)?.unwrap_or(default) as u32)
+        };
+        let width = dim("width", 768)?;
+        let height = dim("height", 576)?;
+        if width == 0 || height == 0 {
+            return err(&e.loc, format!("film size {width}×{height} is empty"));
+        }
+        let names = [
+            "crop_offset_x",
+            "crop_offset_y",
+            "crop_width",
+            "crop_height",
+        ];
+        let any_crop = names
+            .iter()
+            .map(|n| p.integer(n).map(|v| v.is_some()))
+            .collect::<Result<Vec<_>, _>>()?
+            .contains(&true);
+        let crop = if any_crop {
+            let c = CropWindow {
+                offset_x: dim("crop_offset_x", 0)?,
+                offset_y: dim("crop_offset_y", 0)?,
+                width: dim("crop_width", width as i64)?,
+                height: dim("crop_height", height as i64)?,
+            };
+            if c.width == 0
+                || c.height == 0
+                || c.offset_x as u64 + c.width as u64 > width as u64
+                || c.offset_y as u64 + c.height as u64 > height as u64
+            {
+                return err(
+                    &e.loc,
+                    format!(
+                        "invalid crop window: offset ({}, {}) + size ({}, {}) must be non-empty \
+                         and within the film ({width}, {height})",
+                        c.offset_x, c.offset_y, c.width, c.height
+                    ),
+                );
+            }
+            Some(c)
+        } else {
+            None
+        };
+        // Output options: they change the file Mitsuba writes, not the pixel values we compare.
+        for name in ["pixel_format", "component_format", "file_format"] {
+            p.string(name)?;
+        }
+        match p.object("rfilter")? {
+            None => self.warnings.push(no_box(&e.loc)),
+            Some(f) => {
+                let ty = plugin_type(&f)?;
+                if ty != "box" {
+                    return err(
+                        &f.loc,
+                        format!(
+                            "unsupported rfilter type '{ty}' (supported: box — this renderer \
+                             averages samples uniformly over each pixel)"
+                        ),
+                    );
+                }
+                self.props(&f)?.finish()?;
+            }
+        }
+        p.finish()?;
+        Ok(Film {
+            width,
+            height,
+            crop,
+        })
+    }
+
+    fn sampler(&mut self, e: Option<&Elem>) -> Result<(u32, u64), SceneError> {
+        let Some(e) = e else { return Ok((4, 0)) };
+        let ty = plugin_type(e)?;
+        if ty != "independent" {
+            return err(
+                &e.loc,
+                format!("unsupported sampler type '{ty}' (supported: independent)"),
+            );
+        }
+        let p = self.props(e)?;
+        let spp = p
+            .integer_in("sample_count", 1, u32::MAX as i64)?
+            .unwrap_or(4) as u32;
+        let seed = p.integer_in("seed", 0, u32::MAX as i64)?.unwrap_or(0) as u64;
+        p.finish()?;
+        Ok((spp, seed))
+    }
+
+    fn integrator(&mut self, e: &Elem) -> Result<Integrator, SceneError> {
+        let ty = plugin_type(e)?;
+        if ty != "direct" {
+            return err(
+                &e.loc,
+                format!("unsupported integrator type '{ty}' (supported: direct)"),
+            );
+        }
+        let p = self.props(e)?;
+        let hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
+        // Accepted for Mitsuba; the Rust renderer samples the lights only (see module docs).
+        for name in ["emitter_samples", "bsdf_samples", "shading_samples"] {
+            p.integer_in(name, 0, u32::MAX as i64)?;
+        }
+        p.finish()?;
+        Ok(Integrator { hide_emitters })
+    }
+
+    fn bsdf(&mut self, e: &Elem, inside_twosided: bool) -> Result<Bsdf, SceneError> {
+        let ty = plugin_type(e)?;
+        let p = self.props(e)?;
+        let b = match ty {
+            "diffuse" => {
+                let r = p.color("reflectance")?.unwrap_or(DVec3::splat(0.5));
+                Bsdf::Diffuse {
+                    reflectance: rgb_of(r, &e.loc, "reflectance")?,
+                }
+            }
+            "twosided" => {
+                if inside_twosided {
+                    return err(&e.loc, "twosided BSDFs cannot be nested");
+                }
+                let inner = p.objects("bsdf");
+                match inner.as_slice() {
+                    [(b, _)] => Bsdf::TwoSided(Box::new(self.bsdf(b, true)?)),
+                    [] => return err(&e.loc, "twosided needs one nested bsdf"),
+                    [_, (_, loc), ..] => {
+                        return err(
+                            loc,
+                            "twosided with different front and back BSDFs is not supported",
+                        )
+                    }
+                }
+            }
+            _ => {
+                return err(
+                    &e.loc,
+                    format!("unsupported bsdf type '{ty}' (supported: {BSDFS})"),
+                )
+            }
+        };
+        p.finish()?;
+        Ok(b)
+    }
+
+    /// `radiance` of an `area` emitter (default 1, as in Mitsuba).
+    fn area_radiance(&mut self, e: &Elem) -> Result<DVec3, SceneError> {
+        let ty = plugin_type(e)?;
+        if ty != "area" {
+            return err(
+                &e.loc,
+                format!("unsupported emitter type '{ty}' (supported: area on cylinders)"),
+            );
+        }
+        let p = self.props(e)?;
+        let r = p.color("radiance")?.unwrap_or(DVec3::ONE);
+        p.finish()?;
+        Ok(r)
+    }
+
+    fn shape(&mut self, e: &Elem) -> Result<Built, SceneError> {
+        let ty = plugin_type(e)?;
+        if !SHAPES.split(", ").any(|s| s == ty) {
+            return err(
+                &e.loc,
+                format!("unsupported shape type '{ty}' (supported: {SHAPES})"),
+            );
+        }
+        let p = self.props(e)?;
+        let flip_normals = p.boolean("flip_normals")?.unwrap_or(false);
+        let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let bsdf = match p.object("bsdf")? {
+            Some(b) => self.bsdf(&b, false)?,
+            None => Bsdf::Diffuse {
+                reflectance: [0.5; 3],
+            },
+        };
+        let emitter = p.object("emitter")?;
+        if let Some(em) = &emitter {
+            if ty != "cylinder" {
+                return err(
+                    &em.loc,
+                    format!(
+                        "area emitters are only supported on cylinders (linear lights), not on \
+                         shape '{ty}'"
+                    ),
+                );
+            }
+        }
+        let loc = e.loc.clone();
+        let mesh = |b: &mut Self, raw: RawMesh, face_normals: bool, smooth: bool| {
+            let (g, w) = shapes::world_mesh(raw, &m, face_normals, smooth, &loc)?;
+            b.warnings.extend(w);
+            Ok::<Geometry, SceneError>(g)
+        };
+        let geometry = match ty {
+            "rectangle" => {
+                let mut raw = shapes::rectangle();
+                // Mitsuba's analytic rectangle keeps normal M⁻ᵀ·z; a mirroring to_world would
+                // flip the triangles' winding normal, so undo that.
+                if DMat3::from_mat4(m).determinant() < 0.0 {
+                    for t in &mut raw.triangles {
+                        t.swap(1, 2);
+                    }
+                }
+                mesh(self, raw, false, false)?
+            }
+            "cube" => {
+                let face_normals = p.boolean("face_normals")?.unwrap_or(false);
+                mesh(self, shapes::cube(), face_normals, false)?
+            }
+            "obj" | "ply" => {
+                let face_normals = p.boolean("face_normals")?.unwrap_or(false);
+                let Some((name, nloc)) = p.string("filename")? else {
+                    return err(&loc, format!("shape '{ty}' needs a 'filename'"));
+                };
+                if ty == "obj" {
+                    // Only affects texture coordinates, which this renderer does not use.
+                    p.boolean("flip_tex_coords")?;
+                }
+                let path = self.tree.resolve(&name);
+                let data = std::fs::read(&path).or_else(|io| {
+                    err(
+                        &nloc,
+                        format!("cannot read mesh file '{}': {io}", path.display()),
+                    )
+                })?;
+                let raw = if ty == "obj" {
+                    obj::parse_obj(&String::from_utf8_lossy(&data), face_normals)
+                } else {
+                    ply::parse_ply(&data, face_normals)
+                }
+                .or_else(|m| {
+                    err(
+                        &loc,
+                        format!(
+                            "error loading {} file '{}': {m}",
+                            ty.to_uppercase(),
+                            path.display()
+                        ),
+                    )
+                })?;
+                mesh(self, raw, face_normals, true)?
+            }
+            "sphere" => {
+                let center = p.vec3("center")?.unwrap_or(DVec3::ZERO);
+                let r = p.float("radius")?.unwrap_or(1.0);
+                if r <= 0.0 {
+                    return err(&loc, format!("sphere radius must be positive (got {r})"));
+                }
+                let Some(s) = uniform_scale(&m) else {
+                    return err(
+                        &loc,
+                        "sphere to_world must not scale non-uniformly or shear (it would be an \
+                         ellipsoid)",
+                    );
+                };
+                if DMat3::from_mat4(m).determinant() < 0.0 {
+                    return err(&loc, "sphere to_world must not mirror");
+                }
+                Geometry::Sphere {
+                    center: vec3_of(m.transform_point3(center), &loc, "sphere center")?,
+                    radius: f32_of(r * s, &loc, "sphere radius")?,
+                }
+            }
+            "disk" => {
+                if DMat3::from_mat4(m).determinant() == 0.0 {
+                    return err(&loc, "disk to_world is singular");
+                }
+                Geometry::Disk {
+                    to_world: mat4_of(&m, &loc)?,
+                }
+            }
+            "cylinder" => {
+                let p0 = p.vec3("p0")?.unwrap_or(DVec3::ZERO);
+                let p1 = p.vec3("p1")?.unwrap_or(DVec3::Z);
+                let r = p.float("radius")?.unwrap_or(1.0);
+                if r <= 0.0 {
+                    return err(&loc, format!("cylinder radius must be positive (got {r})"));
+                }
+                let Some(s) = uniform_scale(&m) else {
+                    return err(
+                        &loc,
+                        "cylinder to_world must not scale non-uniformly or shear (the radius \
+                         would not be defined)",
+                    );
+                };
+                if DMat3::from_mat4(m).determinant() < 0.0 {
+                    return err(&loc, "cylinder to_world must not mirror");
+                }
+                let (w0, w1) = (m.transform_point3(p0), m.transform_point3(p1));
+                if (w1 - w0).length() == 0.0 {
+                    return err(&loc, "cylinder p0 and p1 coincide");
+                }
+                let radius = f32_of(r * s, &loc, "cylinder radius")?;
+                let (begin, end) = (
+                    vec3_of(w0, &loc, "cylinder p0")?,
+                    vec3_of(w1, &loc, "cylinder p1")?,
+                );
+                if begin == end {
+                    return err(&loc, "cylinder p0 and p1 coincide in single precision");
+                }
+                if let Some(em) = &emitter {
+                    let radiance = self.area_radiance(em)?;
+                    if flip_normals {
+                        return err(
+                            &loc,
+                            "an emitting cylinder with flip_normals would emit inward",
+                        );
+                    }
+                    p.finish()?;
+                    let k = radiance * (r * s);
+                    return Ok(Built::Light(LinearLight {
+                        begin,
+                        end,
+                        radius,
+                        radiance_times_radius: rgb_of(k, &em.loc, "radiance × radius")?,
+                        location: loc,
+                    }));
+                }
+                Geometry::Cylinder {
+                    p0: begin,
+                    p1: end,
+                    radius,
+                }
+            }
+            _ => unreachable!("type checked against SHAPES above"),
+        };
+        p.finish()?;
+        Ok(Built::Shape(Shape {
+            geometry,
+            bsdf,
+            flip_normals,
+            location: e.loc.clone(),
+        }))
+    }
+
+    /// Warns about lights whose radius is not small compared with the scene: the renderer uses
+    /// the R → 0 limit, Mitsuba the finite cylinder (relative bias of first order in R).
+    fn light_size_warnings(&mut self, shapes: &[Shape], lights: &[LinearLight]) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        let mut add = |p: Vec3| {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        };
+        for s in shapes {
+            match &s.geometry {
+                Geometry::Mesh { positions, .. } => positions.iter().for_each(|p| add(*p)),
+                Geometry::Sphere { center, radius } => {
+                    add(*center - Vec3::splat(*radius));
+                    add(*center + Vec3::splat(*radius));
+                }
+                Geometry::Disk { to_world } => {
+                    for (x, y) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                        add(to_world.transform_point3(Vec3::new(x, y, 0.0)));
+                    }
+                }
+                Geometry::Cylinder { p0, p1, radius } => {
+                    for p in [p0, p1] {
+                        add(*p - Vec3::splat(*radius));
+                        add(*p + Vec3::splat(*radius));
+                    }
+                }
+            }
+        }
+        for l in lights {
+            add(l.begin);
+            add(l.end);
+        }
+        let diag = (hi - lo).length();
+        if !diag.is_finite() || diag <= 0.0 {
+            return;
+        }
+        for l in lights {
+            if l.radius > 1e-3 * diag {
+                self.warnings.push(format!(
+                    "{}: light radius {} is large compared with the scene (bounding-box diagonal \
+                     {diag}); Mitsuba's finite cylinder differs from the R → 0 limit by a \
+                     relative amount of order R",
+                    l.location, l.radius
+                ));
+            }
+        }
+    }
+}
+
+enum Built {
+    Shape(Shape),
+    Light(LinearLight),
+}
+
+/// Diagonal field of view of a 36 × 24 mm film behind a lens of focal length `mm`.
+fn focal_length_fov(mm: f64) -> f64 {
+    2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * mm))
+        .atan()
+        .to_degrees()
+}
+
+/// Mitsuba's conversion of `fov` along `axis` to the horizontal field of view (degrees).
+pub fn horizontal_fov(fov: f64, axis: FovAxis, aspect: f64) -> f64 {
+    let axis = match axis {
+        FovAxis::Smaller if aspect > 1.0 => FovAxis::Y,
+        FovAxis::Smaller => FovAxis::X,
+        FovAxis::Larger if aspect > 1.0 => FovAxis::X,
+        FovAxis::Larger => FovAxis::Y,
+        a => a,
+    };
+    let half = (0.5 * fov).to_radians().tan();
+    match axis {
+        FovAxis::Y => 2.0 * (half * aspect).atan().to_degrees(),
+        FovAxis::Diagonal => {
+            let width = 2.0 * half / (1.0 + 1.0 / (aspect * aspect)).sqrt();
+            2.0 * (0.5 * width).atan().to_degrees()
+        }
+        _ => fov,
+    }
+}

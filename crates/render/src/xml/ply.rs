@@ -1,0 +1,467 @@
+//! Stanford PLY reader: `ascii`, `binary_little_endian` and `binary_big_endian`. Reads vertex
+//! `x y z` (and `nx ny nz` unless face normals are requested) and face `vertex_indices` (or
+//! `vertex_index`); other properties and elements are skipped. Polygons become fans
+//! (Mitsuba itself accepts only triangles here).
+
+use super::shapes::RawMesh;
+use glam::DVec3;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(s: &str) -> Option<Scalar> {
+        Some(match s {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+}
+
+#[derive(Debug)]
+enum Property {
+    Scalar(String, Scalar),
+    List(String, Scalar, Scalar),
+}
+
+#[derive(Debug)]
+struct Element {
+    name: String,
+    count: usize,
+    props: Vec<Property>,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Format {
+    Ascii,
+    Little,
+    Big,
+}
+
+/// Reads scalars from the body, in ASCII or binary.
+struct Body<'a> {
+    data: &'a [u8],
+    pos: usize,
+    format: Format,
+}
+
+impl Body<'_> {
+    fn read(&mut self, t: Scalar) -> Result<f64, String> {
+        if self.format == Format::Ascii {
+            while self.pos < self.data.len() && self.data[self.pos].is_ascii_whitespace() {
+                self.pos += 1;
+            }
+            let start = self.pos;
+            while self.pos < self.data.len() && !self.data[self.pos].is_ascii_whitespace() {
+                self.pos += 1;
+            }
+            if start == self.pos {
+                return Err("unexpected end of file".into());
+            }
+            let tok = std::str::from_utf8(&self.data[start..self.pos]).unwrap_or("?");
+            return tok
+                .parse::<f64>()
+                .map_err(|_| format!("could not parse number '{tok}'"));
+        }
+        let n = t.size();
+        let Some(b) = self.data.get(self.pos..self.pos + n) else {
+            return Err("unexpected end of file".into());
+        };
+        self.pos += n;
+        let mut a = [0u8; 8];
+        a[..n].copy_from_slice(b);
+        if self.format == Format::Big {
+            a[..n].reverse();
+        }
+        Ok(match t {
+            Scalar::I8 => a[0] as i8 as f64,
+            Scalar::U8 => a[0] as f64,
+            Scalar::I16 => i16::from_le_bytes([a[0], a[1]]) as f64,
+            Scalar::U16 => u16::from_le_bytes([a[0], a[1]]) as f64,
+            Scalar::I32 => i32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            Scalar::U32 => u32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            Scalar::F32 => f32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
+            Scalar::F64 => f64::from_le_bytes(a),
+        })
+    }
+
+    fn at_end(&self) -> bool {
+        match self.format {
+            Format::Ascii => self.data[self.pos..]
+                .iter()
+                .all(|b| b.is_ascii_whitespace()),
+            _ => self.pos == self.data.len(),
+        }
+    }
+}
+
+fn parse_header(data: &[u8]) -> Result<(Format, Vec<Element>, usize), String> {
+    let mut pos = 0;
+    let mut next_line = || -> Option<&str> {
+        if pos >= data.len() {
+            return None;
+        }
+        let end = data[pos..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(data.len(), |i| pos + i);
+        let line = std::str::from_utf8(&data[pos..end]).ok();
+        pos = (end + 1).min(data.len());
+        Some(line.unwrap_or("\u{fffd}").trim())
+    };
+    if next_line() != Some("ply") {
+        return Err("not a PLY file (missing 'ply' magic)".into());
+    }
+    let mut format = None;
+    let mut elems: Vec<Element> = Vec::new();
+    loop {
+        let Some(line) = next_line() else {
+            return Err("header has no 'end_header'".into());
+        };
+        let t: Vec<&str> = line.split_whitespace().collect();
+        match t.as_slice() {
+            [] | ["comment", ..] | ["obj_info", ..] => {}
+            ["format", f, _ver] => {
+                format = Some(match *f {
+                    "ascii" => Format::Ascii,
+                    "binary_little_endian" => Format::Little,
+                    "binary_big_endian" => Format::Big,
+                    _ => return Err(format!("unsupported PLY format '{f}'")),
+                })
+            }
+            ["element", name, count] => elems.push(Element {
+                name: name.to_string(),
+                count: count
+                    .parse()
+                    .map_err(|_| format!("bad element count '{count}'"))?,
+                props: Vec::new(),
+            }),
+            ["property", "list", ct, it, name] => {
+                let (Some(ct), Some(it)) = (Scalar::parse(ct), Scalar::parse(it)) else {
+                    return Err(format!("unsupported property types in '{line}'"));
+                };
+                let Some(e) = elems.last_mut() else {
+                    return Err("property before any element".into());
+                };
+                e.props.push(Property::List(name.to_string(), ct, it));
+            }
+            ["property", ty, name] => {
+                let Some(ty) = Scalar::parse(ty) else {
+                    return Err(format!("unsupported property type in '{line}'"));
+                };
+                let Some(e) = elems.last_mut() else {
+                    return Err("property before any element".into());
+                };
+                e.props.push(Property::Scalar(name.to_string(), ty));
+            }
+            ["end_header"] => break,
+            _ => return Err(format!("malformed header line '{line}'")),
+        }
+    }
+    let Some(format) = format else {
+        return Err("header has no 'format' line".into());
+    };
+    Ok((format, elems, pos))
+}
+
+pub fn parse_ply(data: &[u8], face_normals: bool) -> Result<RawMesh, String> {
+    let (format, elems, body_start) = parse_header(data)?;
+    let mut body = Body {
+        data: &data[body_start..],
+        pos: 0,
+        format,
+    };
+    let mut positions: Vec<DVec3> = Vec::new();
+    let mut normals: Vec<DVec3> = Vec::new();
+    let mut has_normals = false;
+    let mut tris: Vec<[u32; 3]> = Vec::new();
+    let mut n_vertices = None;
+    let mut saw_faces = false;
+
+    for e in &elems {
+        let find = |n: &str| {
+            e.props
+                .iter()
+                .position(|p| matches!(p, Property::Scalar(m, _) if m == n))
+        };
+        // Cap the reservation by what the file could possibly hold.
+        let cap = e.count.min(data.len());
+        match e.name.as_str() {
+            "vertex" => {
+                let idx = [find("x"), find("y"), find("z")];
+                if idx.iter().any(Option::is_none) {
+                    return Err("vertex element lacks x, y or z".into());
+                }
+                let nidx = [find("nx"), find("ny"), find("nz")];
+                has_normals = !face_normals && nidx.iter().all(Option::is_some);
+                positions.reserve(cap);
+                let mut vals = vec![0.0; e.props.len()];
+                for _ in 0..e.count {
+                    for (k, p) in e.props.iter().enumerate() {
+                        vals[k] = match p {
+                            Property::Scalar(_, t) => body.read(*t)?,
+                            Property::List(_, ct, it) => {
+                                let n = body.read(*ct)?;
+                                for _ in 0..list_len(n)? {
+                                    body.read(*it)?;
+                                }
+                                0.0
+                            }
+                        };
+                    }
+                    let p = DVec3::new(
+                        vals[idx[0].unwrap()],
+                        vals[idx[1].unwrap()],
+                        vals[idx[2].unwrap()],
+                    );
+                    if !p.is_finite() {
+                        return Err("mesh contains invalid vertex position data".into());
+                    }
+                    positions.push(p);
+                    if has_normals {
+                        let n = DVec3::new(
+                            vals[nidx[0].unwrap()],
+                            vals[nidx[1].unwrap()],
+                            vals[nidx[2].unwrap()],
+                        );
+                        normals.push(n);
+                    }
+                }
+                n_vertices = Some(e.count);
+            }
+            "face" => {
+                let li = e.props.iter().position(|p| {
+                    matches!(p, Property::List(n, _, _) if n == "vertex_indices" || n == "vertex_index")
+                });
+                let Some(li) = li else {
+                    return Err("face element lacks vertex_indices/vertex_index".into());
+                };
+                let Some(nv) = n_vertices else {
+                    return Err("face element before vertex element".into());
+                };
+                tris.reserve(cap);
+                let mut corners: Vec<u32> = Vec::new();
+                for _ in 0..e.count {
+                    for (k, p) in e.props.iter().enumerate() {
+                        match p {
+                            Property::Scalar(_, t) => {
+                                body.read(*t)?;
+                            }
+                            Property::List(_, ct, it) => {
+                                let n = list_len(body.read(*ct)?)?;
+                                corners.clear();
+                                for _ in 0..n {
+                                    let i = body.read(*it)?;
+                                    if k == li {
+                                        if !(i >= 0.0 && i.fract() == 0.0 && i < nv as f64) {
+                                            return Err(format!(
+                                                "face refers to invalid vertex {i}"
+                                            ));
+                                        }
+                                        corners.push(i as u32);
+                                    }
+                                }
+                                if k == li {
+                                    if corners.len() < 3 {
+                                        return Err(format!(
+                                            "face with {} vertices",
+                                            corners.len()
+                                        ));
+                                    }
+                                    for j in 2..corners.len() {
+                                        tris.push([corners[0], corners[j - 1], corners[j]]);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+                saw_faces = true;
+            }
+            _ if e.props.is_empty() => {} // nothing to read, however large the count
+            _ => {
+                for _ in 0..e.count {
+                    for p in &e.props {
+                        match p {
+                            Property::Scalar(_, t) => {
+                                body.read(*t)?;
+                            }
+                            Property::List(_, ct, it) => {
+                                let n = list_len(body.read(*ct)?)?;
+                                for _ in 0..n {
+                                    body.read(*it)?;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if n_vertices.is_none() {
+        return Err("no vertex element".into());
+    }
+    if !saw_faces {
+        return Err("no face element".into());
+    }
+    if !body.at_end() {
+        return Err("invalid file -- trailing content".into());
+    }
+    Ok(RawMesh {
+        positions,
+        normals: has_normals.then_some(normals),
+        triangles: tris,
+    })
+}
+
+fn list_len(n: f64) -> Result<usize, String> {
+    if n >= 0.0 && n.fract() == 0.0 && n < 1e9 {
+        Ok(n as usize)
+    } else {
+        Err(format!("invalid list length {n}"))
+    }
+}
+
+/// Writes a PLY file (test helper): triangles or polygons, optional normals.
+#[cfg(test)]
+pub fn write_ply(
+    format: &str,
+    pos: &[[f32; 3]],
+    normals: Option<&[[f32; 3]]>,
+    faces: &[Vec<u32>],
+) -> Vec<u8> {
+    let mut h = format!(
+        "ply\nformat {format} 1.0\ncomment test\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n",
+        pos.len()
+    );
+    if normals.is_some() {
+        h += "property float nx\nproperty float ny\nproperty float nz\n";
+    }
+    h += &format!(
+        "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        faces.len()
+    );
+    let mut out = h.into_bytes();
+    for (i, p) in pos.iter().enumerate() {
+        let mut vals = p.to_vec();
+        if let Some(n) = normals {
+            vals.extend_from_slice(&n[i]);
+        }
+        for v in vals {
+            match format {
+                "ascii" => out.extend(format!("{v} ").bytes()),
+                "binary_little_endian" => out.extend(v.to_le_bytes()),
+                _ => out.extend(v.to_be_bytes()),
+            }
+        }
+        if format == "ascii" {
+            out.push(b'\n');
+        }
+    }
+    for f in faces {
+        match format {
+            "ascii" => {
+                out.extend(format!("{}", f.len()).bytes());
+                for i in f {
+                    out.extend(format!(" {i}").bytes());
+                }
+                out.push(b'\n');
+            }
+            fmt => {
+                out.push(f.len() as u8);
+                for &i in f {
+                    let i = i as i32;
+                    if fmt == "binary_little_endian" {
+                        out.extend(i.to_le_bytes());
+                    } else {
+                        out.extend(i.to_be_bytes());
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn all_formats_agree() {
+        let pos = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.5],
+            [0.0, 1.0, 0.0],
+        ];
+        let nrm = [[0.0, 0.0, 1.0]; 4];
+        let faces = vec![vec![0, 1, 2, 3]];
+        for fmt in ["ascii", "binary_little_endian", "binary_big_endian"] {
+            let m = parse_ply(&write_ply(fmt, &pos, Some(&nrm), &faces), false).unwrap();
+            assert_eq!(m.positions[2], DVec3::new(1.0, 1.0, 0.5), "{fmt}");
+            assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]], "{fmt}");
+            assert_eq!(m.normals.as_ref().unwrap()[3], DVec3::Z, "{fmt}");
+            let m = parse_ply(&write_ply(fmt, &pos, Some(&nrm), &faces), true).unwrap();
+            assert!(m.normals.is_none());
+            let m = parse_ply(&write_ply(fmt, &pos, None, &faces), false).unwrap();
+            assert!(m.normals.is_none());
+        }
+    }
+
+    #[test]
+    fn broken_files_are_errors() {
+        let pos = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.5]];
+        let good = write_ply("binary_little_endian", &pos, None, &[vec![0, 1, 2]]);
+        assert!(parse_ply(&good[..good.len() - 1], false)
+            .unwrap_err()
+            .contains("end of file"));
+        let mut extra = good.clone();
+        extra.push(0);
+        assert!(parse_ply(&extra, false).unwrap_err().contains("trailing"));
+        let bad = write_ply("ascii", &pos, None, &[vec![0, 1, 7]]);
+        assert!(parse_ply(&bad, false)
+            .unwrap_err()
+            .contains("invalid vertex 7"));
+        assert!(parse_ply(b"ply\nformat ascii 1.0\n", false).is_err());
+        // Every truncation of a valid file is an error, never a panic.
+        for fmt in ["ascii", "binary_little_endian"] {
+            let f = write_ply(fmt, &pos, Some(&pos), &[vec![0, 1, 2], vec![2, 1, 0]]);
+            for n in 0..f.len() {
+                let r = parse_ply(&f[..n], false);
+                // ASCII may end inside the last number, which still parses.
+                assert!(
+                    r.is_err() || (fmt == "ascii" && n + 3 >= f.len()),
+                    "{fmt} {n}"
+                );
+            }
+        }
+        let huge = b"ply\nformat ascii 1.0\nelement junk 1000000000000\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n";
+        assert!(parse_ply(huge, false).unwrap().triangles.is_empty());
+        assert!(parse_ply(b"hello", false).is_err());
+    }
+}

@@ -1,0 +1,334 @@
+//! XML files → a tree of elements with `$name` substituted, `<default>`s consumed and
+//! `<include>`s spliced in, every element remembering its file:line:column. Objects with an
+//! `id` are registered for `<ref>`.
+//!
+//! Substitution follows Mitsuba: parameters are the caller's overrides followed by the
+//! `<default>`s met so far in document order (a default never replaces an override); in each
+//! attribute value `$name` is replaced, longest names first; any `$` left over is an error.
+
+use super::{err, SceneError};
+use crate::scene::SourceLocation;
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+#[derive(Debug)]
+pub struct Elem {
+    pub tag: String,
+    pub attrs: Vec<(String, String)>,
+    pub children: Vec<Rc<Elem>>,
+    pub loc: SourceLocation,
+}
+
+impl Elem {
+    pub fn attr(&self, k: &str) -> Option<&str> {
+        self.attrs
+            .iter()
+            .find(|(a, _)| a == k)
+            .map(|(_, v)| v.as_str())
+    }
+
+    pub fn check_attrs(&self, allowed: &[&str]) -> Result<(), SceneError> {
+        for (a, _) in &self.attrs {
+            if !allowed.contains(&a.as_str()) {
+                return err(
+                    &self.loc,
+                    format!("unexpected attribute '{a}' on <{}>", self.tag),
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// "shape 'sphere'" for plugins, "<float>" for the rest.
+    pub fn describe(&self) -> String {
+        match self.attr("type") {
+            Some(t) if is_plugin_tag(&self.tag) => format!("{} '{t}'", self.tag),
+            _ => format!("<{}>", self.tag),
+        }
+    }
+}
+
+pub fn is_plugin_tag(tag: &str) -> bool {
+    matches!(
+        tag,
+        "scene"
+            | "sensor"
+            | "film"
+            | "sampler"
+            | "rfilter"
+            | "integrator"
+            | "shape"
+            | "bsdf"
+            | "emitter"
+            | "texture"
+    )
+}
+
+const PROPERTY_TAGS: &[&str] = &[
+    "float",
+    "integer",
+    "boolean",
+    "string",
+    "point",
+    "vector",
+    "rgb",
+    "spectrum",
+    "transform",
+    "ref",
+];
+const TRANSFORM_OPS: &[&str] = &["translate", "rotate", "scale", "matrix", "lookat"];
+
+/// Nested `<include>` depth beyond which we assume a cycle.
+const MAX_INCLUDE_DEPTH: usize = 16;
+
+pub struct TreeBuilder {
+    /// Directory of the top scene file: relative `include`/`filename` paths resolve against it
+    /// (Mitsuba's file resolver holds the top file's directory, not the including file's).
+    pub top_dir: PathBuf,
+    params: Vec<(String, String)>,
+    overrides: Vec<String>,
+    used_params: HashSet<String>,
+    pub ids: HashMap<String, Rc<Elem>>,
+    depth: usize,
+}
+
+pub fn location(doc: &roxmltree::Document, file: &Path, pos: usize) -> SourceLocation {
+    let p = doc.text_pos_at(pos);
+    SourceLocation {
+        file: file.to_path_buf(),
+        line: p.row,
+        column: p.col,
+    }
+}
+
+pub fn file_location(file: &Path) -> SourceLocation {
+    SourceLocation {
+        file: file.to_path_buf(),
+        line: 0,
+        column: 0,
+    }
+}
+
+impl TreeBuilder {
+    pub fn new(top_dir: PathBuf, overrides: &[(String, String)]) -> TreeBuilder {
+        TreeBuilder {
+            top_dir,
+            params: overrides.to_vec(),
+            overrides: overrides.iter().map(|(k, _)| k.clone()).collect(),
+            used_params: HashSet::new(),
+            ids: HashMap::new(),
+            depth: 0,
+        }
+    }
+
+    /// Overrides that neither matched a `<default>` nor were substituted anywhere.
+    pub fn unused_overrides(&self) -> Vec<String> {
+        self.overrides
+            .iter()
+            .filter(|k| !self.used_params.contains(*k))
+            .cloned()
+            .collect()
+    }
+
+    /// Parses the top scene file (already read into `text`): its root must be
+    /// `<scene version="3.0.0">`.
+    pub fn parse_top(&mut self, file: &Path, text: &str) -> Result<Rc<Elem>, SceneError> {
+        let doc = parse_xml(file, text)?;
+        let root = doc.root_element();
+        let loc = location(&doc, file, root.range().start);
+        if root.tag_name().name() != "scene" {
+            return err(
+                &loc,
+                format!(
+                    "root element must be <scene> (got <{}>)",
+                    root.tag_name().name()
+                ),
+            );
+        }
+        match root.attribute("version") {
+            None => {
+                return err(
+                    &loc,
+                    "<scene> is missing the version attribute (use \"3.0.0\")",
+                )
+            }
+            Some(v) => check_version(v, &loc)?,
+        }
+        let mut out = Vec::new();
+        self.node(&doc, file, root, &mut out)?;
+        Ok(out.pop().expect("the root element yields one element"))
+    }
+
+    fn substitute(&mut self, value: &str, loc: &SourceLocation) -> Result<String, SceneError> {
+        if !value.contains('$') {
+            return Ok(value.to_string());
+        }
+        let mut order: Vec<usize> = (0..self.params.len()).collect();
+        order.sort_by_key(|&i| std::cmp::Reverse(self.params[i].0.len()));
+        let mut v = value.to_string();
+        for i in order {
+            let (name, repl) = &self.params[i];
+            let pat = format!("${name}");
+            if v.contains(&pat) {
+                v = v.replace(&pat, repl);
+                self.used_params.insert(name.clone());
+            }
+        }
+        if v.contains('$') {
+            return err(
+                loc,
+                format!("undefined parameter(s) in \"{value}\" (declare them with <default>)"),
+            );
+        }
+        Ok(v)
+    }
+
+    /// Converts one XML node, pushing zero (comment, default), one, or several (include)
+    /// elements onto `out`.
+    fn node(
+        &mut self,
+        doc: &roxmltree::Document,
+        file: &Path,
+        node: roxmltree::Node,
+        out: &mut Vec<Rc<Elem>>,
+    ) -> Result<(), SceneError> {
+        let loc = location(doc, file, node.range().start);
+        if node.is_text() {
+            let t = node.text().unwrap_or("");
+            if t.trim().is_empty() {
+                return Ok(());
+            }
+            return err(&loc, format!("unexpected text '{}'", t.trim()));
+        }
+        if !node.is_element() {
+            return Ok(()); // comments, processing instructions
+        }
+        let tag = node.tag_name().name().to_string();
+        let mut attrs = Vec::new();
+        let is_root = node.parent().is_some_and(|p| p.is_root());
+        for a in node.attributes() {
+            if a.name() == "version" && is_root {
+                check_version(a.value(), &loc)?;
+                continue;
+            }
+            attrs.push((a.name().to_string(), self.substitute(a.value(), &loc)?));
+        }
+        let mut elem = Elem {
+            tag,
+            attrs,
+            children: Vec::new(),
+            loc,
+        };
+        match elem.tag.as_str() {
+            "default" => {
+                elem.check_attrs(&["name", "value"])?;
+                let (Some(name), Some(value)) = (elem.attr("name"), elem.attr("value")) else {
+                    return err(&elem.loc, "<default> needs 'name' and 'value'");
+                };
+                if name.is_empty() {
+                    return err(&elem.loc, "<default> name must be non-empty");
+                }
+                if self.params.iter().any(|(k, _)| k == name) {
+                    self.used_params.insert(name.to_string());
+                } else {
+                    self.params.push((name.to_string(), value.to_string()));
+                }
+                return Ok(());
+            }
+            "include" => return self.include(&elem, out),
+            t if is_plugin_tag(t) || PROPERTY_TAGS.contains(&t) || TRANSFORM_OPS.contains(&t) => {}
+            t => return err(&elem.loc, format!("unsupported element <{t}>")),
+        }
+        for ch in node.children() {
+            self.node(doc, file, ch, &mut elem.children)?;
+        }
+        let elem = Rc::new(elem);
+        if is_plugin_tag(&elem.tag) {
+            if let Some(id) = elem.attr("id") {
+                if let Some(prev) = self.ids.get(id) {
+                    return err(
+                        &elem.loc,
+                        format!("duplicate id '{id}' (previous at {})", prev.loc),
+                    );
+                }
+                self.ids.insert(id.to_string(), elem.clone());
+            }
+        }
+        out.push(elem);
+        Ok(())
+    }
+
+    fn include(&mut self, e: &Elem, out: &mut Vec<Rc<Elem>>) -> Result<(), SceneError> {
+        e.check_attrs(&["filename"])?;
+        let Some(name) = e.attr("filename") else {
+            return err(&e.loc, "<include> needs 'filename'");
+        };
+        let path = self.resolve(name);
+        if self.depth >= MAX_INCLUDE_DEPTH {
+            return err(&e.loc, "too many nested <include>s (cycle?)");
+        }
+        let text = std::fs::read_to_string(&path).or_else(|io| {
+            err(
+                &e.loc,
+                format!("cannot read included file '{}': {io}", path.display()),
+            )
+        })?;
+        let doc = parse_xml(&path, &text)?;
+        let root = doc.root_element();
+        self.depth += 1;
+        let r = if root.tag_name().name() == "scene" {
+            let loc = location(&doc, &path, root.range().start);
+            if let Some(v) = root.attribute("version") {
+                check_version(v, &loc)?;
+            }
+            if let Some(a) = root.attributes().find(|a| a.name() != "version") {
+                return err(
+                    &loc,
+                    format!("unexpected attribute '{}' on <scene>", a.name()),
+                );
+            }
+            root.children()
+                .try_for_each(|ch| self.node(&doc, &path, ch, out))
+        } else {
+            self.node(&doc, &path, root, out)
+        };
+        self.depth -= 1;
+        r
+    }
+
+    /// Relative paths are taken relative to the top scene file's directory.
+    pub fn resolve(&self, name: &str) -> PathBuf {
+        let p = Path::new(name);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.top_dir.join(p)
+        }
+    }
+}
+
+fn check_version(v: &str, loc: &SourceLocation) -> Result<(), SceneError> {
+    if v.trim() == "3.0.0" {
+        Ok(())
+    } else {
+        err(
+            loc,
+            format!("unsupported scene version '{v}' (supported: 3.0.0)"),
+        )
+    }
+}
+
+fn parse_xml<'a>(file: &Path, text: &'a str) -> Result<roxmltree::Document<'a>, SceneError> {
+    roxmltree::Document::parse(text).map_err(|e| {
+        let p = e.pos();
+        SceneError {
+            location: Some(SourceLocation {
+                file: file.to_path_buf(),
+                line: p.row,
+                column: p.col,
+            }),
+            message: format!("malformed XML: {e}"),
+        }
+    })
+}

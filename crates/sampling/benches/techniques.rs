@@ -1,0 +1,143 @@
+//! Cost of one light sample per technique: prepare + sample + pdf (`sample_with_pdf`, which is
+//! what a renderer calls), single-threaded, on the same 1024 pseudo-random configurations
+//! (Pcg32, fixed seed) for every technique.
+//!
+//! Run: `cargo bench -p linlight-sampling --bench techniques -- --quick`
+//! (a criterion filter such as `-- --quick hart` restricts the criterion groups; the plain
+//! timing loop and the ratios are printed at the end of every `--bench` run).
+
+use criterion::{black_box, Criterion, Throughput};
+use glam::Vec3;
+use linlight_sampling::rng::Pcg32;
+use linlight_sampling::{LineSampler, Segment, Technique};
+use std::time::Instant;
+
+/// Techniques skipped because they are still `todo!()` stubs (while written in parallel on
+/// another branch). Empty since Li2018 and ProjectedSolidAngle landed on main.
+const PENDING: &[Technique] = &[];
+
+const CONFIGURATIONS: usize = 1024;
+
+struct Configuration {
+    segment: Segment,
+    x: Vec3,
+    n: Vec3,
+    xi: f32,
+}
+
+/// Segments in a box around the shading point's upper hemisphere: most lie above the horizon,
+/// some cross it, a few lie entirely below (then every clipping technique returns None, which is
+/// part of the cost a renderer pays). Normals are random unit vectors with n_z > 0.2.
+fn configurations() -> Vec<Configuration> {
+    let mut rng = Pcg32::new(2021, 8);
+    let mut in_box = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+    let mut out = Vec::with_capacity(CONFIGURATIONS);
+    while out.len() < CONFIGURATIONS {
+        let begin = Vec3::new(in_box(-2.0, 2.0), in_box(-2.0, 2.0), in_box(-0.5, 2.0));
+        let end = Vec3::new(in_box(-2.0, 2.0), in_box(-2.0, 2.0), in_box(-0.5, 2.0));
+        let n = Vec3::new(in_box(-1.0, 1.0), in_box(-1.0, 1.0), in_box(0.2, 1.0)).normalize();
+        let x = Vec3::new(in_box(-0.1, 0.1), in_box(-0.1, 0.1), 0.0);
+        let xi = in_box(0.0, 1.0);
+        out.push(Configuration {
+            segment: Segment::new(begin, end),
+            x,
+            n,
+            xi,
+        });
+    }
+    out
+}
+
+/// One pass over all configurations; the returned sum keeps the work observable.
+#[inline(never)]
+fn pass(technique: Technique, configurations: &[Configuration]) -> f32 {
+    let mut acc = 0.0f32;
+    for c in configurations {
+        if let Some(p) = technique.prepare(&c.segment, c.x, c.n) {
+            let (dir, pdf) = p.sample_with_pdf(c.xi);
+            acc += dir.x + pdf;
+        }
+    }
+    acc
+}
+
+fn active() -> impl Iterator<Item = Technique> {
+    Technique::ALL.into_iter().filter(|t| !PENDING.contains(t))
+}
+
+fn criterion_groups(c: &mut Criterion, configurations: &[Configuration]) {
+    let mut group = c.benchmark_group("prepare+sample+pdf");
+    group.throughput(Throughput::Elements(configurations.len() as u64));
+    for technique in active() {
+        group.bench_function(technique.name(), |b| {
+            b.iter(|| black_box(pass(technique, black_box(configurations))))
+        });
+    }
+    group.finish();
+}
+
+/// Mean time per configuration in ns, median over repeats. Repeats are interleaved across the
+/// techniques (round robin), so that a change of machine load hits all of them alike and the
+/// ratios stay meaningful on a shared machine.
+fn plain_timing(techniques: &[Technique], configurations: &[Configuration]) -> Vec<f64> {
+    const REPEATS: usize = 15;
+    const PASSES: usize = 50;
+    let mut times = vec![Vec::with_capacity(REPEATS); techniques.len()];
+    for _ in 0..REPEATS {
+        for (k, &technique) in techniques.iter().enumerate() {
+            let start = Instant::now();
+            for _ in 0..PASSES {
+                black_box(pass(technique, black_box(configurations)));
+            }
+            let ns = start.elapsed().as_secs_f64() * 1e9 / (PASSES * configurations.len()) as f64;
+            times[k].push(ns);
+        }
+    }
+    times
+        .into_iter()
+        .map(|mut t| {
+            t.sort_by(f64::total_cmp);
+            t[REPEATS / 2]
+        })
+        .collect()
+}
+
+fn main() {
+    let configurations = configurations();
+    let mut criterion = Criterion::default().configure_from_args();
+    criterion_groups(&mut criterion, &configurations);
+    criterion.final_summary();
+
+    // `cargo test --benches` runs each benchmark once (no `--bench` argument): skip the loop.
+    if !std::env::args().any(|a| a == "--bench") {
+        return;
+    }
+    println!("\nplain timing loop (median of 15 interleaved repeats, ns per configuration):");
+    let techniques: Vec<Technique> = active().collect();
+    let times = plain_timing(&techniques, &configurations);
+    let mut ns = std::collections::HashMap::new();
+    for (&technique, &t) in techniques.iter().zip(&times) {
+        let prepared = configurations
+            .iter()
+            .filter(|c| technique.prepare(&c.segment, c.x, c.n).is_some())
+            .count();
+        println!(
+            "  {:<24} {t:8.2} ns   ({prepared}/{} prepared)",
+            technique.name(),
+            CONFIGURATIONS
+        );
+        ns.insert(technique, t);
+    }
+    let ratio = |a: Technique, b: Technique| match (ns.get(&a), ns.get(&b)) {
+        (Some(x), Some(y)) => format!("{:.3}", x / y),
+        _ => "n/a (pending)".to_string(),
+    };
+    println!(
+        "  ratio li2018 / projected-solid-angle:              {}",
+        ratio(Technique::Li2018, Technique::ProjectedSolidAngle)
+    );
+    println!(
+        "  ratio projected-solid-angle / clipped-solid-angle: {}",
+        ratio(Technique::ProjectedSolidAngle, Technique::ClippedSolidAngle)
+    );
+}

@@ -1,0 +1,130 @@
+"""P independent Mitsuba passes -> per-pixel mean and variance of the mean."""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from harness import MITSUBA_VERSION, exrfile, oracle, scene_xml
+
+
+@dataclass
+class PassStats:
+    """Welford accumulation over passes in float64."""
+
+    count: int = 0
+    mean: np.ndarray | None = None
+    m2: np.ndarray | None = None
+
+    def add(self, img: np.ndarray) -> None:
+        x = np.asarray(img, dtype=np.float64)
+        if self.mean is None or self.m2 is None:
+            self.count, self.mean, self.m2 = 1, x.copy(), np.zeros_like(x)
+            return
+        self.count += 1
+        delta = x - self.mean
+        self.mean += delta / self.count
+        self.m2 += delta * (x - self.mean)
+
+    def var_of_mean(self) -> np.ndarray:
+        """Sample variance of the pass means divided by the number of passes."""
+        if self.mean is None or self.m2 is None or self.count < 2:
+            raise ValueError("need at least 2 passes for a variance")
+        return self.m2 / (self.count - 1) / self.count
+
+
+@dataclass
+class RenderResult:
+    mean: np.ndarray  # (H, W, 3) float64
+    var: np.ndarray  # (H, W, 3) float64, variance of the mean
+    meta: dict[str, str]
+    pass_means: np.ndarray  # (P, 3) image mean of each pass
+
+    def image_mean_stderr(self) -> tuple[np.ndarray, np.ndarray]:
+        """Image mean per channel and its standard error from the spread of the pass means."""
+        p = self.pass_means.shape[0]
+        return self.pass_means.mean(axis=0), self.pass_means.std(axis=0, ddof=1) / np.sqrt(p)
+
+
+def render_passes(
+    loaded: oracle.LoadedScene,
+    variant: str,
+    passes: int,
+    spp: int,
+    overrides: Mapping[str, str],
+    quiet: bool = False,
+    seed_offset: int = 0,
+) -> RenderResult:
+    """Pass p uses mi.render(seed=seed_offset + p)."""
+    import mitsuba as mi
+
+    if passes < 2 or spp < 1:
+        raise ValueError("need passes >= 2 and spp >= 1")
+    stats = PassStats()
+    pass_means = []
+    t0 = time.perf_counter()
+    for p in range(passes):
+        t = time.perf_counter()
+        # seed=p: independent passes with the sampler's own seed left at 0 (MITSUBA.md)
+        img = np.array(mi.render(loaded.scene, spp=spp, seed=seed_offset + p), dtype=np.float64)
+        if img.ndim != 3 or img.shape[2] < 3:
+            raise RuntimeError(f"unexpected render output shape {img.shape}")
+        img = img[:, :, :3]
+        if not np.isfinite(img).all():
+            raise RuntimeError(f"pass {p}: non-finite pixels")
+        stats.add(img)
+        pass_means.append(img.mean(axis=(0, 1)))
+        if not quiet:
+            m = img.mean(axis=(0, 1))
+            print(
+                f"  pass {p + 1}/{passes}: {time.perf_counter() - t:.2f} s, "
+                f"mean RGB {m[0]:.6g} {m[1]:.6g} {m[2]:.6g}",
+                file=sys.stderr,
+                flush=True,
+            )
+    wall = time.perf_counter() - t0
+    assert stats.mean is not None
+    meta = {
+        "dof": str(passes - 1),
+        "spp": str(spp * passes),
+        "spp_per_pass": str(spp),
+        "passes": str(passes),
+        "renderer": f"mitsuba {MITSUBA_VERSION} {variant}",
+        "variant": variant,
+        "scene": loaded.path.name,
+        "scene_sha256": loaded.sha256,
+        "seeds": f"{seed_offset}..{seed_offset + passes - 1} (mi.render seed; sampler seed 0)",
+        "radius": scene_xml.sequence_str([l.radius for l in loaded.lights]),
+        "radius_override": "none" if loaded.radius_override is None else repr(loaded.radius_override),
+        "K": ";".join(scene_xml.sequence_str(l.k) for l in loaded.lights),
+        "lights": ",".join(l.id for l in loaded.lights),
+        "overrides": ",".join(f"{k}={v}" for k, v in sorted(overrides.items())),
+        "wall_time_s": f"{wall:.3f}",
+    }
+    return RenderResult(stats.mean, stats.var_of_mean(), meta, np.array(pass_means))
+
+
+def write_result(result: RenderResult, out: Path) -> None:
+    exrfile.write_image(out, result.mean, result.var, result.meta)
+    h, w = result.mean.shape[:2]
+    exrfile.check_written(out, result.meta, (h, w))
+    m = result.mean.mean(axis=(0, 1))
+    # standard error of the image mean: pixel means are independent across pixels
+    se = np.sqrt(result.var.sum(axis=(0, 1))) / (h * w)
+    exrfile.write_sidecar(
+        out.with_suffix(".json"),
+        result.meta,
+        {
+            "width": w,
+            "height": h,
+            "image_mean": [float(v) for v in m],
+            "image_mean_stderr": [float(v) for v in se],
+            # from the spread of the P pass means (exact for the image mean, noisier estimate)
+            "image_mean_stderr_from_passes": [float(v) for v in result.image_mean_stderr()[1]],
+        },
+    )
