@@ -146,12 +146,18 @@ impl LineSampler for Mismatched {
 pub fn control_scaled_pdf(t: Technique) -> Subject {
     Subject::new(
         format!("{}-pdf-x1.01", t.name()),
-        format!("{} with its pdf (and sample_with_pdf) multiplied by 1.01", t.name()),
+        format!(
+            "{} with its pdf (and sample_with_pdf) multiplied by 1.01",
+            t.name()
+        ),
         Role::NegativeControl,
         Coverage::Lambert,
         move |c| {
             let inner = boxed(t.prepare(&c.segment(), c.x(), c.n())?);
-            Some(boxed(ScaledPdf { inner, factor: 1.01 }))
+            Some(boxed(ScaledPdf {
+                inner,
+                factor: 1.01,
+            }))
         },
     )
 }
@@ -218,7 +224,10 @@ pub fn control_ltc_without_kappa() -> Subject {
         |c| {
             let s = LtcLine::prepare(&c.segment(), c.x(), c.shading_frame(), c.a())?;
             let factor = 1.0 / s.kappa();
-            Some(boxed(ScaledPdf { inner: boxed(s), factor }))
+            Some(boxed(ScaledPdf {
+                inner: boxed(s),
+                factor,
+            }))
         },
     )
 }
