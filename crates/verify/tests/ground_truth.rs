@@ -136,19 +136,16 @@ fn clipped_solid_angle() {
 }
 
 #[test]
-#[ignore = "pending: Area is a todo!() stub until samplers-a is merged"]
 fn area() {
     check(Technique::Area);
 }
 
 #[test]
-#[ignore = "pending: HartLinear is a todo!() stub until samplers-a is merged"]
 fn hart_linear() {
     check(Technique::HartLinear);
 }
 
 #[test]
-#[ignore = "pending: HartQuadratic is a todo!() stub until samplers-a is merged"]
 fn hart_quadratic() {
     check(Technique::HartQuadratic);
 }
