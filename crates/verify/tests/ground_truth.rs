@@ -151,13 +151,11 @@ fn hart_quadratic() {
 }
 
 #[test]
-#[ignore = "pending: Li2018 is a todo!() stub until samplers-b is merged"]
 fn li2018() {
     check(Technique::Li2018);
 }
 
 #[test]
-#[ignore = "pending: ProjectedSolidAngle is a todo!() stub until samplers-b is merged"]
 fn projected_solid_angle() {
     check(Technique::ProjectedSolidAngle);
 }
