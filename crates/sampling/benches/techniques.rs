@@ -102,8 +102,24 @@ fn plain_timing(techniques: &[Technique], configurations: &[Configuration]) -> V
         .collect()
 }
 
+/// Instruction-count mode for `valgrind --tool=callgrind --toggle-collect='*pass*'`:
+/// `LINLIGHT_BENCH_ONLY=<technique> <bench binary>` runs 10 passes of that technique and exits
+/// (no criterion, no timing), so that instructions per configuration = Ir(pass) / (10·1024).
+fn count_mode(name: &str, configurations: &[Configuration]) {
+    let technique = Technique::from_name(name).expect("unknown technique in LINLIGHT_BENCH_ONLY");
+    let mut acc = 0.0;
+    for _ in 0..10 {
+        acc += black_box(pass(technique, black_box(configurations)));
+    }
+    println!("{name}: checksum {acc}");
+}
+
 fn main() {
     let configurations = configurations();
+    if let Ok(name) = std::env::var("LINLIGHT_BENCH_ONLY") {
+        count_mode(&name, &configurations);
+        return;
+    }
     let mut criterion = Criterion::default().configure_from_args();
     criterion_groups(&mut criterion, &configurations);
     criterion.final_summary();
