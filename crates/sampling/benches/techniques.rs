@@ -114,8 +114,34 @@ fn count_mode(name: &str, configurations: &[Configuration]) {
     println!("{name}: checksum {acc}");
 }
 
+/// `LINLIGHT_BENCH_MIN=a,b,c`: 400 interleaved single passes per technique, minimum and median
+/// ns per configuration. On a loaded machine the minimum (a pass that was not descheduled) is
+/// the most reproducible figure.
+fn min_mode(names: &str, configurations: &[Configuration]) {
+    let techniques: Vec<Technique> = names
+        .split(',')
+        .map(|n| Technique::from_name(n).expect("unknown technique in LINLIGHT_BENCH_MIN"))
+        .collect();
+    let mut times = vec![Vec::new(); techniques.len()];
+    for _ in 0..400 {
+        for (k, &t) in techniques.iter().enumerate() {
+            let start = Instant::now();
+            black_box(pass(t, black_box(configurations)));
+            times[k].push(start.elapsed().as_secs_f64() * 1e9 / configurations.len() as f64);
+        }
+    }
+    for (t, mut v) in techniques.into_iter().zip(times) {
+        v.sort_by(f64::total_cmp);
+        println!("  {:<24} min {:8.2} ns   median {:8.2} ns", t.name(), v[0], v[v.len() / 2]);
+    }
+}
+
 fn main() {
     let configurations = configurations();
+    if let Ok(names) = std::env::var("LINLIGHT_BENCH_MIN") {
+        min_mode(&names, &configurations);
+        return;
+    }
     if let Ok(name) = std::env::var("LINLIGHT_BENCH_ONLY") {
         count_mode(&name, &configurations);
         return;

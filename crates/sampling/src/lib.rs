@@ -5,7 +5,7 @@
 //! with respect to dΩ_R = (2/d) ds on directions toward the line (see [`geometry`]).
 //! No I/O; `f32` (glam) on the hot path.
 
-pub mod arctangent;
+pub mod trig;
 pub mod area;
 pub mod backward_error;
 pub mod baseline;

@@ -32,7 +32,7 @@
 //! ([`crate::backward_error`]) can run both precisions through the same code; the sampler uses
 //! f32.
 
-use crate::arctangent::atan2;
+use crate::trig::{atan2, atan2_f64};
 use crate::geometry::{unit_normal, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use glam::Vec3;
@@ -95,7 +95,7 @@ pub(crate) trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $dot2:expr, $atan2:expr, $series:expr) => {
+    ($t:ty, $dot2:expr, $atan2:expr, $sin_cos:expr, $series:expr) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -112,7 +112,7 @@ macro_rules! impl_real {
             }
             #[inline]
             fn sin_cos(self) -> (Self, Self) {
-                <$t>::sin_cos(self)
+                $sin_cos(self)
             }
             #[inline]
             fn sin(self) -> Self {
@@ -141,18 +141,21 @@ macro_rules! impl_real {
         }
     };
 }
-// f32: atan2 without libm (crate::arctangent, ~1e-11 relative), 4 series terms of δ − sin δ
-// (truncation < 1e-9 relative for |δ| < 1). f64: std atan2, 8 terms (< 1e-17).
+// f32: atan2 and sin_cos without libm (crate::trig, f64 polynomials, ~1e-11 relative), 4
+// series terms of δ − sin δ (truncation < 1e-9 relative for |δ| < 1). f64: std, 8 terms
+// (< 1e-17).
 impl_real!(
     f32,
     |a: f32, b: f32, c: f32, d: f32| { (a as f64 * b as f64 + c as f64 * d as f64) as f32 },
-    crate::arctangent::atan2,
+    crate::trig::atan2,
+    crate::trig::sin_cos,
     &[110.0, 72.0, 42.0, 20.0]
 );
 impl_real!(
     f64,
     |a: f64, b: f64, c: f64, d: f64| a.mul_add(b, c * d),
     f64::atan2,
+    f64::sin_cos,
     &[342.0, 272.0, 210.0, 156.0, 110.0, 72.0, 42.0, 20.0]
 );
 
@@ -308,12 +311,14 @@ impl<T: Real> PsaCore<T> {
         let q = y * (T::TWO * self.s_b + y);
         let c = (self.c_b * self.c_b - q).max(T::ZERO).sqrt();
         let denom = self.c_b + c;
-        let sin_tau = if denom > T::ZERO {
-            y * self.c_b + self.s_b * q / denom
-        } else {
-            y
-        };
         let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
+        // atan2 is invariant under a common positive factor: (sin τ, cos τ)·denom saves the
+        // division by denom.
+        let (sin_tau, cos_tau) = if denom > T::ZERO {
+            (y * self.c_b * denom + self.s_b * q, cos_tau * denom)
+        } else {
+            (y, cos_tau)
+        };
         sin_tau.atan2(cos_tau).clamp(T::ZERO, self.width)
     }
 
@@ -379,18 +384,16 @@ pub(crate) struct Arc {
 
 impl Arc {
     pub fn of(frame: &LineFrame) -> Self {
-        let (lb, le, d) = (frame.l_begin, frame.l_end, frame.d);
+        let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
         // cos φ_b = d/r_b is accurate where s_b ≈ ±1 is not; Δ = φ_e − φ_b from
         // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
-        // Both arguments divided by d² (atan2 is invariant under positive scaling): d² and
-        // (l_e − l_b)d overflow f32 for d ≳ 1e19, while |l|/d < 1e7 by the frame's invariants.
-        let width = atan2((le - lb) / d, 1.0 + (lb / d) * (le / d));
-        // r_b = √(l_b² + d²) in f64: no overflow or underflow of the squares of f32 values (and
-        // much cheaper than f32::hypot).
-        let r_b = ((lb as f64) * (lb as f64) + (d as f64) * (d as f64)).sqrt();
+        // In f64 (from f32 data): the products neither overflow nor underflow, l_e − l_b is exact
+        // or a single rounding, and no division precedes the one inside atan2.
+        let width = atan2_f64((le - lb) * d, d * d + lb * le) as f32;
+        let r_b = (lb * lb + d * d).sqrt();
         Self {
             s_b: frame.s_begin,
-            c_b: (d as f64 / r_b) as f32,
+            c_b: (d / r_b) as f32,
             width,
             tolerance: 2.5e-7 + 1e-6 * width,
         }
@@ -477,9 +480,9 @@ impl ProjectedSolidAngle {
     /// l_begin and l. τ(l) = atan2((l − l_b)d, d² + l_b l) avoids the cancellation of φ − φ_b.
     pub fn cdf_of_l(&self, l: f32) -> f32 {
         let f = &self.frame;
-        let l = l.clamp(f.l_begin, f.l_end);
-        // Divided by d² as in `Arc::of` (no overflow for huge d).
-        let tau = atan2((l - f.l_begin) / f.d, 1.0 + (f.l_begin / f.d) * (l / f.d));
+        let (lb, l, d) = (f.l_begin as f64, l.clamp(f.l_begin, f.l_end) as f64, f.d as f64);
+        // In f64 as in `Arc::of` (no overflow, no division before atan2's).
+        let tau = atan2_f64((l - lb) * d, d * d + lb * l) as f32;
         self.core.cdf(tau)
     }
 
@@ -488,9 +491,12 @@ impl ProjectedSolidAngle {
         self.core.solve(clamp_xi(xi), self.iterations)
     }
 
+    /// Direction and n·ω at offset τ ∈ [0, Δ] ⊂ [0, π]: (sin, cos) τ from the half angle, which
+    /// is in the range of the libm-free [`Real::sin_cos`].
     #[inline]
     fn direction_of_tau(&self, tau: f32) -> (Vec3, f32) {
-        let (st, ct) = tau.sin_cos();
+        let (sh, ch) = Real::sin_cos(0.5 * tau);
+        let (st, ct) = (2.0 * sh * ch, 1.0 - 2.0 * sh * sh);
         let c = &self.core;
         let (s, t) = (c.s_b * ct + c.c_b * st, c.c_b * ct - c.s_b * st);
         let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
