@@ -162,8 +162,15 @@ impl_real!(
 /// δ − sin δ without cancellation: Taylor series for |δ| < 1 (truncated where the remainder is
 /// below the precision: < 1e-17 relative in f64, < 1e-9 in f32, see [`Real::SERIES`]),
 /// direct formula above (relative error ≤ ~6 ulp there since δ − sin δ ≥ 0.158·δ).
-#[inline]
+#[cfg(test)]
 pub(crate) fn delta_minus_sin<T: Real>(x: T) -> T {
+    delta_minus_sin_given(x, x.sin())
+}
+
+/// [`delta_minus_sin`] with sin δ already known (used only for |δ| ≥ 1): no sin call on the hot
+/// path, where sin τ = 2 sin(τ/2) cos(τ/2) is at hand.
+#[inline]
+pub(crate) fn delta_minus_sin_given<T: Real>(x: T, sin_x: T) -> T {
     if x.abs() < T::ONE {
         let x2 = x * x;
         let mut acc = T::ONE;
@@ -173,7 +180,7 @@ pub(crate) fn delta_minus_sin<T: Real>(x: T) -> T {
         }
         x * x2 * T::from_f64(1.0 / 6.0) * acc
     } else {
-        x - x.sin()
+        x - sin_x
     }
 }
 
@@ -260,7 +267,7 @@ impl<T: Real> PsaCore<T> {
         let cm = self.c_b * ch - self.s_b * sh; // cos of the midpoint φ_b + τ/2
         let n_dot_wm = self.p0 * ch + self.p1 * sh;
         let sin_tau = T::TWO * sh * ch;
-        T::TWO * cm * sin_tau * n_dot_wm + self.nt * delta_minus_sin(tau)
+        T::TWO * cm * sin_tau * n_dot_wm + self.nt * delta_minus_sin_given(tau, sin_tau)
     }
 
     /// C(φ_b + τ) − C(φ_b), cancellation-free (see the module documentation), with the values

@@ -119,8 +119,15 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
         let v = xd * xd;
         ((xd * poly5(&S, v)) as f32, (1.0 - v * poly5(&K, v)) as f32)
     } else {
-        x.sin_cos()
+        sin_cos_libm(x)
     }
+}
+
+/// Out of line and cold, so that the register spills around the libm call stay off the hot path.
+#[cold]
+#[inline(never)]
+fn sin_cos_libm(x: f32) -> (f32, f32) {
+    x.sin_cos()
 }
 
 /// atan2(y, x) for f32 arguments (see the module documentation).
