@@ -8,6 +8,7 @@
 
 use criterion::{black_box, Criterion, Throughput};
 use glam::Vec3;
+use linlight_sampling::li2018::Li2018;
 use linlight_sampling::rng::Pcg32;
 use linlight_sampling::{LineSampler, Segment, Technique};
 use std::time::Instant;
@@ -134,6 +135,15 @@ fn min_mode(names: &str, configurations: &[Configuration]) {
         v.sort_by(f64::total_cmp);
         println!("  {:<24} min {:8.2} ns   median {:8.2} ns", t.name(), v[0], v[v.len() / 2]);
     }
+    let li: Vec<u32> = configurations
+        .iter()
+        .filter_map(|c| Li2018::prepare(&c.segment, c.x, c.n).map(|l| l.sample_l(c.xi).1))
+        .collect();
+    println!(
+        "  li2018: mean {:.2} CDF evaluations per sample (max {})",
+        li.iter().map(|&k| (k + 1).min(20) as f64).sum::<f64>() / li.len() as f64,
+        (li.iter().max().unwrap() + 1).min(20)
+    );
 }
 
 fn main() {

@@ -232,6 +232,7 @@ impl<T: Real> PsaCore<T> {
 
     /// From sin φ_b, cos φ_b and Δ. `None` if the interval carries no finite, positive
     /// projected solid angle.
+    #[inline]
     pub fn with_frame_values(ns: T, nt: T, s_b: T, c_b: T, width: T) -> Option<Self> {
         let mut core = Self {
             ns,
@@ -390,6 +391,7 @@ pub(crate) struct Arc {
 }
 
 impl Arc {
+    #[inline]
     pub fn of(frame: &LineFrame) -> Self {
         let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
         // cos φ_b = d/r_b is accurate where s_b ≈ ±1 is not; Δ = φ_e − φ_b from
@@ -439,6 +441,7 @@ pub struct ProjectedSolidAngle {
 
 impl ProjectedSolidAngle {
     /// The paper's sampler (two Halley iterations).
+    #[inline]
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
         Self::prepare_with_iterations(segment, x, n, DEFAULT_ITERATIONS)
     }
@@ -446,6 +449,7 @@ impl ProjectedSolidAngle {
     /// Same with a chosen number of iterations. For analysis and tests only: the density stays
     /// the exact (n·ω)/Ω⊥_R, so fewer than 2 iterations sample a visibly different density than
     /// `pdf` reports (1 iteration is the chi-square suite's negative control).
+    #[inline]
     pub fn prepare_with_iterations(
         segment: &Segment,
         x: Vec3,
@@ -458,6 +462,7 @@ impl ProjectedSolidAngle {
     }
 
     /// On an already clipped frame (n unit, frame clipped to its horizon).
+    #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
         let (ns, nt) = frame.normal_coefficients(n);
         let arc = Arc::of(&frame);
@@ -494,6 +499,7 @@ impl ProjectedSolidAngle {
     }
 
     /// τ = φ − φ_b of the sample for ξ (for analysis).
+    #[inline]
     pub fn sample_tau(&self, xi: f32) -> f32 {
         self.core.solve(clamp_xi(xi), self.iterations)
     }
@@ -508,6 +514,12 @@ impl ProjectedSolidAngle {
         let (s, t) = (c.s_b * ct + c.c_b * st, c.c_b * ct - c.s_b * st);
         let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
         (dir, c.p0 * ct + c.p1 * st)
+    }
+
+    /// Density of a direction known to lie in the support (no support test): (n·ω)/Ω⊥_R.
+    #[inline]
+    pub(crate) fn density_in_support(&self, dir: Vec3) -> f32 {
+        self.n.dot(dir).max(0.0) * self.inv_psa
     }
 
     /// τ of a direction if it points into the support (up to rounding).
@@ -526,7 +538,7 @@ impl LineSampler for ProjectedSolidAngle {
     /// line is seen almost along its axis, τ is not (both describe the same interval).
     fn pdf(&self, dir: Vec3) -> f32 {
         match self.tau_in_support(dir) {
-            Some(_) => self.n.dot(dir).max(0.0) * self.inv_psa,
+            Some(_) => self.density_in_support(dir),
             None => 0.0,
         }
     }
@@ -539,6 +551,7 @@ impl LineSampler for ProjectedSolidAngle {
         self.tau_in_support(dir).map(|tau| self.core.cdf(tau))
     }
 
+    #[inline]
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
         let (dir, n_dot_w) = self.direction_of_tau(self.sample_tau(xi));
         (dir, n_dot_w.max(0.0) * self.inv_psa)
