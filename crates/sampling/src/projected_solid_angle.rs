@@ -65,7 +65,6 @@ pub(crate) trait Real:
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
     fn sin_cos(self) -> (Self, Self);
-    fn sin(self) -> Self;
     fn atan2(self, x: Self) -> Self;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
@@ -115,10 +114,6 @@ macro_rules! impl_real {
                 $sin_cos(self)
             }
             #[inline]
-            fn sin(self) -> Self {
-                <$t>::sin(self)
-            }
-            #[inline]
             fn atan2(self, x: Self) -> Self {
                 $atan2(self, x)
             }
@@ -164,7 +159,7 @@ impl_real!(
 /// direct formula above (relative error ≤ ~6 ulp there since δ − sin δ ≥ 0.158·δ).
 #[cfg(test)]
 pub(crate) fn delta_minus_sin<T: Real>(x: T) -> T {
-    delta_minus_sin_given(x, x.sin())
+    delta_minus_sin_given(x, T::from_f64(x.to_f64().sin()))
 }
 
 /// [`delta_minus_sin`] with sin δ already known (used only for |δ| ≥ 1): no sin call on the hot
@@ -435,7 +430,10 @@ pub struct ProjectedSolidAngle {
     core: PsaCore<f32>,
     /// 1/Ω⊥_R = d / (C(φ_e) − C(φ_b)).
     inv_psa: f32,
-    arc: Arc,
+    /// Support tolerance of the arc ([`Arc::tolerance`]); the arc itself is (s_b, c_b, Δ) of
+    /// `core`, not stored twice (keeps the struct, and `Prepared`, small enough to be moved
+    /// without a memcpy call).
+    tolerance: f32,
     iterations: u32,
 }
 
@@ -473,7 +471,7 @@ impl ProjectedSolidAngle {
             n,
             core,
             inv_psa,
-            arc,
+            tolerance: arc.tolerance,
             iterations,
         })
     }
@@ -525,7 +523,14 @@ impl ProjectedSolidAngle {
     /// τ of a direction if it points into the support (up to rounding).
     #[inline]
     fn tau_in_support(&self, dir: Vec3) -> Option<f32> {
-        self.arc.tau_in_support(&self.frame, dir)
+        let c = &self.core;
+        let arc = Arc {
+            s_b: c.s_b,
+            c_b: c.c_b,
+            width: c.width,
+            tolerance: self.tolerance,
+        };
+        arc.tau_in_support(&self.frame, dir)
     }
 }
 
