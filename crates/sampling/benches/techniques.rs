@@ -133,7 +133,12 @@ fn min_mode(names: &str, configurations: &[Configuration]) {
     }
     for (t, mut v) in techniques.into_iter().zip(times) {
         v.sort_by(f64::total_cmp);
-        println!("  {:<24} min {:8.2} ns   median {:8.2} ns", t.name(), v[0], v[v.len() / 2]);
+        println!(
+            "  {:<24} min {:8.2} ns   median {:8.2} ns",
+            t.name(),
+            v[0],
+            v[v.len() / 2]
+        );
     }
     let li: Vec<u32> = configurations
         .iter()

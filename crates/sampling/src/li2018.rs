@@ -198,7 +198,11 @@ mod tests {
                 assert!(li.pdf(dir) >= 0.0 && li.pdf(dir).is_finite());
                 let (dir2, pdf2) = li.sample_with_pdf(xi);
                 assert_eq!(dir2, dir);
-                assert!((pdf2 - li.pdf(dir)).abs() <= 1e-6 * pdf2, "{pdf2} vs {}", li.pdf(dir));
+                assert!(
+                    (pdf2 - li.pdf(dir)).abs() <= 1e-6 * pdf2,
+                    "{pdf2} vs {}",
+                    li.pdf(dir)
+                );
             }
             eprintln!("{seg:?}: at most {max_k} iterations");
         }

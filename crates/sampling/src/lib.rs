@@ -5,7 +5,6 @@
 //! with respect to dΩ_R = (2/d) ds on directions toward the line (see [`geometry`]).
 //! No I/O; `f32` (glam) on the hot path.
 
-pub mod trig;
 pub mod area;
 pub mod backward_error;
 pub mod baseline;
@@ -19,6 +18,7 @@ pub mod rng;
 pub mod sampler;
 pub mod solid_angle;
 pub mod technique;
+pub mod trig;
 
 pub use geometry::{projected_antiderivative, unit_normal, LineFrame, Segment};
 pub use sampler::LineSampler;

@@ -31,10 +31,21 @@
 //! The inversion core is generic over f32/f64 ([`Real`]) so that the backward-error sweep
 //! ([`crate::backward_error`]) can run both precisions through the same code; the sampler uses
 //! f32.
+//!
+//! Cost (the f32 hot path; `cargo bench -p linlight-sampling --bench techniques`): a sample is a
+//! chain of dependent evaluations — Δ (atan2) and C(φ_e) − C(φ_b) (sin/cos of Δ/2) in `prepare`,
+//! the start value (sqrt, atan2), two Halley steps (sin/cos of τ/2, δ − sin δ, sqrt, division)
+//! and the direction (sin/cos of τ/2) — so its latency, not its instruction count, sets the
+//! time. Hence: the f32 `atan2`/`sin_cos` of [`Real`] are short f64 polynomials without libm
+//! calls ([`crate::trig`]; a libm call also spills every live SSE register), the series of
+//! δ − sin δ is cut to the f32 precision and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1, atan2
+//! arguments are formed without divisions, the start value saves its division (atan2 is
+//! scale-invariant), and the pdf of a sample is (n·ω)/Ω⊥_R with n·ω from the rotation already at
+//! hand. The f64 instantiation keeps std's functions and the full series.
 
-use crate::trig::{atan2, atan2_f64};
 use crate::geometry::{unit_normal, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
+use crate::trig::{atan2, atan2_f64};
 use glam::Vec3;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -490,7 +501,11 @@ impl ProjectedSolidAngle {
     /// l_begin and l. τ(l) = atan2((l − l_b)d, d² + l_b l) avoids the cancellation of φ − φ_b.
     pub fn cdf_of_l(&self, l: f32) -> f32 {
         let f = &self.frame;
-        let (lb, l, d) = (f.l_begin as f64, l.clamp(f.l_begin, f.l_end) as f64, f.d as f64);
+        let (lb, l, d) = (
+            f.l_begin as f64,
+            l.clamp(f.l_begin, f.l_end) as f64,
+            f.d as f64,
+        );
         // In f64 as in `Arc::of` (no overflow, no division before atan2's).
         let tau = atan2_f64((l - lb) * d, d * d + lb * l) as f32;
         self.core.cdf(tau)

@@ -95,7 +95,7 @@ const S: [f64; 6] = [
     -2.388_910_403_267_558_2e-8,
     2.752_526_349_541_792e-6,
     -1.984_086_105_803_712_7e-4,
-    8.333_330_973_271_879e-3,
+    8.333_330_973_271_88e-3,
     -0.166_666_666_167_908_1,
     0.999_999_999_982_908_9,
 ];
@@ -157,7 +157,10 @@ mod tests {
             // The f32 version is within an ulp of the correctly rounded value.
             let (y32, x32) = (y as f32, x as f32);
             let (a, b) = (atan2(y32, x32), (y32 as f64).atan2(x32 as f64) as f32);
-            assert!((a - b).abs() <= b.abs() * 1.2e-7, "f32 atan2({y32}, {x32}): {a} vs {b}");
+            assert!(
+                (a - b).abs() <= b.abs() * 1.2e-7,
+                "f32 atan2({y32}, {x32}): {a} vs {b}"
+            );
         };
         for _ in 0..200_000 {
             let y = (rng.next_f32() as f64 - 0.5) * 10f64.powi((rng.next_f32() * 12.0) as i32 - 6);
@@ -192,17 +195,27 @@ mod tests {
                 let x32 = x as f32;
                 let (s, c) = sin_cos(x32);
                 let (se, ce) = (x32 as f64).sin_cos();
-                let es = if se == 0.0 { s.abs() as f64 } else { ((s as f64 - se) / se).abs() };
+                let es = if se == 0.0 {
+                    s.abs() as f64
+                } else {
+                    ((s as f64 - se) / se).abs()
+                };
                 let ec = (c as f64 - ce).abs() / ce.abs().max(0.5);
                 // Correct rounding of the f64 value is all that can be asked: half an ulp of f32
                 // plus the polynomial's 3e-11.
-                assert!(es <= 6.0e-8 && ec <= 6.0e-8, "sin_cos({x32}) = ({s}, {c}), std ({se}, {ce})");
+                assert!(
+                    es <= 6.0e-8 && ec <= 6.0e-8,
+                    "sin_cos({x32}) = ({s}, {c}), std ({se}, {ce})"
+                );
                 worst = (worst.0.max(es), worst.1.max(ec));
             }
         }
         assert_eq!(sin_cos(0.0), (0.0, 1.0));
         assert!(sin_cos(f32::NAN).0.is_nan());
-        eprintln!("worst relative error of f32 sin, cos: {:.2e} {:.2e}", worst.0, worst.1);
+        eprintln!(
+            "worst relative error of f32 sin, cos: {:.2e} {:.2e}",
+            worst.0, worst.1
+        );
     }
 
     #[test]
