@@ -98,20 +98,11 @@ pub enum Geometry {
         normals: Option<Vec<Vec3>>,
         indices: Vec<[u32; 3]>,
     },
-    Sphere {
-        center: Vec3,
-        radius: f32,
-    },
+    Sphere { center: Vec3, radius: f32 },
     /// Unit disk in the local xy-plane (normal +z), placed by `to_world`.
-    Disk {
-        to_world: Mat4,
-    },
+    Disk { to_world: Mat4 },
     /// A cylinder *without* an emitter: an ordinary finite-radius occluder/reflector (no caps).
-    Cylinder {
-        p0: Vec3,
-        p1: Vec3,
-        radius: f32,
-    },
+    Cylinder { p0: Vec3, p1: Vec3, radius: f32 },
 }
 
 #[derive(Clone, Debug)]

@@ -13,9 +13,7 @@ pub struct Baseline {
 impl Baseline {
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
         unit_normal(n)?;
-        Some(Self {
-            frame: LineFrame::new(segment, x)?,
-        })
+        Some(Self { frame: LineFrame::new(segment, x)? })
     }
 }
 

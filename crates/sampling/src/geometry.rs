@@ -222,8 +222,7 @@ impl LineFrame {
     #[inline]
     pub fn projected_solid_angle(&self, n: Vec3) -> f32 {
         let (ns, nt) = self.normal_coefficients(n);
-        (projected_antiderivative(ns, nt, self.s_end)
-            - projected_antiderivative(ns, nt, self.s_begin))
+        (projected_antiderivative(ns, nt, self.s_end) - projected_antiderivative(ns, nt, self.s_begin))
             / self.d
     }
 }
@@ -271,10 +270,7 @@ mod tests {
         let f = sanity_frame();
         assert!((f.solid_angle() - 2.0 * 2f32.sqrt()).abs() < 1e-6);
         let psa = f.projected_solid_angle(Vec3::Z);
-        assert!(
-            (psa - (1.0 + std::f32::consts::FRAC_PI_2)).abs() < 1e-6,
-            "{psa}"
-        );
+        assert!((psa - (1.0 + std::f32::consts::FRAC_PI_2)).abs() < 1e-6, "{psa}");
     }
 
     #[test]
@@ -296,9 +292,7 @@ mod tests {
         assert!((c.point(c.l_begin) - Vec3::new(1.0, 0.0, 0.0)).length() < 1e-6);
         assert_eq!(c.l_end, f.l_end);
         // Entirely below.
-        assert!(f
-            .clip_to_horizon(Vec3::new(0.0, 0.0, 1.0).normalize() * 1.0)
-            .is_some());
+        assert!(f.clip_to_horizon(Vec3::new(0.0, 0.0, 1.0).normalize() * 1.0).is_some());
         let below = Segment::new(Vec3::new(1.0, 0.0, -2.0), Vec3::new(1.0, 0.0, -1.0));
         let fb = LineFrame::new(&below, Vec3::ZERO).unwrap();
         assert!(fb.clip_to_horizon(Vec3::Z).is_none());
@@ -330,10 +324,7 @@ mod tests {
     fn projected_solid_angle_matches_quadrature() {
         let seg = Segment::new(Vec3::new(-0.3, 0.5, 0.4), Vec3::new(1.2, -0.2, 1.1));
         let n = Vec3::new(0.2, 0.1, 1.0).normalize();
-        let f = LineFrame::new(&seg, Vec3::ZERO)
-            .unwrap()
-            .clip_to_horizon(n)
-            .unwrap();
+        let f = LineFrame::new(&seg, Vec3::ZERO).unwrap().clip_to_horizon(n).unwrap();
         // Midpoint rule in s on (n·ω)(2/d).
         let m = 200_000;
         let mut sum = 0.0f64;

@@ -12,10 +12,7 @@ const MULT: u64 = 6364136223846793005;
 impl Pcg32 {
     /// Generator for (seed, stream): distinct streams are independent sequences.
     pub fn new(seed: u64, stream: u64) -> Self {
-        let mut r = Self {
-            state: 0,
-            inc: (stream << 1) | 1,
-        };
+        let mut r = Self { state: 0, inc: (stream << 1) | 1 };
         r.next_u32();
         r.state = r.state.wrapping_add(seed);
         r.next_u32();

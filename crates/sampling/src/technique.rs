@@ -66,10 +66,7 @@ impl Technique {
     /// Whether the support of the technique is clipped to the horizon (unclipped techniques put
     /// samples below the horizon, which contribute zero).
     pub fn clips_to_horizon(self) -> bool {
-        !matches!(
-            self,
-            Technique::Baseline | Technique::Area | Technique::SolidAngle
-        )
+        !matches!(self, Technique::Baseline | Technique::Area | Technique::SolidAngle)
     }
 
     /// Prepare the technique for one light at shading point `x` with normal `n` (normalised
@@ -105,10 +102,7 @@ impl std::str::FromStr for Technique {
     fn from_str(s: &str) -> Result<Self, String> {
         Self::from_name(s).ok_or_else(|| {
             let names: Vec<_> = Self::ALL.iter().map(|t| t.name()).collect();
-            format!(
-                "unknown technique '{s}' (expected one of: {})",
-                names.join(", ")
-            )
+            format!("unknown technique '{s}' (expected one of: {})", names.join(", "))
         })
     }
 }
