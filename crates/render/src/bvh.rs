@@ -1,7 +1,7 @@
 //! Bounding volume hierarchy over all primitives: binned surface-area heuristic, flattened
 //! depth-first (left child follows its parent), closest-hit and any-hit traversal.
 
-use crate::shapes::{Aabb, Hit, Primitive, Ray};
+use crate::shapes::{intersect_triangle_edges, Aabb, Hit, Primitive, Ray};
 use glam::Vec3;
 
 const BINS: usize = 16;
@@ -12,8 +12,9 @@ const TRAVERSAL_COST: f32 = 1.0;
 /// count: the tree depth stays ≤ SAH_DEPTH + log2(n) ≤ 64, the traversal stack size.
 const SAH_DEPTH: u32 = 30;
 
+/// Build-time node: bounds, and either a primitive range (leaf) or the right child (interior).
 #[derive(Clone, Copy, Debug)]
-struct Node {
+struct BuildNode {
     bounds: Aabb,
     /// Leaf: first primitive. Interior: index of the right child (the left one is next).
     offset: u32,
@@ -23,10 +24,67 @@ struct Node {
     axis: u8,
 }
 
+/// Traversal node, 32 bytes (two per cache line): `b[0]` = (min, offset), `b[1]` = (max, meta)
+/// with the integers stored as f32 bit patterns, so that the near and far planes of an axis are
+/// `b[s][axis]` and `b[1 − s][axis]` for the ray's direction sign s on that axis.
+/// meta = count << 2 | axis (count 0 for interior nodes).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+struct Node {
+    b: [[f32; 4]; 2],
+}
+
+impl Node {
+    fn new(n: &BuildNode) -> Self {
+        let meta = (n.count << 2) | n.axis as u32;
+        Node {
+            b: [
+                [
+                    n.bounds.min.x,
+                    n.bounds.min.y,
+                    n.bounds.min.z,
+                    f32::from_bits(n.offset),
+                ],
+                [
+                    n.bounds.max.x,
+                    n.bounds.max.y,
+                    n.bounds.max.z,
+                    f32::from_bits(meta),
+                ],
+            ],
+        }
+    }
+
+    #[inline(always)]
+    fn offset(&self) -> u32 {
+        self.b[0][3].to_bits()
+    }
+
+    #[inline(always)]
+    fn count(&self) -> u32 {
+        self.b[1][3].to_bits() >> 2
+    }
+
+    #[inline(always)]
+    fn axis(&self) -> usize {
+        (self.b[1][3].to_bits() & 3) as usize
+    }
+}
+
+/// What traversal needs to intersect a primitive: triangles with their edges precomputed (same
+/// arithmetic as [`Primitive::intersect`], so the same results bit for bit), everything else
+/// through the primitive itself.
+#[derive(Clone, Copy, Debug)]
+enum Isect {
+    Triangle { v0: Vec3, e1: Vec3, e2: Vec3 },
+    Other,
+}
+
 /// Primitives and the tree over them (primitives are reordered at build time).
 #[derive(Clone, Debug)]
 pub struct Bvh {
     prims: Vec<Primitive>,
+    isect: Vec<Isect>,
     nodes: Vec<Node>,
 }
 
@@ -34,6 +92,50 @@ struct BuildItem {
     bounds: Aabb,
     centroid: Vec3,
     index: u32,
+}
+
+/// 1 + 2γ₃ with γₙ = nε/(1 − nε), ε = 2⁻²⁴: scaling the far slab distance by it makes the
+/// rounded box test conservative (PBRT's robust ray–box test), so no hit inside a box is lost.
+const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// Per-ray constants of the box test.
+struct RayBoxes {
+    o: [f32; 3],
+    inv: [f32; 3],
+    /// 1 where the direction component is negative (its near plane is the box's max).
+    sign: [usize; 3],
+}
+
+impl RayBoxes {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        let inv = ray.d.recip();
+        Self {
+            o: ray.o.to_array(),
+            inv: inv.to_array(),
+            sign: [
+                inv.x.is_sign_negative() as usize,
+                inv.y.is_sign_negative() as usize,
+                inv.z.is_sign_negative() as usize,
+            ],
+        }
+    }
+
+    /// Whether the ray's (t_min, t_max) meets the box. A NaN slab distance (0·∞: origin on a
+    /// slab plane of a parallel ray) leaves the interval unchanged, which is conservative.
+    #[inline(always)]
+    fn hits(&self, node: &Node, t_min: f32, t_max: f32) -> bool {
+        let mut t0 = t_min;
+        let mut t1 = t_max;
+        for a in 0..3 {
+            let s = self.sign[a] & 1;
+            let near = (node.b[s][a] - self.o[a]) * self.inv[a];
+            let far = (node.b[s ^ 1][a] - self.o[a]) * self.inv[a] * FAR_SCALE;
+            t0 = if near > t0 { near } else { t0 };
+            t1 = if far < t1 { far } else { t1 };
+        }
+        t0 <= t1
+    }
 }
 
 impl Bvh {
@@ -56,13 +158,25 @@ impl Bvh {
             let n = items.len();
             build_node(&mut items, 0, n, 0, &mut nodes);
         }
-        let ordered = items
+        let ordered: Vec<Primitive> = items
             .iter()
             .map(|it| prims[it.index as usize].clone())
             .collect();
+        let isect = ordered
+            .iter()
+            .map(|p| match *p {
+                Primitive::Triangle { v, .. } => Isect::Triangle {
+                    v0: v[0],
+                    e1: v[1] - v[0],
+                    e2: v[2] - v[0],
+                },
+                _ => Isect::Other,
+            })
+            .collect();
         Self {
             prims: ordered,
-            nodes,
+            isect,
+            nodes: nodes.iter().map(Node::new).collect(),
         }
     }
 
@@ -78,19 +192,23 @@ impl Bvh {
         self.prims.is_empty()
     }
 
+    /// Intersection of primitive `i` (in BVH order) with `ray`, as [`Primitive::intersect`].
+    #[inline(always)]
+    fn intersect_prim(&self, i: usize, ray: &Ray) -> Option<(f32, f32, f32)> {
+        match self.isect[i] {
+            Isect::Triangle { v0, e1, e2 } => intersect_triangle_edges(ray, v0, e1, e2),
+            Isect::Other => self.prims[i].intersect(ray),
+        }
+    }
+
     /// Closest hit in (t_min, t_max).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut ray = *ray;
         let mut best: Option<Hit> = None;
-        self.traverse(&mut ray, |prim_index, prim, ray| {
-            if let Some((t, b1, b2)) = prim.intersect(ray) {
+        self.traverse(&mut ray, |bvh, i, ray| {
+            if let Some((t, b1, b2)) = bvh.intersect_prim(i as usize, ray) {
                 ray.t_max = t;
-                best = Some(Hit {
-                    t,
-                    prim: prim_index,
-                    b1,
-                    b2,
-                });
+                best = Some(Hit { t, prim: i, b1, b2 });
             }
             false
         });
@@ -101,38 +219,40 @@ impl Bvh {
     pub fn occluded(&self, ray: &Ray) -> bool {
         let mut ray = *ray;
         let mut hit = false;
-        self.traverse(&mut ray, |_, prim, ray| {
-            hit = prim.intersect(ray).is_some();
+        self.traverse(&mut ray, |bvh, i, ray| {
+            hit = bvh.intersect_prim(i as usize, ray).is_some();
             hit
         });
         hit
     }
 
-    /// Visit leaves front to back; `visit` returns true to stop.
+    /// Visit leaves front to back (children ordered by the sign of the ray direction on the
+    /// split axis); `visit` returns true to stop.
     #[inline(always)]
-    fn traverse(&self, ray: &mut Ray, mut visit: impl FnMut(u32, &Primitive, &mut Ray) -> bool) {
+    fn traverse(&self, ray: &mut Ray, mut visit: impl FnMut(&Self, u32, &mut Ray) -> bool) {
         if self.nodes.is_empty() {
             return;
         }
-        let inv = ray.d.recip();
-        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
+        let rb = RayBoxes::new(ray);
         let mut stack = [0u32; 64];
         let mut sp = 0usize;
         let mut current = 0u32;
         loop {
             let node = &self.nodes[current as usize];
-            if slab(&node.bounds, ray, inv) {
-                if node.count > 0 {
-                    for i in node.offset..node.offset + node.count {
-                        if visit(i, &self.prims[i as usize], ray) {
+            if rb.hits(node, ray.t_min, ray.t_max) {
+                let count = node.count();
+                let offset = node.offset();
+                if count > 0 {
+                    for i in offset..offset + count {
+                        if visit(self, i, ray) {
                             return;
                         }
                     }
                 } else {
-                    let (near, far) = if neg[node.axis as usize] {
-                        (node.offset, current + 1)
+                    let (near, far) = if rb.sign[node.axis()] == 1 {
+                        (offset, current + 1)
                     } else {
-                        (current + 1, node.offset)
+                        (current + 1, offset)
                     };
                     if sp < stack.len() {
                         stack[sp] = far;
@@ -152,22 +272,12 @@ impl Bvh {
     }
 }
 
-#[inline]
-fn slab(b: &Aabb, ray: &Ray, inv: Vec3) -> bool {
-    let t0 = (b.min - ray.o) * inv;
-    let t1 = (b.max - ray.o) * inv;
-    // min/max ignore NaN (0·∞ on a slab plane), which keeps such rays conservative.
-    let tmin = t0.min(t1).max_element().max(ray.t_min);
-    let tmax = t0.max(t1).min_element().min(ray.t_max);
-    tmin <= tmax
-}
-
 fn build_node(
     items: &mut [BuildItem],
     start: usize,
     end: usize,
     depth: u32,
-    nodes: &mut Vec<Node>,
+    nodes: &mut Vec<BuildNode>,
 ) -> u32 {
     let index = nodes.len() as u32;
     let mut bounds = Aabb::EMPTY;
@@ -176,7 +286,7 @@ fn build_node(
         bounds = bounds.union(&it.bounds);
         cbounds.grow(it.centroid);
     }
-    nodes.push(Node {
+    nodes.push(BuildNode {
         bounds,
         offset: start as u32,
         count: (end - start) as u32,
