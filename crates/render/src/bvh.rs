@@ -24,51 +24,73 @@ struct BuildNode {
     axis: u8,
 }
 
-/// Traversal node, 32 bytes (two per cache line): `b[0]` = (min, offset), `b[1]` = (max, meta)
-/// with the integers stored as f32 bit patterns, so that the near and far planes of an axis are
-/// `b[s][axis]` and `b[1 − s][axis]` for the ray's direction sign s on that axis.
-/// meta = count << 2 | axis (count 0 for interior nodes).
+/// Traversal node of the 4-wide tree the binary build is collapsed into: the boxes of up to
+/// four children side by side, `b[0]` = lower and `b[1]` = upper corners as `[axis][lane]`, so
+/// one ray is tested against four boxes with lane-parallel arithmetic. The near and far planes
+/// of an axis are `b[s][axis]` and `b[1 − s][axis]` for the ray's direction sign s on that axis.
+/// Empty slots have lower = +∞, upper = −∞ and never pass the test.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 struct Node {
-    b: [[f32; 4]; 2],
+    b: [[[f32; WIDTH]; 3]; 2],
+    /// Interior child: its node index. Leaf child: its first primitive.
+    child: [u32; WIDTH],
+    /// Leaf child: number of primitives (≥ 1). Interior child or empty slot: 0.
+    count: [u32; WIDTH],
 }
 
+const WIDTH: usize = 4;
+
 impl Node {
-    fn new(n: &BuildNode) -> Self {
-        let meta = (n.count << 2) | n.axis as u32;
-        Node {
-            b: [
-                [
-                    n.bounds.min.x,
-                    n.bounds.min.y,
-                    n.bounds.min.z,
-                    f32::from_bits(n.offset),
-                ],
-                [
-                    n.bounds.max.x,
-                    n.bounds.max.y,
-                    n.bounds.max.z,
-                    f32::from_bits(meta),
-                ],
-            ],
+    const EMPTY: Node = Node {
+        b: [[[f32::INFINITY; WIDTH]; 3], [[f32::NEG_INFINITY; WIDTH]; 3]],
+        child: [u32::MAX; WIDTH],
+        count: [0; WIDTH],
+    };
+}
+
+/// Collapse the binary subtree at `root` into 4-wide nodes appended to `out`; returns the index
+/// of its node. Children are opened largest surface area first until four slots are used.
+fn collapse(bin: &[BuildNode], root: u32, out: &mut Vec<Node>) -> u32 {
+    let index = out.len() as u32;
+    out.push(Node::EMPTY);
+    let r = &bin[root as usize];
+    let mut kids: Vec<u32> = if r.count > 0 {
+        vec![root]
+    } else {
+        vec![root + 1, r.offset]
+    };
+    while kids.len() < WIDTH {
+        let open = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| bin[k as usize].count == 0)
+            .max_by(|a, b| {
+                let area = |k: u32| bin[k as usize].bounds.half_area();
+                area(*a.1).total_cmp(&area(*b.1))
+            })
+            .map(|(i, _)| i);
+        let Some(i) = open else { break };
+        let k = kids.swap_remove(i);
+        kids.push(k + 1);
+        kids.push(bin[k as usize].offset);
+    }
+    for (lane, &k) in kids.iter().enumerate() {
+        let n = &bin[k as usize];
+        let (child, count) = if n.count > 0 {
+            (n.offset, n.count)
+        } else {
+            (collapse(bin, k, out), 0)
+        };
+        let node = &mut out[index as usize];
+        for a in 0..3 {
+            node.b[0][a][lane] = n.bounds.min[a];
+            node.b[1][a][lane] = n.bounds.max[a];
         }
+        node.child[lane] = child;
+        node.count[lane] = count;
     }
-
-    #[inline(always)]
-    fn offset(&self) -> u32 {
-        self.b[0][3].to_bits()
-    }
-
-    #[inline(always)]
-    fn count(&self) -> u32 {
-        self.b[1][3].to_bits() >> 2
-    }
-
-    #[inline(always)]
-    fn axis(&self) -> usize {
-        (self.b[1][3].to_bits() & 3) as usize
-    }
+    index
 }
 
 /// What traversal needs to intersect a primitive: triangles with their edges precomputed (same
@@ -121,22 +143,37 @@ impl RayBoxes {
         }
     }
 
-    /// Whether the ray's (t_min, t_max) meets the box. A NaN slab distance (0·∞: origin on a
-    /// slab plane of a parallel ray) leaves the interval unchanged, which is conservative.
+    /// Entry distances into the four child boxes and which of them the ray's (t_min, t_max)
+    /// meets. A NaN slab distance (0·∞: origin on a slab plane of a parallel ray) leaves the
+    /// interval unchanged, which is conservative.
     #[inline(always)]
-    fn hits(&self, node: &Node, t_min: f32, t_max: f32) -> bool {
-        let mut t0 = t_min;
-        let mut t1 = t_max;
+    fn hits(&self, node: &Node, t_min: f32, t_max: f32) -> ([f32; WIDTH], [bool; WIDTH]) {
+        let mut t0 = [t_min; WIDTH];
+        let mut t1 = [t_max; WIDTH];
         for a in 0..3 {
             let s = self.sign[a] & 1;
-            let near = (node.b[s][a] - self.o[a]) * self.inv[a];
-            let far = (node.b[s ^ 1][a] - self.o[a]) * self.inv[a] * FAR_SCALE;
-            t0 = if near > t0 { near } else { t0 };
-            t1 = if far < t1 { far } else { t1 };
+            let (o, inv) = (self.o[a], self.inv[a]);
+            let (nb, fb) = (&node.b[s][a], &node.b[s ^ 1][a]);
+            for i in 0..WIDTH {
+                let near = (nb[i] - o) * inv;
+                let far = (fb[i] - o) * inv * FAR_SCALE;
+                t0[i] = if near > t0[i] { near } else { t0[i] };
+                t1[i] = if far < t1[i] { far } else { t1[i] };
+            }
         }
-        t0 <= t1
+        let mut hit = [false; WIDTH];
+        for i in 0..WIDTH {
+            hit[i] = t0[i] <= t1[i];
+        }
+        (t0, hit)
     }
 }
+
+/// A pending subtree: (child, count, entry distance) as in [`Node`].
+type Entry = (u32, u32, f32);
+/// Traversal stack held on the call stack; deeper trees spill into a Vec (never in practice:
+/// a 4-wide level pushes at most 4 entries and pops 1).
+const STACK: usize = 32;
 
 impl Bvh {
     pub fn build(prims: Vec<Primitive>) -> Self {
@@ -153,10 +190,12 @@ impl Bvh {
                 })
             })
             .collect();
-        let mut nodes = Vec::with_capacity(2 * items.len().max(1));
+        let mut bin = Vec::with_capacity(2 * items.len().max(1));
+        let mut nodes = Vec::new();
         if !items.is_empty() {
             let n = items.len();
-            build_node(&mut items, 0, n, 0, &mut nodes);
+            build_node(&mut items, 0, n, 0, &mut bin);
+            collapse(&bin, 0, &mut nodes);
         }
         let ordered: Vec<Primitive> = items
             .iter()
@@ -176,7 +215,7 @@ impl Bvh {
         Self {
             prims: ordered,
             isect,
-            nodes: nodes.iter().map(Node::new).collect(),
+            nodes,
         }
     }
 
@@ -226,48 +265,63 @@ impl Bvh {
         hit
     }
 
-    /// Visit leaves front to back (children ordered by the sign of the ray direction on the
-    /// split axis); `visit` returns true to stop.
+    /// Visit leaves front to back (nearest box entry first, subtrees entered beyond the
+    /// current t_max skipped); `visit` returns true to stop.
     #[inline(always)]
     fn traverse(&self, ray: &mut Ray, mut visit: impl FnMut(&Self, u32, &mut Ray) -> bool) {
         if self.nodes.is_empty() {
             return;
         }
         let rb = RayBoxes::new(ray);
-        let mut stack = [0u32; 64];
-        let mut sp = 0usize;
-        let mut current = 0u32;
+        let mut stack: [Entry; STACK] = [(0, 0, 0.0); STACK];
+        let mut spill: Vec<Entry> = Vec::new();
+        stack[0] = (0, 0, ray.t_min);
+        let mut sp = 1usize;
         loop {
-            let node = &self.nodes[current as usize];
-            if rb.hits(node, ray.t_min, ray.t_max) {
-                let count = node.count();
-                let offset = node.offset();
-                if count > 0 {
-                    for i in offset..offset + count {
-                        if visit(self, i, ray) {
-                            return;
-                        }
+            let (child, count, t_enter) = if let Some(e) = spill.pop() {
+                e
+            } else if sp > 0 {
+                sp -= 1;
+                stack[sp]
+            } else {
+                return;
+            };
+            if t_enter > ray.t_max {
+                continue;
+            }
+            if count > 0 {
+                for i in child..child + count {
+                    if visit(self, i, ray) {
+                        return;
                     }
-                } else {
-                    let (near, far) = if rb.sign[node.axis()] == 1 {
-                        (offset, current + 1)
-                    } else {
-                        (current + 1, offset)
-                    };
-                    if sp < stack.len() {
-                        stack[sp] = far;
-                        sp += 1;
-                        current = near;
-                        continue;
+                }
+                continue;
+            }
+            let node = &self.nodes[child as usize];
+            let (t0, hit) = rb.hits(node, ray.t_min, ray.t_max);
+            // Hit lanes sorted by entry distance, farthest first, so the nearest is popped next.
+            let mut order = [0usize; WIDTH];
+            let mut n = 0;
+            for lane in 0..WIDTH {
+                if hit[lane] {
+                    let mut j = n;
+                    while j > 0 && t0[order[j - 1]] < t0[lane] {
+                        order[j] = order[j - 1];
+                        j -= 1;
                     }
-                    // Unreachable for trees of depth < 64 (the builder stops far earlier).
+                    order[j] = lane;
+                    n += 1;
                 }
             }
-            if sp == 0 {
-                return;
+            for &lane in &order[..n] {
+                let e = (node.child[lane], node.count[lane], t0[lane]);
+                if sp < STACK && spill.is_empty() {
+                    stack[sp] = e;
+                    sp += 1;
+                } else {
+                    spill.push(e);
+                }
             }
-            sp -= 1;
-            current = stack[sp];
         }
     }
 }
