@@ -171,9 +171,10 @@ impl RayBoxes {
 
 /// A pending subtree: (child, count, entry distance) as in [`Node`].
 type Entry = (u32, u32, f32);
-/// Traversal stack held on the call stack; deeper trees spill into a Vec (never in practice:
-/// a 4-wide level pushes at most 4 entries and pops 1).
-const STACK: usize = 32;
+/// Entries of the traversal stack held on the call stack (zeroing it is a per-ray cost, so it
+/// is small); more pending subtrees spill into a Vec, which stays exact, only slower. A 4-wide
+/// level adds at most 3 entries net, so spilling needs a deep tree and an unlucky ray.
+const STACK: usize = 16;
 
 impl Bvh {
     pub fn build(prims: Vec<Primitive>) -> Self {
@@ -242,9 +243,20 @@ impl Bvh {
 
     /// Closest hit in (t_min, t_max).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.intersect_with::<STACK>(ray)
+    }
+
+    /// Whether anything lies in (t_min, t_max).
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_with::<STACK>(ray)
+    }
+
+    /// [`Self::intersect`] with an N-entry stack (tests force spilling with N = 1).
+    #[inline(always)]
+    fn intersect_with<const N: usize>(&self, ray: &Ray) -> Option<Hit> {
         let mut ray = *ray;
         let mut best: Option<Hit> = None;
-        self.traverse(&mut ray, |bvh, i, ray| {
+        self.traverse::<N>(&mut ray, |bvh, i, ray| {
             if let Some((t, b1, b2)) = bvh.intersect_prim(i as usize, ray) {
                 ray.t_max = t;
                 best = Some(Hit { t, prim: i, b1, b2 });
@@ -254,11 +266,11 @@ impl Bvh {
         best
     }
 
-    /// Whether anything lies in (t_min, t_max).
-    pub fn occluded(&self, ray: &Ray) -> bool {
+    #[inline(always)]
+    fn occluded_with<const N: usize>(&self, ray: &Ray) -> bool {
         let mut ray = *ray;
         let mut hit = false;
-        self.traverse(&mut ray, |bvh, i, ray| {
+        self.traverse::<N>(&mut ray, |bvh, i, ray| {
             hit = bvh.intersect_prim(i as usize, ray).is_some();
             hit
         });
@@ -268,14 +280,18 @@ impl Bvh {
     /// Visit leaves front to back (nearest box entry first, subtrees entered beyond the
     /// current t_max skipped); `visit` returns true to stop.
     #[inline(always)]
-    fn traverse(&self, ray: &mut Ray, mut visit: impl FnMut(&Self, u32, &mut Ray) -> bool) {
+    fn traverse<const N: usize>(
+        &self,
+        ray: &mut Ray,
+        mut visit: impl FnMut(&Self, u32, &mut Ray) -> bool,
+    ) {
         if self.nodes.is_empty() {
             return;
         }
         let rb = RayBoxes::new(ray);
-        let mut stack: [Entry; STACK] = [(0, 0, 0.0); STACK];
+        let mut stack: [Entry; N] = [(0, 0, 0.0); N];
         let mut spill: Vec<Entry> = Vec::new();
-        stack[0] = (0, 0, ray.t_min);
+        stack[0] = (0, 0, ray.t_min); // N ≥ 1
         let mut sp = 1usize;
         loop {
             let (child, count, t_enter) = if let Some(e) = spill.pop() {
@@ -315,7 +331,7 @@ impl Bvh {
             }
             for &lane in &order[..n] {
                 let e = (node.child[lane], node.count[lane], t0[lane]);
-                if sp < STACK && spill.is_empty() {
+                if sp < N && spill.is_empty() {
                     stack[sp] = e;
                     sp += 1;
                 } else {
@@ -513,9 +529,37 @@ mod tests {
                 .map(|h| (h.t, bvh.primitive(h.prim).shape()));
             assert_eq!(brute, fast);
             assert_eq!(brute.is_some(), bvh.occluded(&ray));
+            // A one-entry stack spills on almost every node: same answers.
+            let spilled = bvh
+                .intersect_with::<1>(&ray)
+                .map(|h| (h.t, bvh.primitive(h.prim).shape()));
+            assert_eq!(brute, spilled);
+            assert_eq!(brute.is_some(), bvh.occluded_with::<1>(&ray));
             hits += brute.is_some() as usize;
         }
         assert!(hits > 200, "too few hits to test anything: {hits}");
+    }
+
+    /// Trees whose root is a leaf, or that are empty, collapse and traverse like any other.
+    #[test]
+    fn single_primitive_and_empty() {
+        let tri = Primitive::Triangle {
+            v: [Vec3::ZERO, Vec3::X, Vec3::Y],
+            n: None,
+            shape: 0,
+        };
+        let bvh = Bvh::build(vec![tri]);
+        let ray = |x: f32| Ray {
+            o: Vec3::new(x, 0.25, 1.0),
+            d: Vec3::NEG_Z,
+            t_min: 0.0,
+            t_max: 2.0,
+        };
+        assert_eq!(bvh.intersect(&ray(0.25)).map(|h| h.t), Some(1.0));
+        assert!(bvh.occluded(&ray(0.25)));
+        assert!(bvh.intersect(&ray(0.9)).is_none() && !bvh.occluded(&ray(0.9)));
+        let empty = Bvh::build(Vec::new());
+        assert!(empty.intersect(&ray(0.25)).is_none() && !empty.occluded(&ray(0.25)));
     }
 
     /// Geometrically spaced and coincident primitives: bounded depth, still exact.
