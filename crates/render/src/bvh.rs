@@ -291,10 +291,13 @@ impl Bvh {
         let rb = RayBoxes::new(ray);
         let mut stack: [Entry; N] = [(0, 0, 0.0); N];
         let mut spill: Vec<Entry> = Vec::new();
-        stack[0] = (0, 0, ray.t_min); // N ≥ 1
-        let mut sp = 1usize;
+        let mut sp = 0usize;
+        // The nearest child of the last node, entered without a trip through the stack.
+        let mut next: Option<Entry> = Some((0, 0, ray.t_min));
         loop {
-            let (child, count, t_enter) = if let Some(e) = spill.pop() {
+            let (child, count, t_enter) = if let Some(e) = next.take() {
+                e
+            } else if let Some(e) = spill.pop() {
                 e
             } else if sp > 0 {
                 sp -= 1;
@@ -315,7 +318,8 @@ impl Bvh {
             }
             let node = &self.nodes[child as usize];
             let (t0, hit) = rb.hits(node, ray.t_min, ray.t_max);
-            // Hit lanes sorted by entry distance, farthest first, so the nearest is popped next.
+            // Hit lanes sorted by entry distance, farthest first: the nearest is entered next,
+            // the others are pushed so that the nearer ones are popped first.
             let mut order = [0usize; WIDTH];
             let mut n = 0;
             for lane in 0..WIDTH {
@@ -329,8 +333,13 @@ impl Bvh {
                     n += 1;
                 }
             }
-            for &lane in &order[..n] {
-                let e = (node.child[lane], node.count[lane], t0[lane]);
+            if n == 0 {
+                continue;
+            }
+            let entry = |lane: usize| (node.child[lane], node.count[lane], t0[lane]);
+            next = Some(entry(order[n - 1]));
+            for &lane in &order[..n - 1] {
+                let e = entry(lane);
                 if sp < N && spill.is_empty() {
                     stack[sp] = e;
                     sp += 1;
