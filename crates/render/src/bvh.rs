@@ -1,5 +1,7 @@
-//! Bounding volume hierarchy over all primitives: binned surface-area heuristic, flattened
-//! depth-first (left child follows its parent), closest-hit and any-hit traversal.
+//! Bounding volume hierarchy over all primitives: a binary tree built with the binned
+//! surface-area heuristic, collapsed into 4-wide nodes (one ray against four boxes per step),
+//! closest-hit and any-hit traversal. Exact: the box test is conservative, so the closest hit
+//! is the one a brute-force loop over all primitives finds (tests check this).
 
 use crate::shapes::{intersect_triangle_edges, Aabb, Hit, Primitive, Ray};
 use glam::Vec3;
@@ -9,7 +11,7 @@ const MAX_LEAF: usize = 4;
 /// Cost of one traversal step relative to one primitive test.
 const TRAVERSAL_COST: f32 = 1.0;
 /// Below this depth the builder stops using SAH and splits at the median, which halves the
-/// count: the tree depth stays ≤ SAH_DEPTH + log2(n) ≤ 64, the traversal stack size.
+/// count: the tree depth stays ≤ SAH_DEPTH + log2(n) ≤ 64 (the recursion depth of the build).
 const SAH_DEPTH: u32 = 30;
 
 /// Build-time node: bounds, and either a primitive range (leaf) or the right child (interior).
