@@ -101,11 +101,13 @@ fn render_matches_the_closed_form_and_the_controls_fail() {
         );
         assert!(rel_se < 5e-4, "budget too small: {rel_se}");
     }
+    eprintln!("render vs closed form: {}", summary(&c));
     assert_eq!(c.verdict, Verdict::Consistent, "{}", summary(&c));
     assert_eq!(c.zero_variance.count, 0, "the floor fills the view");
 
     // (a) The same render scaled by 1.01 must fail.
     let c = cmp(&scaled(&f.rust, 1.01, whole), &f.exact);
+    eprintln!("render x1.01 vs closed form: {}", summary(&c));
     assert_eq!(c.verdict, Verdict::Different, "{}", summary(&c));
     assert!(c.failures.iter().any(|x| x.test == TestKind::GlobalMean));
 
@@ -113,6 +115,7 @@ fn render_matches_the_closed_form_and_the_controls_fail() {
     // and a tile test must be among the rejections, at the region.
     let region = (21, 37, 16, 16);
     let c = cmp(&scaled(&f.rust, 1.05, region), &f.exact);
+    eprintln!("5 % in {region:?} vs closed form: {}", summary(&c));
     assert_eq!(c.verdict, Verdict::Different, "{}", summary(&c));
     let tile = c
         .failures
@@ -140,6 +143,7 @@ fn renders_differing_only_in_seed_agree() {
         "different seeds must give different samples"
     );
     let c = cmp(&a, &b);
+    eprintln!("seed 1 vs seed 2: {}", summary(&c));
     assert_eq!(c.verdict, Verdict::Consistent, "{}", summary(&c));
 }
 
