@@ -31,8 +31,8 @@ ORDER_MIN_SIGNIFICANCE = 4.0
 
 def check_order(radii: Sequence[float], rel: Sequence[float], rel_se: Sequence[float]) -> tuple[bool, float, float, str]:
     """Fits rel.bias = c R^p by weighted least squares on ln(rel.bias) against ln R (weights from
-    the delta method, se(ln b) = se(b)/b) and checks p = 1, i.e. a 10x smaller bias per decade of
-    R: passes iff every bias is positive and resolved at ORDER_MIN_SIGNIFICANCE standard errors,
+    the delta method, se(ln b) = se(b)/b; se(p) widened by the Birge ratio sqrt(chi2/dof) when
+    that exceeds 1) and checks p = 1, i.e. a 10x smaller bias per decade of R: passes iff every bias is positive and resolved at ORDER_MIN_SIGNIFICANCE standard errors,
     se(p) <= ORDER_MAX_SE, and |p - 1| <= ORDER_Z se(p). Returns (ok, p, se(p), explanation)."""
     x = np.log(np.asarray(radii, dtype=np.float64))
     b = np.asarray(rel, dtype=np.float64)
@@ -45,7 +45,15 @@ def check_order(radii: Sequence[float], rel: Sequence[float], rel_se: Sequence[f
                 f"bias at R = {r:g} not resolved: {bi:.3e} +- {si:.2e} "
                 f"(need > {ORDER_MIN_SIGNIFICANCE:g} standard errors; raise spp)"
             )
-    _, p, _, p_se = weighted_line(x, np.log(b), s / b)
+    y, sy = np.log(b), s / b
+    a0, p, _, p_se = weighted_line(x, y, sy)
+    # Birge ratio: with more radii than parameters, a chi-square above its dof says the pass
+    # spread understated the errors (Mitsuba's per-pass means are heavy-tailed at large R);
+    # widen se(p) accordingly, never narrow it.
+    dof = len(x) - 2
+    if dof > 0:
+        chi2 = float((((y - a0 - p * x) / sy) ** 2).sum())
+        p_se *= float(np.sqrt(max(1.0, chi2 / dof)))
     if p_se > ORDER_MAX_SE:
         return False, p, p_se, f"order p = {p:.3f} +- {p_se:.3f}: too uncertain (need se <= {ORDER_MAX_SE})"
     ok = abs(p - 1.0) <= ORDER_Z * p_se

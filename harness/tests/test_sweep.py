@@ -31,6 +31,17 @@ class OrderCheck(unittest.TestCase):
         self.assertTrue(ok, why)
         self.assertLess(abs(p - 1.0), 0.1)
 
+    def test_scatter_beyond_the_errors_widens_the_tolerance(self):
+        # First order on average, but the points scatter by 3x their stated errors: the Birge
+        # ratio must widen se(p) by about that factor.
+        radii = [0.3, 0.1, 0.03]
+        b = [0.045 * r for r in radii]
+        s = [x * 0.02 for x in b]
+        noisy = [b[0] * (1 + 0.06), b[1] * (1 - 0.06), b[2] * (1 + 0.06)]
+        _, _, se_exact, _ = sweep.check_order(radii, b, s)
+        _, _, se_noisy, _ = sweep.check_order(radii, noisy, s)
+        self.assertGreater(se_noisy, 2.0 * se_exact)
+
     def test_wrong_orders_fail(self):
         for p in (0.5, 0.7, 1.4, 2.0):
             ok, fitted, _, why = sweep.check_order(RADII, *biases(0.045, p, 0.05))
