@@ -45,10 +45,15 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("scene", type=Path)
     s.add_argument("--radii", default="1e-1,1e-2,1e-3,1e-4")
     s.add_argument("--passes", type=int, default=16)
-    s.add_argument("--spp", type=int, default=64)
+    s.add_argument("--spp", default="64", help="samples per pixel per pass: one value, or one per radius")
     s.add_argument("--variant")
     s.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
     s.add_argument("--limit-subsamples", type=int, default=16, help="N x N midpoint samples per pixel")
+    s.add_argument(
+        "--check-order",
+        action="store_true",
+        help="exit 1 unless the relative bias is first order in R (fit bias ~ R^p, p = 1 within 3.29 se)",
+    )
 
     v = sub.add_parser("preview", help="tone-mapped sRGB PNG of an image file's mean")
     v.add_argument("image", type=Path)
@@ -83,7 +88,10 @@ def cmd_sweep(a: argparse.Namespace) -> int:
     from harness import sweep
 
     radii = [_positive_float(x) for x in a.radii.split(",") if x.strip()]
-    return sweep.run(a.scene, radii, a.passes, a.spp, a.variant, _defines(a.defines), a.limit_subsamples)
+    spp = [int(x) for x in a.spp.split(",") if x.strip()]
+    if len(spp) == 1:
+        spp = spp * len(radii)
+    return sweep.run(a.scene, radii, a.passes, spp, a.variant, _defines(a.defines), a.limit_subsamples, a.check_order)
 
 
 def cmd_preview(a: argparse.Namespace) -> int:

@@ -7,6 +7,7 @@
 pub mod build;
 pub mod bvh;
 pub mod camera;
+pub mod closed_form;
 pub mod film;
 pub mod integrator;
 pub mod render;
