@@ -49,14 +49,14 @@ fn cosine(frame: &LineFrame, n: Vec3, s: f32) -> f32 {
 /// Unit direction at clipped-solid-angle coordinate u ∈ [0, 1].
 #[inline]
 fn direction_of_u(frame: &LineFrame, arc: &FrameArc, u: f32) -> Vec3 {
-    arc.direction(frame, arc.tau_of_delta_s(u * arc.delta_s))
+    arc.direction(frame, arc.tau_of_delta_s(u as f64 * arc.delta_s))
 }
 
 /// u of a direction in the support (up to the arc's rounding tolerance), else `None`.
 #[inline]
 fn u_of_direction(frame: &LineFrame, arc: &FrameArc, dir: Vec3) -> Option<f32> {
     let tau = arc.tau_in_support(frame, dir)?;
-    Some((arc.delta_s_at(tau) / arc.delta_s).clamp(0.0, 1.0))
+    Some(((arc.delta_s_at(tau) / arc.delta_s) as f32).clamp(0.0, 1.0))
 }
 
 // ---------------------------------------------------------------------------------------------

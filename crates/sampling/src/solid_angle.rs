@@ -51,7 +51,9 @@ impl SolidAngle {
 
 impl LineSampler for SolidAngle {
     fn sample(&self, xi: f32) -> Vec3 {
-        let tau = self.arc.tau_of_delta_s(clamp_xi(xi) * self.arc.delta_s);
+        let tau = self
+            .arc
+            .tau_of_delta_s(clamp_xi(xi) as f64 * self.arc.delta_s);
         self.arc.direction(&self.frame, tau)
     }
 
@@ -69,7 +71,7 @@ impl LineSampler for SolidAngle {
 
     fn inverse(&self, dir: Vec3) -> Option<f32> {
         let tau = self.arc.tau_in_support(&self.frame, dir)?;
-        Some((self.arc.delta_s_at(tau) / self.arc.delta_s).clamp(0.0, 1.0))
+        Some(((self.arc.delta_s_at(tau) / self.arc.delta_s) as f32).clamp(0.0, 1.0))
     }
 
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
