@@ -837,12 +837,9 @@ mod tests {
         eprintln!("elapsed {:.2} s", r.elapsed_seconds);
     }
 
-    /// The certification itself (also `linlight samplers`). Ignored in the default test run
-    /// because it fails on main: f32 precision defects of the techniques found by this suite
-    /// (normalisation errors 1e-5…0.5 near |s| → 1 and for short intervals, Hart's
-    /// sample_with_pdf ≠ pdf); see the verify-chi2 report. Un-ignore when they are fixed.
+    /// The certification itself (also `linlight samplers`): every certified technique passes
+    /// every configuration.
     #[test]
-    #[ignore = "fails until the techniques' f32 precision defects are fixed (see report)"]
     fn every_certified_technique_passes() {
         let r = run_suite(&subjects::certified(), &[], &Settings::default());
         for t in &r.techniques {
