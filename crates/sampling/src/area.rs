@@ -207,6 +207,24 @@ mod tests {
         }
     }
 
+    /// ℓ/d = 1e4: s_end rounds to 1 in f32, but the density must still vanish beyond the end
+    /// (it used to stay at its maximum on the whole rest of the line: ∫p = 1.5).
+    #[test]
+    fn density_vanishes_beyond_the_end_where_s_end_rounds_to_one() {
+        let seg = Segment::new(Vec3::new(0.0, 0.0, 1.0), Vec3::new(1e4, 0.0, 1.0));
+        let a = Area::prepare(&seg, Vec3::ZERO, Vec3::Z).unwrap();
+        let f = *a.support();
+        assert_eq!(f.s_end, 1.0);
+        let (d, le) = (f.d as f64, f.l_end as f64);
+        for k in [1.1, 2.0, 100.0] {
+            let phi = (k * le).atan2(d);
+            let w = (phi.sin() * f.u.as_dvec3() + phi.cos() * f.c_hat.as_dvec3()).as_vec3();
+            assert_eq!(a.pdf(w), 0.0, "l = {k} l_end");
+        }
+        let (w, p) = a.sample_with_pdf(1.0);
+        assert!(p > 0.0 && (a.pdf(w) - p).abs() <= 1e-3 * p);
+    }
+
     #[test]
     fn long_segment_seen_along_its_axis() {
         // t at the far end is ~1e-6: the density must stay finite and positive.

@@ -452,6 +452,39 @@ mod tests {
         assert_eq!(unit_normal(Vec3::new(0.0, 0.0, 3.0)), Some(Vec3::Z));
     }
 
+    /// Segment seen almost along its axis: s ∈ [0.99980, 0.999994] (f32 s rounded by up to
+    /// ε/4, 1.5e-4 of Δs); the frame's measures and arc must be those of the segment.
+    #[test]
+    fn measures_and_arc_near_the_axis_are_exact() {
+        let seg = Segment::new(Vec3::new(0.01, 0.0, 0.5), Vec3::new(0.01, 0.0, 3.0));
+        let f = LineFrame::new(&seg, Vec3::ZERO).unwrap();
+        let (d, lb, le) = (f.d as f64, f.l_begin as f64, f.l_end as f64);
+        let s = |l: f64| l / l.hypot(d);
+        let omega = 2.0 / d * (s(le) - s(lb));
+        assert!(((f.solid_angle() as f64) - omega).abs() < 1e-6 * omega);
+        // n = z = u: Ω⊥_R = (1/d)(s_e² − s_b²).
+        let psa = (s(le).powi(2) - s(lb).powi(2)) / d;
+        let got = f.projected_solid_angle(Vec3::Z) as f64;
+        assert!((got - psa).abs() < 1e-6 * psa, "{got} vs {psa}");
+        let arc = FrameArc::of(&f);
+        let width = le.atan2(d) - lb.atan2(d);
+        assert!((arc.width - width).abs() < 1e-12);
+        assert!((arc.delta_s - (s(le) - s(lb))).abs() < 1e-12);
+        for i in 0..=100 {
+            let tau = width * i as f64 / 100.0;
+            let y = arc.delta_s_at(tau);
+            assert!((arc.tau_of_delta_s(y) - tau).abs() < 1e-10, "{tau}");
+            let dir = arc.direction(&f, tau);
+            let back = arc.tau_in_support(&f, dir).expect("in support");
+            assert!((back - tau).abs() < 2e-7, "{tau}: {back}");
+        }
+        // Beyond either end by 1e-5 rad: outside, although s_of differs there by < 4ε.
+        let beyond = |phi: f64| (phi.sin() * f.u.as_dvec3() + phi.cos() * f.c_hat.as_dvec3());
+        assert!(!arc.contains(&f, beyond(le.atan2(d) + 1e-5).as_vec3()));
+        assert!(!arc.contains(&f, beyond(lb.atan2(d) - 1e-5).as_vec3()));
+        assert!(!arc.contains(&f, -f.c_hat));
+    }
+
     #[test]
     fn projected_solid_angle_matches_quadrature() {
         let seg = Segment::new(Vec3::new(-0.3, 0.5, 0.4), Vec3::new(1.2, -0.2, 1.1));

@@ -309,6 +309,34 @@ mod tests {
     use super::*;
     use crate::rng::Pcg32;
 
+    /// Short interval seen almost along its axis (s ≈ 0.9998, Δs ≈ 2e-4, a few thousand f32
+    /// values of s) with a steep warp: sample_with_pdf and pdf(sample) used to differ by
+    /// percents because u was recomputed from the quantised s.
+    #[test]
+    fn density_of_samples_near_the_axis() {
+        let seg = Segment::new(Vec3::new(0.01, 0.0, 0.5), Vec3::new(0.01, 0.0, 0.52));
+        // Horizon at l = 0.51: the clipped interval [0.51, 0.52] has Δs ≈ 7e-6 (≈ 120 f32
+        // values of s) and cosine 0 at its begin (a = 0, b = 2: the steepest linear warp).
+        let n = Vec3::new(-51.0, 0.0, 1.0).normalize();
+        let lin = HartLinear::prepare(&seg, Vec3::ZERO, n).unwrap();
+        let quad = HartQuadratic::prepare(&seg, Vec3::ZERO, n).unwrap();
+        let samplers: [&dyn LineSampler; 2] = [&lin, &quad];
+        for p in samplers {
+            for i in 0..=1000 {
+                let xi = i as f32 / 1000.0;
+                let (w, q) = p.sample_with_pdf(xi);
+                let r = p.pdf(w);
+                // Relative, plus the density's change over ~ε of φ (slope ≤ 6/(Ω_R Δφ)).
+                let omega = p.support().solid_angle();
+                let width = FrameArc::of(p.support()).width as f32;
+                let tol = 1e-4 * q.max(r) + 6.0 / (omega * width) * 4.0 * f32::EPSILON;
+                assert!((q - r).abs() <= tol, "ξ = {xi}: {q} vs {r} (tol {tol})");
+                let back = p.inverse(w).unwrap();
+                assert!((back - xi).abs() < 1e-4, "ξ = {xi}: {back}");
+            }
+        }
+    }
+
     /// (segment, shading point, normal): plain, horizon-crossing, grazing, long and oblique.
     fn configurations() -> Vec<(Segment, Vec3, Vec3)> {
         vec![
