@@ -317,7 +317,7 @@ impl FrameArc {
     /// sin τ = y c_b + s_b q/(c_b + c), cos τ = c c_b + (s_b + y) s_b.
     #[inline]
     pub fn tau_of_delta_s(&self, y: f64) -> f64 {
-        if !(y > 0.0) {
+        if y.is_nan() || y <= 0.0 {
             return 0.0;
         }
         if y >= self.delta_s {
