@@ -421,15 +421,6 @@ impl Arc {
         let tau = atan2(s * self.c_b - t * self.s_b, t * self.c_b + s * self.s_b);
         (t >= 0.0 && tau >= -self.tolerance && tau <= self.width + self.tolerance).then_some(tau)
     }
-
-    /// Unit direction at offset τ ∈ [0, Δ] (clamped).
-    #[inline]
-    pub fn direction(&self, frame: &LineFrame, tau: f32) -> Vec3 {
-        let (st, ct) = tau.clamp(0.0, self.width).sin_cos();
-        let s = self.s_b * ct + self.c_b * st;
-        let t = (self.c_b * ct - self.s_b * st).max(0.0);
-        s * frame.u + t * frame.c_hat
-    }
 }
 
 /// Projected-solid-angle sampler of Peters 2021 (technique 8).
