@@ -479,7 +479,7 @@ mod tests {
             assert!((back - tau).abs() < 2e-7, "{tau}: {back}");
         }
         // Beyond either end by 1e-5 rad: outside, although s_of differs there by < 4ε.
-        let beyond = |phi: f64| (phi.sin() * f.u.as_dvec3() + phi.cos() * f.c_hat.as_dvec3());
+        let beyond = |phi: f64| phi.sin() * f.u.as_dvec3() + phi.cos() * f.c_hat.as_dvec3();
         assert!(!arc.contains(&f, beyond(le.atan2(d) + 1e-5).as_vec3()));
         assert!(!arc.contains(&f, beyond(lb.atan2(d) - 1e-5).as_vec3()));
         assert!(!arc.contains(&f, -f.c_hat));
