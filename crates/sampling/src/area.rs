@@ -15,21 +15,21 @@
 //! configurations whose largest density is not representable in f32.
 //! Inverse: ξ = (l − l_begin)/ℓ.
 
-use crate::geometry::{unit_normal, LineFrame, Segment};
+use crate::geometry::{unit_normal, FrameArc, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use glam::Vec3;
 
 #[derive(Clone, Copy, Debug)]
 pub struct Area {
     frame: LineFrame,
+    /// Support test in φ (see [`FrameArc`]): an s-test admits the whole rest of the line once
+    /// s_end rounds to 1 (ℓ/d ≳ 3000), where this density is largest.
+    arc: FrameArc,
     /// d² / (2ℓ), in f64 so that d² cannot overflow or underflow.
     scale: f64,
     /// Smallest t = d/r over the support; clamps t in `pdf` so that the density stays bounded.
     t_min: f64,
 }
-
-/// Rounding allowance of `inverse` at the ends of the support, in units of ε (|s| ≤ 1).
-const ENDPOINT_ULPS: f32 = 4.0;
 
 /// t = d/√(l² + d²) of the line point at parameter l, in f64.
 #[inline]
@@ -59,6 +59,7 @@ impl Area {
         let representable = scale >= f32::MIN_POSITIVE as f64 && p_max <= f32::MAX as f64;
         representable.then_some(Self {
             frame,
+            arc: FrameArc::of(&frame),
             scale,
             t_min,
         })
@@ -85,7 +86,7 @@ impl LineSampler for Area {
     }
 
     fn pdf(&self, dir: Vec3) -> f32 {
-        if !self.frame.contains_s(self.frame.s_of(dir)) {
+        if !self.arc.contains(&self.frame, dir) {
             return 0.0;
         }
         self.density_at_t(self.frame.c_hat.dot(dir) as f64)
@@ -95,15 +96,11 @@ impl LineSampler for Area {
         &self.frame
     }
 
-    /// Directions up to [`ENDPOINT_ULPS`] outside the support count as its endpoint: the sample
-    /// at ξ = 0 or 1, rebuilt as s = u·ω, may land an ulp outside (`pdf` stays strict).
+    /// Directions within the arc's rounding tolerance outside the support count as its endpoint.
     fn inverse(&self, dir: Vec3) -> Option<f32> {
         let f = &self.frame;
+        self.arc.tau_in_support(f, dir)?;
         let s = f.s_of(dir);
-        let tol = ENDPOINT_ULPS * f32::EPSILON;
-        if !(s >= f.s_begin - tol && s <= f.s_end + tol) {
-            return None;
-        }
         // l = d s / t with t = ĉ·ω (see the module comment); clamp t to the support's range.
         let t = (f.c_hat.dot(dir) as f64).clamp(self.t_min, 1.0);
         let l = (f.d as f64 * s as f64 / t).clamp(f.l_begin as f64, f.l_end as f64);
@@ -208,6 +205,24 @@ mod tests {
         for c in count {
             assert!((c as f64 - 10_000.0).abs() < 5.0 * 94.9, "{c}");
         }
+    }
+
+    /// ℓ/d = 1e4: s_end rounds to 1 in f32, but the density must still vanish beyond the end
+    /// (it used to stay at its maximum on the whole rest of the line: ∫p = 1.5).
+    #[test]
+    fn density_vanishes_beyond_the_end_where_s_end_rounds_to_one() {
+        let seg = Segment::new(Vec3::new(0.0, 0.0, 1.0), Vec3::new(1e4, 0.0, 1.0));
+        let a = Area::prepare(&seg, Vec3::ZERO, Vec3::Z).unwrap();
+        let f = *a.support();
+        assert_eq!(f.s_end, 1.0);
+        let (d, le) = (f.d as f64, f.l_end as f64);
+        for k in [1.1, 2.0, 100.0] {
+            let phi = (k * le).atan2(d);
+            let w = (phi.sin() * f.u.as_dvec3() + phi.cos() * f.c_hat.as_dvec3()).as_vec3();
+            assert_eq!(a.pdf(w), 0.0, "l = {k} l_end");
+        }
+        let (w, p) = a.sample_with_pdf(1.0);
+        assert!(p > 0.0 && (a.pdf(w) - p).abs() <= 1e-3 * p);
     }
 
     #[test]

@@ -216,21 +216,142 @@ impl LineFrame {
         (n.dot(self.u), n.dot(self.c_hat))
     }
 
-    /// Ω_R = (2/d)(s_end − s_begin), solid angle per radius of the interval.
+    /// Ω_R = (2/d)(s(l_end) − s(l_begin)), solid angle per radius of the interval.
+    ///
+    /// Evaluated in f64 from the l-interval, not from the stored f32 `s_end − s_begin`: near
+    /// |s| → 1 each stored s is rounded by up to ε/4 absolute, which is a relative error of
+    /// ~1e-4 in Δs for an interval of width 1e-4 there (parallel to the view, far along the
+    /// axis); the interval the density must integrate to 1 over is the segment's, [l_b, l_e].
     #[inline]
     pub fn solid_angle(&self) -> f32 {
-        2.0 / self.d * (self.s_end - self.s_begin)
+        let (sb, _) = sin_cos_at(self.l_begin, self.d);
+        let (se, _) = sin_cos_at(self.l_end, self.d);
+        (2.0 / self.d as f64 * (se - sb)) as f32
     }
 
-    /// Ω⊥_R = (1/d)[C(s_end) − C(s_begin)], projected solid angle per radius of the interval.
-    /// Meaningful (non-negative) for a frame clipped to the horizon of `n`.
+    /// Ω⊥_R = (1/d)[C(φ_end) − C(φ_begin)], projected solid angle per radius of the interval,
+    /// with C(φ) = n_s sin²φ + n_t (sin φ cos φ + φ) evaluated in f64 from l (see
+    /// [`Self::solid_angle`] for why not from the stored f32 s). Meaningful (non-negative) for a
+    /// frame clipped to the horizon of `n`.
     #[inline]
     pub fn projected_solid_angle(&self, n: Vec3) -> f32 {
-        let (ns, nt) = self.normal_coefficients(n);
-        (projected_antiderivative(ns, nt, self.s_end)
-            - projected_antiderivative(ns, nt, self.s_begin))
-            / self.d
+        let (ns, nt) = (
+            n.as_dvec3().dot(self.u.as_dvec3()),
+            n.as_dvec3().dot(self.c_hat.as_dvec3()),
+        );
+        let c = |l: f32| {
+            let (s, t) = sin_cos_at(l, self.d);
+            ns * s * s + nt * (s * t + (l as f64).atan2(self.d as f64))
+        };
+        ((c(self.l_end) - c(self.l_begin)) / self.d as f64) as f32
     }
+}
+
+/// The directions toward a frame's interval as an arc φ ∈ [φ_b, φ_b + Δ] in the plane of
+/// (u, ĉ), φ = atan2(l, d). For support tests, densities and samples that must stay accurate
+/// where s = u·ω does not: near |s| → 1 (line seen almost along its axis) consecutive f32 s are
+/// ε/2 apart, more than a short interval's whole width, and for ℓ/d ≳ 3000 the frame's s_end
+/// rounds to 1 so that "s ≤ s_end" admits the entire rest of the infinite line. The offset
+/// τ = φ − φ_b of an f32 direction, by contrast, is known to ~ε absolute.
+///
+/// Scalar arithmetic in f64 (a handful of operations per call): with (sin φ_b, cos φ_b) rounded
+/// to f32 the pair is off the unit circle and its angle off φ_b by up to ~ε/2, a constant shift
+/// of τ that is 2e-5 of a 3e-3-rad interval and moved a steep density's normalisation by 1.4e-5.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameArc {
+    /// sin φ_b, cos φ_b.
+    pub s_b: f64,
+    pub c_b: f64,
+    /// Δ = φ_e − φ_b > 0.
+    pub width: f64,
+    /// sin φ_e − sin φ_b = 2 cos(φ_b + Δ/2) sin(Δ/2), without cancellation.
+    pub delta_s: f64,
+    /// Rounding tolerance of the support test in τ (radians).
+    pub tolerance: f64,
+}
+
+impl FrameArc {
+    pub fn of(frame: &LineFrame) -> Self {
+        let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
+        let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
+        // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
+        let width = ((le - lb) * d).atan2(d * d + lb * le);
+        let (sh, ch) = (0.5 * width).sin_cos();
+        let delta_s = 2.0 * (c_b * ch - s_b * sh) * sh;
+        Self {
+            s_b,
+            c_b,
+            width,
+            delta_s,
+            // An f32 direction's φ is rounded by ~ε; τ of the interval's own ends by ~ε·Δ.
+            tolerance: 2.5e-7 + 1e-6 * width,
+        }
+    }
+
+    /// τ = φ − φ_b of a direction toward the line, if it points into the arc (up to rounding);
+    /// clamped to [0, Δ].
+    #[inline]
+    pub fn tau_in_support(&self, frame: &LineFrame, dir: Vec3) -> Option<f64> {
+        let w = dir.as_dvec3();
+        let (s, t) = (frame.u.as_dvec3().dot(w), frame.c_hat.as_dvec3().dot(w));
+        let tau = (s * self.c_b - t * self.s_b).atan2(t * self.c_b + s * self.s_b);
+        (t >= 0.0 && tau >= -self.tolerance && tau <= self.width + self.tolerance)
+            .then(|| tau.clamp(0.0, self.width))
+    }
+
+    /// Whether a direction toward the line points into the arc (up to rounding).
+    #[inline]
+    pub fn contains(&self, frame: &LineFrame, dir: Vec3) -> bool {
+        self.tau_in_support(frame, dir).is_some()
+    }
+
+    /// sin(φ_b + τ) − sin φ_b = c_b sin τ − 2 s_b sin²(τ/2), without cancellation.
+    #[inline]
+    pub fn delta_s_at(&self, tau: f64) -> f64 {
+        let (sh, ch) = (0.5 * tau).sin_cos();
+        2.0 * sh * (self.c_b * ch - self.s_b * sh)
+    }
+
+    /// τ ∈ [0, Δ] with sin(φ_b + τ) − sin φ_b = y, y ∈ [0, Δs], without forming s_b + y and
+    /// asin: with q = y(2s_b + y), c = √(c_b² − q) = cos(φ_b + τ),
+    /// sin τ = y c_b + s_b q/(c_b + c), cos τ = c c_b + (s_b + y) s_b.
+    #[inline]
+    pub fn tau_of_delta_s(&self, y: f64) -> f64 {
+        if y.is_nan() || y <= 0.0 {
+            return 0.0;
+        }
+        if y >= self.delta_s {
+            return self.width;
+        }
+        let q = y * (2.0 * self.s_b + y);
+        let c = (self.c_b * self.c_b - q).max(0.0).sqrt();
+        let denom = self.c_b + c;
+        let sin_tau = if denom > 0.0 {
+            y * self.c_b + self.s_b * q / denom
+        } else {
+            y
+        };
+        let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
+        sin_tau.atan2(cos_tau).clamp(0.0, self.width)
+    }
+
+    /// Unit direction at offset τ (clamped to [0, Δ]).
+    #[inline]
+    pub fn direction(&self, frame: &LineFrame, tau: f64) -> Vec3 {
+        let (st, ct) = tau.clamp(0.0, self.width).sin_cos();
+        let s = self.s_b * ct + self.c_b * st;
+        let t = (self.c_b * ct - self.s_b * st).max(0.0);
+        (s * frame.u.as_dvec3() + t * frame.c_hat.as_dvec3()).as_vec3()
+    }
+}
+
+/// (sin φ, cos φ) = (l, d)/√(l² + d²) of the line point at parameter l, in f64 (squares of f32
+/// values neither overflow nor underflow there).
+#[inline]
+pub fn sin_cos_at(l: f32, d: f32) -> (f64, f64) {
+    let (l, d) = (l as f64, d as f64);
+    let r = (l * l + d * d).sqrt();
+    (l / r, d / r)
 }
 
 /// C(s) = n_s s² + n_t (s√(1−s²) + asin s), so that ∫ (n·ω) dΩ_R = (1/d)[C].
@@ -329,6 +450,39 @@ mod tests {
         assert!(unit_normal(Vec3::ZERO).is_none());
         assert!(unit_normal(Vec3::new(f32::NAN, 0.0, 1.0)).is_none());
         assert_eq!(unit_normal(Vec3::new(0.0, 0.0, 3.0)), Some(Vec3::Z));
+    }
+
+    /// Segment seen almost along its axis: s ∈ [0.99980, 0.999994] (f32 s rounded by up to
+    /// ε/4, 1.5e-4 of Δs); the frame's measures and arc must be those of the segment.
+    #[test]
+    fn measures_and_arc_near_the_axis_are_exact() {
+        let seg = Segment::new(Vec3::new(0.01, 0.0, 0.5), Vec3::new(0.01, 0.0, 3.0));
+        let f = LineFrame::new(&seg, Vec3::ZERO).unwrap();
+        let (d, lb, le) = (f.d as f64, f.l_begin as f64, f.l_end as f64);
+        let s = |l: f64| l / l.hypot(d);
+        let omega = 2.0 / d * (s(le) - s(lb));
+        assert!(((f.solid_angle() as f64) - omega).abs() < 1e-6 * omega);
+        // n = z = u: Ω⊥_R = (1/d)(s_e² − s_b²).
+        let psa = (s(le).powi(2) - s(lb).powi(2)) / d;
+        let got = f.projected_solid_angle(Vec3::Z) as f64;
+        assert!((got - psa).abs() < 1e-6 * psa, "{got} vs {psa}");
+        let arc = FrameArc::of(&f);
+        let width = le.atan2(d) - lb.atan2(d);
+        assert!((arc.width - width).abs() < 1e-12);
+        assert!((arc.delta_s - (s(le) - s(lb))).abs() < 1e-12);
+        for i in 0..=100 {
+            let tau = width * i as f64 / 100.0;
+            let y = arc.delta_s_at(tau);
+            assert!((arc.tau_of_delta_s(y) - tau).abs() < 1e-10, "{tau}");
+            let dir = arc.direction(&f, tau);
+            let back = arc.tau_in_support(&f, dir).expect("in support");
+            assert!((back - tau).abs() < 2e-7, "{tau}: {back}");
+        }
+        // Beyond either end by 1e-5 rad: outside, although s_of differs there by < 4ε.
+        let beyond = |phi: f64| phi.sin() * f.u.as_dvec3() + phi.cos() * f.c_hat.as_dvec3();
+        assert!(!arc.contains(&f, beyond(le.atan2(d) + 1e-5).as_vec3()));
+        assert!(!arc.contains(&f, beyond(lb.atan2(d) - 1e-5).as_vec3()));
+        assert!(!arc.contains(&f, -f.c_hat));
     }
 
     #[test]

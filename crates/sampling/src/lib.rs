@@ -20,6 +20,6 @@ pub mod solid_angle;
 pub mod technique;
 pub mod trig;
 
-pub use geometry::{projected_antiderivative, unit_normal, LineFrame, Segment};
+pub use geometry::{projected_antiderivative, unit_normal, FrameArc, LineFrame, Segment};
 pub use sampler::LineSampler;
 pub use technique::{Prepared, Technique};

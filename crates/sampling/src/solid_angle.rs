@@ -2,8 +2,13 @@
 //!
 //! s is uniform on [s_begin, s_end] of the (clipped) segment, so p_R = 1/Ω_R on the support.
 //! Inverse: ξ = (s − s_begin)/(s_end − s_begin).
+//!
+//! Numerics: s − s_begin and the support test go through the frame's [`FrameArc`] (offset
+//! τ = φ − φ_b), not through s = u·ω, which near |s| → 1 is quantised to steps of ε/2 (a short
+//! interval there holds only a few f32 values of s, and for ℓ/d ≳ 3000 s_end rounds to 1 so that
+//! an s-test would accept the whole rest of the line).
 
-use crate::geometry::{unit_normal, LineFrame, Segment};
+use crate::geometry::{unit_normal, FrameArc, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use glam::Vec3;
 
@@ -11,6 +16,7 @@ use glam::Vec3;
 #[derive(Clone, Copy, Debug)]
 pub struct SolidAngle {
     frame: LineFrame,
+    arc: FrameArc,
     inv_solid_angle: f32,
 }
 
@@ -32,22 +38,27 @@ impl SolidAngle {
     pub fn on_frame(frame: LineFrame) -> Option<Self> {
         // Ω_R may be subnormal (far line, tiny Δs): its reciprocal must be finite too.
         let inv_solid_angle = 1.0 / frame.solid_angle();
-        (inv_solid_angle > 0.0 && inv_solid_angle.is_finite()).then_some(Self {
-            frame,
-            inv_solid_angle,
-        })
+        let arc = FrameArc::of(&frame);
+        (inv_solid_angle > 0.0 && inv_solid_angle.is_finite() && arc.delta_s > 0.0).then_some(
+            Self {
+                frame,
+                arc,
+                inv_solid_angle,
+            },
+        )
     }
 }
 
 impl LineSampler for SolidAngle {
     fn sample(&self, xi: f32) -> Vec3 {
-        let f = &self.frame;
-        let s = f.s_begin + clamp_xi(xi) * (f.s_end - f.s_begin);
-        f.direction(s.clamp(f.s_begin, f.s_end))
+        let tau = self
+            .arc
+            .tau_of_delta_s(clamp_xi(xi) as f64 * self.arc.delta_s);
+        self.arc.direction(&self.frame, tau)
     }
 
     fn pdf(&self, dir: Vec3) -> f32 {
-        if self.frame.contains_s(self.frame.s_of(dir)) {
+        if self.arc.contains(&self.frame, dir) {
             self.inv_solid_angle
         } else {
             0.0
@@ -59,10 +70,8 @@ impl LineSampler for SolidAngle {
     }
 
     fn inverse(&self, dir: Vec3) -> Option<f32> {
-        let f = &self.frame;
-        let s = f.s_of(dir);
-        f.contains_s(s)
-            .then(|| ((s - f.s_begin) / (f.s_end - f.s_begin)).clamp(0.0, 1.0))
+        let tau = self.arc.tau_in_support(&self.frame, dir)?;
+        Some(((self.arc.delta_s_at(tau) / self.arc.delta_s) as f32).clamp(0.0, 1.0))
     }
 
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {

@@ -1,12 +1,14 @@
 //! Chi-square goodness of fit of a line sampler (STATISTICS.md §1).
 //!
 //! Domain: φ = asin s ∈ [φ_begin, φ_end] of the sampler's `support()`, cut into M equal bins.
-//! The ends are asin of the support's f32 s_begin, s_end: a sampler parametrised by s samples
-//! exactly that interval and normalises over it, so it is the support the density claims (near
-//! |s| → 1 it differs from the segment's l-interval at f32 precision; for ℓ/d ≳ 3000 s_end
-//! rounds to 1, and a density must then vanish beyond the segment's end by itself). A sample's
-//! φ is atan2(u·ω, ĉ·ω), which keeps the angular precision of the f32 direction where
-//! asin(u·ω) would not.
+//! The ends are φ = atan2(l, d) in f64 of the support's l-interval (the segment, or its
+//! horizon-clipped part, as the f32 frame states it), *not* asin of the frame's stored f32
+//! s_begin, s_end: near |s| → 1 those are rounded by up to ε/4, which moves an end by
+//! ε/(4 cos φ) in φ (1e-5 rad for ℓ/d ≈ 300) and for ℓ/d ≳ 3000 rounds s_end to 1 (φ_end to
+//! π/2, the whole rest of the infinite line). An f32 direction resolves φ to ~ε absolute
+//! everywhere, so the segment's interval is representable and is what every density must
+//! integrate to 1 over. A sample's φ is atan2(u·ω, ĉ·ω), which keeps the angular precision of
+//! the f32 direction where asin(u·ω) would not.
 //! The probability of bin i is ∫_bin p_R(ω(φ)) · (2/d) cos φ dφ (dΩ_R = (2/d) ds, ds = cos φ dφ),
 //! integrated in f64 by adaptive Gauss–Legendre with the sampler's own `pdf`, the quantity under
 //! test. ω(φ) = sin φ·u + cos φ·ĉ is built in f64 and cast to f32 for the call.
@@ -63,18 +65,24 @@ pub enum BinLookup {
 
 impl PhiBinning {
     pub fn new(frame: &LineFrame, bins: usize) -> Self {
-        let s_begin = frame.s_begin as f64;
-        let s_end = frame.s_end as f64;
+        let d = frame.d as f64;
+        let phi_begin = (frame.l_begin as f64).atan2(d);
+        let phi_end = (frame.l_end as f64).atan2(d);
         Self {
             u: frame.u.as_dvec3(),
             c_hat: frame.c_hat.as_dvec3(),
-            two_over_d: 2.0 / frame.d as f64,
-            s_begin,
-            s_end,
-            phi_begin: s_begin.clamp(-1.0, 1.0).asin(),
-            phi_end: s_end.clamp(-1.0, 1.0).asin(),
+            two_over_d: 2.0 / d,
+            s_begin: phi_begin.sin(),
+            s_end: phi_end.sin(),
+            phi_begin,
+            phi_end,
             bins: bins.max(1),
         }
+    }
+
+    /// φ_begin, φ_end.
+    pub fn phi_range(&self) -> (f64, f64) {
+        (self.phi_begin, self.phi_end)
     }
 
     pub fn bins(&self) -> usize {

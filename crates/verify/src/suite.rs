@@ -79,9 +79,34 @@ const INTEGRAL_RELATIVE_FLOOR: f64 = 1e-5;
 const INTEGRAL_SOLID_ANGLE_FLOOR: f64 = 1e-6;
 
 /// `sample_with_pdf` may differ from `pdf(sample)` by this much relative, plus this much of the
-/// mean density 1/Ω_R of the support (near-zero densities at the horizon).
+/// mean density 1/Ω_R of the support (near-zero densities at the horizon), plus how much `pdf`
+/// itself changes when the sampled f32 direction moves by [`DIRECTION_ROUNDING`] per component
+/// (see [`rounding_spread`]).
 const PDF_CONSISTENCY_RELATIVE: f64 = 1e-3;
 const PDF_CONSISTENCY_FLOOR: f64 = 1e-5;
+
+/// Rounding of a sampled unit direction per component: s·u + t·ĉ in f32 is off by a few ε.
+const DIRECTION_ROUNDING: f32 = 4.0 * f32::EPSILON;
+
+/// max |pdf(dir ± δ e_i) − pdf(dir)| over the six coordinate nudges of size
+/// [`DIRECTION_ROUNDING`]: how much of a density is not determined by an f32 direction. A
+/// sampler's `sample_with_pdf` may return the density of the exact direction it aimed at, while
+/// `pdf` sees the rounded one; where the density is steep on the scale of an ulp the two
+/// legitimately differ by this much. Example (random-045, a 3e-3-rad interval clipped at the
+/// horizon): n·ω ≈ 2e-5 while an f32 direction fixes n·ω only to ~ε, so (n·ω)/Ω⊥ with
+/// Ω⊥ = 4e-6 is determined only to ~0.03 — more than 1e-3 of the density.
+fn rounding_spread(sampler: &dyn LineSampler, dir: glam::Vec3, p: f32) -> f64 {
+    let mut spread = 0.0f64;
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut d = dir;
+            d[axis] += sign * DIRECTION_ROUNDING;
+            let q = sampler.pdf(d) as f64;
+            spread = spread.max((q - p as f64).abs());
+        }
+    }
+    spread
+}
 
 /// Round-trip tolerance in ξ: absolute, plus the ξ-change of an s-error of this size.
 const ROUND_TRIP_XI: f64 = 1e-4;
@@ -260,14 +285,22 @@ pub fn corrected_levels(alpha: f64, m: usize) -> (f64, f64) {
     (alpha_c, z)
 }
 
-/// C(s) = n_s s² + n_t (s√(1−s²) + asin s) in f64.
-fn antiderivative(ns: f64, nt: f64, s: f64) -> f64 {
-    let s = s.clamp(-1.0, 1.0);
-    ns * s * s + nt * (s * (1.0 - s * s).max(0.0).sqrt() + s.asin())
+/// C(φ) = n_s sin²φ + n_t (sin φ cos φ + φ) at φ = atan2(l, d), in f64.
+fn antiderivative(ns: f64, nt: f64, l: f32, d: f32) -> f64 {
+    let (l, d) = (l as f64, d as f64);
+    let r = l.hypot(d);
+    let (s, t) = (l / r, d / r);
+    ns * s * s + nt * (s * t + l.atan2(d))
 }
 
 /// Ω⊥_R of the horizon-clipped line in f64 (from the f32 frame), and Ω_R of the whole line.
 /// (0, Ω_R) when nothing is above the horizon; (0, 0) when the line is degenerate.
+///
+/// Evaluated from the frame's l-interval (the segment as the f32 frame states it), not from its
+/// stored f32 s_begin, s_end, which near |s| → 1 are rounded by up to ε/4: on `parallel-close`
+/// (Δs = 1.9e-4 at s ≈ 1) that alone made this reference 2.4e-4 too large, while the sampler's
+/// own, cancellation-free Ω⊥_R of the segment was right. See `chi2` for the same choice of the
+/// binning domain.
 pub fn lambert_reference(config: &Config) -> (f64, f64) {
     let Some(n) = unit_normal(config.n()) else {
         return (0.0, 0.0);
@@ -275,13 +308,17 @@ pub fn lambert_reference(config: &Config) -> (f64, f64) {
     let Some(frame) = LineFrame::new(&config.segment(), config.x()) else {
         return (0.0, 0.0);
     };
-    let omega = 2.0 / frame.d as f64 * (frame.s_end as f64 - frame.s_begin as f64);
+    let sin_at = |l: f32| {
+        let (l, d) = (l as f64, frame.d as f64);
+        l / l.hypot(d)
+    };
+    let omega = 2.0 / frame.d as f64 * (sin_at(frame.l_end) - sin_at(frame.l_begin));
     let Some(c) = frame.clip_to_horizon(n) else {
         return (0.0, omega);
     };
     let n = n.as_dvec3();
     let (ns, nt) = (n.dot(c.u.as_dvec3()), n.dot(c.c_hat.as_dvec3()));
-    let psa = (antiderivative(ns, nt, c.s_end as f64) - antiderivative(ns, nt, c.s_begin as f64))
+    let psa = (antiderivative(ns, nt, c.l_end, c.d) - antiderivative(ns, nt, c.l_begin, c.d))
         / c.d as f64;
     (psa.max(0.0), omega)
 }
@@ -301,7 +338,10 @@ fn check_sampler(
     let binning = PhiBinning::new(&frame, settings.bins);
     let quad = Adaptive::new(settings.nodes, QUAD_RELATIVE);
     let two_over_d = 2.0 / frame.d as f64;
-    let support_omega = two_over_d * (frame.s_end as f64 - frame.s_begin as f64);
+    let support_omega = {
+        let (phi_b, phi_e) = binning.phi_range();
+        two_over_d * (phi_e.sin() - phi_b.sin())
+    };
 
     // Normalisation.
     let masses = binning.masses(sampler, &quad);
@@ -318,26 +358,41 @@ fn check_sampler(
         );
     }
 
-    // The pdf vanishes on the line outside the support.
-    let (sb, se) = (frame.s_begin as f64, frame.s_end as f64);
+    // The pdf vanishes on the line outside the support: points spread over the rest of the line
+    // in s (beyond a margin in s), and points beyond each end at φ-distances growing by 10×
+    // from 1e-6 + 1e-5·Δφ rad (4× the rounding of an f32 direction's φ, 10× the relative
+    // rounding of Δφ). The latter stay distinguishable from the ends where the s-grid near ±1
+    // has no room beyond them (for ℓ/d ≳ 3000 s_end rounds to 1 in f32).
+    let (phi_b, phi_e) = binning.phi_range();
+    let (sb, se) = (phi_b.sin(), phi_e.sin());
     let margin = (1e-4 * (se - sb)).max(1e-5);
     let mut outside = Vec::new();
     for k in 0..8 {
         let t = (k as f64 + 0.5) / 8.0;
         if sb - margin > -1.0 {
-            outside.push(-1.0 + t * (sb - margin + 1.0));
+            outside.push((-1.0 + t * (sb - margin + 1.0)).asin());
         }
         if se + margin < 1.0 {
-            outside.push(se + margin + t * (1.0 - se - margin));
+            outside.push((se + margin + t * (1.0 - se - margin)).asin());
         }
     }
-    if let Some(&s) = outside
+    let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
+    let half_pi = std::f64::consts::FRAC_PI_2;
+    let mut delta = 1e-6 + 1e-5 * (phi_e - phi_b);
+    while delta < std::f64::consts::PI {
+        outside.extend([phi_b - delta, phi_e + delta]);
+        delta *= 10.0;
+    }
+    outside.retain(|&phi| phi > -half_pi && phi < half_pi && (phi < phi_b || phi > phi_e));
+    if let Some(&phi) = outside
         .iter()
-        .find(|&&s| sampler.pdf(binning.direction(s.asin())) != 0.0)
+        .find(|&&phi| sampler.pdf(binning.direction(phi)) != 0.0)
     {
         out.fail(
             Check::Support,
-            format!("pdf ≠ 0 at s = {s:.6} outside the support [{sb:.6}, {se:.6}]"),
+            format!(
+                "pdf ≠ 0 at φ = {phi:.9} outside the support [{phi_b:.9}, {phi_e:.9}] (l ∈ [{lb:e}, {le:e}], d = {d:e})"
+            ),
         );
     }
 
@@ -364,7 +419,12 @@ fn check_sampler(
         let p_eval = sampler.pdf(dir);
         let scale = PDF_CONSISTENCY_RELATIVE * (p as f64).abs().max((p_eval as f64).abs())
             + PDF_CONSISTENCY_FLOOR / support_omega;
-        let dev = (p as f64 - p_eval as f64).abs() / scale;
+        let mut dev = (p as f64 - p_eval as f64).abs() / scale;
+        if dev > 1.0 {
+            // Only then (it costs six pdf calls): allow what the f32 direction leaves open.
+            let scale = scale + rounding_spread(sampler, dir, p_eval);
+            dev = (p as f64 - p_eval as f64).abs() / scale;
+        }
         if !(dev <= worst_consistency) {
             worst_consistency = if dev.is_nan() { f64::INFINITY } else { dev };
             worst_consistency_at = (p, p_eval);
@@ -777,12 +837,9 @@ mod tests {
         eprintln!("elapsed {:.2} s", r.elapsed_seconds);
     }
 
-    /// The certification itself (also `linlight samplers`). Ignored in the default test run
-    /// because it fails on main: f32 precision defects of the techniques found by this suite
-    /// (normalisation errors 1e-5…0.5 near |s| → 1 and for short intervals, Hart's
-    /// sample_with_pdf ≠ pdf); see the verify-chi2 report. Un-ignore when they are fixed.
+    /// The certification itself (also `linlight samplers`): every certified technique passes
+    /// every configuration.
     #[test]
-    #[ignore = "fails until the techniques' f32 precision defects are fixed (see report)"]
     fn every_certified_technique_passes() {
         let r = run_suite(&subjects::certified(), &[], &Settings::default());
         for t in &r.techniques {
