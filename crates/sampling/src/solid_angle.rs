@@ -32,8 +32,10 @@ impl SolidAngle {
     pub fn on_frame(frame: LineFrame) -> Option<Self> {
         // Ω_R may be subnormal (far line, tiny Δs): its reciprocal must be finite too.
         let inv_solid_angle = 1.0 / frame.solid_angle();
-        (inv_solid_angle > 0.0 && inv_solid_angle.is_finite())
-            .then_some(Self { frame, inv_solid_angle })
+        (inv_solid_angle > 0.0 && inv_solid_angle.is_finite()).then_some(Self {
+            frame,
+            inv_solid_angle,
+        })
     }
 }
 
@@ -59,7 +61,8 @@ impl LineSampler for SolidAngle {
     fn inverse(&self, dir: Vec3) -> Option<f32> {
         let f = &self.frame;
         let s = f.s_of(dir);
-        f.contains_s(s).then(|| ((s - f.s_begin) / (f.s_end - f.s_begin)).clamp(0.0, 1.0))
+        f.contains_s(s)
+            .then(|| ((s - f.s_begin) / (f.s_end - f.s_begin)).clamp(0.0, 1.0))
     }
 
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
