@@ -1,10 +1,160 @@
-//! STUB: to be implemented.
+//! `linlight samplers`: the chi-square certification suite of every line-sampling technique
+//! (STATISTICS.md §1), negative controls included. Exit 0 iff every technique passes every
+//! configuration and every negative control is rejected; 1 otherwise; 2 on bad usage.
+
+use linlight_verify::subjects::{certified, negative_controls};
+use linlight_verify::suite::{SubjectReport, SuiteReport};
+use linlight_verify::{run_suite, Settings};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Write the full structured report (every configuration of every technique) as JSON.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Samples per configuration.
+    #[arg(long, default_value_t = Settings::default().samples)]
+    samples: usize,
+    /// Number of seeded random configurations (the named edge cases are always added).
+    #[arg(long, default_value_t = Settings::default().random_configs)]
+    random_configs: usize,
+    /// Seed of the configurations and of the sample streams.
+    #[arg(long, default_value_t = Settings::default().seed)]
+    seed: u64,
+}
 
-pub fn run(_args: Args) -> ExitCode {
-    eprintln!("not implemented yet");
-    ExitCode::from(2)
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".to_string(), |v| format!("{v:.2e}"))
+}
+
+fn print_techniques(rows: &[SubjectReport]) {
+    println!(
+        "{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  verdict",
+        "technique", "class", "configs", "tested", "zero", "worst p", "max |∫p−1|"
+    );
+    for t in rows {
+        if let Some(p) = &t.panic {
+            println!("{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  panicked: {p}", t.name, "-", t.configs.len(), 0, 0, "-", "-");
+            continue;
+        }
+        println!("{:<24} ({:.1} s)", t.name, t.elapsed_seconds);
+        for c in &t.classes {
+            println!(
+                "{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  {}",
+                t.name,
+                c.class.name(),
+                c.configs,
+                c.tested,
+                c.zero_contribution,
+                fmt_opt(c.worst_p_value),
+                fmt_opt(c.max_normalisation_error),
+                if c.passed { "pass".to_string() } else { format!("FAIL ({} configs)", c.failing) }
+            );
+        }
+    }
+}
+
+fn print_controls(rows: &[SubjectReport]) {
+    println!(
+        "{:<36} {:>9} {:>10}  {:<44} verdict",
+        "negative control", "rejected", "worst p", "failing checks (configs)"
+    );
+    for c in rows {
+        let checks: Vec<String> =
+            c.failures_by_check.iter().map(|(k, n)| format!("{}:{n}", k.name())).collect();
+        let verdict = match &c.panic {
+            Some(p) => format!("panicked: {p}"),
+            None => c.verdict.clone(),
+        };
+        println!(
+            "{:<36} {:>4}/{:<4} {:>10}  {:<44} {verdict}",
+            c.name,
+            c.configs.iter().filter(|r| r.rejected()).count(),
+            c.configs.len(),
+            fmt_opt(c.worst_p_value),
+            checks.join(" "),
+        );
+    }
+}
+
+fn print_failures(rows: &[SubjectReport]) {
+    for t in rows.iter().filter(|t| !t.passed && t.panic.is_none()) {
+        for r in t.configs.iter().filter(|r| !r.passed()).take(10) {
+            for f in &r.failures {
+                println!("  {} / {}: [{}] {}", t.name, r.config, f.check.name(), f.message);
+            }
+        }
+    }
+}
+
+pub fn run(args: Args) -> ExitCode {
+    if args.samples < 100 {
+        eprintln!("error: --samples must be at least 100 (got {})", args.samples);
+        return ExitCode::from(2);
+    }
+    let settings = Settings {
+        samples: args.samples,
+        random_configs: args.random_configs,
+        seed: args.seed,
+        ..Settings::default()
+    };
+    // Panics of a technique (e.g. an unimplemented one) are caught and reported per row; keep
+    // the default hook's message and backtrace off the terminal while the suite runs.
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let report: SuiteReport = run_suite(&certified(), &negative_controls(), &settings);
+    std::panic::set_hook(hook);
+
+    println!(
+        "sampler suite: {} configurations ({} random + edge cases), N = {} samples, {} φ-bins, \
+         α = {} over m = {} tests → α_c = {:.3e}, z_c = {:.2}",
+        report.configurations.len(),
+        settings.random_configs,
+        settings.samples,
+        settings.bins,
+        settings.alpha,
+        report.statistical_tests,
+        report.alpha_per_test,
+        report.z_threshold
+    );
+    println!();
+    print_techniques(&report.techniques);
+    println!();
+    print_controls(&report.negative_controls);
+    print_failures(&report.techniques);
+    let controls_not_rejected: Vec<&str> = report
+        .negative_controls
+        .iter()
+        .filter(|c| !c.passed)
+        .map(|c| c.name.as_str())
+        .collect();
+    let techniques_failed: Vec<&str> =
+        report.techniques.iter().filter(|t| !t.passed).map(|t| t.name.as_str()).collect();
+    println!();
+    println!(
+        "{} in {:.1} s: techniques failing: [{}]; negative controls not rejected: [{}]",
+        if report.passed { "PASS" } else { "FAIL" },
+        report.elapsed_seconds,
+        techniques_failed.join(", "),
+        controls_not_rejected.join(", ")
+    );
+
+    if let Some(path) = &args.json {
+        let written = std::fs::File::create(path)
+            .map_err(|e| e.to_string())
+            .and_then(|f| {
+                serde_json::to_writer_pretty(std::io::BufWriter::new(f), &report)
+                    .map_err(|e| e.to_string())
+            });
+        if let Err(e) = written {
+            eprintln!("error: cannot write {}: {e}", path.display());
+            return ExitCode::from(2);
+        }
+    }
+    if report.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
 }

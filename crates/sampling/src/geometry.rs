@@ -51,6 +51,9 @@ pub struct LineFrame {
 /// contain the shading point); every technique then reports "no contribution".
 const MIN_RELATIVE_DISTANCE: f32 = 1e-7;
 
+/// Bound on |s_of(direction(s)) − s| for s in a frame's interval (a few ulps at 1).
+pub const S_ROUNDING: f32 = 4.0 * f32::EPSILON;
+
 #[inline]
 fn s_of_l(l: f32, d: f32) -> f32 {
     // l / √(l² + d²), robust for large |l| (hypot avoids overflow).
@@ -199,10 +202,12 @@ impl LineFrame {
         self.d * s / t
     }
 
-    /// Whether s lies in this frame's interval (inclusive).
+    /// Whether s lies in this frame's interval (inclusive), up to the rounding of
+    /// `s_of(direction(s))` ([`S_ROUNDING`]): a sample drawn at the end of the interval must not
+    /// get density 0 from `pdf`.
     #[inline]
     pub fn contains_s(&self, s: f32) -> bool {
-        s >= self.s_begin && s <= self.s_end
+        s >= self.s_begin - S_ROUNDING && s <= self.s_end + S_ROUNDING
     }
 
     /// n_s = n·u and n_t = n·ĉ, so that n·ω = n_s s + n_t t.

@@ -1,6 +1,13 @@
 //! Certification machinery: goodness of fit of line samplers (STATISTICS.md §1) and image
 //! difference statistics (STATISTICS.md §2).
 
+pub mod chi2;
+pub mod configs;
 pub mod heatmap;
 pub mod image_stats;
+pub mod quadrature;
+pub mod subjects;
+pub mod suite;
 pub mod z_score;
+
+pub use suite::{run_suite, Settings, SuiteReport};

@@ -1,0 +1,680 @@
+//! The sampler certification suite (STATISTICS.md §1): every subject × every configuration.
+//!
+//! Per configuration, with N samples from one seeded stream:
+//! - chi-square over M equal φ-bins of the support, expected counts N·∫_bin p_R dΩ_R (adaptive
+//!   Gauss–Legendre, f64), pooled to ≥ 5; a sample outside the support or in a zero-expected bin
+//!   is an immediate failure; fail if p < α_c;
+//! - normalisation |∫ p_R dΩ_R − 1| ≤ 1e-5 (same quadrature, sum over bins);
+//! - the pdf is 0 on the line outside the support;
+//! - every sample is a unit direction toward the line; `sample_with_pdf` agrees with `pdf`;
+//! - inverse round trips ξ → ω → ξ' where `inverse` returns Some;
+//! - integral agreement: the Monte Carlo estimate of ∫(n·ω)⁺ dΩ_R lies within z_c standard
+//!   errors (plus an f32 floor, below) of the closed form Ω⊥_R.
+//!
+//! Multiple testing: m = (certified subjects) × (configurations) × 2 statistical tests (χ² and
+//! integral z-test); suite-wide α = 0.01; Šidák α_c = 1 − (1 − α)^(1/m) for each; the z-test
+//! uses z_c = max(4, Φ⁻¹(1 − α_c/2)). Negative controls are judged at the same α_c: a control is
+//! *rejected* iff at least one configuration of the full configuration set fails any check
+//! (a panic or unprepared API never counts as a rejection).
+
+use crate::chi2::{pooled_chi_square, BinLookup, Chi2Outcome, PhiBinning};
+use crate::configs::{suite_configs, Config, ConfigClass};
+use crate::quadrature::Adaptive;
+use crate::subjects::{Coverage, Role, Subject};
+use linlight_sampling::rng::Pcg32;
+use linlight_sampling::{unit_normal, LineFrame, LineSampler};
+use rayon::prelude::*;
+use serde::Serialize;
+use statrs::distribution::{ContinuousCDF, Normal};
+use std::collections::BTreeMap;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// Settings of a suite run.
+#[derive(Clone, Debug, Serialize)]
+pub struct Settings {
+    /// Samples per configuration.
+    pub samples: usize,
+    /// Equal φ-bins (odd).
+    pub bins: usize,
+    /// Gauss–Legendre nodes per panel (the first panel of every bin is the bin).
+    pub nodes: usize,
+    /// Suite-wide significance level.
+    pub alpha: f64,
+    pub seed: u64,
+    pub random_configs: usize,
+    /// Bound on |∫ p_R dΩ_R − 1|.
+    pub normalisation_tolerance: f64,
+    /// Samples per configuration whose inverse round trip is checked.
+    pub round_trips: usize,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            samples: 40_000,
+            bins: 51,
+            nodes: 8,
+            alpha: 0.01,
+            seed: 0x4c49_4e4c_4947_4854, // "LINLIGHT"
+            random_configs: 200,
+            normalisation_tolerance: 1e-5,
+            round_trips: 2_000,
+        }
+    }
+}
+
+/// Relative error target of the adaptive quadrature (the f32 noise floor 8ε·∫|p| usually
+/// decides first).
+const QUAD_RELATIVE: f64 = 1e-9;
+
+/// `None` from a Lambert-covering subject is accepted iff Ω⊥_R ≤ this × Ω_R of the whole line.
+const ZERO_CONTRIBUTION_TOLERANCE: f64 = 1e-6;
+
+/// Floors of the integral agreement tolerance for f32 arithmetic: relative to the reference
+/// (same bound as the normalisation) and relative to Ω_R of the support (rounding of n·ω).
+const INTEGRAL_RELATIVE_FLOOR: f64 = 1e-5;
+const INTEGRAL_SOLID_ANGLE_FLOOR: f64 = 1e-6;
+
+/// `sample_with_pdf` may differ from `pdf(sample)` by this much relative, plus this much of the
+/// mean density 1/Ω_R of the support (near-zero densities at the horizon).
+const PDF_CONSISTENCY_RELATIVE: f64 = 1e-3;
+const PDF_CONSISTENCY_FLOOR: f64 = 1e-5;
+
+/// Round-trip tolerance in ξ: absolute, plus the ξ-change of an s-error of this size.
+const ROUND_TRIP_XI: f64 = 1e-4;
+const ROUND_TRIP_S: f64 = 1e-6;
+
+/// The kind of a failed check (report keys).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Check {
+    Chi2,
+    Normalisation,
+    Support,
+    Direction,
+    PdfConsistency,
+    RoundTrip,
+    Integral,
+    ZeroContribution,
+    Panic,
+}
+
+impl Check {
+    pub fn name(self) -> &'static str {
+        match self {
+            Check::Chi2 => "chi2",
+            Check::Normalisation => "normalisation",
+            Check::Support => "support",
+            Check::Direction => "direction",
+            Check::PdfConsistency => "pdf-consistency",
+            Check::RoundTrip => "round-trip",
+            Check::Integral => "integral",
+            Check::ZeroContribution => "zero-contribution",
+            Check::Panic => "panic",
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Failure {
+    pub check: Check,
+    pub message: String,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Outcome {
+    /// A sampler was prepared and tested.
+    Tested,
+    /// Preparation returned `None` (zero contribution).
+    ZeroContribution,
+    /// Preparation or sampling panicked (e.g. an unimplemented technique).
+    Panicked,
+    /// Not run because the subject panicked on an earlier configuration.
+    NotRun,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct IntegralCheck {
+    pub estimate: f64,
+    pub reference: f64,
+    pub std_error: f64,
+    /// Allowed |estimate − reference|.
+    pub tolerance: f64,
+    /// Standard deviation of one sample's estimate over the reference (0 when reference is 0).
+    pub relative_std: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct RoundTripCheck {
+    pub checked: usize,
+    pub max_error: f64,
+}
+
+/// Result of one subject on one configuration.
+#[derive(Clone, Debug, Serialize)]
+pub struct ConfigResult {
+    pub config: String,
+    pub class: ConfigClass,
+    pub outcome: Outcome,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub chi2: Option<Chi2Outcome>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub normalisation_error: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integral: Option<IntegralCheck>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub round_trip: Option<RoundTripCheck>,
+    pub failures: Vec<Failure>,
+}
+
+impl ConfigResult {
+    fn new(config: &Config, outcome: Outcome) -> Self {
+        Self {
+            config: config.name.clone(),
+            class: config.class,
+            outcome,
+            chi2: None,
+            normalisation_error: None,
+            integral: None,
+            round_trip: None,
+            failures: Vec::new(),
+        }
+    }
+
+    fn fail(&mut self, check: Check, message: String) {
+        self.failures.push(Failure { check, message });
+    }
+
+    pub fn passed(&self) -> bool {
+        self.failures.is_empty() && matches!(self.outcome, Outcome::Tested | Outcome::ZeroContribution)
+    }
+
+    /// Failed a check of the suite (a panic is not a statistical rejection).
+    pub fn rejected(&self) -> bool {
+        self.outcome == Outcome::Tested && !self.failures.is_empty()
+            || self.outcome == Outcome::ZeroContribution && !self.failures.is_empty()
+    }
+}
+
+/// Per class summary of one subject (one row of the `linlight samplers` table).
+#[derive(Clone, Debug, Serialize)]
+pub struct ClassSummary {
+    pub class: ConfigClass,
+    pub configs: usize,
+    pub tested: usize,
+    pub zero_contribution: usize,
+    pub failing: usize,
+    pub worst_p_value: Option<f64>,
+    pub max_normalisation_error: Option<f64>,
+    pub passed: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SubjectReport {
+    pub name: String,
+    pub description: String,
+    pub role: Role,
+    /// Certified subject: all configurations passed. Negative control: rejected.
+    pub passed: bool,
+    /// "pass" / "FAIL" / "rejected as expected" / "NOT REJECTED" / "panicked".
+    pub verdict: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub panic: Option<String>,
+    pub failing_configs: usize,
+    pub failures_by_check: BTreeMap<Check, usize>,
+    pub worst_p_value: Option<f64>,
+    pub max_normalisation_error: Option<f64>,
+    pub classes: Vec<ClassSummary>,
+    pub configs: Vec<ConfigResult>,
+    /// Wall-clock time of this subject.
+    pub elapsed_seconds: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SuiteReport {
+    pub settings: Settings,
+    /// m: statistical tests the Šidák correction is taken over.
+    pub statistical_tests: usize,
+    pub alpha_per_test: f64,
+    pub z_threshold: f64,
+    pub configurations: Vec<Config>,
+    pub techniques: Vec<SubjectReport>,
+    pub negative_controls: Vec<SubjectReport>,
+    /// Every technique passed and every negative control was rejected.
+    pub passed: bool,
+    pub elapsed_seconds: f64,
+}
+
+/// Šidák level and z threshold for m tests at suite-wide α.
+pub fn corrected_levels(alpha: f64, m: usize) -> (f64, f64) {
+    let m = m.max(1) as f64;
+    // 1 − (1 − α)^(1/m) without cancellation.
+    let alpha_c = -((-alpha).ln_1p() / m).exp_m1();
+    let normal = Normal::new(0.0, 1.0).expect("standard normal");
+    let z = normal.inverse_cdf(1.0 - alpha_c / 2.0).max(4.0);
+    (alpha_c, z)
+}
+
+/// C(s) = n_s s² + n_t (s√(1−s²) + asin s) in f64.
+fn antiderivative(ns: f64, nt: f64, s: f64) -> f64 {
+    let s = s.clamp(-1.0, 1.0);
+    ns * s * s + nt * (s * (1.0 - s * s).max(0.0).sqrt() + s.asin())
+}
+
+/// Ω⊥_R of the horizon-clipped line in f64 (from the f32 frame), and Ω_R of the whole line.
+/// (0, Ω_R) when nothing is above the horizon; (0, 0) when the line is degenerate.
+pub fn lambert_reference(config: &Config) -> (f64, f64) {
+    let Some(n) = unit_normal(config.n()) else { return (0.0, 0.0) };
+    let Some(frame) = LineFrame::new(&config.segment(), config.x()) else { return (0.0, 0.0) };
+    let omega = 2.0 / frame.d as f64 * (frame.s_end as f64 - frame.s_begin as f64);
+    let Some(c) = frame.clip_to_horizon(n) else { return (0.0, omega) };
+    let n = n.as_dvec3();
+    let (ns, nt) = (n.dot(c.u.as_dvec3()), n.dot(c.c_hat.as_dvec3()));
+    let psa = (antiderivative(ns, nt, c.s_end as f64) - antiderivative(ns, nt, c.s_begin as f64))
+        / c.d as f64;
+    (psa.max(0.0), omega)
+}
+
+/// Run one prepared sampler through every check.
+fn check_sampler(
+    sampler: &dyn LineSampler,
+    subject: &Subject,
+    config: &Config,
+    settings: &Settings,
+    levels: (f64, f64),
+    stream: u64,
+    out: &mut ConfigResult,
+) {
+    let (alpha_c, z_c) = levels;
+    let frame = *sampler.support();
+    let binning = PhiBinning::new(&frame, settings.bins);
+    let quad = Adaptive::new(settings.nodes, QUAD_RELATIVE);
+    let two_over_d = 2.0 / frame.d as f64;
+    let support_omega = two_over_d * (frame.s_end as f64 - frame.s_begin as f64);
+
+    // Normalisation.
+    let masses = binning.masses(sampler, &quad);
+    let total = masses.total();
+    let norm_err = (total - 1.0).abs();
+    out.normalisation_error = Some(norm_err);
+    if !(norm_err <= settings.normalisation_tolerance) {
+        out.fail(
+            Check::Normalisation,
+            format!("∫ p_R dΩ_R = {total:.9} (|err| {norm_err:.2e} > {:.0e})", settings.normalisation_tolerance),
+        );
+    }
+
+    // The pdf vanishes on the line outside the support.
+    let (sb, se) = (frame.s_begin as f64, frame.s_end as f64);
+    let margin = (1e-4 * (se - sb)).max(1e-5);
+    let mut outside = Vec::new();
+    for k in 0..8 {
+        let t = (k as f64 + 0.5) / 8.0;
+        if sb - margin > -1.0 {
+            outside.push(-1.0 + t * (sb - margin + 1.0));
+        }
+        if se + margin < 1.0 {
+            outside.push(se + margin + t * (1.0 - se - margin));
+        }
+    }
+    if let Some(&s) = outside.iter().find(|&&s| sampler.pdf(binning.direction(s.asin())) != 0.0) {
+        out.fail(Check::Support, format!("pdf ≠ 0 at s = {s:.6} outside the support [{sb:.6}, {se:.6}]"));
+    }
+
+    // Samples.
+    let n = unit_normal(config.n()).unwrap_or(glam::Vec3::Z).as_dvec3();
+    let mut rng = Pcg32::new(settings.seed, stream);
+    let mut observed = vec![0u64; binning.bins()];
+    let (mut outside_support, mut not_toward_line) = (0u64, 0u64);
+    let (mut sum, mut sum_sq, mut zero_density_hits) = (0.0f64, 0.0f64, 0u64);
+    let (mut worst_consistency, mut worst_consistency_at) = (0.0f64, (0.0f32, 0.0f32));
+    let mut round_trip = RoundTripCheck { checked: 0, max_error: 0.0 };
+    let mut round_trip_fail: Option<String> = None;
+    for i in 0..settings.samples {
+        let xi = rng.next_f32();
+        let (dir, p) = sampler.sample_with_pdf(xi);
+        match binning.lookup(dir) {
+            BinLookup::Bin(b) => observed[b] += 1,
+            BinLookup::OutsideSupport => outside_support += 1,
+            BinLookup::NotTowardLine => not_toward_line += 1,
+        }
+        let p_eval = sampler.pdf(dir);
+        let scale = PDF_CONSISTENCY_RELATIVE * (p as f64).abs().max((p_eval as f64).abs())
+            + PDF_CONSISTENCY_FLOOR / support_omega;
+        let dev = (p as f64 - p_eval as f64).abs() / scale;
+        if !(dev <= worst_consistency) {
+            worst_consistency = if dev.is_nan() { f64::INFINITY } else { dev };
+            worst_consistency_at = (p, p_eval);
+        }
+        let f = n.dot(dir.as_dvec3()).max(0.0);
+        if p > 0.0 && p.is_finite() {
+            let w = f / p as f64;
+            sum += w;
+            sum_sq += w * w;
+        } else if f > 0.0 {
+            zero_density_hits += 1;
+        }
+        if i < settings.round_trips {
+            if let Some(xi2) = sampler.inverse(dir) {
+                let err = (xi2 as f64 - xi as f64).abs();
+                let tol = ROUND_TRIP_XI + ROUND_TRIP_S * two_over_d * p_eval as f64;
+                round_trip.checked += 1;
+                round_trip.max_error = round_trip.max_error.max(err);
+                if !(err <= tol) && round_trip_fail.is_none() {
+                    round_trip_fail = Some(format!("ξ = {xi} → ω → ξ' = {xi2} (|Δξ| {err:.2e} > {tol:.2e})"));
+                }
+            }
+        }
+    }
+    if round_trip.checked > 0 {
+        out.round_trip = Some(round_trip);
+    }
+    if let Some(m) = round_trip_fail {
+        out.fail(Check::RoundTrip, m);
+    }
+    if not_toward_line > 0 {
+        out.fail(Check::Direction, format!("{not_toward_line} samples are not unit directions toward the line"));
+    }
+    if outside_support > 0 {
+        out.fail(Check::Support, format!("{outside_support} samples outside the support"));
+    }
+    if worst_consistency > 1.0 {
+        let (p, q) = worst_consistency_at;
+        out.fail(Check::PdfConsistency, format!("sample_with_pdf {p:e} vs pdf(sample) {q:e}"));
+    }
+
+    // Chi-square on resolution groups of bins (see `chi2::S_RESOLUTION`). A sample outside the
+    // support or in a bin of zero expected count is an immediate failure (p = 0).
+    let big_n = settings.samples as f64;
+    let zero_bin_samples: u64 = observed
+        .iter()
+        .zip(&masses.mass)
+        .filter(|(_, &m)| !(m > 0.0))
+        .map(|(&o, _)| o)
+        .sum();
+    let groups = binning.resolution_groups();
+    let grouped_observed: Vec<u64> = groups.iter().map(|g| observed[g.clone()].iter().sum()).collect();
+    let grouped_expected: Vec<f64> =
+        groups.iter().map(|g| masses.mass[g.clone()].iter().sum::<f64>() * big_n).collect();
+    let mut chi2 = pooled_chi_square(&grouped_observed, &grouped_expected);
+    chi2.zero_bin_samples = zero_bin_samples;
+    if outside_support + not_toward_line + zero_bin_samples > 0 {
+        chi2.p_value = 0.0;
+    }
+    if !(chi2.p_value >= alpha_c) {
+        out.fail(
+            Check::Chi2,
+            format!(
+                "χ² = {:.1} on {} dof, p = {:.3e} < α_c = {alpha_c:.2e}{}",
+                chi2.statistic,
+                chi2.dof,
+                chi2.p_value,
+                if chi2.zero_bin_samples > 0 {
+                    format!(" ({} samples in zero-expected bins)", chi2.zero_bin_samples)
+                } else {
+                    String::new()
+                }
+            ),
+        );
+    }
+    out.chi2 = Some(chi2);
+
+    // Integral agreement.
+    let reference = match subject.coverage {
+        Coverage::Lambert => lambert_reference(config).0,
+        Coverage::OwnSupport => {
+            let mut g = |phi: f64| {
+                let dir = binning.direction(phi);
+                if sampler.pdf(dir) > 0.0 {
+                    n.dot(dir.as_dvec3()).max(0.0) * binning.jacobian(phi)
+                } else {
+                    0.0
+                }
+            };
+quad.integrate_partition(&binning.edges(), &mut g).value
+        }
+    };
+    let mean = sum / big_n;
+    let var = (sum_sq / big_n - mean * mean).max(0.0) * big_n / (big_n - 1.0).max(1.0);
+    let std_error = (var / big_n).sqrt();
+    let tolerance = z_c * std_error
+        + INTEGRAL_RELATIVE_FLOOR * reference.abs()
+        + INTEGRAL_SOLID_ANGLE_FLOOR * support_omega;
+    let relative_std = if reference > 0.0 { var.sqrt() / reference } else { 0.0 };
+    if !((mean - reference).abs() <= tolerance) {
+        out.fail(
+            Check::Integral,
+            format!(
+                "∫(n·ω)⁺ estimate {mean:.7e} ± {std_error:.2e} vs reference {reference:.7e} (tolerance {tolerance:.2e})"
+            ),
+        );
+    }
+    if zero_density_hits > 0 {
+        out.fail(Check::Integral, format!("{zero_density_hits} samples with (n·ω)⁺ > 0 but density 0 or non-finite"));
+    }
+    out.integral = Some(IntegralCheck { estimate: mean, reference, std_error, tolerance, relative_std });
+}
+
+fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        s.to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "panic".to_string()
+    }
+}
+
+/// One subject on one configuration (never panics: panics become `Outcome::Panicked`).
+pub fn certify_config(
+    subject: &Subject,
+    config: &Config,
+    settings: &Settings,
+    levels: (f64, f64),
+    stream: u64,
+) -> ConfigResult {
+    let run = catch_unwind(AssertUnwindSafe(|| {
+        let prepared = (subject.prepare)(config);
+        match prepared {
+            None => {
+                let mut r = ConfigResult::new(config, Outcome::ZeroContribution);
+                if subject.coverage == Coverage::Lambert {
+                    let (psa, omega) = lambert_reference(config);
+                    if psa > ZERO_CONTRIBUTION_TOLERANCE * omega {
+                        r.fail(
+                            Check::ZeroContribution,
+                            format!("prepare returned None but Ω⊥_R = {psa:.6e} > 0"),
+                        );
+                    }
+                }
+                r
+            }
+            Some(s) => {
+                let mut r = ConfigResult::new(config, Outcome::Tested);
+                check_sampler(s.as_ref(), subject, config, settings, levels, stream, &mut r);
+                r
+            }
+        }
+    }));
+    run.unwrap_or_else(|payload| {
+        let mut r = ConfigResult::new(config, Outcome::Panicked);
+        r.fail(Check::Panic, panic_message(payload));
+        r
+    })
+}
+
+fn summarise(subject: &Subject, configs: Vec<ConfigResult>, panic: Option<String>) -> SubjectReport {
+    let mut classes = Vec::new();
+    for class in ConfigClass::ALL {
+        let rows: Vec<&ConfigResult> = configs.iter().filter(|r| r.class == class).collect();
+        if rows.is_empty() {
+            continue;
+        }
+        classes.push(ClassSummary {
+            class,
+            configs: rows.len(),
+            tested: rows.iter().filter(|r| r.outcome == Outcome::Tested).count(),
+            zero_contribution: rows.iter().filter(|r| r.outcome == Outcome::ZeroContribution).count(),
+            failing: rows.iter().filter(|r| !r.passed()).count(),
+            worst_p_value: rows.iter().filter_map(|r| r.chi2.as_ref().map(|c| c.p_value)).reduce(f64::min),
+            max_normalisation_error: rows.iter().filter_map(|r| r.normalisation_error).reduce(f64::max),
+            passed: rows.iter().all(|r| r.passed()),
+        });
+    }
+    let mut failures_by_check = BTreeMap::new();
+    for r in &configs {
+        let mut seen: Vec<Check> = r.failures.iter().map(|f| f.check).collect();
+        seen.sort();
+        seen.dedup();
+        for c in seen {
+            *failures_by_check.entry(c).or_insert(0) += 1;
+        }
+    }
+    let failing_configs = configs.iter().filter(|r| !r.passed()).count();
+    let runnable = panic.is_none() && configs.iter().all(|r| matches!(r.outcome, Outcome::Tested | Outcome::ZeroContribution));
+    let (passed, verdict) = match subject.role {
+        _ if !runnable => (false, "panicked".to_string()),
+        Role::Certify if failing_configs == 0 => (true, "pass".to_string()),
+        Role::Certify => (false, "FAIL".to_string()),
+        Role::NegativeControl if configs.iter().any(|r| r.rejected()) => {
+            (true, "rejected as expected".to_string())
+        }
+        Role::NegativeControl => (false, "NOT REJECTED".to_string()),
+    };
+    SubjectReport {
+        name: subject.name.clone(),
+        description: subject.description.clone(),
+        role: subject.role,
+        passed,
+        verdict,
+        panic,
+        failing_configs,
+        failures_by_check,
+        worst_p_value: classes.iter().filter_map(|c| c.worst_p_value).reduce(f64::min),
+        max_normalisation_error: classes.iter().filter_map(|c| c.max_normalisation_error).reduce(f64::max),
+        classes,
+        configs,
+        elapsed_seconds: 0.0,
+    }
+}
+
+/// Run one subject over all configurations (in parallel). Configuration 0 runs first on its
+/// own: if the subject panics there (unimplemented), the rest are not run.
+pub fn run_subject(
+    subject: &Subject,
+    subject_index: usize,
+    configs: &[Config],
+    settings: &Settings,
+    levels: (f64, f64),
+) -> SubjectReport {
+    let started = std::time::Instant::now();
+    let mut report = run_subject_inner(subject, subject_index, configs, settings, levels);
+    report.elapsed_seconds = started.elapsed().as_secs_f64();
+    report
+}
+
+fn run_subject_inner(
+    subject: &Subject,
+    subject_index: usize,
+    configs: &[Config],
+    settings: &Settings,
+    levels: (f64, f64),
+) -> SubjectReport {
+    let stream = |i: usize| ((subject_index as u64) << 32) | i as u64;
+    let Some(first_config) = configs.first() else { return summarise(subject, Vec::new(), None) };
+    let first = certify_config(subject, first_config, settings, levels, stream(0));
+    if first.outcome == Outcome::Panicked {
+        let msg = first.failures.first().map(|f| f.message.clone());
+        let mut results = vec![first];
+        results.extend(configs[1..].iter().map(|c| ConfigResult::new(c, Outcome::NotRun)));
+        return summarise(subject, results, msg);
+    }
+    let mut results = vec![first];
+    results.par_extend(
+        configs[1..]
+            .par_iter()
+            .enumerate()
+            .map(|(i, c)| certify_config(subject, c, settings, levels, stream(i + 1))),
+    );
+    summarise(subject, results, None)
+}
+
+/// Run certified subjects and negative controls over the suite's configurations.
+pub fn run_suite(certified: &[Subject], controls: &[Subject], settings: &Settings) -> SuiteReport {
+    let started = std::time::Instant::now();
+    let configs = suite_configs(settings.seed, settings.random_configs);
+    let m = 2 * certified.len().max(1) * configs.len();
+    let (alpha_c, z) = corrected_levels(settings.alpha, m);
+    let techniques: Vec<SubjectReport> = certified
+        .iter()
+        .enumerate()
+        .map(|(i, s)| run_subject(s, i, &configs, settings, (alpha_c, z)))
+        .collect();
+    let negative_controls: Vec<SubjectReport> = controls
+        .iter()
+        .enumerate()
+        .map(|(i, s)| run_subject(s, 1000 + i, &configs, settings, (alpha_c, z)))
+        .collect();
+    let passed = techniques.iter().chain(&negative_controls).all(|r| r.passed);
+    SuiteReport {
+        settings: settings.clone(),
+        statistical_tests: m,
+        alpha_per_test: alpha_c,
+        z_threshold: z,
+        configurations: configs,
+        techniques,
+        negative_controls,
+        passed,
+        elapsed_seconds: started.elapsed().as_secs_f64(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::subjects::{self, technique};
+    use linlight_sampling::Technique;
+
+    #[test]
+    fn sidak_levels() {
+        let (a, z) = corrected_levels(0.01, 1);
+        assert!((a - 0.01).abs() < 1e-15);
+        assert_eq!(z, 4.0);
+        let (a, z) = corrected_levels(0.01, 1000);
+        assert!((1.0 - (1.0 - a).powf(1000.0) - 0.01).abs() < 1e-12);
+        assert!(z > 4.0 && z < 5.0, "{z}");
+    }
+
+    #[test]
+    fn lambert_reference_sanity_value() {
+        let mut c = crate::configs::edge_configs()[0].clone();
+        c.begin = [-1.0, 0.0, 1.0];
+        c.end = [1.0, 0.0, 1.0];
+        c.n = [0.0, 0.0, 1.0];
+        let (psa, omega) = lambert_reference(&c);
+        assert!((psa - (1.0 + std::f64::consts::FRAC_PI_2)).abs() < 1e-6);
+        assert!((omega - 2.0 * 2f64.sqrt()).abs() < 1e-6);
+    }
+
+    fn report_of(subjects: &[Subject], controls: &[Subject]) -> SuiteReport {
+        run_suite(subjects, controls, &Settings::default())
+    }
+
+    #[test]
+    fn solid_angle_techniques_pass_and_controls_are_rejected() {
+        let certified = [technique(Technique::SolidAngle), technique(Technique::ClippedSolidAngle)];
+        let controls = subjects::negative_controls();
+        let r = report_of(&certified, &controls);
+        for t in &r.techniques {
+            let bad: Vec<_> = t.configs.iter().filter(|c| !c.passed()).collect();
+            assert!(t.passed, "{}: {:#?}", t.name, bad);
+            eprintln!("{}: worst p {:?}, max norm err {:?}", t.name, t.worst_p_value, t.max_normalisation_error);
+        }
+        for c in &r.negative_controls {
+            eprintln!("{}: {} ({} failing, {:?})", c.name, c.verdict, c.failing_configs, c.failures_by_check);
+            assert!(c.passed, "{} not rejected", c.name);
+        }
+        eprintln!("elapsed {:.2} s", r.elapsed_seconds);
+    }
+}
