@@ -35,7 +35,16 @@ fn print_techniques(rows: &[SubjectReport]) {
     );
     for t in rows {
         if let Some(p) = &t.panic {
-            println!("{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  panicked: {p}", t.name, "-", t.configs.len(), 0, 0, "-", "-");
+            println!(
+                "{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  panicked: {p}",
+                t.name,
+                "-",
+                t.configs.len(),
+                0,
+                0,
+                "-",
+                "-"
+            );
             continue;
         }
         println!("{:<24} ({:.1} s)", t.name, t.elapsed_seconds);
@@ -49,7 +58,11 @@ fn print_techniques(rows: &[SubjectReport]) {
                 c.zero_contribution,
                 fmt_opt(c.worst_p_value),
                 fmt_opt(c.max_normalisation_error),
-                if c.passed { "pass".to_string() } else { format!("FAIL ({} configs)", c.failing) }
+                if c.passed {
+                    "pass".to_string()
+                } else {
+                    format!("FAIL ({} configs)", c.failing)
+                }
             );
         }
     }
@@ -61,8 +74,11 @@ fn print_controls(rows: &[SubjectReport]) {
         "negative control", "rejected", "worst p", "failing checks (configs)"
     );
     for c in rows {
-        let checks: Vec<String> =
-            c.failures_by_check.iter().map(|(k, n)| format!("{}:{n}", k.name())).collect();
+        let checks: Vec<String> = c
+            .failures_by_check
+            .iter()
+            .map(|(k, n)| format!("{}:{n}", k.name()))
+            .collect();
         let verdict = match &c.panic {
             Some(p) => format!("panicked: {p}"),
             None => c.verdict.clone(),
@@ -82,7 +98,13 @@ fn print_failures(rows: &[SubjectReport]) {
     for t in rows.iter().filter(|t| !t.passed && t.panic.is_none()) {
         for r in t.configs.iter().filter(|r| !r.passed()).take(10) {
             for f in &r.failures {
-                println!("  {} / {}: [{}] {}", t.name, r.config, f.check.name(), f.message);
+                println!(
+                    "  {} / {}: [{}] {}",
+                    t.name,
+                    r.config,
+                    f.check.name(),
+                    f.message
+                );
             }
         }
     }
@@ -90,7 +112,10 @@ fn print_failures(rows: &[SubjectReport]) {
 
 pub fn run(args: Args) -> ExitCode {
     if args.samples < 100 {
-        eprintln!("error: --samples must be at least 100 (got {})", args.samples);
+        eprintln!(
+            "error: --samples must be at least 100 (got {})",
+            args.samples
+        );
         return ExitCode::from(2);
     }
     let settings = Settings {
@@ -129,8 +154,12 @@ pub fn run(args: Args) -> ExitCode {
         .filter(|c| !c.passed)
         .map(|c| c.name.as_str())
         .collect();
-    let techniques_failed: Vec<&str> =
-        report.techniques.iter().filter(|t| !t.passed).map(|t| t.name.as_str()).collect();
+    let techniques_failed: Vec<&str> = report
+        .techniques
+        .iter()
+        .filter(|t| !t.passed)
+        .map(|t| t.name.as_str())
+        .collect();
     println!();
     println!(
         "{} in {:.1} s: techniques failing: [{}]; negative controls not rejected: [{}]",
