@@ -8,6 +8,7 @@
 
 use criterion::{black_box, Criterion, Throughput};
 use glam::Vec3;
+use linlight_sampling::li2018::Li2018;
 use linlight_sampling::rng::Pcg32;
 use linlight_sampling::{LineSampler, Segment, Technique};
 use std::time::Instant;
@@ -76,34 +77,47 @@ fn criterion_groups(c: &mut Criterion, configurations: &[Configuration]) {
     group.finish();
 }
 
-/// Mean time per configuration in ns, median over repeats. Repeats are interleaved across the
-/// techniques (round robin), so that a change of machine load hits all of them alike and the
-/// ratios stay meaningful on a shared machine.
-fn plain_timing(techniques: &[Technique], configurations: &[Configuration]) -> Vec<f64> {
-    const REPEATS: usize = 15;
-    const PASSES: usize = 50;
+/// Mean time per configuration in ns of single passes, (median, minimum) over repeats. Repeats
+/// are interleaved across the techniques (round robin), so that a change of machine load hits
+/// all of them alike. On a loaded machine the minimum (a pass that was not descheduled) is the
+/// reproducible figure; the median shows the load.
+fn plain_timing(techniques: &[Technique], configurations: &[Configuration]) -> Vec<(f64, f64)> {
+    const REPEATS: usize = 301;
     let mut times = vec![Vec::with_capacity(REPEATS); techniques.len()];
     for _ in 0..REPEATS {
         for (k, &technique) in techniques.iter().enumerate() {
             let start = Instant::now();
-            for _ in 0..PASSES {
-                black_box(pass(technique, black_box(configurations)));
-            }
-            let ns = start.elapsed().as_secs_f64() * 1e9 / (PASSES * configurations.len()) as f64;
-            times[k].push(ns);
+            black_box(pass(technique, black_box(configurations)));
+            times[k].push(start.elapsed().as_secs_f64() * 1e9 / configurations.len() as f64);
         }
     }
     times
         .into_iter()
         .map(|mut t| {
             t.sort_by(f64::total_cmp);
-            t[REPEATS / 2]
+            (t[REPEATS / 2], t[0])
         })
         .collect()
 }
 
+/// Instruction-count mode for `valgrind --tool=callgrind --toggle-collect='*pass*'`:
+/// `LINLIGHT_BENCH_ONLY=<technique> <bench binary>` runs 10 passes of that technique and exits
+/// (no criterion, no timing), so that instructions per configuration = Ir(pass) / (10·1024).
+fn count_mode(name: &str, configurations: &[Configuration]) {
+    let technique = Technique::from_name(name).expect("unknown technique in LINLIGHT_BENCH_ONLY");
+    let mut acc = 0.0;
+    for _ in 0..10 {
+        acc += black_box(pass(technique, black_box(configurations)));
+    }
+    println!("{name}: checksum {acc}");
+}
+
 fn main() {
     let configurations = configurations();
+    if let Ok(name) = std::env::var("LINLIGHT_BENCH_ONLY") {
+        count_mode(&name, &configurations);
+        return;
+    }
     let mut criterion = Criterion::default().configure_from_args();
     criterion_groups(&mut criterion, &configurations);
     criterion.final_summary();
@@ -112,24 +126,25 @@ fn main() {
     if !std::env::args().any(|a| a == "--bench") {
         return;
     }
-    println!("\nplain timing loop (median of 15 interleaved repeats, ns per configuration):");
+    println!("\nplain timing loop (301 interleaved single passes, ns per configuration):");
+    println!("  {:<24} {:>8}    {:>8}", "", "median", "minimum");
     let techniques: Vec<Technique> = active().collect();
     let times = plain_timing(&techniques, &configurations);
     let mut ns = std::collections::HashMap::new();
-    for (&technique, &t) in techniques.iter().zip(&times) {
+    for (&technique, &(median, min)) in techniques.iter().zip(&times) {
         let prepared = configurations
             .iter()
             .filter(|c| technique.prepare(&c.segment, c.x, c.n).is_some())
             .count();
         println!(
-            "  {:<24} {t:8.2} ns   ({prepared}/{} prepared)",
+            "  {:<24} {median:8.2} ns {min:8.2} ns   ({prepared}/{} prepared)",
             technique.name(),
             CONFIGURATIONS
         );
-        ns.insert(technique, t);
+        ns.insert(technique, (median, min));
     }
     let ratio = |a: Technique, b: Technique| match (ns.get(&a), ns.get(&b)) {
-        (Some(x), Some(y)) => format!("{:.3}", x / y),
+        (Some(x), Some(y)) => format!("{:.3} (median)  {:.3} (minimum)", x.0 / y.0, x.1 / y.1),
         _ => "n/a (pending)".to_string(),
     };
     println!(
@@ -139,5 +154,18 @@ fn main() {
     println!(
         "  ratio projected-solid-angle / clipped-solid-angle: {}",
         ratio(Technique::ProjectedSolidAngle, Technique::ClippedSolidAngle)
+    );
+    // Li et al.'s cost is proportional to its iteration count (mean, not the worst case that a
+    // GPU warp would wait for).
+    let evaluations: Vec<u32> = configurations
+        .iter()
+        .filter_map(|c| {
+            Li2018::prepare(&c.segment, c.x, c.n).map(|l| (l.sample_l(c.xi).1 + 1).min(20))
+        })
+        .collect();
+    println!(
+        "  li2018: {:.2} CDF evaluations per sample on average (max {})",
+        evaluations.iter().sum::<u32>() as f64 / evaluations.len() as f64,
+        evaluations.iter().max().unwrap_or(&0)
     );
 }

@@ -18,6 +18,7 @@ pub mod rng;
 pub mod sampler;
 pub mod solid_angle;
 pub mod technique;
+pub mod trig;
 
 pub use geometry::{projected_antiderivative, unit_normal, LineFrame, Segment};
 pub use sampler::LineSampler;

@@ -31,9 +31,21 @@
 //! The inversion core is generic over f32/f64 ([`Real`]) so that the backward-error sweep
 //! ([`crate::backward_error`]) can run both precisions through the same code; the sampler uses
 //! f32.
+//!
+//! Cost (the f32 hot path; `cargo bench -p linlight-sampling --bench techniques`): a sample is a
+//! chain of dependent evaluations — Δ (atan2) and C(φ_e) − C(φ_b) (sin/cos of Δ/2) in `prepare`,
+//! the start value (sqrt, atan2), two Halley steps (sin/cos of τ/2, δ − sin δ, sqrt, division)
+//! and the direction (sin/cos of τ/2) — so its latency, not its instruction count, sets the
+//! time. Hence: the f32 `atan2`/`sin_cos` of [`Real`] are short f64 polynomials without libm
+//! calls ([`crate::trig`]; a libm call also spills every live SSE register), the series of
+//! δ − sin δ is cut to the f32 precision and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1, atan2
+//! arguments are formed without divisions, the start value saves its division (atan2 is
+//! scale-invariant), and the pdf of a sample is (n·ω)/Ω⊥_R with n·ω from the rotation already at
+//! hand. The f64 instantiation keeps std's functions and the full series.
 
 use crate::geometry::{unit_normal, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
+use crate::trig::{atan2, atan2_f64};
 use glam::Vec3;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -58,10 +70,12 @@ pub(crate) trait Real:
     const ONE: Self;
     const TWO: Self;
     const HALF: Self;
+    /// Denominators (2k+2)(2k+3) of the series of δ − sin δ used at this precision, innermost
+    /// first (see [`delta_minus_sin`]).
+    const SERIES: &'static [f64];
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
     fn sin_cos(self) -> (Self, Self);
-    fn sin(self) -> Self;
     fn atan2(self, x: Self) -> Self;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
@@ -91,12 +105,13 @@ pub(crate) trait Real:
 }
 
 macro_rules! impl_real {
-    ($t:ty, $dot2:expr) => {
+    ($t:ty, $dot2:expr, $atan2:expr, $sin_cos:expr, $series:expr) => {
         impl Real for $t {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
             const TWO: Self = 2.0;
             const HALF: Self = 0.5;
+            const SERIES: &'static [f64] = $series;
             #[inline]
             fn from_f64(x: f64) -> Self {
                 x as $t
@@ -107,15 +122,11 @@ macro_rules! impl_real {
             }
             #[inline]
             fn sin_cos(self) -> (Self, Self) {
-                <$t>::sin_cos(self)
-            }
-            #[inline]
-            fn sin(self) -> Self {
-                <$t>::sin(self)
+                $sin_cos(self)
             }
             #[inline]
             fn atan2(self, x: Self) -> Self {
-                <$t>::atan2(self, x)
+                $atan2(self, x)
             }
             #[inline]
             fn sqrt(self) -> Self {
@@ -136,25 +147,46 @@ macro_rules! impl_real {
         }
     };
 }
-impl_real!(f32, |a: f32, b: f32, c: f32, d: f32| {
-    (a as f64 * b as f64 + c as f64 * d as f64) as f32
-});
-impl_real!(f64, |a: f64, b: f64, c: f64, d: f64| a.mul_add(b, c * d));
+// f32: atan2 and sin_cos without libm (crate::trig, f64 polynomials, ~1e-11 relative), 4
+// series terms of δ − sin δ (truncation < 1e-9 relative for |δ| < 1). f64: std, 8 terms
+// (< 1e-17).
+impl_real!(
+    f32,
+    |a: f32, b: f32, c: f32, d: f32| { (a as f64 * b as f64 + c as f64 * d as f64) as f32 },
+    crate::trig::atan2,
+    crate::trig::sin_cos,
+    &[110.0, 72.0, 42.0, 20.0]
+);
+impl_real!(
+    f64,
+    |a: f64, b: f64, c: f64, d: f64| a.mul_add(b, c * d),
+    f64::atan2,
+    f64::sin_cos,
+    &[342.0, 272.0, 210.0, 156.0, 110.0, 72.0, 42.0, 20.0]
+);
 
-/// δ − sin δ without cancellation: Taylor series for |δ| < 1 (truncation < 1e-17 relative),
+/// δ − sin δ without cancellation: Taylor series for |δ| < 1 (truncated where the remainder is
+/// below the precision: < 1e-17 relative in f64, < 1e-9 in f32, see [`Real::SERIES`]),
 /// direct formula above (relative error ≤ ~6 ulp there since δ − sin δ ≥ 0.158·δ).
-#[inline]
+#[cfg(test)]
 pub(crate) fn delta_minus_sin<T: Real>(x: T) -> T {
+    delta_minus_sin_given(x, T::from_f64(x.to_f64().sin()))
+}
+
+/// [`delta_minus_sin`] with sin δ already known (used only for |δ| ≥ 1): no sin call on the hot
+/// path, where sin τ = 2 sin(τ/2) cos(τ/2) is at hand.
+#[inline]
+pub(crate) fn delta_minus_sin_given<T: Real>(x: T, sin_x: T) -> T {
     if x.abs() < T::ONE {
         let x2 = x * x;
         let mut acc = T::ONE;
         // Coefficient ratios −x²/((2k+2)(2k+3)) of the series x³/3! − x⁵/5! + …
-        for den in [342.0, 272.0, 210.0, 156.0, 110.0, 72.0, 42.0, 20.0] {
+        for &den in T::SERIES {
             acc = T::ONE - x2 * T::from_f64(1.0 / den) * acc;
         }
         x * x2 * T::from_f64(1.0 / 6.0) * acc
     } else {
-        x - x.sin()
+        x - sin_x
     }
 }
 
@@ -206,6 +238,7 @@ impl<T: Real> PsaCore<T> {
 
     /// From sin φ_b, cos φ_b and Δ. `None` if the interval carries no finite, positive
     /// projected solid angle.
+    #[inline]
     pub fn with_frame_values(ns: T, nt: T, s_b: T, c_b: T, width: T) -> Option<Self> {
         let mut core = Self {
             ns,
@@ -221,7 +254,7 @@ impl<T: Real> PsaCore<T> {
         };
         let (sh, ch) = (width * T::HALF).sin_cos();
         core.delta_s = T::TWO * core.rotate(sh, ch).1 * sh;
-        core.total = core.delta_c(width);
+        core.total = core.delta_c_half(width, sh, ch);
         (width > T::ZERO && core.total > T::ZERO && core.total.is_finite()).then_some(core)
     }
 
@@ -234,16 +267,24 @@ impl<T: Real> PsaCore<T> {
         )
     }
 
+    /// C(φ_b + τ) − C(φ_b) given (sin, cos) of τ/2 (cancellation-free, see the module
+    /// documentation).
+    #[inline]
+    fn delta_c_half(&self, tau: T, sh: T, ch: T) -> T {
+        let cm = self.c_b * ch - self.s_b * sh; // cos of the midpoint φ_b + τ/2
+        let n_dot_wm = self.p0 * ch + self.p1 * sh;
+        let sin_tau = T::TWO * sh * ch;
+        T::TWO * cm * sin_tau * n_dot_wm + self.nt * delta_minus_sin_given(tau, sin_tau)
+    }
+
     /// C(φ_b + τ) − C(φ_b), cancellation-free (see the module documentation), with the values
     /// at φ = φ_b + τ that the Halley step needs.
     #[inline]
     pub fn eval(&self, tau: T) -> Eval<T> {
         let (sh, ch) = (tau * T::HALF).sin_cos();
-        let cm = self.c_b * ch - self.s_b * sh; // cos of the midpoint φ_b + τ/2
-        let n_dot_wm = self.p0 * ch + self.p1 * sh;
         let sin_tau = T::TWO * sh * ch;
         let cos_tau = T::ONE - T::TWO * sh * sh;
-        let delta_c = T::TWO * cm * sin_tau * n_dot_wm + self.nt * delta_minus_sin(tau);
+        let delta_c = self.delta_c_half(tau, sh, ch);
         let (s, t) = self.rotate(sin_tau, cos_tau);
         Eval {
             delta_c,
@@ -256,7 +297,8 @@ impl<T: Real> PsaCore<T> {
 
     #[inline]
     pub fn delta_c(&self, tau: T) -> T {
-        self.eval(tau).delta_c
+        let (sh, ch) = (tau * T::HALF).sin_cos();
+        self.delta_c_half(tau, sh, ch)
     }
 
     /// Whether ξ lies in the guard band where the start value is returned unchanged.
@@ -283,12 +325,14 @@ impl<T: Real> PsaCore<T> {
         let q = y * (T::TWO * self.s_b + y);
         let c = (self.c_b * self.c_b - q).max(T::ZERO).sqrt();
         let denom = self.c_b + c;
-        let sin_tau = if denom > T::ZERO {
-            y * self.c_b + self.s_b * q / denom
-        } else {
-            y
-        };
         let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
+        // atan2 is invariant under a common positive factor: (sin τ, cos τ)·denom saves the
+        // division by denom.
+        let (sin_tau, cos_tau) = if denom > T::ZERO {
+            (y * self.c_b * denom + self.s_b * q, cos_tau * denom)
+        } else {
+            (y, cos_tau)
+        };
         sin_tau.atan2(cos_tau).clamp(T::ZERO, self.width)
     }
 
@@ -353,16 +397,18 @@ pub(crate) struct Arc {
 }
 
 impl Arc {
+    #[inline]
     pub fn of(frame: &LineFrame) -> Self {
-        let (lb, le, d) = (frame.l_begin, frame.l_end, frame.d);
+        let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
         // cos φ_b = d/r_b is accurate where s_b ≈ ±1 is not; Δ = φ_e − φ_b from
         // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
-        // Both arguments divided by d² (atan2 is invariant under positive scaling): d² and
-        // (l_e − l_b)d overflow f32 for d ≳ 1e19, while |l|/d < 1e7 by the frame's invariants.
-        let width = ((le - lb) / d).atan2(1.0 + (lb / d) * (le / d));
+        // In f64 (from f32 data): the products neither overflow nor underflow, l_e − l_b is exact
+        // or a single rounding, and no division precedes the one inside atan2.
+        let width = atan2_f64((le - lb) * d, d * d + lb * le) as f32;
+        let r_b = (lb * lb + d * d).sqrt();
         Self {
             s_b: frame.s_begin,
-            c_b: d / lb.hypot(d),
+            c_b: (d / r_b) as f32,
             width,
             tolerance: 2.5e-7 + 1e-6 * width,
         }
@@ -372,7 +418,7 @@ impl Arc {
     #[inline]
     pub fn tau_in_support(&self, frame: &LineFrame, dir: Vec3) -> Option<f32> {
         let (s, t) = (frame.u.dot(dir), frame.c_hat.dot(dir));
-        let tau = (s * self.c_b - t * self.s_b).atan2(t * self.c_b + s * self.s_b);
+        let tau = atan2(s * self.c_b - t * self.s_b, t * self.c_b + s * self.s_b);
         (t >= 0.0 && tau >= -self.tolerance && tau <= self.width + self.tolerance).then_some(tau)
     }
 
@@ -395,12 +441,16 @@ pub struct ProjectedSolidAngle {
     core: PsaCore<f32>,
     /// 1/Ω⊥_R = d / (C(φ_e) − C(φ_b)).
     inv_psa: f32,
-    arc: Arc,
+    /// Support tolerance of the arc ([`Arc::tolerance`]); the arc itself is (s_b, c_b, Δ) of
+    /// `core`, not stored twice (keeps the struct, and `Prepared`, small enough to be moved
+    /// without a memcpy call).
+    tolerance: f32,
     iterations: u32,
 }
 
 impl ProjectedSolidAngle {
     /// The paper's sampler (two Halley iterations).
+    #[inline]
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
         Self::prepare_with_iterations(segment, x, n, DEFAULT_ITERATIONS)
     }
@@ -408,6 +458,7 @@ impl ProjectedSolidAngle {
     /// Same with a chosen number of iterations. For analysis and tests only: the density stays
     /// the exact (n·ω)/Ω⊥_R, so fewer than 2 iterations sample a visibly different density than
     /// `pdf` reports (1 iteration is the chi-square suite's negative control).
+    #[inline]
     pub fn prepare_with_iterations(
         segment: &Segment,
         x: Vec3,
@@ -420,6 +471,7 @@ impl ProjectedSolidAngle {
     }
 
     /// On an already clipped frame (n unit, frame clipped to its horizon).
+    #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
         let (ns, nt) = frame.normal_coefficients(n);
         let arc = Arc::of(&frame);
@@ -430,7 +482,7 @@ impl ProjectedSolidAngle {
             n,
             core,
             inv_psa,
-            arc,
+            tolerance: arc.tolerance,
             iterations,
         })
     }
@@ -449,30 +501,51 @@ impl ProjectedSolidAngle {
     /// l_begin and l. τ(l) = atan2((l − l_b)d, d² + l_b l) avoids the cancellation of φ − φ_b.
     pub fn cdf_of_l(&self, l: f32) -> f32 {
         let f = &self.frame;
-        let l = l.clamp(f.l_begin, f.l_end);
-        // Divided by d² as in `Arc::of` (no overflow for huge d).
-        let tau = ((l - f.l_begin) / f.d).atan2(1.0 + (f.l_begin / f.d) * (l / f.d));
+        let (lb, l, d) = (
+            f.l_begin as f64,
+            l.clamp(f.l_begin, f.l_end) as f64,
+            f.d as f64,
+        );
+        // In f64 as in `Arc::of` (no overflow, no division before atan2's).
+        let tau = atan2_f64((l - lb) * d, d * d + lb * l) as f32;
         self.core.cdf(tau)
     }
 
     /// τ = φ − φ_b of the sample for ξ (for analysis).
+    #[inline]
     pub fn sample_tau(&self, xi: f32) -> f32 {
         self.core.solve(clamp_xi(xi), self.iterations)
     }
 
+    /// Direction and n·ω at offset τ ∈ [0, Δ] ⊂ [0, π]: (sin, cos) τ from the half angle, which
+    /// is in the range of the libm-free [`Real::sin_cos`].
     #[inline]
     fn direction_of_tau(&self, tau: f32) -> (Vec3, f32) {
-        let (st, ct) = tau.sin_cos();
+        let (sh, ch) = Real::sin_cos(0.5 * tau);
+        let (st, ct) = (2.0 * sh * ch, 1.0 - 2.0 * sh * sh);
         let c = &self.core;
         let (s, t) = (c.s_b * ct + c.c_b * st, c.c_b * ct - c.s_b * st);
         let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
         (dir, c.p0 * ct + c.p1 * st)
     }
 
+    /// Density of a direction known to lie in the support (no support test): (n·ω)/Ω⊥_R.
+    #[inline]
+    pub(crate) fn density_in_support(&self, dir: Vec3) -> f32 {
+        self.n.dot(dir).max(0.0) * self.inv_psa
+    }
+
     /// τ of a direction if it points into the support (up to rounding).
     #[inline]
     fn tau_in_support(&self, dir: Vec3) -> Option<f32> {
-        self.arc.tau_in_support(&self.frame, dir)
+        let c = &self.core;
+        let arc = Arc {
+            s_b: c.s_b,
+            c_b: c.c_b,
+            width: c.width,
+            tolerance: self.tolerance,
+        };
+        arc.tau_in_support(&self.frame, dir)
     }
 }
 
@@ -485,7 +558,7 @@ impl LineSampler for ProjectedSolidAngle {
     /// line is seen almost along its axis, τ is not (both describe the same interval).
     fn pdf(&self, dir: Vec3) -> f32 {
         match self.tau_in_support(dir) {
-            Some(_) => self.n.dot(dir).max(0.0) * self.inv_psa,
+            Some(_) => self.density_in_support(dir),
             None => 0.0,
         }
     }
@@ -498,6 +571,7 @@ impl LineSampler for ProjectedSolidAngle {
         self.tau_in_support(dir).map(|tau| self.core.cdf(tau))
     }
 
+    #[inline]
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
         let (dir, n_dot_w) = self.direction_of_tau(self.sample_tau(xi));
         (dir, n_dot_w.max(0.0) * self.inv_psa)

@@ -136,7 +136,8 @@ impl PhiBinning {
         }
         let s = w.dot(self.u);
         let phi = s.atan2(w.dot(self.c_hat));
-        let outside_s = s < self.s_begin - SUPPORT_TOLERANCE_S || s > self.s_end + SUPPORT_TOLERANCE_S;
+        let outside_s =
+            s < self.s_begin - SUPPORT_TOLERANCE_S || s > self.s_end + SUPPORT_TOLERANCE_S;
         let outside_phi = phi < self.phi_begin - SUPPORT_TOLERANCE_PHI
             || phi > self.phi_end + SUPPORT_TOLERANCE_PHI;
         if outside_s && outside_phi {
@@ -144,7 +145,11 @@ impl PhiBinning {
         }
         let x = (phi - self.phi_begin) / (self.phi_end - self.phi_begin) * self.bins as f64;
         // NaN (zero-width domain) and out-of-range positions go to the end bins.
-        let i = if x > 0.0 { (x as usize).min(self.bins - 1) } else { 0 };
+        let i = if x > 0.0 {
+            (x as usize).min(self.bins - 1)
+        } else {
+            0
+        };
         BinLookup::Bin(i)
     }
 
@@ -169,7 +174,11 @@ impl PhiBinning {
         if non_finite {
             mass.iter_mut().for_each(|m| *m = f64::NAN);
         }
-        Masses { mass, converged: r.converged && !non_finite, evaluations: r.evaluations }
+        Masses {
+            mass,
+            converged: r.converged && !non_finite,
+            evaluations: r.evaluations,
+        }
     }
 }
 
@@ -246,9 +255,17 @@ pub fn pooled_chi_square(observed: &[u64], expected: &[f64]) -> Chi2Outcome {
     } else if dof == 0 {
         1.0
     } else {
-        ChiSquared::new(dof as f64).map(|d| d.sf(statistic)).unwrap_or(0.0)
+        ChiSquared::new(dof as f64)
+            .map(|d| d.sf(statistic))
+            .unwrap_or(0.0)
     };
-    Chi2Outcome { statistic, dof, p_value, cells: cells.len(), zero_bin_samples }
+    Chi2Outcome {
+        statistic,
+        dof,
+        p_value,
+        cells: cells.len(),
+        zero_bin_samples,
+    }
 }
 
 #[cfg(test)]
@@ -302,7 +319,11 @@ mod tests {
         for i in 0..11 {
             let ds = b.edge(i + 1).sin() - b.edge(i).sin();
             let want = ds / (f.s_end - f.s_begin) as f64;
-            assert!((m.mass[i] - want).abs() < 1e-6, "bin {i}: {} vs {want}", m.mass[i]);
+            assert!(
+                (m.mass[i] - want).abs() < 1e-6,
+                "bin {i}: {} vs {want}",
+                m.mass[i]
+            );
         }
     }
 
@@ -310,12 +331,16 @@ mod tests {
     fn resolution_groups_cover_all_bins() {
         // Wide support: every bin is its own group.
         let seg = Segment::new(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0));
-        let f = *SolidAngle::prepare(&seg, Vec3::ZERO, Vec3::Z).unwrap().support();
+        let f = *SolidAngle::prepare(&seg, Vec3::ZERO, Vec3::Z)
+            .unwrap()
+            .support();
         let g = PhiBinning::new(&f, 51).resolution_groups();
         assert_eq!(g.len(), 51);
         // Far along a nearly parallel line (s ∈ [0.9998, 0.999994]): bins are merged.
         let seg = Segment::new(Vec3::new(0.01, 0.0, 0.5), Vec3::new(0.01, 0.0, 3.0));
-        let f = *SolidAngle::prepare(&seg, Vec3::ZERO, Vec3::Z).unwrap().support();
+        let f = *SolidAngle::prepare(&seg, Vec3::ZERO, Vec3::Z)
+            .unwrap()
+            .support();
         let b = PhiBinning::new(&f, 51);
         let g = b.resolution_groups();
         assert!(g.len() > 1 && g.len() < 51, "{}", g.len());
@@ -336,12 +361,24 @@ mod tests {
         let b = PhiBinning::new(s.support(), 51);
         let mut rng = Pcg32::new(1, 2);
         for _ in 0..1000 {
-            assert!(matches!(b.lookup(s.sample(rng.next_f32())), BinLookup::Bin(_)));
+            assert!(matches!(
+                b.lookup(s.sample(rng.next_f32())),
+                BinLookup::Bin(_)
+            ));
         }
-        assert_eq!(b.lookup(Vec3::new(0.0, 1.0, 1.0).normalize()), BinLookup::NotTowardLine);
-        assert_eq!(b.lookup(Vec3::new(0.0, 0.0, -1.0)), BinLookup::NotTowardLine);
+        assert_eq!(
+            b.lookup(Vec3::new(0.0, 1.0, 1.0).normalize()),
+            BinLookup::NotTowardLine
+        );
+        assert_eq!(
+            b.lookup(Vec3::new(0.0, 0.0, -1.0)),
+            BinLookup::NotTowardLine
+        );
         assert_eq!(b.lookup(Vec3::new(0.0, 0.0, 2.0)), BinLookup::NotTowardLine);
-        assert_eq!(b.lookup(Vec3::new(1.0, 0.0, 0.1).normalize()), BinLookup::OutsideSupport);
+        assert_eq!(
+            b.lookup(Vec3::new(1.0, 0.0, 0.1).normalize()),
+            BinLookup::OutsideSupport
+        );
         assert_eq!(b.lookup(Vec3::new(0.0, 0.0, 1.0)), BinLookup::Bin(25));
         assert_eq!(b.lookup(Vec3::NAN), BinLookup::NotTowardLine);
     }

@@ -84,7 +84,9 @@ impl Config {
     pub fn shading_frame(&self) -> Mat3 {
         let n = self.n();
         let v = Vec3::from(self.view);
-        let x = (v - n.dot(v) * n).try_normalize().unwrap_or_else(|| n.any_orthonormal_vector());
+        let x = (v - n.dot(v) * n)
+            .try_normalize()
+            .unwrap_or_else(|| n.any_orthonormal_vector());
         Mat3::from_cols(x, n.cross(x), n)
     }
     /// A as a matrix acting on shading-frame coordinates.
@@ -257,15 +259,40 @@ fn ltc_anisotropic_configs() -> Vec<Config> {
     };
     vec![
         // Line along ŷ: m ∝ (1, 0, −0.3); A⁻ᵀ = diag(50, 1, 1) gives κ ≈ 48.
-        mk("kappa-48", [0.3, -1.0, 1.0], [0.3, 1.0, 1.0], ltc_rows(0.02, 0.0, 1.0, 0.0)),
+        mk(
+            "kappa-48",
+            [0.3, -1.0, 1.0],
+            [0.3, 1.0, 1.0],
+            ltc_rows(0.02, 0.0, 1.0, 0.0),
+        ),
         // Same with shear terms and a longer line: κ ≫ 1, lobe off the normal.
-        mk("kappa-sheared", [0.5, -3.0, 0.7], [0.2, 2.0, 1.2], ltc_rows(0.05, 0.3, 1.5, -0.2)),
+        mk(
+            "kappa-sheared",
+            [0.5, -3.0, 0.7],
+            [0.2, 2.0, 1.2],
+            ltc_rows(0.05, 0.3, 1.5, -0.2),
+        ),
         // Line along x̂ crossing the horizon, A compresses ŷ: κ ≈ 20.
-        mk("kappa-crossing", [-1.0, 0.4, -0.5], [1.5, 0.4, 1.0], ltc_rows(1.0, 0.0, 0.05, 0.0)),
+        mk(
+            "kappa-crossing",
+            [-1.0, 0.4, -0.5],
+            [1.5, 0.4, 1.0],
+            ltc_rows(1.0, 0.0, 0.05, 0.0),
+        ),
         // A stretches the plane normal axis: κ ≪ 1.
-        mk("kappa-small", [0.3, -1.0, 1.0], [0.3, 1.0, 1.0], ltc_rows(30.0, 0.0, 1.0, 0.0)),
+        mk(
+            "kappa-small",
+            [0.3, -1.0, 1.0],
+            [0.3, 1.0, 1.0],
+            ltc_rows(30.0, 0.0, 1.0, 0.0),
+        ),
         // Very glossy isotropic lobe (A = diag(50, 50, 1)), light near the reflection direction.
-        mk("glossy-sharp", [-0.9, -0.5, 1.0], [-1.1, 0.5, 1.0], ltc_rows(50.0, 0.0, 50.0, 0.0)),
+        mk(
+            "glossy-sharp",
+            [-0.9, -0.5, 1.0],
+            [-1.1, 0.5, 1.0],
+            ltc_rows(50.0, 0.0, 50.0, 0.0),
+        ),
     ]
 }
 
@@ -291,7 +318,9 @@ mod tests {
             assert!((c.n().length() - 1.0).abs() < 1e-5, "{}", c.name);
             assert!(c.a().determinant().abs() > 1e-6, "{}", c.name);
             let f = c.shading_frame();
-            assert!((f.x_axis.dot(f.z_axis)).abs() < 1e-5 && (f.y_axis.length() - 1.0).abs() < 1e-5);
+            assert!(
+                (f.x_axis.dot(f.z_axis)).abs() < 1e-5 && (f.y_axis.length() - 1.0).abs() < 1e-5
+            );
             assert!(Vec3::from(c.view).dot(c.n()) > 0.0, "{}", c.name);
         }
     }
@@ -311,7 +340,11 @@ mod tests {
                 }
                 ConfigClass::Grazing => {
                     let u = (Vec3::from(c.end) - Vec3::from(c.begin)).normalize();
-                    assert!(u.dot(n).abs() < 2e-3 && h(c.begin).abs() < 0.02, "{}", c.name)
+                    assert!(
+                        u.dot(n).abs() < 2e-3 && h(c.begin).abs() < 0.02,
+                        "{}",
+                        c.name
+                    )
                 }
                 ConfigClass::NearlyParallelToNormal => {
                     let u = (Vec3::from(c.end) - Vec3::from(c.begin)).normalize();

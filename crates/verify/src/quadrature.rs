@@ -71,7 +71,10 @@ impl GaussLegendre {
             value += w * y;
             abs += w * y.abs();
         }
-        Panel { value: value * half, abs: abs * half.abs() }
+        Panel {
+            value: value * half,
+            abs: abs * half.abs(),
+        }
     }
 }
 
@@ -217,11 +220,22 @@ impl Adaptive {
         let error = (left.value + right.value - whole.value).abs();
         // NaN estimates are refined first (and keep the result unconverged).
         let error = if error.is_nan() { f64::INFINITY } else { error };
-        Pending { a, b, part, left, right, error }
+        Pending {
+            a,
+            b,
+            part,
+            left,
+            right,
+            error,
+        }
     }
 
     /// ∫ f over each interval [edges[i], edges[i+1]].
-    pub fn integrate_partition(&self, edges: &[f64], f: &mut impl FnMut(f64) -> f64) -> AdaptiveResult {
+    pub fn integrate_partition(
+        &self,
+        edges: &[f64],
+        f: &mut impl FnMut(f64) -> f64,
+    ) -> AdaptiveResult {
         let parts_n = edges.len().saturating_sub(1);
         let mut heap = std::collections::BinaryHeap::with_capacity(4 * parts_n);
         let mut evaluations = 0;
@@ -256,7 +270,12 @@ impl Adaptive {
             heap.push(self.pending(m, p.b, p.part, f));
             evaluations += 2 * per_panel;
         }
-        let mut out = AdaptiveResult { parts: vec![0.0; parts_n], evaluations, converged, ..Default::default() };
+        let mut out = AdaptiveResult {
+            parts: vec![0.0; parts_n],
+            evaluations,
+            converged,
+            ..Default::default()
+        };
         for p in heap {
             out.parts[p.part] += p.left.value + p.right.value;
             out.abs += p.left.abs + p.right.abs;
@@ -283,14 +302,22 @@ mod tests {
             let wsum: f64 = gl.weights.iter().sum();
             assert!((wsum - 2.0).abs() < 1e-13, "n={n}: Σw = {wsum}");
             for k in 0..(2 * n) {
-                let exact = if k % 2 == 1 { 0.0 } else { 2.0 / (k as f64 + 1.0) };
-                let got = gl.integrate(-1.0, 1.0, &mut |x: f64| x.powi(k as i32)).value;
+                let exact = if k % 2 == 1 {
+                    0.0
+                } else {
+                    2.0 / (k as f64 + 1.0)
+                };
+                let got = gl
+                    .integrate(-1.0, 1.0, &mut |x: f64| x.powi(k as i32))
+                    .value;
                 assert!((got - exact).abs() < 1e-13, "n={n} k={k}: {got} vs {exact}");
             }
             // Degree 2n is not integrated exactly (the rule has no more accuracy than claimed).
             let k = 2 * n;
             let exact = 2.0 / (k as f64 + 1.0);
-            let got = gl.integrate(-1.0, 1.0, &mut |x: f64| x.powi(k as i32)).value;
+            let got = gl
+                .integrate(-1.0, 1.0, &mut |x: f64| x.powi(k as i32))
+                .value;
             assert!((got - exact).abs() > 1e-12, "n={n}: degree {k} exact?");
         }
     }
@@ -304,8 +331,14 @@ mod tests {
             // Endpoint weight 2/(n(n−1)).
             assert!((gl.weights[0] - 2.0 / (n * (n - 1)) as f64).abs() < 1e-14);
             for k in 0..=(2 * n - 3) {
-                let exact = if k % 2 == 1 { 0.0 } else { 2.0 / (k as f64 + 1.0) };
-                let got = gl.integrate(-1.0, 1.0, &mut |x: f64| x.powi(k as i32)).value;
+                let exact = if k % 2 == 1 {
+                    0.0
+                } else {
+                    2.0 / (k as f64 + 1.0)
+                };
+                let got = gl
+                    .integrate(-1.0, 1.0, &mut |x: f64| x.powi(k as i32))
+                    .value;
                 assert!((got - exact).abs() < 1e-13, "n={n} k={k}: {got} vs {exact}");
             }
         }
@@ -322,7 +355,11 @@ mod tests {
         for jump in positions {
             let r = q.integrate(0.0, 1.0, &mut |x: f64| if x < jump { 1.0 } else { 3.0 });
             let exact = jump + 3.0 * (1.0 - jump);
-            assert!((r.value - exact).abs() < 1e-10, "jump at {jump}: {} vs {exact}: {r:?}", r.value);
+            assert!(
+                (r.value - exact).abs() < 1e-10,
+                "jump at {jump}: {} vs {exact}: {r:?}",
+                r.value
+            );
         }
     }
 

@@ -74,7 +74,6 @@ pub fn technique(t: Technique) -> Subject {
 }
 
 /// LTC line sampling with the configuration's shading frame and matrix A.
-#[cfg(feature = "ltc")]
 pub fn ltc() -> Subject {
     use linlight_sampling::ltc::LtcLine;
     Subject::new(
@@ -86,12 +85,10 @@ pub fn ltc() -> Subject {
     )
 }
 
-/// Every subject the suite certifies: each entry of `Technique::UNBIASED`, then LTC (when the
-/// `ltc` feature is on).
+/// Every subject the suite certifies: each entry of `Technique::UNBIASED`, then LTC.
 pub fn certified() -> Vec<Subject> {
     #[allow(unused_mut)]
     let mut v: Vec<Subject> = Technique::UNBIASED.into_iter().map(technique).collect();
-    #[cfg(feature = "ltc")]
     v.push(ltc());
     v
 }
@@ -146,12 +143,18 @@ impl LineSampler for Mismatched {
 pub fn control_scaled_pdf(t: Technique) -> Subject {
     Subject::new(
         format!("{}-pdf-x1.01", t.name()),
-        format!("{} with its pdf (and sample_with_pdf) multiplied by 1.01", t.name()),
+        format!(
+            "{} with its pdf (and sample_with_pdf) multiplied by 1.01",
+            t.name()
+        ),
         Role::NegativeControl,
         Coverage::Lambert,
         move |c| {
             let inner = boxed(t.prepare(&c.segment(), c.x(), c.n())?);
-            Some(boxed(ScaledPdf { inner, factor: 1.01 }))
+            Some(boxed(ScaledPdf {
+                inner,
+                factor: 1.01,
+            }))
         },
     )
 }
@@ -173,7 +176,6 @@ pub fn control_clipped_samples_unclipped_pdf() -> Subject {
 }
 
 /// Peters' sampler with one Halley iteration, judged against the exact density.
-#[cfg(feature = "iteration-controls")]
 pub fn control_one_halley_iteration() -> Subject {
     use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
     Subject::new(
@@ -191,7 +193,6 @@ pub fn control_one_halley_iteration() -> Subject {
 }
 
 /// Li et al. 2018 stopped after two Newton iterations.
-#[cfg(feature = "iteration-controls")]
 pub fn control_li2018_two_iterations() -> Subject {
     use linlight_sampling::li2018::Li2018;
     Subject::new(
@@ -207,7 +208,6 @@ pub fn control_li2018_two_iterations() -> Subject {
 }
 
 /// LTC without the density correction κ (pdf / κ).
-#[cfg(feature = "ltc")]
 pub fn control_ltc_without_kappa() -> Subject {
     use linlight_sampling::ltc::LtcLine;
     Subject::new(
@@ -218,24 +218,25 @@ pub fn control_ltc_without_kappa() -> Subject {
         |c| {
             let s = LtcLine::prepare(&c.segment(), c.x(), c.shading_frame(), c.a())?;
             let factor = 1.0 / s.kappa();
-            Some(boxed(ScaledPdf { inner: boxed(s), factor }))
+            Some(boxed(ScaledPdf {
+                inner: boxed(s),
+                factor,
+            }))
         },
     )
 }
 
-/// The negative controls of STATISTICS.md §1 (those whose APIs are present in this build).
+/// The negative controls of STATISTICS.md §1.
 pub fn negative_controls() -> Vec<Subject> {
     #[allow(unused_mut)]
     let mut v = vec![
         control_scaled_pdf(Technique::ClippedSolidAngle),
         control_clipped_samples_unclipped_pdf(),
     ];
-    #[cfg(feature = "iteration-controls")]
     {
         v.push(control_one_halley_iteration());
         v.push(control_li2018_two_iterations());
     }
-    #[cfg(feature = "ltc")]
     v.push(control_ltc_without_kappa());
     v
 }

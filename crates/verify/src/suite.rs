@@ -17,6 +17,9 @@
 //! *rejected* iff at least one configuration of the full configuration set fails any check
 //! (a panic or unprepared API never counts as a rejection).
 
+// `!(x <= tol)` on purpose throughout: a NaN must fail a check, not pass it.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::chi2::{pooled_chi_square, BinLookup, Chi2Outcome, PhiBinning};
 use crate::configs::{suite_configs, Config, ConfigClass};
 use crate::quadrature::Adaptive;
@@ -187,7 +190,8 @@ impl ConfigResult {
     }
 
     pub fn passed(&self) -> bool {
-        self.failures.is_empty() && matches!(self.outcome, Outcome::Tested | Outcome::ZeroContribution)
+        self.failures.is_empty()
+            && matches!(self.outcome, Outcome::Tested | Outcome::ZeroContribution)
     }
 
     /// Failed a check of the suite (a panic is not a statistical rejection).
@@ -265,10 +269,16 @@ fn antiderivative(ns: f64, nt: f64, s: f64) -> f64 {
 /// Ω⊥_R of the horizon-clipped line in f64 (from the f32 frame), and Ω_R of the whole line.
 /// (0, Ω_R) when nothing is above the horizon; (0, 0) when the line is degenerate.
 pub fn lambert_reference(config: &Config) -> (f64, f64) {
-    let Some(n) = unit_normal(config.n()) else { return (0.0, 0.0) };
-    let Some(frame) = LineFrame::new(&config.segment(), config.x()) else { return (0.0, 0.0) };
+    let Some(n) = unit_normal(config.n()) else {
+        return (0.0, 0.0);
+    };
+    let Some(frame) = LineFrame::new(&config.segment(), config.x()) else {
+        return (0.0, 0.0);
+    };
     let omega = 2.0 / frame.d as f64 * (frame.s_end as f64 - frame.s_begin as f64);
-    let Some(c) = frame.clip_to_horizon(n) else { return (0.0, omega) };
+    let Some(c) = frame.clip_to_horizon(n) else {
+        return (0.0, omega);
+    };
     let n = n.as_dvec3();
     let (ns, nt) = (n.dot(c.u.as_dvec3()), n.dot(c.c_hat.as_dvec3()));
     let psa = (antiderivative(ns, nt, c.s_end as f64) - antiderivative(ns, nt, c.s_begin as f64))
@@ -301,7 +311,10 @@ fn check_sampler(
     if !(norm_err <= settings.normalisation_tolerance) {
         out.fail(
             Check::Normalisation,
-            format!("∫ p_R dΩ_R = {total:.9} (|err| {norm_err:.2e} > {:.0e})", settings.normalisation_tolerance),
+            format!(
+                "∫ p_R dΩ_R = {total:.9} (|err| {norm_err:.2e} > {:.0e})",
+                settings.normalisation_tolerance
+            ),
         );
     }
 
@@ -318,8 +331,14 @@ fn check_sampler(
             outside.push(se + margin + t * (1.0 - se - margin));
         }
     }
-    if let Some(&s) = outside.iter().find(|&&s| sampler.pdf(binning.direction(s.asin())) != 0.0) {
-        out.fail(Check::Support, format!("pdf ≠ 0 at s = {s:.6} outside the support [{sb:.6}, {se:.6}]"));
+    if let Some(&s) = outside
+        .iter()
+        .find(|&&s| sampler.pdf(binning.direction(s.asin())) != 0.0)
+    {
+        out.fail(
+            Check::Support,
+            format!("pdf ≠ 0 at s = {s:.6} outside the support [{sb:.6}, {se:.6}]"),
+        );
     }
 
     // Samples.
@@ -329,7 +348,10 @@ fn check_sampler(
     let (mut outside_support, mut not_toward_line) = (0u64, 0u64);
     let (mut sum, mut sum_sq, mut zero_density_hits) = (0.0f64, 0.0f64, 0u64);
     let (mut worst_consistency, mut worst_consistency_at) = (0.0f64, (0.0f32, 0.0f32));
-    let mut round_trip = RoundTripCheck { checked: 0, max_error: 0.0 };
+    let mut round_trip = RoundTripCheck {
+        checked: 0,
+        max_error: 0.0,
+    };
     let mut round_trip_fail: Option<String> = None;
     for i in 0..settings.samples {
         let xi = rng.next_f32();
@@ -362,7 +384,9 @@ fn check_sampler(
                 round_trip.checked += 1;
                 round_trip.max_error = round_trip.max_error.max(err);
                 if !(err <= tol) && round_trip_fail.is_none() {
-                    round_trip_fail = Some(format!("ξ = {xi} → ω → ξ' = {xi2} (|Δξ| {err:.2e} > {tol:.2e})"));
+                    round_trip_fail = Some(format!(
+                        "ξ = {xi} → ω → ξ' = {xi2} (|Δξ| {err:.2e} > {tol:.2e})"
+                    ));
                 }
             }
         }
@@ -374,14 +398,23 @@ fn check_sampler(
         out.fail(Check::RoundTrip, m);
     }
     if not_toward_line > 0 {
-        out.fail(Check::Direction, format!("{not_toward_line} samples are not unit directions toward the line"));
+        out.fail(
+            Check::Direction,
+            format!("{not_toward_line} samples are not unit directions toward the line"),
+        );
     }
     if outside_support > 0 {
-        out.fail(Check::Support, format!("{outside_support} samples outside the support"));
+        out.fail(
+            Check::Support,
+            format!("{outside_support} samples outside the support"),
+        );
     }
     if worst_consistency > 1.0 {
         let (p, q) = worst_consistency_at;
-        out.fail(Check::PdfConsistency, format!("sample_with_pdf {p:e} vs pdf(sample) {q:e}"));
+        out.fail(
+            Check::PdfConsistency,
+            format!("sample_with_pdf {p:e} vs pdf(sample) {q:e}"),
+        );
     }
 
     // Chi-square on resolution groups of bins (see `chi2::S_RESOLUTION`). A sample outside the
@@ -394,9 +427,14 @@ fn check_sampler(
         .map(|(&o, _)| o)
         .sum();
     let groups = binning.resolution_groups();
-    let grouped_observed: Vec<u64> = groups.iter().map(|g| observed[g.clone()].iter().sum()).collect();
-    let grouped_expected: Vec<f64> =
-        groups.iter().map(|g| masses.mass[g.clone()].iter().sum::<f64>() * big_n).collect();
+    let grouped_observed: Vec<u64> = groups
+        .iter()
+        .map(|g| observed[g.clone()].iter().sum())
+        .collect();
+    let grouped_expected: Vec<f64> = groups
+        .iter()
+        .map(|g| masses.mass[g.clone()].iter().sum::<f64>() * big_n)
+        .collect();
     let mut chi2 = pooled_chi_square(&grouped_observed, &grouped_expected);
     chi2.zero_bin_samples = zero_bin_samples;
     if outside_support + not_toward_line + zero_bin_samples > 0 {
@@ -432,7 +470,7 @@ fn check_sampler(
                     0.0
                 }
             };
-quad.integrate_partition(&binning.edges(), &mut g).value
+            quad.integrate_partition(&binning.edges(), &mut g).value
         }
     };
     let mean = sum / big_n;
@@ -441,7 +479,11 @@ quad.integrate_partition(&binning.edges(), &mut g).value
     let tolerance = z_c * std_error
         + INTEGRAL_RELATIVE_FLOOR * reference.abs()
         + INTEGRAL_SOLID_ANGLE_FLOOR * support_omega;
-    let relative_std = if reference > 0.0 { var.sqrt() / reference } else { 0.0 };
+    let relative_std = if reference > 0.0 {
+        var.sqrt() / reference
+    } else {
+        0.0
+    };
     if !((mean - reference).abs() <= tolerance) {
         out.fail(
             Check::Integral,
@@ -451,9 +493,18 @@ quad.integrate_partition(&binning.edges(), &mut g).value
         );
     }
     if zero_density_hits > 0 {
-        out.fail(Check::Integral, format!("{zero_density_hits} samples with (n·ω)⁺ > 0 but density 0 or non-finite"));
+        out.fail(
+            Check::Integral,
+            format!("{zero_density_hits} samples with (n·ω)⁺ > 0 but density 0 or non-finite"),
+        );
     }
-    out.integral = Some(IntegralCheck { estimate: mean, reference, std_error, tolerance, relative_std });
+    out.integral = Some(IntegralCheck {
+        estimate: mean,
+        reference,
+        std_error,
+        tolerance,
+        relative_std,
+    });
 }
 
 fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
@@ -492,7 +543,15 @@ pub fn certify_config(
             }
             Some(s) => {
                 let mut r = ConfigResult::new(config, Outcome::Tested);
-                check_sampler(s.as_ref(), subject, config, settings, levels, stream, &mut r);
+                check_sampler(
+                    s.as_ref(),
+                    subject,
+                    config,
+                    settings,
+                    levels,
+                    stream,
+                    &mut r,
+                );
                 r
             }
         }
@@ -504,7 +563,11 @@ pub fn certify_config(
     })
 }
 
-fn summarise(subject: &Subject, configs: Vec<ConfigResult>, panic: Option<String>) -> SubjectReport {
+fn summarise(
+    subject: &Subject,
+    configs: Vec<ConfigResult>,
+    panic: Option<String>,
+) -> SubjectReport {
     let mut classes = Vec::new();
     for class in ConfigClass::ALL {
         let rows: Vec<&ConfigResult> = configs.iter().filter(|r| r.class == class).collect();
@@ -515,10 +578,19 @@ fn summarise(subject: &Subject, configs: Vec<ConfigResult>, panic: Option<String
             class,
             configs: rows.len(),
             tested: rows.iter().filter(|r| r.outcome == Outcome::Tested).count(),
-            zero_contribution: rows.iter().filter(|r| r.outcome == Outcome::ZeroContribution).count(),
+            zero_contribution: rows
+                .iter()
+                .filter(|r| r.outcome == Outcome::ZeroContribution)
+                .count(),
             failing: rows.iter().filter(|r| !r.passed()).count(),
-            worst_p_value: rows.iter().filter_map(|r| r.chi2.as_ref().map(|c| c.p_value)).reduce(f64::min),
-            max_normalisation_error: rows.iter().filter_map(|r| r.normalisation_error).reduce(f64::max),
+            worst_p_value: rows
+                .iter()
+                .filter_map(|r| r.chi2.as_ref().map(|c| c.p_value))
+                .reduce(f64::min),
+            max_normalisation_error: rows
+                .iter()
+                .filter_map(|r| r.normalisation_error)
+                .reduce(f64::max),
             passed: rows.iter().all(|r| r.passed()),
         });
     }
@@ -532,7 +604,10 @@ fn summarise(subject: &Subject, configs: Vec<ConfigResult>, panic: Option<String
         }
     }
     let failing_configs = configs.iter().filter(|r| !r.passed()).count();
-    let runnable = panic.is_none() && configs.iter().all(|r| matches!(r.outcome, Outcome::Tested | Outcome::ZeroContribution));
+    let runnable = panic.is_none()
+        && configs
+            .iter()
+            .all(|r| matches!(r.outcome, Outcome::Tested | Outcome::ZeroContribution));
     let (passed, verdict) = match subject.role {
         _ if !runnable => (false, "panicked".to_string()),
         Role::Certify if failing_configs == 0 => (true, "pass".to_string()),
@@ -551,8 +626,14 @@ fn summarise(subject: &Subject, configs: Vec<ConfigResult>, panic: Option<String
         panic,
         failing_configs,
         failures_by_check,
-        worst_p_value: classes.iter().filter_map(|c| c.worst_p_value).reduce(f64::min),
-        max_normalisation_error: classes.iter().filter_map(|c| c.max_normalisation_error).reduce(f64::max),
+        worst_p_value: classes
+            .iter()
+            .filter_map(|c| c.worst_p_value)
+            .reduce(f64::min),
+        max_normalisation_error: classes
+            .iter()
+            .filter_map(|c| c.max_normalisation_error)
+            .reduce(f64::max),
         classes,
         configs,
         elapsed_seconds: 0.0,
@@ -582,12 +663,18 @@ fn run_subject_inner(
     levels: (f64, f64),
 ) -> SubjectReport {
     let stream = |i: usize| ((subject_index as u64) << 32) | i as u64;
-    let Some(first_config) = configs.first() else { return summarise(subject, Vec::new(), None) };
+    let Some(first_config) = configs.first() else {
+        return summarise(subject, Vec::new(), None);
+    };
     let first = certify_config(subject, first_config, settings, levels, stream(0));
     if first.outcome == Outcome::Panicked {
         let msg = first.failures.first().map(|f| f.message.clone());
         let mut results = vec![first];
-        results.extend(configs[1..].iter().map(|c| ConfigResult::new(c, Outcome::NotRun)));
+        results.extend(
+            configs[1..]
+                .iter()
+                .map(|c| ConfigResult::new(c, Outcome::NotRun)),
+        );
         return summarise(subject, results, msg);
     }
     let mut results = vec![first];
@@ -616,7 +703,10 @@ pub fn run_suite(certified: &[Subject], controls: &[Subject], settings: &Setting
         .enumerate()
         .map(|(i, s)| run_subject(s, 1000 + i, &configs, settings, (alpha_c, z)))
         .collect();
-    let passed = techniques.iter().chain(&negative_controls).all(|r| r.passed);
+    let passed = techniques
+        .iter()
+        .chain(&negative_controls)
+        .all(|r| r.passed);
     SuiteReport {
         settings: settings.clone(),
         statistical_tests: m,
@@ -663,18 +753,50 @@ mod tests {
 
     #[test]
     fn solid_angle_techniques_pass_and_controls_are_rejected() {
-        let certified = [technique(Technique::SolidAngle), technique(Technique::ClippedSolidAngle)];
+        let certified = [
+            technique(Technique::SolidAngle),
+            technique(Technique::ClippedSolidAngle),
+        ];
         let controls = subjects::negative_controls();
         let r = report_of(&certified, &controls);
         for t in &r.techniques {
             let bad: Vec<_> = t.configs.iter().filter(|c| !c.passed()).collect();
             assert!(t.passed, "{}: {:#?}", t.name, bad);
-            eprintln!("{}: worst p {:?}, max norm err {:?}", t.name, t.worst_p_value, t.max_normalisation_error);
+            eprintln!(
+                "{}: worst p {:?}, max norm err {:?}",
+                t.name, t.worst_p_value, t.max_normalisation_error
+            );
         }
         for c in &r.negative_controls {
-            eprintln!("{}: {} ({} failing, {:?})", c.name, c.verdict, c.failing_configs, c.failures_by_check);
+            eprintln!(
+                "{}: {} ({} failing, {:?})",
+                c.name, c.verdict, c.failing_configs, c.failures_by_check
+            );
             assert!(c.passed, "{} not rejected", c.name);
         }
         eprintln!("elapsed {:.2} s", r.elapsed_seconds);
+    }
+
+    /// The certification itself (also `linlight samplers`). Ignored in the default test run
+    /// because it fails on main: f32 precision defects of the techniques found by this suite
+    /// (normalisation errors 1e-5…0.5 near |s| → 1 and for short intervals, Hart's
+    /// sample_with_pdf ≠ pdf); see the verify-chi2 report. Un-ignore when they are fixed.
+    #[test]
+    #[ignore = "fails until the techniques' f32 precision defects are fixed (see report)"]
+    fn every_certified_technique_passes() {
+        let r = run_suite(&subjects::certified(), &[], &Settings::default());
+        for t in &r.techniques {
+            let bad: Vec<String> = t
+                .configs
+                .iter()
+                .filter(|c| !c.passed())
+                .flat_map(|c| {
+                    c.failures
+                        .iter()
+                        .map(move |f| format!("{}: {}", c.config, f.message))
+                })
+                .collect();
+            assert!(t.passed, "{}: {bad:#?}", t.name);
+        }
     }
 }

@@ -20,27 +20,72 @@ fn configs() -> Vec<(&'static str, Segment, Vec3, Vec3)> {
     let z = Vec3::Z;
     let o = Vec3::ZERO;
     vec![
-        ("paper-sanity", Segment::new(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0)), o, z),
-        ("horizon-crossing", Segment::new(Vec3::new(0.3, -0.5, -2.0), Vec3::new(-0.4, 0.8, 0.6)), o, z),
-        ("tilted-normal", Segment::new(Vec3::new(1.5, -1.5, -1.5), Vec3::new(-1.0, 2.0, 1.5)), o, Vec3::ONE.normalize()),
-        ("offset-point", Segment::new(Vec3::new(2.0, 1.0, 3.0), Vec3::new(-1.0, 2.5, 2.2)), Vec3::new(0.4, -0.3, 0.2), Vec3::new(0.2, 0.3, 1.0).normalize()),
-        ("long", Segment::new(Vec3::new(-30.0, 0.5, 1.0), Vec3::new(40.0, 0.5, 1.5)), o, z),
-        ("near-parallel", Segment::new(Vec3::new(0.2, 0.1, 0.5), Vec3::new(0.25, 0.1, 3.0)), o, z),
+        (
+            "paper-sanity",
+            Segment::new(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0)),
+            o,
+            z,
+        ),
+        (
+            "horizon-crossing",
+            Segment::new(Vec3::new(0.3, -0.5, -2.0), Vec3::new(-0.4, 0.8, 0.6)),
+            o,
+            z,
+        ),
+        (
+            "tilted-normal",
+            Segment::new(Vec3::new(1.5, -1.5, -1.5), Vec3::new(-1.0, 2.0, 1.5)),
+            o,
+            Vec3::ONE.normalize(),
+        ),
+        (
+            "offset-point",
+            Segment::new(Vec3::new(2.0, 1.0, 3.0), Vec3::new(-1.0, 2.5, 2.2)),
+            Vec3::new(0.4, -0.3, 0.2),
+            Vec3::new(0.2, 0.3, 1.0).normalize(),
+        ),
+        (
+            "long",
+            Segment::new(Vec3::new(-30.0, 0.5, 1.0), Vec3::new(40.0, 0.5, 1.5)),
+            o,
+            z,
+        ),
+        (
+            "near-parallel",
+            Segment::new(Vec3::new(0.2, 0.1, 0.5), Vec3::new(0.25, 0.1, 3.0)),
+            o,
+            z,
+        ),
     ]
 }
 
 /// Returns (estimate, standard error, per-sample relative std) and the truth.
-fn shade(t: Technique, seg: &Segment, x: Vec3, n: Vec3, stream: u64) -> Option<(f64, f64, f64, f64)> {
-    let truth = LineFrame::new(seg, x)?.clip_to_horizon(n)?.projected_solid_angle(n) as f64 * RHO
+fn shade(
+    t: Technique,
+    seg: &Segment,
+    x: Vec3,
+    n: Vec3,
+    stream: u64,
+) -> Option<(f64, f64, f64, f64)> {
+    let truth = LineFrame::new(seg, x)?
+        .clip_to_horizon(n)?
+        .projected_solid_angle(n) as f64
+        * RHO
         / std::f64::consts::PI
         * K;
-    let s = t.prepare(seg, x, n).expect("light above the horizon must be prepared");
+    let s = t
+        .prepare(seg, x, n)
+        .expect("light above the horizon must be prepared");
     let mut rng = Pcg32::new(2021, stream);
     let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
     for _ in 0..N {
         let (dir, p) = s.sample_with_pdf(rng.next_f32());
         let cos = (n.dot(dir) as f64).max(0.0);
-        let v = if cos > 0.0 { K * RHO / std::f64::consts::PI * cos / p as f64 } else { 0.0 };
+        let v = if cos > 0.0 {
+            K * RHO / std::f64::consts::PI * cos / p as f64
+        } else {
+            0.0
+        };
         assert!(v.is_finite(), "{t}: non-finite estimate (p = {p})");
         sum += v;
         sum_sq += v * v;
@@ -55,9 +100,15 @@ fn check(t: Technique) {
         let (est, se, rel_std, truth) = shade(t, &seg, x, n, i as u64).expect(name);
         let tol = 4.0 * se + 1e-5 * truth;
         eprintln!("{t} {name}: {est:.7} ± {se:.2e} vs {truth:.7} (rel. std {rel_std:.2e})");
-        assert!((est - truth).abs() <= tol, "{t} {name}: {est} vs {truth} (tolerance {tol:.3e})");
+        assert!(
+            (est - truth).abs() <= tol,
+            "{t} {name}: {est} vs {truth} (tolerance {tol:.3e})"
+        );
         if t == Technique::ProjectedSolidAngle {
-            assert!(rel_std < 1e-3, "{t} {name}: relative std {rel_std:.3e} ≥ 1e-3");
+            assert!(
+                rel_std < 1e-3,
+                "{t} {name}: relative std {rel_std:.3e} ≥ 1e-3"
+            );
         }
     }
 }
@@ -66,7 +117,11 @@ fn check(t: Technique) {
 fn paper_sanity_value_of_the_closed_form() {
     // ρ/π·K·Ω⊥_R with Ω⊥_R = 1 + π/2 (PAPER.md); the truth used by every test below.
     let (_, seg, x, n) = configs()[0];
-    let truth = LineFrame::new(&seg, x).unwrap().clip_to_horizon(n).unwrap().projected_solid_angle(n);
+    let truth = LineFrame::new(&seg, x)
+        .unwrap()
+        .clip_to_horizon(n)
+        .unwrap()
+        .projected_solid_angle(n);
     assert!((truth as f64 - (1.0 + std::f64::consts::FRAC_PI_2)).abs() < 1e-6);
 }
 
@@ -81,31 +136,26 @@ fn clipped_solid_angle() {
 }
 
 #[test]
-#[ignore = "pending: Area is a todo!() stub until samplers-a is merged"]
 fn area() {
     check(Technique::Area);
 }
 
 #[test]
-#[ignore = "pending: HartLinear is a todo!() stub until samplers-a is merged"]
 fn hart_linear() {
     check(Technique::HartLinear);
 }
 
 #[test]
-#[ignore = "pending: HartQuadratic is a todo!() stub until samplers-a is merged"]
 fn hart_quadratic() {
     check(Technique::HartQuadratic);
 }
 
 #[test]
-#[ignore = "pending: Li2018 is a todo!() stub until samplers-b is merged"]
 fn li2018() {
     check(Technique::Li2018);
 }
 
 #[test]
-#[ignore = "pending: ProjectedSolidAngle is a todo!() stub until samplers-b is merged"]
 fn projected_solid_angle() {
     check(Technique::ProjectedSolidAngle);
 }
