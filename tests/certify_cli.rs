@@ -64,7 +64,12 @@ fn full_certification_passes_on_the_committed_references() {
     ]);
     let out = String::from_utf8_lossy(&o.stdout);
     eprintln!("{out}");
-    assert_eq!(o.status.code(), Some(0), "certify failed:\n{out}\n{}", stderr(&o));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "certify failed:\n{out}\n{}",
+        stderr(&o)
+    );
     assert!(dir.join("report.md").is_file());
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap();
@@ -111,17 +116,34 @@ fn a_changed_scene_makes_its_reference_stale() {
 fn a_missing_reference_is_unusable_input() {
     let d = mini_project("missing");
     std::fs::remove_file(d.join("references/mitsuba/floor-tube.exr")).unwrap();
-    let o = linlight(&["certify", "--root", d.to_str().unwrap(), "--no-sampler-suite"]);
+    let o = linlight(&[
+        "certify",
+        "--root",
+        d.to_str().unwrap(),
+        "--no-sampler-suite",
+    ]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("no reference for scene floor-tube"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no reference for scene floor-tube"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]
 fn a_glob_matching_nothing_is_unusable_input() {
-    let o = linlight(&["certify", "--scenes", "no-such-scene*", "--no-sampler-suite"]);
+    let o = linlight(&[
+        "certify",
+        "--scenes",
+        "no-such-scene*",
+        "--no-sampler-suite",
+    ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("matches no scene"), "{}", stderr(&o));
-    assert!(stderr(&o).contains("floor-tube"), "lists the available scenes");
+    assert!(
+        stderr(&o).contains("floor-tube"),
+        "lists the available scenes"
+    );
 }
 
 #[test]
@@ -142,5 +164,9 @@ fn a_live_oracle_without_its_venv_is_unusable_input() {
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("run scripts/setup-oracle"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("run scripts/setup-oracle"),
+        "{}",
+        stderr(&o)
+    );
 }

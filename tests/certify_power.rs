@@ -4,7 +4,7 @@
 //! `linlight_render::render_with`), never as user-facing options.
 
 use glam::Vec3;
-use linlight::certify::{self, Oracle, Options, Report, Subject};
+use linlight::certify::{self, Options, Oracle, Report, Subject};
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::{render_with, LightSampling, RenderError, RenderOptions};
@@ -158,10 +158,7 @@ impl LightSampling for LiTwoIterations {
 
 #[test]
 fn rejects_a_render_scaled_by_one_percent() {
-    let r = certify_with(
-        "floor-*",
-        &Scaled(Technique::ProjectedSolidAngle, 1.01),
-    );
+    let r = certify_with("floor-*", &Scaled(Technique::ProjectedSolidAngle, 1.01));
     assert_eq!(r.rows().count(), 2);
     assert_rejected(&r, "PSA × 1.01");
 }

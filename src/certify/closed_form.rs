@@ -8,6 +8,9 @@
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 
+/// Whether this build has the closed form (false until the hook is wired).
+pub const AVAILABLE: bool = false;
+
 /// The closed-form image, `None` while the closed form is not part of this build.
 pub fn image(_scene: &Scene, _subsamples: u32) -> Result<Option<Image>, String> {
     Ok(None)
