@@ -303,7 +303,10 @@ fn render_error(scene: &str, subject: &str, e: RenderError) -> Unusable {
     Unusable(format!("cannot render {scene} with {subject}: {e}"))
 }
 
-fn summarise(cmp: &Comparison) -> ([Option<f64>; 3], [Option<[f64; 2]>; 3], Option<f64>) {
+/// Per channel relative difference and CI, and the worst tile p.
+type Summary = ([Option<f64>; 3], [Option<[f64; 2]>; 3], Option<f64>);
+
+fn summarise(cmp: &Comparison) -> Summary {
     let mut rel = [None; 3];
     let mut ci = [None; 3];
     for (c, ch) in cmp.channels.iter().enumerate().take(3) {
