@@ -1,7 +1,9 @@
-//! Bounding volume hierarchy over all primitives: binned surface-area heuristic, flattened
-//! depth-first (left child follows its parent), closest-hit and any-hit traversal.
+//! Bounding volume hierarchy over all primitives: a binary tree built with the binned
+//! surface-area heuristic, collapsed into 4-wide nodes (one ray against four boxes per step),
+//! closest-hit and any-hit traversal. Exact: the box test is conservative, so the closest hit
+//! is the one a brute-force loop over all primitives finds (tests check this).
 
-use crate::shapes::{Aabb, Hit, Primitive, Ray};
+use crate::shapes::{intersect_triangle_edges, Aabb, Hit, Primitive, Ray};
 use glam::Vec3;
 
 const BINS: usize = 16;
@@ -9,11 +11,12 @@ const MAX_LEAF: usize = 4;
 /// Cost of one traversal step relative to one primitive test.
 const TRAVERSAL_COST: f32 = 1.0;
 /// Below this depth the builder stops using SAH and splits at the median, which halves the
-/// count: the tree depth stays ≤ SAH_DEPTH + log2(n) ≤ 64, the traversal stack size.
+/// count: the tree depth stays ≤ SAH_DEPTH + log2(n) ≤ 64 (the recursion depth of the build).
 const SAH_DEPTH: u32 = 30;
 
+/// Build-time node: bounds, and either a primitive range (leaf) or the right child (interior).
 #[derive(Clone, Copy, Debug)]
-struct Node {
+struct BuildNode {
     bounds: Aabb,
     /// Leaf: first primitive. Interior: index of the right child (the left one is next).
     offset: u32,
@@ -23,10 +26,89 @@ struct Node {
     axis: u8,
 }
 
+/// Traversal node of the 4-wide tree the binary build is collapsed into: the boxes of up to
+/// four children side by side, `b[0]` = lower and `b[1]` = upper corners as `[axis][lane]`, so
+/// one ray is tested against four boxes with lane-parallel arithmetic. The near and far planes
+/// of an axis are `b[s][axis]` and `b[1 − s][axis]` for the ray's direction sign s on that axis.
+/// Empty slots have lower = +∞, upper = −∞ and never pass the test.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node {
+    b: [[[f32; WIDTH]; 3]; 2],
+    /// Interior child: its node index. Leaf child: its first primitive.
+    child: [u32; WIDTH],
+    /// Leaf child: number of primitives (≥ 1). Interior child or empty slot: 0.
+    count: [u32; WIDTH],
+}
+
+const WIDTH: usize = 4;
+
+impl Node {
+    const EMPTY: Node = Node {
+        b: [[[f32::INFINITY; WIDTH]; 3], [[f32::NEG_INFINITY; WIDTH]; 3]],
+        child: [u32::MAX; WIDTH],
+        count: [0; WIDTH],
+    };
+}
+
+/// Collapse the binary subtree at `root` into 4-wide nodes appended to `out`; returns the index
+/// of its node. Children are opened largest surface area first until four slots are used.
+fn collapse(bin: &[BuildNode], root: u32, out: &mut Vec<Node>) -> u32 {
+    let index = out.len() as u32;
+    out.push(Node::EMPTY);
+    let r = &bin[root as usize];
+    let mut kids: Vec<u32> = if r.count > 0 {
+        vec![root]
+    } else {
+        vec![root + 1, r.offset]
+    };
+    while kids.len() < WIDTH {
+        let open = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| bin[k as usize].count == 0)
+            .max_by(|a, b| {
+                let area = |k: u32| bin[k as usize].bounds.half_area();
+                area(*a.1).total_cmp(&area(*b.1))
+            })
+            .map(|(i, _)| i);
+        let Some(i) = open else { break };
+        let k = kids.swap_remove(i);
+        kids.push(k + 1);
+        kids.push(bin[k as usize].offset);
+    }
+    for (lane, &k) in kids.iter().enumerate() {
+        let n = &bin[k as usize];
+        let (child, count) = if n.count > 0 {
+            (n.offset, n.count)
+        } else {
+            (collapse(bin, k, out), 0)
+        };
+        let node = &mut out[index as usize];
+        for a in 0..3 {
+            node.b[0][a][lane] = n.bounds.min[a];
+            node.b[1][a][lane] = n.bounds.max[a];
+        }
+        node.child[lane] = child;
+        node.count[lane] = count;
+    }
+    index
+}
+
+/// What traversal needs to intersect a primitive: triangles with their edges precomputed (same
+/// arithmetic as [`Primitive::intersect`], so the same results bit for bit), everything else
+/// through the primitive itself.
+#[derive(Clone, Copy, Debug)]
+enum Isect {
+    Triangle { v0: Vec3, e1: Vec3, e2: Vec3 },
+    Other,
+}
+
 /// Primitives and the tree over them (primitives are reordered at build time).
 #[derive(Clone, Debug)]
 pub struct Bvh {
     prims: Vec<Primitive>,
+    isect: Vec<Isect>,
     nodes: Vec<Node>,
 }
 
@@ -35,6 +117,66 @@ struct BuildItem {
     centroid: Vec3,
     index: u32,
 }
+
+/// 1 + 2γ₃ with γₙ = nε/(1 − nε), ε = 2⁻²⁴: scaling the far slab distance by it makes the
+/// rounded box test conservative (PBRT's robust ray–box test), so no hit inside a box is lost.
+const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// Per-ray constants of the box test.
+struct RayBoxes {
+    o: [f32; 3],
+    inv: [f32; 3],
+    /// 1 where the direction component is negative (its near plane is the box's max).
+    sign: [usize; 3],
+}
+
+impl RayBoxes {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        let inv = ray.d.recip();
+        Self {
+            o: ray.o.to_array(),
+            inv: inv.to_array(),
+            sign: [
+                inv.x.is_sign_negative() as usize,
+                inv.y.is_sign_negative() as usize,
+                inv.z.is_sign_negative() as usize,
+            ],
+        }
+    }
+
+    /// Entry distances into the four child boxes and which of them the ray's (t_min, t_max)
+    /// meets. A NaN slab distance (0·∞: origin on a slab plane of a parallel ray) leaves the
+    /// interval unchanged, which is conservative.
+    #[inline(always)]
+    fn hits(&self, node: &Node, t_min: f32, t_max: f32) -> ([f32; WIDTH], [bool; WIDTH]) {
+        let mut t0 = [t_min; WIDTH];
+        let mut t1 = [t_max; WIDTH];
+        for a in 0..3 {
+            let s = self.sign[a] & 1;
+            let (o, inv) = (self.o[a], self.inv[a]);
+            let (nb, fb) = (&node.b[s][a], &node.b[s ^ 1][a]);
+            for i in 0..WIDTH {
+                let near = (nb[i] - o) * inv;
+                let far = (fb[i] - o) * inv * FAR_SCALE;
+                t0[i] = if near > t0[i] { near } else { t0[i] };
+                t1[i] = if far < t1[i] { far } else { t1[i] };
+            }
+        }
+        let mut hit = [false; WIDTH];
+        for i in 0..WIDTH {
+            hit[i] = t0[i] <= t1[i];
+        }
+        (t0, hit)
+    }
+}
+
+/// A pending subtree: (child, count, entry distance) as in [`Node`].
+type Entry = (u32, u32, f32);
+/// Entries of the traversal stack held on the call stack (zeroing it is a per-ray cost, so it
+/// is small); more pending subtrees spill into a Vec, which stays exact, only slower. A 4-wide
+/// level adds at most 3 entries net, so spilling needs a deep tree and an unlucky ray.
+const STACK: usize = 16;
 
 impl Bvh {
     pub fn build(prims: Vec<Primitive>) -> Self {
@@ -51,17 +193,31 @@ impl Bvh {
                 })
             })
             .collect();
-        let mut nodes = Vec::with_capacity(2 * items.len().max(1));
+        let mut bin = Vec::with_capacity(2 * items.len().max(1));
+        let mut nodes = Vec::new();
         if !items.is_empty() {
             let n = items.len();
-            build_node(&mut items, 0, n, 0, &mut nodes);
+            build_node(&mut items, 0, n, 0, &mut bin);
+            collapse(&bin, 0, &mut nodes);
         }
-        let ordered = items
+        let ordered: Vec<Primitive> = items
             .iter()
             .map(|it| prims[it.index as usize].clone())
             .collect();
+        let isect = ordered
+            .iter()
+            .map(|p| match *p {
+                Primitive::Triangle { v, .. } => Isect::Triangle {
+                    v0: v[0],
+                    e1: v[1] - v[0],
+                    e2: v[2] - v[0],
+                },
+                _ => Isect::Other,
+            })
+            .collect();
         Self {
             prims: ordered,
+            isect,
             nodes,
         }
     }
@@ -78,88 +234,123 @@ impl Bvh {
         self.prims.is_empty()
     }
 
+    /// Intersection of primitive `i` (in BVH order) with `ray`, as [`Primitive::intersect`].
+    #[inline(always)]
+    fn intersect_prim(&self, i: usize, ray: &Ray) -> Option<(f32, f32, f32)> {
+        match self.isect[i] {
+            Isect::Triangle { v0, e1, e2 } => intersect_triangle_edges(ray, v0, e1, e2),
+            Isect::Other => self.prims[i].intersect(ray),
+        }
+    }
+
     /// Closest hit in (t_min, t_max).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.intersect_with::<STACK>(ray)
+    }
+
+    /// Whether anything lies in (t_min, t_max).
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_with::<STACK>(ray)
+    }
+
+    /// [`Self::intersect`] with an N-entry stack (tests force spilling with N = 1).
+    #[inline(always)]
+    fn intersect_with<const N: usize>(&self, ray: &Ray) -> Option<Hit> {
         let mut ray = *ray;
         let mut best: Option<Hit> = None;
-        self.traverse(&mut ray, |prim_index, prim, ray| {
-            if let Some((t, b1, b2)) = prim.intersect(ray) {
+        self.traverse::<N>(&mut ray, |bvh, i, ray| {
+            if let Some((t, b1, b2)) = bvh.intersect_prim(i as usize, ray) {
                 ray.t_max = t;
-                best = Some(Hit {
-                    t,
-                    prim: prim_index,
-                    b1,
-                    b2,
-                });
+                best = Some(Hit { t, prim: i, b1, b2 });
             }
             false
         });
         best
     }
 
-    /// Whether anything lies in (t_min, t_max).
-    pub fn occluded(&self, ray: &Ray) -> bool {
+    #[inline(always)]
+    fn occluded_with<const N: usize>(&self, ray: &Ray) -> bool {
         let mut ray = *ray;
         let mut hit = false;
-        self.traverse(&mut ray, |_, prim, ray| {
-            hit = prim.intersect(ray).is_some();
+        self.traverse::<N>(&mut ray, |bvh, i, ray| {
+            hit = bvh.intersect_prim(i as usize, ray).is_some();
             hit
         });
         hit
     }
 
-    /// Visit leaves front to back; `visit` returns true to stop.
+    /// Visit leaves front to back (nearest box entry first, subtrees entered beyond the
+    /// current t_max skipped); `visit` returns true to stop.
     #[inline(always)]
-    fn traverse(&self, ray: &mut Ray, mut visit: impl FnMut(u32, &Primitive, &mut Ray) -> bool) {
+    fn traverse<const N: usize>(
+        &self,
+        ray: &mut Ray,
+        mut visit: impl FnMut(&Self, u32, &mut Ray) -> bool,
+    ) {
         if self.nodes.is_empty() {
             return;
         }
-        let inv = ray.d.recip();
-        let neg = [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0];
-        let mut stack = [0u32; 64];
+        let rb = RayBoxes::new(ray);
+        let mut stack: [Entry; N] = [(0, 0, 0.0); N];
+        let mut spill: Vec<Entry> = Vec::new();
         let mut sp = 0usize;
-        let mut current = 0u32;
+        // The nearest child of the last node, entered without a trip through the stack.
+        let mut next: Option<Entry> = Some((0, 0, ray.t_min));
         loop {
-            let node = &self.nodes[current as usize];
-            if slab(&node.bounds, ray, inv) {
-                if node.count > 0 {
-                    for i in node.offset..node.offset + node.count {
-                        if visit(i, &self.prims[i as usize], ray) {
-                            return;
-                        }
+            let (child, count, t_enter) = if let Some(e) = next.take() {
+                e
+            } else if let Some(e) = spill.pop() {
+                e
+            } else if sp > 0 {
+                sp -= 1;
+                stack[sp]
+            } else {
+                return;
+            };
+            if t_enter > ray.t_max {
+                continue;
+            }
+            if count > 0 {
+                for i in child..child + count {
+                    if visit(self, i, ray) {
+                        return;
                     }
-                } else {
-                    let (near, far) = if neg[node.axis as usize] {
-                        (node.offset, current + 1)
-                    } else {
-                        (current + 1, node.offset)
-                    };
-                    if sp < stack.len() {
-                        stack[sp] = far;
-                        sp += 1;
-                        current = near;
-                        continue;
+                }
+                continue;
+            }
+            let node = &self.nodes[child as usize];
+            let (t0, hit) = rb.hits(node, ray.t_min, ray.t_max);
+            // Hit lanes sorted by entry distance, farthest first: the nearest is entered next,
+            // the others are pushed so that the nearer ones are popped first.
+            let mut order = [0usize; WIDTH];
+            let mut n = 0;
+            for lane in 0..WIDTH {
+                if hit[lane] {
+                    let mut j = n;
+                    while j > 0 && t0[order[j - 1]] < t0[lane] {
+                        order[j] = order[j - 1];
+                        j -= 1;
                     }
-                    // Unreachable for trees of depth < 64 (the builder stops far earlier).
+                    order[j] = lane;
+                    n += 1;
                 }
             }
-            if sp == 0 {
-                return;
+            if n == 0 {
+                continue;
             }
-            sp -= 1;
-            current = stack[sp];
+            let entry = |lane: usize| (node.child[lane], node.count[lane], t0[lane]);
+            next = Some(entry(order[n - 1]));
+            for &lane in &order[..n - 1] {
+                let e = entry(lane);
+                if sp < N && spill.is_empty() {
+                    stack[sp] = e;
+                    sp += 1;
+                } else {
+                    spill.push(e);
+                }
+            }
         }
     }
-}
-
-#[inline]
-fn slab(b: &Aabb, ray: &Ray, inv: Vec3) -> bool {
-    let t0 = (b.min - ray.o) * inv;
-    let t1 = (b.max - ray.o) * inv;
-    // min/max ignore NaN (0·∞ on a slab plane), which keeps such rays conservative.
-    let tmin = t0.min(t1).max_element().max(ray.t_min);
-    let tmax = t0.max(t1).min_element().min(ray.t_max);
-    tmin <= tmax
 }
 
 fn build_node(
@@ -167,7 +358,7 @@ fn build_node(
     start: usize,
     end: usize,
     depth: u32,
-    nodes: &mut Vec<Node>,
+    nodes: &mut Vec<BuildNode>,
 ) -> u32 {
     let index = nodes.len() as u32;
     let mut bounds = Aabb::EMPTY;
@@ -176,7 +367,7 @@ fn build_node(
         bounds = bounds.union(&it.bounds);
         cbounds.grow(it.centroid);
     }
-    nodes.push(Node {
+    nodes.push(BuildNode {
         bounds,
         offset: start as u32,
         count: (end - start) as u32,
@@ -349,9 +540,37 @@ mod tests {
                 .map(|h| (h.t, bvh.primitive(h.prim).shape()));
             assert_eq!(brute, fast);
             assert_eq!(brute.is_some(), bvh.occluded(&ray));
+            // A one-entry stack spills on almost every node: same answers.
+            let spilled = bvh
+                .intersect_with::<1>(&ray)
+                .map(|h| (h.t, bvh.primitive(h.prim).shape()));
+            assert_eq!(brute, spilled);
+            assert_eq!(brute.is_some(), bvh.occluded_with::<1>(&ray));
             hits += brute.is_some() as usize;
         }
         assert!(hits > 200, "too few hits to test anything: {hits}");
+    }
+
+    /// Trees whose root is a leaf, or that are empty, collapse and traverse like any other.
+    #[test]
+    fn single_primitive_and_empty() {
+        let tri = Primitive::Triangle {
+            v: [Vec3::ZERO, Vec3::X, Vec3::Y],
+            n: None,
+            shape: 0,
+        };
+        let bvh = Bvh::build(vec![tri]);
+        let ray = |x: f32| Ray {
+            o: Vec3::new(x, 0.25, 1.0),
+            d: Vec3::NEG_Z,
+            t_min: 0.0,
+            t_max: 2.0,
+        };
+        assert_eq!(bvh.intersect(&ray(0.25)).map(|h| h.t), Some(1.0));
+        assert!(bvh.occluded(&ray(0.25)));
+        assert!(bvh.intersect(&ray(0.9)).is_none() && !bvh.occluded(&ray(0.9)));
+        let empty = Bvh::build(Vec::new());
+        assert!(empty.intersect(&ray(0.25)).is_none() && !empty.occluded(&ray(0.25)));
     }
 
     /// Geometrically spaced and coincident primitives: bounded depth, still exact.

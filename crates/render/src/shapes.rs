@@ -261,15 +261,24 @@ fn nearest_root(
 /// Möller–Trumbore; double-sided. Returns (t, b1, b2).
 #[inline]
 fn intersect_triangle(ray: &Ray, v: [Vec3; 3]) -> Option<(f32, f32, f32)> {
-    let e1 = v[1] - v[0];
-    let e2 = v[2] - v[0];
+    intersect_triangle_edges(ray, v[0], v[1] - v[0], v[2] - v[0])
+}
+
+/// Möller–Trumbore with the edges e1 = v1 − v0, e2 = v2 − v0 given (the BVH stores them).
+#[inline(always)]
+pub fn intersect_triangle_edges(
+    ray: &Ray,
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+) -> Option<(f32, f32, f32)> {
     let pvec = ray.d.cross(e2);
     let det = e1.dot(pvec);
     if det == 0.0 || !det.is_finite() {
         return None;
     }
     let inv = 1.0 / det;
-    let tvec = ray.o - v[0];
+    let tvec = ray.o - v0;
     let b1 = tvec.dot(pvec) * inv;
     if !(0.0..=1.0).contains(&b1) {
         return None;
