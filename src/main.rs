@@ -17,6 +17,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The main job: sampler suite + every unbiased technique on every scene against Mitsuba
+    /// (exit 0 all consistent, 1 a check failed, 2 unusable input).
+    Certify(cmd::certify::Args),
     /// Chi-square certification of every line-sampling technique (exit 0 only if all pass).
     Samplers(cmd::samplers::Args),
     /// Worst backward error of the projected-solid-angle inversion, per iteration count.
@@ -30,6 +33,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
+        Command::Certify(a) => cmd::certify::run(a),
         Command::Samplers(a) => cmd::samplers::run(a),
         Command::BackwardError(a) => cmd::backward_error::run(a),
         Command::Render(a) => cmd::render::run(a),

@@ -11,12 +11,34 @@ use crate::scene::{Bsdf, Rgb};
 use crate::shapes::{Ray, SurfacePoint};
 use glam::Vec3;
 use linlight_sampling::rng::Pcg32;
-use linlight_sampling::{LineSampler, Segment, Technique};
+use linlight_sampling::{LineSampler, Prepared, Segment, Technique};
 
 /// Mitsuba's ray epsilon for f32 variants: 1500 ulp(1) = 1500·2⁻²⁴.
 pub const RAY_EPSILON: f32 = 1500.0 / 16_777_216.0;
 /// Shadow rays stop this fraction of their length short of the target.
 pub const SHADOW_EPSILON: f32 = 10.0 * RAY_EPSILON;
+
+/// How the integrator samples a light at a shading point. [`Technique`] is the production
+/// implementation; tests substitute deliberately wrong samplers (power controls) through
+/// [`crate::render::render_with`]. Generic, so the production path stays monomorphic.
+pub trait LightSampling: Sync {
+    type Sampler: LineSampler;
+    /// The sampler for `segment` seen from `x` with normal `n`; `None`: no contribution.
+    fn prepare(&self, segment: &Segment, x: Vec3, n: Vec3) -> Option<Self::Sampler>;
+    /// Name recorded in the image metadata (`technique`).
+    fn name(&self) -> String;
+}
+
+impl LightSampling for Technique {
+    type Sampler = Prepared;
+    #[inline]
+    fn prepare(&self, segment: &Segment, x: Vec3, n: Vec3) -> Option<Prepared> {
+        Technique::prepare(*self, segment, x, n)
+    }
+    fn name(&self) -> String {
+        Technique::name(*self).to_string()
+    }
+}
 
 /// Everything the integrator needs, prepared from a [`crate::scene::Scene`].
 #[derive(Clone, Debug)]
@@ -78,7 +100,12 @@ fn finite_rgb(v: Vec3) -> bool {
 /// One camera sample through film position (px, py) in pixels: direct lighting from every
 /// light with one sample of `technique` each. Consumes exactly `lights.len()` numbers of `rng`
 /// after the caller's pixel-position numbers (0 for misses and black surfaces).
-pub fn radiance(scene: &RenderScene, technique: Technique, ray: &Ray, rng: &mut Pcg32) -> Rgb {
+pub fn radiance<S: LightSampling>(
+    scene: &RenderScene,
+    technique: &S,
+    ray: &Ray,
+    rng: &mut Pcg32,
+) -> Rgb {
     let mut total = Vec3::ZERO;
     let Some(hit) = scene.bvh.intersect(ray) else {
         return [0.0; 3];

@@ -15,4 +15,5 @@ pub mod scene;
 pub mod shapes;
 pub mod xml;
 
-pub use render::{render, RenderError, RenderOptions};
+pub use integrator::LightSampling;
+pub use render::{render, render_with, RenderError, RenderOptions};

@@ -9,7 +9,7 @@
 use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::film::Welford;
-use crate::integrator::{radiance, RenderScene};
+use crate::integrator::{radiance, LightSampling, RenderScene};
 use crate::scene::{Geometry, Scene};
 use crate::shapes::{transformed_normal, Primitive};
 use glam::Vec3;
@@ -191,6 +191,17 @@ pub fn render(
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
+    render_with(scene, opts, &opts.technique, progress)
+}
+
+/// [`render`] with any light sampling in place of `opts.technique` (which is then ignored):
+/// the hook through which tests render with deliberately wrong samplers.
+pub fn render_with<S: LightSampling>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    sampling: &S,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
     if opts.spp == 0 || opts.passes == 0 {
         return Err(RenderError::Options(
             "spp and passes must be at least 1".into(),
@@ -212,7 +223,7 @@ pub fn render(
                 for x in tx..(tx + TILE).min(w) {
                     let (fx, fy) = (x0 + x, y0 + y);
                     let index = fy as u64 * full_width + fx as u64;
-                    out.push(render_pixel(&rs, opts, fx, fy, index));
+                    out.push(render_pixel(&rs, opts, sampling, fx, fy, index));
                 }
             }
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
@@ -245,8 +256,7 @@ pub fn render(
         scene_sha256: scene.sha256.clone(),
         ..Default::default()
     };
-    meta.extra
-        .insert("technique".into(), opts.technique.name().into());
+    meta.extra.insert("technique".into(), sampling.name());
     meta.extra.insert("seed".into(), opts.seed.to_string());
     meta.extra
         .insert("spp_per_pass".into(), opts.spp.to_string());
@@ -255,9 +265,10 @@ pub fn render(
 }
 
 /// Mean and variance of the mean of one pixel (full-film coordinates).
-fn render_pixel(
+fn render_pixel<S: LightSampling>(
     rs: &RenderScene,
     opts: &RenderOptions,
+    sampling: &S,
     fx: u32,
     fy: u32,
     index: u64,
@@ -271,7 +282,7 @@ fn render_pixel(
             let u = rng.next_f32();
             let v = rng.next_f32();
             let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
-            let l = radiance(rs, opts.technique, &ray, &mut rng);
+            let l = radiance(rs, sampling, &ray, &mut rng);
             acc.push(l.map(|c| c as f64));
         }
         passes.push(acc.mean());

@@ -1,0 +1,493 @@
+//! `linlight certify`: the whole certification in one run (STATISTICS.md §1 and §2).
+//!
+//! 1. The sampler chi-square suite (`linlight samplers`).
+//! 2. For every selected scene: its committed Mitsuba reference (or a live Mitsuba render), and
+//!    for every subject (by default every unbiased technique) a Rust render at a budget from
+//!    [`budget::BudgetRule`], compared with the reference (B) by
+//!    [`linlight_verify::image_stats::compare`]; for the scenes of [`CLOSED_FORM_SCENES`] the same
+//!    render is also compared with the exact R → 0 image.
+//!
+//! Multiple testing: every comparison runs at the Šidák level α_c = 1 − (1 − α)^(1/m), m the
+//! number of comparisons of the *full default* certification (every scene with a reference ×
+//! every unbiased technique, plus the closed-form comparisons), so that the family-wise false
+//! alarm rate of the image comparisons is α and a subset (`--scenes`, `--techniques`, a test)
+//! reproduces exactly the verdicts of the full run. The sampler suite has its own α.
+//!
+//! Unusable input (missing or stale reference, a glob matching nothing, an unreadable scene) is
+//! detected before anything is rendered and is an error ([`Unusable`], exit 2), never a failure.
+
+pub mod budget;
+pub mod closed_form;
+pub mod oracle;
+pub mod report;
+pub mod sampler_suite;
+pub mod scenes;
+
+use linlight_imagefile::Image;
+use linlight_render::scene::Scene;
+use linlight_render::{render, RenderError, RenderOptions};
+use linlight_sampling::Technique;
+use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
+use linlight_verify::z_score::sidak;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use budget::{Budget, BudgetRule, Precision};
+use sampler_suite::SuiteSummary;
+use scenes::ReferencedScene;
+
+/// Scenes that are also compared with the closed-form R → 0 image (unoccluded diffuse plane).
+pub const CLOSED_FORM_SCENES: [&str; 1] = ["floor-tube"];
+
+/// Unusable input: the certification cannot be carried out (exit 2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Unusable(pub String);
+
+impl std::fmt::Display for Unusable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+impl std::error::Error for Unusable {}
+
+/// Where the Mitsuba side comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Oracle {
+    /// `references/mitsuba/<scene>.exr`, committed (no Mitsuba needed).
+    Committed,
+    /// Rendered now by `scripts/harness` (needs `scripts/setup-oracle`).
+    Live,
+}
+
+/// Something that renders a scene: a technique, or (in tests) a deliberately wrong variant.
+pub trait Subject: Sync {
+    fn name(&self) -> String;
+    /// Render `scene` with `opts` (its `technique` field is the subject's business).
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError>;
+}
+
+impl Subject for Technique {
+    fn name(&self) -> String {
+        Technique::name(*self).to_string()
+    }
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        render(
+            scene,
+            &RenderOptions {
+                technique: *self,
+                ..*opts
+            },
+            progress,
+        )
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Project root: `scripts/harness` lives here (live oracle).
+    pub root: PathBuf,
+    pub scenes_dir: PathBuf,
+    pub references_dir: PathBuf,
+    /// Wildcard pattern selecting scenes (name, file name or path).
+    pub scenes: String,
+    pub oracle: Oracle,
+    /// Where report.md, report.json, heat maps and renders go (None: nowhere).
+    pub report_dir: Option<PathBuf>,
+    /// Run the sampler chi-square suite first.
+    pub sampler_suite: bool,
+    /// Family-wise α of all image comparisons.
+    pub alpha: f64,
+    /// Equivalence margin δ on the relative global difference.
+    pub tolerance: f64,
+    pub budget: BudgetRule,
+    /// Seed of every Rust render (the pilot renders use a seed derived from it).
+    pub seed: u64,
+    /// Sub-samples per pixel side of the closed-form image.
+    pub closed_form_subsamples: u32,
+}
+
+impl Options {
+    /// The defaults of `linlight certify` for the project at `root`.
+    pub fn new(root: &Path) -> Self {
+        Self {
+            root: root.to_path_buf(),
+            scenes_dir: root.join("references/scenes"),
+            references_dir: root.join("references/mitsuba"),
+            scenes: "*".into(),
+            oracle: Oracle::Committed,
+            report_dir: None,
+            sampler_suite: true,
+            alpha: 0.01,
+            tolerance: 0.005,
+            budget: BudgetRule::default(),
+            seed: 1,
+            closed_form_subsamples: 16,
+        }
+    }
+}
+
+/// Progress notifications (the command line turns them into a progress bar and lines).
+pub enum Event<'a> {
+    /// The run has this many steps (suite + renders).
+    Plan {
+        steps: usize,
+    },
+    /// A step starts.
+    Step {
+        label: String,
+    },
+    /// Tiles of the current render.
+    Tiles {
+        done: usize,
+        total: usize,
+    },
+    SuiteDone(&'a SuiteSummary),
+    RowDone(&'a Row),
+}
+
+/// The committed (or live) reference of a scene, as the report shows it.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReferenceInfo {
+    pub file: PathBuf,
+    pub renderer: String,
+    pub spp: u64,
+    pub passes: u64,
+    pub dof: f64,
+    pub overrides: String,
+    /// Render time recorded by the harness (s).
+    pub wall_time_s: Option<f64>,
+    pub scene_sha256: String,
+}
+
+/// One comparison: a subject's render of a scene against an oracle image.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub scene: String,
+    pub subject: String,
+    /// "mitsuba" or "closed-form".
+    pub oracle: String,
+    pub verdict: Verdict,
+    pub budget: Budget,
+    pub seed: u64,
+    pub pilot_seconds: f64,
+    pub render_seconds: f64,
+    /// Of the render against this oracle image.
+    pub precision: Precision,
+    /// Per channel: relative global difference (A − B)/B and its confidence interval.
+    pub rel_diff: [Option<f64>; 3],
+    pub rel_ci: [Option<[f64; 2]>; 3],
+    /// Smallest Holm-adjusted tile p over the channels.
+    pub worst_tile_p: Option<f64>,
+    /// Files written for this row, relative to the report directory.
+    pub files: Vec<String>,
+    pub comparison: Comparison,
+}
+
+impl Row {
+    pub fn passed(&self) -> bool {
+        self.verdict == Verdict::Consistent
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneReport {
+    pub name: String,
+    pub scene_file: PathBuf,
+    pub reference: ReferenceInfo,
+    /// Wall time of the live Mitsuba render (None: committed reference).
+    pub live_oracle_seconds: Option<f64>,
+    pub rows: Vec<Row>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Report {
+    pub passed: bool,
+    pub oracle: Oracle,
+    pub scenes_pattern: String,
+    pub alpha: f64,
+    /// m of the Šidák split and the level of each comparison.
+    pub comparisons_in_family: usize,
+    pub alpha_per_comparison: f64,
+    pub tolerance: f64,
+    pub budget_rule: BudgetRule,
+    pub seed: u64,
+    pub threads: usize,
+    pub sampler_suite: Option<SuiteSummary>,
+    pub scenes: Vec<SceneReport>,
+    pub elapsed_seconds: f64,
+}
+
+impl Report {
+    pub fn rows(&self) -> impl Iterator<Item = &Row> {
+        self.scenes.iter().flat_map(|s| s.rows.iter())
+    }
+}
+
+/// m: comparisons of the full default certification of the scenes in `scenes_dir` that have a
+/// reference.
+fn family_size(opts: &Options) -> Result<usize, Unusable> {
+    let with_reference = scenes::scene_files(&opts.scenes_dir)?
+        .iter()
+        .map(|p| scenes::scene_name(p))
+        .filter(|n| scenes::reference_path(&opts.references_dir, n).is_file())
+        .map(|n| {
+            if CLOSED_FORM_SCENES.contains(&n.as_str()) {
+                2
+            } else {
+                1
+            }
+        })
+        .sum::<usize>();
+    Ok((with_reference * Technique::UNBIASED.len()).max(1))
+}
+
+fn reference_info(s: &ReferencedScene) -> ReferenceInfo {
+    let m = &s.reference.meta;
+    ReferenceInfo {
+        file: s.reference_file.clone(),
+        renderer: m.renderer.clone(),
+        spp: m.spp,
+        passes: m.passes,
+        dof: m.dof,
+        overrides: m.extra.get("overrides").cloned().unwrap_or_default(),
+        wall_time_s: m.extra.get("wall_time_s").and_then(|t| t.parse().ok()),
+        scene_sha256: m.scene_sha256.clone(),
+    }
+}
+
+/// Seed of the pilot renders: distinct from the render seed, so that the budget is chosen from
+/// samples the final render does not reuse.
+fn pilot_seed(seed: u64) -> u64 {
+    seed ^ 0x5049_4c4f_5453_4545 // "PILOTSEE"
+}
+
+/// Selected scenes with their references, all checked before anything is rendered.
+pub fn selected_scenes(opts: &Options) -> Result<Vec<ReferencedScene>, Unusable> {
+    let all = scenes::scene_files(&opts.scenes_dir)?;
+    let chosen: Vec<&PathBuf> = all
+        .iter()
+        .filter(|p| scenes::selected(&opts.scenes, p))
+        .collect();
+    if chosen.is_empty() {
+        let names: Vec<String> = all.iter().map(|p| scenes::scene_name(p)).collect();
+        return Err(Unusable(format!(
+            "--scenes '{}' matches no scene in {} (available: {})",
+            opts.scenes,
+            opts.scenes_dir.display(),
+            if names.is_empty() {
+                "none".to_string()
+            } else {
+                names.join(", ")
+            }
+        )));
+    }
+    chosen
+        .into_iter()
+        .map(|p| scenes::load_referenced(p, &opts.references_dir, opts.oracle == Oracle::Committed))
+        .collect()
+}
+
+fn render_error(scene: &str, subject: &str, e: RenderError) -> Unusable {
+    Unusable(format!("cannot render {scene} with {subject}: {e}"))
+}
+
+/// Per channel relative difference and CI, and the worst tile p.
+type Summary = ([Option<f64>; 3], [Option<[f64; 2]>; 3], Option<f64>);
+
+fn summarise(cmp: &Comparison) -> Summary {
+    let mut rel = [None; 3];
+    let mut ci = [None; 3];
+    for (c, ch) in cmp.channels.iter().enumerate().take(3) {
+        rel[c] = ch.global.rel_diff;
+        ci[c] = ch.global.rel_ci;
+    }
+    let tile = cmp
+        .channels
+        .iter()
+        .filter_map(|c| c.tiles.worst.as_ref().map(|t| t.p_holm))
+        .min_by(f64::total_cmp);
+    (rel, ci, tile)
+}
+
+/// Run the certification with the given subjects (the command line passes the techniques).
+pub fn run(
+    opts: &Options,
+    subjects: &[&dyn Subject],
+    events: &(dyn Fn(Event) + Sync),
+) -> Result<Report, Unusable> {
+    let started = Instant::now();
+    if subjects.is_empty() {
+        return Err(Unusable("no technique to certify".into()));
+    }
+    let chosen = selected_scenes(opts)?;
+    if opts.oracle == Oracle::Live {
+        oracle::check_ready(&opts.root)?;
+    }
+    let m = family_size(opts)?;
+    let alpha_c = sidak(opts.alpha, m);
+    let cfg = CompareConfig {
+        alpha: alpha_c,
+        tolerance: opts.tolerance,
+        ..CompareConfig::default()
+    };
+    if let Some(dir) = &opts.report_dir {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            Unusable(format!(
+                "cannot create report directory {}: {e}",
+                dir.display()
+            ))
+        })?;
+    }
+    events(Event::Plan {
+        steps: usize::from(opts.sampler_suite)
+            + chosen.len() * subjects.len()
+            + usize::from(opts.oracle == Oracle::Live) * chosen.len(),
+    });
+
+    let sampler_suite = if opts.sampler_suite {
+        events(Event::Step {
+            label: "sampler chi-square suite".into(),
+        });
+        let s = sampler_suite::run();
+        events(Event::SuiteDone(&s));
+        Some(s)
+    } else {
+        None
+    };
+
+    let tiles = |done: usize, total: usize| events(Event::Tiles { done, total });
+    let mut scene_reports = Vec::new();
+    for s in &chosen {
+        let mut live_oracle_seconds = None;
+        let reference = match opts.oracle {
+            Oracle::Committed => s.reference.clone(),
+            Oracle::Live => {
+                events(Event::Step {
+                    label: format!("{}: live Mitsuba render", s.name),
+                });
+                let t = Instant::now();
+                let dir = opts
+                    .report_dir
+                    .clone()
+                    .unwrap_or_else(std::env::temp_dir)
+                    .join("mitsuba");
+                let img = oracle::render_live(&opts.root, s, &dir)?;
+                live_oracle_seconds = Some(t.elapsed().as_secs_f64());
+                img
+            }
+        };
+        let closed = if CLOSED_FORM_SCENES.contains(&s.name.as_str()) {
+            closed_form::image(&s.scene, opts.closed_form_subsamples)
+                .map_err(|e| Unusable(format!("closed form of {}: {e}", s.name)))?
+        } else {
+            None
+        };
+        let mut rows = Vec::new();
+        for subject in subjects {
+            let name = subject.name();
+            events(Event::Step {
+                label: format!("{}: {name}", s.name),
+            });
+            let base = RenderOptions {
+                spp: opts.budget.pilot_spp.max(2),
+                passes: 1,
+                seed: pilot_seed(opts.seed),
+                technique: Technique::ProjectedSolidAngle, // replaced by the subject
+            };
+            let t = Instant::now();
+            let pilot = subject
+                .render(&s.scene, &base, &|_, _| {})
+                .map_err(|e| render_error(&s.name, &name, e))?;
+            let pilot_seconds = t.elapsed().as_secs_f64();
+            let budget = opts.budget.choose(&pilot, &reference);
+            let t = Instant::now();
+            let image = subject
+                .render(
+                    &s.scene,
+                    &RenderOptions {
+                        spp: budget.spp,
+                        seed: opts.seed,
+                        ..base
+                    },
+                    &tiles,
+                )
+                .map_err(|e| render_error(&s.name, &name, e))?;
+            let render_seconds = t.elapsed().as_secs_f64();
+            let mut oracles = vec![("mitsuba", &reference)];
+            if let Some(c) = &closed {
+                oracles.push(("closed-form", c));
+            }
+            for (oracle_name, b) in oracles {
+                let cmp = compare(&image, b, &cfg).map_err(|e| {
+                    Unusable(format!(
+                        "cannot compare {} / {name} with the {oracle_name} image: {e}",
+                        s.name
+                    ))
+                })?;
+                let (rel_diff, rel_ci, worst_tile_p) = summarise(&cmp);
+                let mut row = Row {
+                    scene: s.name.clone(),
+                    subject: name.clone(),
+                    oracle: oracle_name.to_string(),
+                    verdict: cmp.verdict,
+                    budget,
+                    seed: opts.seed,
+                    pilot_seconds,
+                    render_seconds,
+                    precision: budget::precision(&image, b),
+                    rel_diff,
+                    rel_ci,
+                    worst_tile_p,
+                    files: Vec::new(),
+                    comparison: cmp,
+                };
+                if let Some(dir) = &opts.report_dir {
+                    row.files = report::write_row_images(dir, &row, &image, b)?;
+                }
+                events(Event::RowDone(&row));
+                rows.push(row);
+            }
+        }
+        scene_reports.push(SceneReport {
+            name: s.name.clone(),
+            scene_file: s.scene_file.clone(),
+            reference: reference_info(s),
+            live_oracle_seconds,
+            rows,
+        });
+    }
+
+    let passed = sampler_suite.as_ref().is_none_or(|s| s.passed)
+        && scene_reports.iter().flat_map(|s| &s.rows).all(Row::passed);
+    let report = Report {
+        passed,
+        oracle: opts.oracle,
+        scenes_pattern: opts.scenes.clone(),
+        alpha: opts.alpha,
+        comparisons_in_family: m,
+        alpha_per_comparison: alpha_c,
+        tolerance: opts.tolerance,
+        budget_rule: opts.budget,
+        seed: opts.seed,
+        threads: rayon::current_num_threads(),
+        sampler_suite,
+        scenes: scene_reports,
+        elapsed_seconds: started.elapsed().as_secs_f64(),
+    };
+    if let Some(dir) = &opts.report_dir {
+        report::write_report(dir, &report)?;
+    }
+    Ok(report)
+}

@@ -1,0 +1,341 @@
+//! What a certification leaves behind: `report.json` (everything), `report.md` (tables), and
+//! per scene × subject × oracle the Rust render (EXR), the heat map (per-pixel z | tile Holm
+//! p-values) and the side-by-side preview (Rust | oracle | signed luminance difference).
+
+use linlight_imagefile::Image;
+use linlight_verify::heatmap::{comparison_heatmap, side_by_side};
+use linlight_verify::image_stats::Verdict;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::{Report, Row, Unusable};
+
+fn io_err(path: &Path, e: impl std::fmt::Display) -> Unusable {
+    Unusable(format!("cannot write {}: {e}", path.display()))
+}
+
+/// Writes the pictures (and, once per subject, the render) of one row; returns their paths
+/// relative to `dir`.
+pub fn write_row_images(
+    dir: &Path,
+    row: &Row,
+    image: &Image,
+    oracle: &Image,
+) -> Result<Vec<String>, Unusable> {
+    let sub = dir.join(&row.scene);
+    std::fs::create_dir_all(&sub).map_err(|e| io_err(&sub, e))?;
+    let stem = format!("{}-vs-{}", row.subject, row.oracle);
+    let mut files = Vec::new();
+    let render = format!("{}/{}.exr", row.scene, row.subject);
+    if !dir.join(&render).exists() || row.oracle == "mitsuba" {
+        image
+            .write(&dir.join(&render))
+            .map_err(|e| io_err(&dir.join(&render), e))?;
+    }
+    files.push(render);
+    let heat = format!("{}/{stem}-z-tiles.png", row.scene);
+    comparison_heatmap(&row.comparison)
+        .write_png(&dir.join(&heat))
+        .map_err(|e| io_err(&dir.join(&heat), e))?;
+    files.push(heat);
+    let side = format!("{}/{stem}-side-by-side.png", row.scene);
+    let (picture, _scale) = side_by_side(image, oracle, None).map_err(|e| io_err(&sub, e))?;
+    picture
+        .write_png(&dir.join(&side))
+        .map_err(|e| io_err(&dir.join(&side), e))?;
+    files.push(side);
+    Ok(files)
+}
+
+fn pct(x: f64) -> String {
+    format!("{:+.3}%", 100.0 * x)
+}
+
+/// The channel with the largest |relative difference|: (channel, diff, CI half-width).
+fn worst_channel(row: &Row) -> Option<(&'static str, f64, f64)> {
+    (0..3)
+        .filter_map(|c| {
+            let d = row.rel_diff[c]?;
+            let [lo, hi] = row.rel_ci[c]?;
+            Some((["R", "G", "B"][c], d, 0.5 * (hi - lo)))
+        })
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+}
+
+fn verdict(v: Verdict) -> &'static str {
+    match v {
+        Verdict::Consistent => "CONSISTENT",
+        Verdict::Different => "DIFFERENT",
+    }
+}
+
+fn rel_cell(row: &Row) -> String {
+    worst_channel(row).map_or_else(
+        || "undefined".to_string(),
+        |(ch, d, h)| format!("{} ± {:.3}% ({ch})", pct(d), 100.0 * h),
+    )
+}
+
+fn p_cell(p: Option<f64>) -> String {
+    p.map_or_else(|| "-".into(), |p| format!("{p:.2e}"))
+}
+
+fn spp_cell(row: &Row) -> String {
+    format!(
+        "{}{}",
+        row.budget.spp,
+        if row.budget.capped { " (cap)" } else { "" }
+    )
+}
+
+/// One line per row, for the terminal.
+pub fn row_line(row: &Row) -> String {
+    format!(
+        "{:<15} {:<22} {:<11} {:<10} {:>24} {:>9} {:>11} {:>8.1}s",
+        row.scene,
+        row.subject,
+        row.oracle,
+        verdict(row.verdict),
+        rel_cell(row),
+        p_cell(row.worst_tile_p),
+        spp_cell(row),
+        row.render_seconds
+    )
+}
+
+pub fn table_header() -> String {
+    format!(
+        "{:<15} {:<22} {:<11} {:<10} {:>24} {:>9} {:>11} {:>9}",
+        "scene", "technique", "oracle", "verdict", "rel. diff ± CI", "tile p", "spp", "time"
+    )
+}
+
+/// The summary table printed at the end of `linlight certify`.
+pub fn summary(report: &Report) -> String {
+    let mut s = String::new();
+    if let Some(suite) = &report.sampler_suite {
+        let failing: Vec<&str> = suite
+            .techniques
+            .iter()
+            .chain(&suite.negative_controls)
+            .filter(|r| !r.passed)
+            .map(|r| r.name.as_str())
+            .collect();
+        let _ = writeln!(
+            s,
+            "sampler suite: {} ({} techniques, {} negative controls, {} configurations, {:.1} s){}",
+            if suite.passed { "PASS" } else { "FAIL" },
+            suite.techniques.len(),
+            suite.negative_controls.len(),
+            suite.configurations,
+            suite.elapsed_seconds,
+            if failing.is_empty() {
+                String::new()
+            } else {
+                format!("; failing: {}", failing.join(", "))
+            }
+        );
+    }
+    let _ = writeln!(
+        s,
+        "image comparisons: α = {} split over m = {} comparisons (α_c = {:.2e} each), δ = ±{}%",
+        report.alpha,
+        report.comparisons_in_family,
+        report.alpha_per_comparison,
+        100.0 * report.tolerance
+    );
+    let _ = writeln!(s, "{}", table_header());
+    for row in report.rows() {
+        let _ = writeln!(s, "{}", row_line(row));
+    }
+    let failed: Vec<String> = report
+        .rows()
+        .filter(|r| !r.passed())
+        .map(|r| format!("{}/{} vs {}", r.scene, r.subject, r.oracle))
+        .collect();
+    let _ = writeln!(
+        s,
+        "certify: {} in {:.1} s ({} comparisons{})",
+        if report.passed { "PASS" } else { "FAIL" },
+        report.elapsed_seconds,
+        report.rows().count(),
+        if failed.is_empty() {
+            String::new()
+        } else {
+            format!("; different: {}", failed.join(", "))
+        }
+    );
+    s
+}
+
+/// `report.md`.
+pub fn markdown(report: &Report) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# linlight certify\n");
+    let _ = writeln!(
+        s,
+        "**Verdict: {}** — {} comparisons in {:.1} s on {} threads; oracle: {:?}; scenes `{}`.\n",
+        if report.passed { "PASS" } else { "FAIL" },
+        report.rows().count(),
+        report.elapsed_seconds,
+        report.threads,
+        report.oracle,
+        report.scenes_pattern
+    );
+    let _ = writeln!(
+        s,
+        "Each comparison: Rust render (A) against the oracle (B), STATISTICS.md §2, at the Šidák \
+         level α_c = {:.2e} (family-wise α = {} over the m = {} comparisons of the full default \
+         certification), equivalence margin ±{}%. Budget rule: a pilot of {} spp (own seed) \
+         estimates the per-sample variance per pixel; the render gets the {}-quantile over pixels \
+         of σ̂²/v_B spp (rounded up to {}), clamped to [{}, {}]. Render seed {}.\n",
+        report.alpha_per_comparison,
+        report.alpha,
+        report.comparisons_in_family,
+        100.0 * report.tolerance,
+        report.budget_rule.pilot_spp,
+        report.budget_rule.quantile,
+        report.budget_rule.granularity,
+        report.budget_rule.min_spp,
+        report.budget_rule.max_spp,
+        report.seed
+    );
+    if let Some(suite) = &report.sampler_suite {
+        let _ = writeln!(
+            s,
+            "## Sampler chi-square suite: {}\n\n{} configurations, {} samples each, α = {} \
+             (α per test {:.2e}), {:.1} s.\n",
+            if suite.passed { "PASS" } else { "FAIL" },
+            suite.configurations,
+            suite.samples,
+            suite.alpha,
+            suite.alpha_per_test,
+            suite.elapsed_seconds
+        );
+        let _ = writeln!(
+            s,
+            "| subject | role | verdict | failing configs | worst p | time |\n|---|---|---|---|---|---|"
+        );
+        for (role, rows) in [
+            ("technique", &suite.techniques),
+            ("negative control", &suite.negative_controls),
+        ] {
+            for r in rows {
+                let _ = writeln!(
+                    s,
+                    "| {} | {role} | {} | {} | {} | {:.1} s |",
+                    r.name,
+                    r.verdict,
+                    r.failing_configs,
+                    p_cell(r.worst_p_value),
+                    r.seconds
+                );
+            }
+        }
+        s.push('\n');
+    }
+    for sc in &report.scenes {
+        let r = &sc.reference;
+        let _ = writeln!(s, "## {}\n", sc.name);
+        let _ =
+            writeln!(
+            s,
+            "Scene `{}`; reference `{}`: {}, {} spp in {} passes (dof {}), overrides `{}`, {}{}.\n",
+            sc.scene_file.display(),
+            r.file.display(),
+            r.renderer,
+            r.spp,
+            r.passes,
+            r.dof,
+            r.overrides,
+            r.wall_time_s
+                .map_or_else(|| "render time unknown".into(), |t| format!("rendered in {t:.0} s")),
+            sc.live_oracle_seconds
+                .map_or_else(String::new, |t| format!(" (live render now: {t:.0} s)"))
+        );
+        let _ = writeln!(
+            s,
+            "| technique | oracle | verdict | rel. diff R | rel. diff G | rel. diff B | worst tile p | Σz² p (min) | max\\|z\\| | spp | v_A ≤ v_B | render | pictures |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        );
+        for row in &sc.rows {
+            let ch = |c: usize| match (row.rel_diff[c], row.rel_ci[c]) {
+                (Some(d), Some([lo, hi])) => {
+                    format!("{} [{}, {}]", pct(d), pct(lo), pct(hi))
+                }
+                _ => "-".into(),
+            };
+            let chi2 = row
+                .comparison
+                .channels
+                .iter()
+                .filter_map(|c| c.pixels.chi2_p)
+                .min_by(f64::total_cmp);
+            let maxz = row
+                .comparison
+                .channels
+                .iter()
+                .map(|c| c.pixels.max_abs_z)
+                .fold(0.0, f64::max);
+            let pics: Vec<String> = row
+                .files
+                .iter()
+                .filter(|f| f.ends_with(".png"))
+                .map(|f| {
+                    format!(
+                        "[{}]({f})",
+                        if f.contains("z-tiles") { "z" } else { "A|B|Δ" }
+                    )
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {} | {:.1}% | {:.1} s | {} |",
+                row.subject,
+                row.oracle,
+                verdict(row.verdict),
+                ch(0),
+                ch(1),
+                ch(2),
+                p_cell(row.worst_tile_p),
+                p_cell(chi2),
+                maxz,
+                spp_cell(row),
+                100.0 * row.precision.at_least_as_precise,
+                row.render_seconds,
+                pics.join(" ")
+            );
+        }
+        if super::CLOSED_FORM_SCENES.contains(&sc.name.as_str()) && !super::closed_form::AVAILABLE {
+            let _ = writeln!(
+                s,
+                "\nThe closed-form comparison of this scene is not part of this build \
+                 (`linlight_render::closed_form` has not landed)."
+            );
+        }
+        let failures: Vec<&Row> = sc.rows.iter().filter(|r| !r.passed()).collect();
+        if !failures.is_empty() {
+            s.push('\n');
+            for row in failures {
+                for f in &row.comparison.failures {
+                    let _ = writeln!(
+                        s,
+                        "- {} vs {}: {:?} [{}]: {}",
+                        row.subject, row.oracle, f.test, f.channel, f.detail
+                    );
+                }
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// Writes `report.json` and `report.md` into `dir`.
+pub fn write_report(dir: &Path, report: &Report) -> Result<(), Unusable> {
+    let json = dir.join("report.json");
+    let text = serde_json::to_string_pretty(report).map_err(|e| io_err(&json, e))?;
+    std::fs::write(&json, text + "\n").map_err(|e| io_err(&json, e))?;
+    let md = dir.join("report.md");
+    std::fs::write(&md, markdown(report)).map_err(|e| io_err(&md, e))?;
+    Ok(())
+}

@@ -1,0 +1,170 @@
+//! `linlight certify`: the sampler suite plus every unbiased technique on every scene against the
+//! Mitsuba references (see `linlight::certify`). Exit 0 = everything consistent, 1 = something
+//! failed, 2 = unusable input (missing or stale reference, glob matching nothing, bad scene).
+
+use indicatif::{ProgressBar, ProgressStyle};
+use linlight::certify::{self, report, Event, Options, Oracle, Subject};
+use linlight_sampling::Technique;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Mutex;
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum OracleArg {
+    /// The committed references/mitsuba/<scene>.exr (no Mitsuba needed).
+    Committed,
+    /// Render the Mitsuba side now with scripts/harness (needs scripts/setup-oracle).
+    Live,
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Also write the full report as JSON to FILE (report.json is always in the report dir).
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Directory for report.md, report.json, heat maps and renders.
+    #[arg(long, value_name = "DIR", default_value = "certify-report")]
+    report_dir: PathBuf,
+    /// Scenes to certify: wildcard on the scene name, file name or path (e.g. 'floor-*').
+    #[arg(long, value_name = "GLOB", default_value = "*")]
+    scenes: String,
+    /// Source of the Mitsuba images.
+    #[arg(long, value_enum, default_value = "committed")]
+    oracle: OracleArg,
+    /// Comma-separated techniques [default: every unbiased technique].
+    #[arg(long, value_name = "LIST", value_delimiter = ',')]
+    techniques: Vec<String>,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Skip the sampler chi-square suite (image comparisons only).
+    #[arg(long)]
+    no_sampler_suite: bool,
+    /// No progress bar and no per-comparison lines (the summary is still printed).
+    #[arg(long)]
+    quiet: bool,
+    /// Project root holding references/ and scripts/ [default: the current directory].
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    root: PathBuf,
+}
+
+fn unusable(msg: impl std::fmt::Display) -> ExitCode {
+    eprintln!("linlight certify: {msg}");
+    ExitCode::from(2)
+}
+
+pub fn run(args: Args) -> ExitCode {
+    let mut techniques = Vec::new();
+    for name in &args.techniques {
+        match name.trim().parse::<Technique>() {
+            Ok(Technique::Baseline) => {
+                return unusable("the baseline technique is biased by design and is not certified")
+            }
+            Ok(t) => techniques.push(t),
+            Err(e) => return unusable(e),
+        }
+    }
+    if techniques.is_empty() {
+        techniques = Technique::UNBIASED.to_vec();
+    }
+    let subjects: Vec<&dyn Subject> = techniques.iter().map(|t| t as &dyn Subject).collect();
+    let mut opts = Options::new(&args.root);
+    opts.scenes = args.scenes.clone();
+    opts.oracle = match args.oracle {
+        OracleArg::Committed => Oracle::Committed,
+        OracleArg::Live => Oracle::Live,
+    };
+    opts.report_dir = Some(args.report_dir.clone());
+    opts.sampler_suite = !args.no_sampler_suite;
+
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = args.threads {
+        if t == 0 {
+            return unusable("--threads must be at least 1");
+        }
+        pool = pool.num_threads(t);
+    }
+    let pool = match pool.build() {
+        Ok(p) => p,
+        Err(e) => return unusable(format!("cannot start worker threads: {e}")),
+    };
+
+    let bar = if !args.quiet && std::io::stderr().is_terminal() {
+        ProgressBar::new(0)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {wide_msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let label = Mutex::new(String::new());
+    let header_printed = Mutex::new(false);
+    let quiet = args.quiet;
+    let events = |e: Event| match e {
+        Event::Plan { steps } => bar.set_length(steps as u64),
+        Event::Step { label: l } => {
+            if let Ok(mut g) = label.lock() {
+                if !g.is_empty() {
+                    bar.inc(1);
+                }
+                *g = l.clone();
+            }
+            bar.set_message(l);
+        }
+        Event::Tiles { done, total } => {
+            if let Ok(g) = label.lock() {
+                bar.set_message(format!("{} (tile {done}/{total})", *g));
+            }
+        }
+        Event::SuiteDone(s) => {
+            if !quiet {
+                bar.suspend(|| {
+                    println!(
+                        "sampler suite: {} ({:.1} s)",
+                        if s.passed { "PASS" } else { "FAIL" },
+                        s.elapsed_seconds
+                    )
+                });
+            }
+        }
+        Event::RowDone(row) => {
+            if !quiet {
+                bar.suspend(|| {
+                    if let Ok(mut h) = header_printed.lock() {
+                        if !*h {
+                            println!("{}", report::table_header());
+                            *h = true;
+                        }
+                    }
+                    println!("{}", report::row_line(row));
+                });
+            }
+        }
+    };
+    let result = pool.install(|| certify::run(&opts, &subjects, &events));
+    bar.finish_and_clear();
+    let report = match result {
+        Ok(r) => r,
+        Err(e) => return unusable(e),
+    };
+    if !quiet {
+        println!();
+    }
+    print!("{}", report::summary(&report));
+    println!("report: {}", args.report_dir.join("report.md").display());
+    if let Some(path) = &args.json {
+        let written = serde_json::to_string_pretty(&report)
+            .map_err(|e| e.to_string())
+            .and_then(|t| std::fs::write(path, t + "\n").map_err(|e| e.to_string()));
+        if let Err(e) = written {
+            return unusable(format!("cannot write {}: {e}", path.display()));
+        }
+    }
+    if report.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}

@@ -1,0 +1,4 @@
+//! Library side of the `linlight` program: the orchestration of `linlight certify`, so that
+//! end-to-end tests can run the same certification with their own (deliberately wrong) subjects.
+
+pub mod certify;

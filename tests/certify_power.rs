@@ -1,0 +1,214 @@
+//! Power and false alarms of `linlight certify` on the real scenes (STATISTICS.md §2): the
+//! certification must reject deliberately wrong renders and must not reject renders that differ
+//! only in their seed. The wrong variants exist only here (test-only subjects through
+//! `linlight_render::render_with`), never as user-facing options.
+
+use glam::Vec3;
+use linlight::certify::{self, Options, Oracle, Report, Subject};
+use linlight_imagefile::Image;
+use linlight_render::scene::Scene;
+use linlight_render::{render_with, LightSampling, RenderError, RenderOptions};
+use linlight_sampling::area::Area;
+use linlight_sampling::li2018::Li2018;
+use linlight_sampling::{LineFrame, LineSampler, Segment, Technique};
+use linlight_verify::image_stats::{compare, CompareConfig, Verdict};
+use std::path::Path;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The default certification (committed references) of the scenes matching `scenes`, without
+/// the sampler suite (it has its own negative controls) and without writing a report.
+fn options(scenes: &str) -> Options {
+    let mut o = Options::new(root());
+    o.scenes = scenes.into();
+    o.oracle = Oracle::Committed;
+    o.sampler_suite = false;
+    o
+}
+
+fn certify_with(scenes: &str, subject: &dyn Subject) -> Report {
+    certify::run(&options(scenes), &[subject], &|_| {}).expect("usable input")
+}
+
+/// Every row of the run says DIFFERENT (and so the run fails).
+fn assert_rejected(report: &Report, what: &str) {
+    assert!(!report.passed, "{what}: certification passed");
+    for row in report.rows() {
+        assert_eq!(
+            row.verdict,
+            Verdict::Different,
+            "{what}: {} vs {} not rejected: rel. diff {:?}, CI {:?}",
+            row.scene,
+            row.oracle,
+            row.rel_diff,
+            row.rel_ci
+        );
+    }
+    for row in report.rows() {
+        eprintln!(
+            "{what}: {} vs {}: rel. diff {:?}, failures {:?}",
+            row.scene,
+            row.oracle,
+            row.rel_diff,
+            row.comparison
+                .failures
+                .iter()
+                .map(|f| f.test)
+                .collect::<Vec<_>>()
+        );
+    }
+}
+
+/// A light sampling rendered through the generic hook.
+struct Sampled<S>(&'static str, S);
+
+impl<S: LightSampling> Subject for Sampled<S> {
+    fn name(&self) -> String {
+        self.0.into()
+    }
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        render_with(scene, opts, &self.1, progress)
+    }
+}
+
+/// (a) A correct technique's render with every mean (and standard error) scaled by 1.01.
+struct Scaled(Technique, f32);
+
+impl Subject for Scaled {
+    fn name(&self) -> String {
+        format!("{} × {}", self.0.name(), self.1)
+    }
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        let mut img = self.0.render(scene, opts, progress)?;
+        let k = self.1;
+        img.mean.iter_mut().for_each(|m| *m = m.map(|c| c * k));
+        img.var.iter_mut().for_each(|v| *v = v.map(|c| c * k * k));
+        Ok(img)
+    }
+}
+
+/// (b) Area sampling whose reported density is halved wherever the light crosses the horizon
+/// (the tangent-plane clip is active): the samples are right, the pdf is wrong there only.
+struct AreaHalvedAtHorizon;
+
+#[derive(Clone, Copy)]
+struct HalvedArea {
+    inner: Area,
+    factor: f32,
+}
+
+impl LineSampler for HalvedArea {
+    fn sample(&self, xi: f32) -> Vec3 {
+        self.inner.sample(xi)
+    }
+    fn pdf(&self, dir: Vec3) -> f32 {
+        self.factor * self.inner.pdf(dir)
+    }
+    fn support(&self) -> &LineFrame {
+        self.inner.support()
+    }
+    fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
+        let (w, p) = self.inner.sample_with_pdf(xi);
+        (w, self.factor * p)
+    }
+}
+
+impl LightSampling for AreaHalvedAtHorizon {
+    type Sampler = HalvedArea;
+    fn prepare(&self, segment: &Segment, x: Vec3, n: Vec3) -> Option<HalvedArea> {
+        let inner = Area::prepare(segment, x, n)?;
+        let full = LineFrame::new(segment, x)?;
+        let clipped = full
+            .clip_to_horizon(n)
+            .is_none_or(|c| c.l_begin != full.l_begin || c.l_end != full.l_end);
+        Some(HalvedArea {
+            inner,
+            factor: if clipped { 0.5 } else { 1.0 },
+        })
+    }
+    fn name(&self) -> String {
+        "area, pdf halved where clipped".into()
+    }
+}
+
+/// (c) Li et al. stopped after two iterations, density not corrected.
+struct LiTwoIterations;
+
+impl LightSampling for LiTwoIterations {
+    type Sampler = Li2018;
+    fn prepare(&self, segment: &Segment, x: Vec3, n: Vec3) -> Option<Li2018> {
+        Some(Li2018::prepare(segment, x, n)?.with_max_iterations(2))
+    }
+    fn name(&self) -> String {
+        "li2018, 2 iterations".into()
+    }
+}
+
+#[test]
+fn rejects_a_render_scaled_by_one_percent() {
+    let r = certify_with("floor-*", &Scaled(Technique::ProjectedSolidAngle, 1.01));
+    assert_eq!(r.rows().count(), 2);
+    assert_rejected(&r, "PSA × 1.01");
+}
+
+#[test]
+fn rejects_area_with_halved_density_where_the_light_crosses_the_horizon() {
+    let r = certify_with(
+        "floor-crossing",
+        &Sampled("area-halved-at-horizon", AreaHalvedAtHorizon),
+    );
+    assert_rejected(&r, "area, pdf × 0.5 where clipped");
+}
+
+#[test]
+fn rejects_li2018_stopped_after_two_iterations() {
+    // Not floor-crossing: on an unoccluded diffuse surface the projected-solid-angle estimator
+    // K·f·cos/p = K·ρ/π·Ω⊥_R is the same for every direction of the support, so *where* the
+    // unconverged iteration puts a sample cannot change the image there (measured: li2018 with 1
+    // or 2 iterations is consistent with Mitsuba on floor-crossing, floor-tube and two-tubes).
+    // Only visibility makes the sample distribution matter: the Cornell box, whose tube casts
+    // penumbrae through the box.
+    let r = certify_with(
+        "cornell-tube",
+        &Sampled("li2018-2-iterations", LiTwoIterations),
+    );
+    assert_rejected(&r, "Li 2018, 2 iterations");
+}
+
+/// False alarms: two Rust renders of every scene that differ only in the seed are consistent
+/// under `compare` at its default α = 0.01 (one comparison per scene, fixed seeds).
+#[test]
+fn renders_differing_only_in_seed_pass_compare() {
+    let scenes = certify::selected_scenes(&options("*")).expect("scenes with references");
+    assert_eq!(scenes.len(), 5);
+    for s in &scenes {
+        let opts = |seed| RenderOptions {
+            spp: 1024,
+            passes: 1,
+            seed,
+            technique: Technique::ProjectedSolidAngle,
+        };
+        let a = linlight_render::render(&s.scene, &opts(11), &|_, _| {}).unwrap();
+        let b = linlight_render::render(&s.scene, &opts(12), &|_, _| {}).unwrap();
+        let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
+        assert_eq!(
+            cmp.verdict,
+            Verdict::Consistent,
+            "{}: seeds 11 and 12 judged different: {:?}",
+            s.name,
+            cmp.failures
+        );
+    }
+}
