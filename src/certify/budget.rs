@@ -33,7 +33,7 @@ impl Default for BudgetRule {
             pilot_spp: 256,
             quantile: 0.99,
             min_spp: 256,
-            max_spp: 8_192,
+            max_spp: 65_536,
             granularity: 64,
         }
     }

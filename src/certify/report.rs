@@ -305,13 +305,6 @@ pub fn markdown(report: &Report) -> String {
                 pics.join(" ")
             );
         }
-        if super::CLOSED_FORM_SCENES.contains(&sc.name.as_str()) && !super::closed_form::AVAILABLE {
-            let _ = writeln!(
-                s,
-                "\nThe closed-form comparison of this scene is not part of this build \
-                 (`linlight_render::closed_form` has not landed)."
-            );
-        }
         let failures: Vec<&Row> = sc.rows.iter().filter(|r| !r.passed()).collect();
         if !failures.is_empty() {
             s.push('\n');
