@@ -13,21 +13,22 @@ pub fn venv(root: &Path) -> PathBuf {
     std::env::var_os("LINLIGHT_VENV").map_or_else(|| root.join(".venv"), PathBuf::from)
 }
 
-/// Checks that `scripts/setup-oracle` has been run (before any rendering starts).
+/// Checks that `scripts/setup-oracle` has been run and the harness is there (before any
+/// rendering starts). The venv is checked first: it is what a user has to set up.
 pub fn check_ready(root: &Path) -> Result<(), Unusable> {
     let venv = venv(root);
     let harness = root.join("scripts/harness");
-    if !harness.is_file() {
-        return Err(Unusable(format!(
-            "--oracle live needs the harness at {}",
-            harness.display()
-        )));
-    }
     if !venv.join("bin/python").exists() || !venv.join("oracle.env").is_file() {
         return Err(Unusable(format!(
             "--oracle live needs the Mitsuba oracle venv at {} (missing): run scripts/setup-oracle \
              first, or use the committed references (--oracle committed)",
             venv.display()
+        )));
+    }
+    if !harness.is_file() {
+        return Err(Unusable(format!(
+            "--oracle live needs the harness at {}",
+            harness.display()
         )));
     }
     Ok(())
