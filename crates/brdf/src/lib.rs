@@ -1,0 +1,12 @@
+//! BRDF models for shading linear lights, matching Mitsuba 3's plugins, and the linearly
+//! transformed cosine (LTC) tables that importance-sample the GGX lobe.
+//!
+//! Conventions (all models): directions are unit vectors in the shading frame (z = shading
+//! normal), `v` points toward the viewer (Mitsuba's `si.wi`), `l` toward the light. A BRDF value
+//! `f(v, l)` excludes the cosine; functions named `*_cos` include the factor cos θ_l = l_z, as
+//! Mitsuba's `BSDF::eval` does. Everything is zero unless v_z > 0 and l_z > 0 (one-sided), which
+//! `twosided` lifts by flipping the frame toward the viewer.
+//!
+//! No I/O; no dependency on the sampling crate.
+
+pub mod microfacet;
