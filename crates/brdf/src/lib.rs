@@ -9,4 +9,7 @@
 //!
 //! No I/O; no dependency on the sampling crate.
 
+// `!(x > 0.0)` is deliberate throughout: it rejects NaN together with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod microfacet;

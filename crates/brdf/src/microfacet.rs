@@ -171,7 +171,11 @@ mod tests {
     }
 
     fn dir(theta: f64, phi: f64) -> DVec3 {
-        DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+        DVec3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        )
     }
 
     #[test]
