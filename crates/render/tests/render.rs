@@ -522,4 +522,3 @@ fn neighbouring_pixel_errors_are_uncorrelated() {
     eprintln!("control with correlation ½: T = {t:.1}");
     assert!(t > 5.0 * THRESHOLD, "no power: T = {t}");
 }
-
