@@ -440,7 +440,7 @@ pub fn tilt_power_controls() -> Vec<SamplerUnderTest> {
         .collect()
 }
 
-/// The negative controls of STATISTICS.md §1.
+/// The negative controls of the suite (docs/sampler-suite.md), each with what must reject it.
 pub fn negative_controls() -> Vec<SamplerUnderTest> {
     #[allow(unused_mut)]
     let mut v = vec![

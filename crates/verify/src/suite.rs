@@ -458,12 +458,12 @@ fn check_sampler(
             sum += w;
             sum_sq += w * w;
         } else if f > 0.0
-            && on_line_range(sampler, &binning, dir).1 > PDF_CONSISTENCY_FLOOR / support_omega
+            && on_line_range(sampler, &binning, dir).0 > PDF_CONSISTENCY_FLOOR / support_omega
         {
             // A density-0 sample loses its contribution to the estimate. Legitimate only where
-            // the density vanishes on the line within the f32 sample's resolution (the end of a
-            // density that goes to 0 at a horizon, in cosine space for LTC), a 2⁻²⁴-probability
-            // event at ξ = 0 or 1 that N = 10⁶ samples meet.
+            // the density is 0 at a direction on the line that the f32 sample cannot be told
+            // from (the end of a density that vanishes at a horizon — in cosine space for LTC —
+            // met at ξ within ~1e-5 of 0 or 1, which N = 10⁶ samples reach).
             zero_density_hits += 1;
         }
         if i < settings.round_trips {
