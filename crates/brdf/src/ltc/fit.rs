@@ -546,7 +546,7 @@ pub fn check_columns(
             EntryDeviation::new(
                 e.i_alpha,
                 e.j_theta,
-                *table.entry(e.i_alpha, e.j_theta),
+                table.entry(e.i_alpha, e.j_theta),
                 e.table_entry(),
             )
         })
