@@ -120,7 +120,8 @@ fn unusable_input_exits_2() {
         vec!["--size", "1"],
         vec!["--out", s(&no_dir)],
         vec!["--threads", "0"],
-        vec!["--table", s(&garbage)], // --table needs --check
+        vec!["--table", s(&garbage)],   // --table needs --check
+        vec!["--check", "--size", "8"], // --check uses the table's own size
     ] {
         let out = linlight(&args);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {}", text(&out));

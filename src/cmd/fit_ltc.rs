@@ -23,7 +23,9 @@ Examples:
   linlight fit-ltc --check --table my.bin --columns 0,10,63
   linlight fit-ltc --size 16 --out small.bin --json small.json
 
-Runtime on 2 cores: the full 64×64 fit about 40 s, --check about 8 s.
+Runtime: the full 64×64 fit takes about 40 CPU-seconds, spread over the threads (77–110 s
+wall measured on a shared 2-core machine at load 7–11); --check with the default columns about
+3 CPU-seconds.
 The error E₁ = ∫ |f cos − ρ_s D_LTC| dω / ρ_s (relative L1, in [0, 2]) of every entry is
 reported and drawn as a heat map: √α = 0 … 1 left to right, θ_o = 0 … π/2 top to bottom,
 8×8 pixels per entry, colour log10 E₁ from 1e-4 (white) to 1 (dark red).";
@@ -31,16 +33,21 @@ reported and drawn as a heat map: √α = 0 … 1 left to right, θ_o = 0 … π
 #[derive(clap::Args)]
 pub struct Args {
     /// Write the fitted table to FILE (the format of crates/brdf/data/ggx_ltc.bin).
-    #[arg(long, value_name = "FILE", default_value = "ggx_ltc.bin")]
+    #[arg(
+        long,
+        value_name = "FILE",
+        default_value = "ggx_ltc.bin",
+        conflicts_with = "check"
+    )]
     out: PathBuf,
     /// Heat map of the fit error per entry [default: <out stem>-error.png next to --out].
-    #[arg(long, value_name = "PNG")]
+    #[arg(long, value_name = "PNG", conflicts_with = "check")]
     heatmap: Option<PathBuf>,
     /// Also write every entry (α, θ_o, ρ_s, E₁, parameters, A) as JSON.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "check")]
     json: Option<PathBuf>,
     /// Grid points per axis (the renderer's table has 64).
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, conflicts_with = "check")]
     size: usize,
     /// Instead of fitting everything: re-fit the α columns of --columns with the table's own
     /// settings and compare them with --table.
