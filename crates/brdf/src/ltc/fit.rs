@@ -15,9 +15,11 @@
 //! 4. The initial guess is the neighbouring entry: for θ_o = 0 the previous (larger) α, for
 //!    θ_o > 0 the previous (smaller) θ_o at the same α. α is swept from 1 down, θ_o from 0 up.
 //!
-//! Determinism: the θ_o = 0 column is fitted first (sequentially, α descending); every α row
-//! then depends only on its own θ_o = 0 entry, so rows are fitted in parallel and the result is
-//! bit-identical for any number of threads (and to a sequential sweep).
+//! Grid: √α columns i (x), θ_o rows j (y), as in the table ([`super::table`]).
+//!
+//! Determinism: the θ_o = 0 row is fitted first (sequentially, α descending); every √α column
+//! then depends only on its own θ_o = 0 entry, so columns are fitted in parallel and the result
+//! is bit-identical for any number of threads (and to a sequential sweep).
 //!
 //! The fit error of an entry is the relative L1 error [`relative_l1_error`]
 //! E₁ = ∫ |f cos − ρ_s D_LTC| dω / ρ_s ∈ [0, 2]: twice the total-variation distance between the
@@ -31,8 +33,8 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
 
-/// The largest θ_o at which entries are fitted: the last column (θ_o = π/2, where the lobe
-/// vanishes) is fitted at this angle instead (Heitz et al. do the same).
+/// The largest θ_o at which entries are fitted: the last row (θ_o = π/2, where v_z = 0 and the
+/// lobe degenerates) is fitted at this angle instead.
 pub const MAX_FIT_THETA: f64 = 1.57;
 
 /// Grid sizes and sample counts of a fit. The defaults make the committed table.
@@ -363,7 +365,7 @@ pub fn fit_entry(
     }
 }
 
-/// The θ_o = 0 column, α from 1 down (index size−1 down to `down_to`); element k is column
+/// The θ_o = 0 row, α from 1 down (index size−1 down to `down_to`); element k is column
 /// `down_to + k`. Each entry starts from the next larger α's parameters (α = 1 from the cosine,
 /// m11 = 1).
 pub fn fit_first_row(

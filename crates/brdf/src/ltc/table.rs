@@ -11,6 +11,12 @@
 //! α ≤ 1e-4 (Mitsuba clamps α ≥ 1e-4) reads a blend weighted toward column 0. Since the
 //! sampler and its density use the same interpolated A, such approximations cost variance only.
 //!
+//! Conditioning: the lobe of a small α seen at grazing angles is a needle (width ~2α vertically
+//! and ~2α·cos θ_o across), so A is nearly singular there. In the committed table four entries
+//! of the last row (√α ≤ 3/63, θ_o = 1.57) have ‖A‖³/det A between 2e7 and 8e9, beyond the
+//! 1e7 up to which `LtcLine::prepare` accepts a matrix (it returns `None`: the caller samples
+//! the diffuse technique only); every other entry is below 1e7 (largest 8e6).
+//!
 //! File format (all little-endian): the 8 bytes `LTCGGX01`; five u32: N, then the fit settings
 //! (fit samples, albedo samples, error samples, Nelder–Mead budget); then N² records of seven
 //! f32 `a, b, c, d, e, ρ_s, E₁`, record j·N + i for √α column i and θ_o row j.
