@@ -7,9 +7,10 @@
 //! Mitsuba's α = 1e-4 and the last row (θ_o = π/2) at θ_o = 1.57 (see [`super::fit`]).
 //!
 //! Clamp range: α is clamped to [0, 1] and cos θ_o to [0, 1] before the lookup (NaN counts as
-//! 0). α below (1/(N−1))² ≈ 2.5e-4 interpolates between the α = 1e-4 column and the next; any
-//! α ≤ 1e-4 (Mitsuba clamps α ≥ 1e-4) reads a blend weighted toward column 0. Since the
-//! sampler and its density use the same interpolated A, such approximations cost variance only.
+//! 0). α below (1/(N−1))² ≈ 2.5e-4 interpolates between column 0 (fitted at α = 1e-4) and
+//! column 1 (α ≈ 2.5e-4): Mitsuba's smallest α = 1e-4 (√α = 0.01) reads 37 % column 0 and 63 %
+//! column 1, smaller α more of column 0. Since the sampler and its density use the same
+//! interpolated A, such approximations cost variance only.
 //!
 //! Conditioning: the lobe of a small α seen at grazing angles is a needle (width ~2α vertically
 //! and ~2α·cos θ_o across), so A is nearly singular there. In the committed table four entries
