@@ -3,7 +3,7 @@
 //! For every grid point (α, θ_o) (see [`grid_alpha`], [`grid_theta`]) with the view
 //! v = (sin θ_o, 0, cos θ_o) in the shading frame:
 //! 1. [`lobe_moments`]: the albedo ρ_s = ∫ f cos dω (f the GGX BRDF with F ≡ 1,
-//!    [`ggx_cos`](crate::microfacet::ggx_cos)) and the average direction ∫ ω f cos dω / ρ_s, by a
+//!    [`ggx_cos`]) and the average direction ∫ ω f cos dω / ρ_s, by a
 //!    stratified midpoint grid over the visible-normal sampler (the estimator is the
 //!    Smith term G1(l, h), bounded by 1).
 //! 2. The LTC is M = R·P with R = [X Y Z], Z the average direction, X = (Z_z, 0, −Z_x),
