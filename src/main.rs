@@ -28,6 +28,10 @@ enum Command {
     Render(cmd::render::Args),
     /// Statistical comparison of two mean+variance EXRs (exit 0 consistent, 1 different).
     Compare(cmd::compare::Args),
+    /// Fit the GGX LTC table (deterministic) and report its error; --check re-fits a sample
+    /// and compares it with the committed table (exit 0 consistent, 1 mismatch, 2 bad input).
+    #[command(after_help = cmd::fit_ltc::AFTER_HELP)]
+    FitLtc(cmd::fit_ltc::Args),
 }
 
 fn main() -> ExitCode {
@@ -38,5 +42,6 @@ fn main() -> ExitCode {
         Command::BackwardError(a) => cmd::backward_error::run(a),
         Command::Render(a) => cmd::render::run(a),
         Command::Compare(a) => cmd::compare::run(a),
+        Command::FitLtc(a) => cmd::fit_ltc::run(a),
     }
 }
