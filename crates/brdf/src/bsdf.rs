@@ -90,6 +90,7 @@ impl Bsdf {
     }
 
     /// Whether the BSDF reflects light on the back side too (only `twosided` does).
+    #[inline]
     pub fn is_two_sided(&self) -> bool {
         matches!(self, Bsdf::TwoSided(_))
     }
@@ -102,7 +103,8 @@ impl Bsdf {
             Bsdf::Diffuse { reflectance } => Some(diffuse::rgb(*reflectance)),
             Bsdf::Blend(b) => {
                 let w = b.weight();
-                Some(b.bsdfs[0].lambertian()? * (1.0 - w) + b.bsdfs[1].lambertian()? * w)
+                let [first, second] = &*b.bsdfs;
+                Some(first.lambertian()? * (1.0 - w) + second.lambertian()? * w)
             }
             Bsdf::TwoSided(inner) => inner.lambertian(),
             Bsdf::RoughConductor(_) | Bsdf::Principled(_) => None,

@@ -51,6 +51,9 @@ pub struct RenderScene {
     pub bvh: Bvh,
     /// Per `Scene::shapes` entry: its BSDF and flip_normals.
     pub surfaces: Vec<(Bsdf, bool)>,
+    /// Per `Scene::shapes` entry: f = ρ/π when its BSDF is Lambertian (`Bsdf::lambertian`), the
+    /// integrator's fast path; `None` for glossy BSDFs.
+    pub lambert: Vec<Option<Vec3>>,
     /// Segment and K = radiance × radius per light.
     pub lights: Vec<(Segment, Vec3)>,
 }
@@ -108,13 +111,39 @@ pub fn diffuse_lobe(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
 enum Reflection<'a> {
     /// f = albedo/π (the fast path: `diffuse` and blends of it).
     Lambert(Vec3),
-    /// The full BSDF, evaluated in the shading frame (t, b, n) with v = `wi` in that frame.
-    Bsdf {
-        bsdf: &'a Bsdf,
-        t: Vec3,
-        b: Vec3,
-        v: DVec3,
-    },
+    /// The full BSDF.
+    Bsdf(Glossy<'a>),
+}
+
+/// A BSDF in the shading frame (t, b, n) of the side that faces the viewer (so a `twosided`
+/// BSDF sees v_z > 0), v = `wi` in it. Out of line, so that the Lambertian loop stays as tight
+/// as before.
+struct Glossy<'a> {
+    bsdf: &'a Bsdf,
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+    v: DVec3,
+}
+
+impl<'a> Glossy<'a> {
+    #[inline(never)]
+    fn new(bsdf: &'a Bsdf, n: Vec3, wi: Vec3) -> Self {
+        let (t, b) = n.any_orthonormal_pair();
+        let v = DVec3::new(wi.dot(t) as f64, wi.dot(b) as f64, wi.dot(n) as f64);
+        Glossy { bsdf, t, b, n, v }
+    }
+
+    /// f(v, ω)·cos θ for the world direction ω (unit).
+    #[inline(never)]
+    fn eval(&self, w: Vec3) -> Vec3 {
+        let l = DVec3::new(
+            w.dot(self.t) as f64,
+            w.dot(self.b) as f64,
+            w.dot(self.n) as f64,
+        );
+        self.bsdf.eval(self.v, l).as_vec3()
+    }
 }
 
 #[inline]
@@ -136,20 +165,16 @@ pub fn radiance<S: LightSampling>(
         return [0.0; 3];
     };
     let prim = scene.bvh.primitive(hit.prim);
-    let (bsdf, flip) = &scene.surfaces[prim.shape() as usize];
+    let shape = prim.shape() as usize;
+    let (bsdf, flip) = &scene.surfaces[shape];
     let sp = prim.surface_point(ray, &hit, *flip);
     let wi = -ray.d;
     let Some(n) = reflecting_normal(bsdf, sp.ns, wi) else {
         return [0.0; 3];
     };
-    // The frame's z is the reflecting side's normal, so a `twosided` BSDF sees v_z > 0.
-    let reflection = match bsdf.lambertian() {
-        Some(albedo) => Reflection::Lambert(albedo.as_vec3() * std::f32::consts::FRAC_1_PI),
-        None => {
-            let (t, b) = n.any_orthonormal_pair();
-            let v = DVec3::new(wi.dot(t) as f64, wi.dot(b) as f64, wi.dot(n) as f64);
-            Reflection::Bsdf { bsdf, t, b, v }
-        }
+    let reflection = match scene.lambert[shape] {
+        Some(f) => Reflection::Lambert(f),
+        None => Reflection::Bsdf(Glossy::new(bsdf, n, wi)),
     };
     for (segment, k) in &scene.lights {
         let xi = rng.next_f32();
@@ -177,10 +202,7 @@ pub fn radiance<S: LightSampling>(
         // K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R).
         let c = match &reflection {
             Reflection::Lambert(f) => *k * *f * (cos / pdf),
-            Reflection::Bsdf { bsdf, t, b, v } => {
-                let l = DVec3::new(w.dot(*t) as f64, w.dot(*b) as f64, cos as f64);
-                *k * bsdf.eval(*v, l).as_vec3() / pdf
-            }
+            Reflection::Bsdf(g) => *k * g.eval(w) / pdf,
         };
         if finite_rgb(c) {
             total += c;

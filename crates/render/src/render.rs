@@ -157,6 +157,15 @@ impl RenderScene {
                 .iter()
                 .map(|s| (s.bsdf.clone(), s.flip_normals))
                 .collect(),
+            lambert: scene
+                .shapes
+                .iter()
+                .map(|s| {
+                    s.bsdf
+                        .lambertian()
+                        .map(|rho| rho.as_vec3() * std::f32::consts::FRAC_1_PI)
+                })
+                .collect(),
             lights: scene
                 .lights
                 .iter()
