@@ -22,7 +22,9 @@ pub enum Bsdf {
     Principled(Principled),
     /// `blendbsdf` of two BSDFs.
     Blend(Blend),
-    /// `twosided`: the nested BSDF on both sides.
+    /// `twosided`: the nested BSDF on both sides. `eval` follows Mitsuba anywhere in the tree,
+    /// but the scene loader accepts it only as the outermost BSDF, so that a renderer can flip
+    /// its shading frame toward the viewer exactly when [`Bsdf::is_two_sided`] says so.
     TwoSided(Box<Bsdf>),
 }
 
