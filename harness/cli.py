@@ -1,4 +1,4 @@
-"""Command line: `python -m harness {render,radius-sweep,preview} ...`.
+"""Command line: `python -m harness {render,radius-sweep,preview,bsdf-golden} ...`.
 Exit codes: 0 success, 1 a check failed, 2 bad usage / unusable input."""
 
 from __future__ import annotations
@@ -59,6 +59,17 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("image", type=Path)
     v.add_argument("--out", type=Path, required=True)
     v.add_argument("--exposure", type=float, default=0.0)
+
+    g = sub.add_parser(
+        "bsdf-golden",
+        help="Mitsuba's BSDF.eval at the golden (v, l) pairs (harness/bsdf_golden.py)",
+    )
+    g.add_argument("--out", type=Path, help="write mitsuba-eval.json/.f32 into this directory")
+    g.add_argument(
+        "--check",
+        action="store_true",
+        help="exit 1 unless the committed references/bsdf data equals a fresh evaluation bit for bit",
+    )
     return p
 
 
@@ -113,6 +124,13 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_sweep(a)
         if a.cmd == "preview":
             return cmd_preview(a)
+        if a.cmd == "bsdf-golden":
+            from harness import bsdf_golden
+
+            if a.out is None and not a.check:
+                print("harness: bsdf-golden needs --out DIR and/or --check", file=sys.stderr)
+                return 2
+            return bsdf_golden.main(a.out, a.check)
     except (scene_xml.SceneError, FileNotFoundError, ValueError) as e:
         print(f"harness: error: {e}", file=sys.stderr)
         return 2

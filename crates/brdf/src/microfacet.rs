@@ -82,15 +82,26 @@ fn sin2(w: DVec3) -> f64 {
 /// for unit v, l in the shading frame; 0 unless v_z > 0 and l_z > 0. `alpha` is used as given
 /// (callers clamp with [`clamp_alpha`] where they model Mitsuba).
 pub fn ggx_cos(alpha: f64, v: DVec3, l: DVec3) -> f64 {
+    ggx_cos_and_cos_vh(alpha, v, l).0
+}
+
+/// [`ggx_cos`] and v·h, the cosine at which a Fresnel factor multiplies the lobe; (0, 0) where
+/// the lobe is zero (as Mitsuba's conductor, which skips Fresnel where D = 0).
+pub fn ggx_cos_and_cos_vh(alpha: f64, v: DVec3, l: DVec3) -> (f64, f64) {
     if !(v.z > 0.0 && l.z > 0.0) {
-        return 0.0;
+        return (0.0, 0.0);
     }
     let h = (v + l).normalize_or_zero();
     if h == DVec3::ZERO {
-        return 0.0;
+        return (0.0, 0.0);
     }
-    let g = g1(alpha, sin2(v), v.z, v.dot(h)) * g1(alpha, sin2(l), l.z, l.dot(h));
-    d(alpha, sin2(h), h.z) * g / (4.0 * v.z)
+    let dh = d(alpha, sin2(h), h.z);
+    if dh == 0.0 {
+        return (0.0, 0.0);
+    }
+    let cos_vh = v.dot(h);
+    let g = g1(alpha, sin2(v), v.z, cos_vh) * g1(alpha, sin2(l), l.z, l.dot(h));
+    (dh * g / (4.0 * v.z), cos_vh)
 }
 
 /// A microfacet normal visible from `v` (v_z > 0), drawn with density
@@ -140,43 +151,8 @@ pub fn reflection_pdf(alpha: f64, v: DVec3, l: DVec3) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_util::{dir, gauss};
     use std::f64::consts::PI;
-
-    /// Composite Gauss–Legendre (8 nodes) of f on [a, b] split into n equal panels.
-    fn gauss(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
-        const X: [f64; 4] = [
-            0.183_434_642_495_649_8,
-            0.525_532_409_916_329,
-            0.796_666_477_413_626_7,
-            0.960_289_856_497_536_3,
-        ];
-        const W: [f64; 4] = [
-            0.362_683_783_378_362,
-            0.313_706_645_877_887_3,
-            0.222_381_034_453_374_5,
-            0.101_228_536_290_376_3,
-        ];
-        let h = (b - a) / n as f64;
-        (0..n)
-            .map(|i| {
-                let m = a + (i as f64 + 0.5) * h;
-                X.iter()
-                    .zip(W)
-                    .map(|(&x, w)| w * (f(m - 0.5 * h * x) + f(m + 0.5 * h * x)))
-                    .sum::<f64>()
-                    * 0.5
-                    * h
-            })
-            .sum()
-    }
-
-    fn dir(theta: f64, phi: f64) -> DVec3 {
-        DVec3::new(
-            theta.sin() * phi.cos(),
-            theta.sin() * phi.sin(),
-            theta.cos(),
-        )
-    }
 
     #[test]
     fn projected_normal_density_integrates_to_one() {

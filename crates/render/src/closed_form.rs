@@ -10,7 +10,8 @@
 //!     whose triangles all lie in one plane with one orientation (a `rectangle`, or any flat
 //!     polygon), or a `disk`. A plane cannot shadow any point of itself; the tangent-plane clip
 //!     removes exactly what lies behind it;
-//!   - its BSDF is `diffuse`, one-sided or inside `twosided` (the normal then faces the viewer);
+//!   - its BSDF is Lambertian: `diffuse` (or a `blendbsdf` of two), one-sided or inside `twosided`
+//!     (the normal then faces the viewer);
 //!   - any number of linear lights, which may pierce the plane (floor-crossing);
 //!   - any perspective sensor and crop window the renderer accepts.
 //!
@@ -76,18 +77,25 @@ pub fn check_supported(scene: &Scene) -> Result<(), RenderError> {
                 return Err(unsupported(format!("cylinder at {at} is not planar")));
             }
         }
-        check_diffuse(&shape.bsdf)?;
+        check_diffuse(&shape.bsdf).map_err(|m| unsupported(format!("{m} at {at}")))?;
     }
     Ok(())
 }
 
-/// Every BSDF the closed form handles; exhaustive on purpose, so that a new BSDF kind has to be
-/// decided on here.
-fn check_diffuse(bsdf: &Bsdf) -> Result<(), RenderError> {
-    match bsdf {
-        Bsdf::Diffuse { .. } => Ok(()),
-        Bsdf::TwoSided(inner) => check_diffuse(inner),
+/// The closed form integrates ρ/π·cos only: the BSDF must be Lambertian
+/// (`Bsdf::lambertian`, whose match over every BSDF kind decides this for a new kind).
+fn check_diffuse(bsdf: &Bsdf) -> Result<(), String> {
+    if bsdf.lambertian().is_some() {
+        return Ok(());
     }
+    let name = match bsdf {
+        Bsdf::TwoSided(inner) => format!("twosided {}", inner.plugin_name()),
+        b => b.plugin_name().to_string(),
+    };
+    Err(format!(
+        "the {name} BSDF is not Lambertian (the closed form covers diffuse surfaces only: \
+         diffuse, blends of diffuse BSDFs, twosided of those)"
+    ))
 }
 
 /// All referenced vertices within `PLANAR_TOLERANCE`·extent of the plane of the first
@@ -430,6 +438,37 @@ mod tests {
         }
         assert!(err(&sc).contains("shading normals"));
         assert!(unshadowed_pixel_average(&floor_scene(8, 8), 0).is_err());
+        // Glossy BSDFs are refused, blends of Lambertians accepted.
+        let mut sc = floor_scene(8, 8);
+        let glossy = Bsdf::RoughConductor(linlight_brdf::RoughConductor {
+            alpha: 0.4,
+            fresnel: linlight_brdf::ConductorFresnel::One,
+            specular_reflectance: [1.0; 3],
+        });
+        sc.shapes[0].bsdf = Bsdf::TwoSided(Box::new(glossy));
+        assert!(
+            err(&sc).contains("the twosided roughconductor BSDF is not Lambertian"),
+            "{}",
+            err(&sc)
+        );
+        sc.shapes[0].bsdf = Bsdf::Blend(linlight_brdf::Blend {
+            weight: 0.5,
+            bsdfs: Box::new([
+                Bsdf::Diffuse { reflectance: RHO },
+                Bsdf::Principled(linlight_brdf::Principled::new()),
+            ]),
+        });
+        assert!(err(&sc).contains("the blendbsdf BSDF is not Lambertian"));
+        sc.shapes[0].bsdf = Bsdf::Blend(linlight_brdf::Blend {
+            weight: 0.5,
+            bsdfs: Box::new([
+                Bsdf::Diffuse { reflectance: RHO },
+                Bsdf::Diffuse {
+                    reflectance: [0.1; 3],
+                },
+            ]),
+        });
+        assert!(unshadowed_pixel_average(&sc, 2).is_ok());
         // A disk is planar and accepted.
         let mut sc = floor_scene(8, 8);
         sc.shapes[0] = diffuse(

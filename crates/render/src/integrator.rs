@@ -1,15 +1,19 @@
 //! Direct lighting from linear lights in the R → 0 limit (Mitsuba's `direct` integrator with
 //! emitter sampling only, one sample per light and camera sample).
 //!
-//! Per light, the estimator of the reflected radiance is K·f·max(0, n·ω)·V(ω)/p(ω), where p is
-//! the technique's density per radius (dΩ_R) and K = radiance × radius: the radius cancels
-//! between the tube's solid angle R·Ω_R and its radiance K/R.
+//! Per light, the estimator of the reflected radiance is K·f(v, ω)·max(0, n·ω)·V(ω)/p(ω), where p
+//! is the technique's density per radius (dΩ_R), K = radiance × radius (the radius cancels
+//! between the tube's solid angle R·Ω_R and its radiance K/R) and f the surface's full BSDF
+//! (`linlight_brdf::Bsdf::eval`, which includes the cosine) in the shading frame of the side
+//! facing the viewer. The techniques sample the line's part above that side's horizon, which is
+//! where f·cos is nonzero, so every technique is unbiased for every BSDF; only Lambertian surfaces
+//! take the fast path f = ρ/π.
 
 use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::scene::{Bsdf, Rgb};
 use crate::shapes::{Ray, SurfacePoint};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use linlight_sampling::philox::CounterRng;
 use linlight_sampling::{LineSampler, Prepared, Segment, Technique};
 
@@ -47,6 +51,9 @@ pub struct RenderScene {
     pub bvh: Bvh,
     /// Per `Scene::shapes` entry: its BSDF and flip_normals.
     pub surfaces: Vec<(Bsdf, bool)>,
+    /// Per `Scene::shapes` entry: f = ρ/π when its BSDF is Lambertian (`Bsdf::lambertian`), the
+    /// integrator's fast path; `None` for glossy BSDFs.
+    pub lambert: Vec<Option<Vec3>>,
     /// Segment and K = radiance × radius per light.
     pub lights: Vec<(Segment, Vec3)>,
 }
@@ -77,18 +84,65 @@ pub fn shadow_ray_to(sp: &SurfacePoint, target: Vec3) -> Option<Ray> {
     })
 }
 
-/// The Lambertian lobe seen from direction `wi` (unit, pointing away from the surface): its
-/// albedo and the normal of the side that reflects, or `None` when the viewer is behind a
-/// one-sided BSDF. `twosided` flips the frame toward the viewer.
+/// The normal of the side of a surface that reflects toward the viewer (`wi`: unit, pointing
+/// away from the surface): the shading normal `ns`, its negation for a `twosided` BSDF seen from
+/// below, or `None` when the viewer is behind a one-sided BSDF (or exactly in the tangent plane),
+/// where Mitsuba's eval is zero.
+#[inline]
+pub fn reflecting_normal(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<Vec3> {
+    let c = ns.dot(wi);
+    if c > 0.0 {
+        Some(ns)
+    } else if c < 0.0 && bsdf.is_two_sided() {
+        Some(-ns)
+    } else {
+        None
+    }
+}
+
+/// The Lambertian lobe seen from direction `wi`: the normal of the side that reflects and the
+/// albedo, or `None` when nothing reflects toward the viewer or the BSDF is not Lambertian.
 pub fn diffuse_lobe(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
-    match bsdf {
-        Bsdf::Diffuse { reflectance } => {
-            (ns.dot(wi) > 0.0).then(|| (ns, Vec3::from_array(*reflectance)))
-        }
-        Bsdf::TwoSided(inner) => {
-            let n = if ns.dot(wi) < 0.0 { -ns } else { ns };
-            diffuse_lobe(inner, n, wi)
-        }
+    let n = reflecting_normal(bsdf, ns, wi)?;
+    Some((n, bsdf.lambertian()?.as_vec3()))
+}
+
+/// How the shading point reflects light arriving from ω.
+enum Reflection<'a> {
+    /// f = albedo/π (the fast path: `diffuse` and blends of it).
+    Lambert(Vec3),
+    /// The full BSDF.
+    Bsdf(Glossy<'a>),
+}
+
+/// A BSDF in the shading frame (t, b, n) of the side that faces the viewer (so a `twosided`
+/// BSDF sees v_z > 0), v = `wi` in it. Out of line, so that the Lambertian loop stays as tight
+/// as before.
+struct Glossy<'a> {
+    bsdf: &'a Bsdf,
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+    v: DVec3,
+}
+
+impl<'a> Glossy<'a> {
+    #[inline(never)]
+    fn new(bsdf: &'a Bsdf, n: Vec3, wi: Vec3) -> Self {
+        let (t, b) = n.any_orthonormal_pair();
+        let v = DVec3::new(wi.dot(t) as f64, wi.dot(b) as f64, wi.dot(n) as f64);
+        Glossy { bsdf, t, b, n, v }
+    }
+
+    /// f(v, ω)·cos θ for the world direction ω (unit).
+    #[inline(never)]
+    fn eval(&self, w: Vec3) -> Vec3 {
+        let l = DVec3::new(
+            w.dot(self.t) as f64,
+            w.dot(self.b) as f64,
+            w.dot(self.n) as f64,
+        );
+        self.bsdf.eval(self.v, l).as_vec3()
     }
 }
 
@@ -112,13 +166,17 @@ pub fn radiance<S: LightSampling>(
         return [0.0; 3];
     };
     let prim = scene.bvh.primitive(hit.prim);
-    let (bsdf, flip) = &scene.surfaces[prim.shape() as usize];
+    let shape = prim.shape() as usize;
+    let (bsdf, flip) = &scene.surfaces[shape];
     let sp = prim.surface_point(ray, &hit, *flip);
     let wi = -ray.d;
-    let Some((n, albedo)) = diffuse_lobe(bsdf, sp.ns, wi) else {
+    let Some(n) = reflecting_normal(bsdf, sp.ns, wi) else {
         return [0.0; 3];
     };
-    let f = albedo * std::f32::consts::FRAC_1_PI;
+    let reflection = match scene.lambert[shape] {
+        Some(f) => Reflection::Lambert(f),
+        None => Reflection::Bsdf(Glossy::new(bsdf, n, wi)),
+    };
     for (segment, k) in &scene.lights {
         let xi = rng.next_f32();
         let Some(sampler) = technique.prepare(segment, sp.p, n) else {
@@ -142,7 +200,11 @@ pub fn radiance<S: LightSampling>(
         if scene.bvh.occluded(&shadow) {
             continue;
         }
-        let c = *k * f * (cos / pdf);
+        // K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R).
+        let c = match &reflection {
+            Reflection::Lambert(f) => *k * *f * (cos / pdf),
+            Reflection::Bsdf(g) => *k * g.eval(w) / pdf,
+        };
         if finite_rgb(c) {
             total += c;
         }

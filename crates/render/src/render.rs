@@ -10,7 +10,7 @@ use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::film::Welford;
 use crate::integrator::{radiance, LightSampling, RenderScene};
-use crate::scene::{Geometry, Scene};
+use crate::scene::{Bsdf, Geometry, Scene};
 use crate::shapes::{transformed_normal, Primitive};
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
@@ -156,6 +156,13 @@ impl RenderScene {
                 }
             }
         }
+        // The integrator flips the shading frame toward the viewer only for a `twosided` at the
+        // top (the loader allows it nowhere else); one nested in a blend would be shaded as
+        // one-sided from below.
+        debug_assert!(
+            scene.shapes.iter().all(|s| !nested_two_sided(&s.bsdf)),
+            "twosided is supported only as the outermost BSDF"
+        );
         Ok(Self {
             camera,
             bvh: Bvh::build(prims),
@@ -163,6 +170,15 @@ impl RenderScene {
                 .shapes
                 .iter()
                 .map(|s| (s.bsdf.clone(), s.flip_normals))
+                .collect(),
+            lambert: scene
+                .shapes
+                .iter()
+                .map(|s| {
+                    s.bsdf
+                        .lambertian()
+                        .map(|rho| rho.as_vec3() * std::f32::consts::FRAC_1_PI)
+                })
                 .collect(),
             lights: scene
                 .lights
@@ -175,6 +191,21 @@ impl RenderScene {
                 })
                 .collect(),
         })
+    }
+}
+
+/// Whether a `twosided` occurs below the top of `bsdf`.
+fn nested_two_sided(bsdf: &Bsdf) -> bool {
+    fn any(b: &Bsdf) -> bool {
+        match b {
+            Bsdf::TwoSided(_) => true,
+            Bsdf::Blend(blend) => blend.bsdfs.iter().any(any),
+            _ => false,
+        }
+    }
+    match bsdf {
+        Bsdf::TwoSided(inner) => any(inner),
+        b => any(b),
     }
 }
 

@@ -81,13 +81,8 @@ pub struct Integrator {
 /// Linear RGB.
 pub type Rgb = [f32; 3];
 
-#[derive(Clone, Debug, PartialEq)]
-pub enum Bsdf {
-    /// One-sided Lambertian: black when the light or the viewer is behind the shading normal.
-    Diffuse { reflectance: Rgb },
-    /// Both sides see the nested BSDF (with the normal flipped toward the viewer).
-    TwoSided(Box<Bsdf>),
-}
+/// The BSDF models and their Mitsuba plugins live in the `linlight-brdf` crate.
+pub use linlight_brdf::Bsdf;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Geometry {

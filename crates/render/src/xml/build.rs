@@ -14,14 +14,13 @@ use glam::{DMat3, DMat4, DVec3, Vec3};
 use std::rc::Rc;
 
 const SHAPES: &str = "rectangle, cube, sphere, disk, cylinder, obj, ply";
-const BSDFS: &str = "diffuse, twosided";
 
 pub struct Builder<'a> {
     tree: &'a TreeBuilder,
-    warnings: Vec<String>,
+    pub(super) warnings: Vec<String>,
 }
 
-fn f32_of(v: f64, loc: &SourceLocation, what: &str) -> Result<f32, SceneError> {
+pub(super) fn f32_of(v: f64, loc: &SourceLocation, what: &str) -> Result<f32, SceneError> {
     let f = v as f32;
     if f.is_finite() {
         Ok(f)
@@ -39,7 +38,7 @@ fn vec3_of(v: DVec3, loc: &SourceLocation, what: &str) -> Result<Vec3, SceneErro
     }
 }
 
-fn rgb_of(c: DVec3, loc: &SourceLocation, what: &str) -> Result<[f32; 3], SceneError> {
+pub(super) fn rgb_of(c: DVec3, loc: &SourceLocation, what: &str) -> Result<[f32; 3], SceneError> {
     Ok(vec3_of(c, loc, what)?.to_array())
 }
 
@@ -52,7 +51,7 @@ fn mat4_of(m: &DMat4, loc: &SourceLocation) -> Result<glam::Mat4, SceneError> {
     }
 }
 
-fn plugin_type(e: &Elem) -> Result<&str, SceneError> {
+pub(super) fn plugin_type(e: &Elem) -> Result<&str, SceneError> {
     e.check_attrs(&["type", "id", "name"])?;
     match e.attr("type") {
         Some(t) => Ok(t),
@@ -69,7 +68,7 @@ impl<'a> Builder<'a> {
     }
 
     /// The properties (child elements) of a plugin element.
-    fn props(&self, e: &Elem) -> Result<Props, SceneError> {
+    pub(super) fn props(&self, e: &Elem) -> Result<Props, SceneError> {
         let mut entries: Vec<Entry> = Vec::new();
         for c in &e.children {
             let loc = c.loc.clone();
@@ -197,7 +196,7 @@ impl<'a> Builder<'a> {
         }
         // Top-level BSDFs are only used through `ref`, but unsupported ones are still errors.
         for (b, _) in p.objects("bsdf") {
-            self.bsdf(&b, false)?;
+            self.bsdf(&b)?;
         }
         let sensors = p.objects("sensor");
         if sensors.len() > 1 {
@@ -496,43 +495,6 @@ impl<'a> Builder<'a> {
         Ok(Integrator { hide_emitters })
     }
 
-    fn bsdf(&mut self, e: &Elem, inside_twosided: bool) -> Result<Bsdf, SceneError> {
-        let ty = plugin_type(e)?;
-        let p = self.props(e)?;
-        let b = match ty {
-            "diffuse" => {
-                let r = p.color("reflectance")?.unwrap_or(DVec3::splat(0.5));
-                Bsdf::Diffuse {
-                    reflectance: rgb_of(r, &e.loc, "reflectance")?,
-                }
-            }
-            "twosided" => {
-                if inside_twosided {
-                    return err(&e.loc, "twosided BSDFs cannot be nested");
-                }
-                let inner = p.objects("bsdf");
-                match inner.as_slice() {
-                    [(b, _)] => Bsdf::TwoSided(Box::new(self.bsdf(b, true)?)),
-                    [] => return err(&e.loc, "twosided needs one nested bsdf"),
-                    [_, (_, loc), ..] => {
-                        return err(
-                            loc,
-                            "twosided with different front and back BSDFs is not supported",
-                        )
-                    }
-                }
-            }
-            _ => {
-                return err(
-                    &e.loc,
-                    format!("unsupported bsdf type '{ty}' (supported: {BSDFS})"),
-                )
-            }
-        };
-        p.finish()?;
-        Ok(b)
-    }
-
     /// `radiance` of an `area` emitter (default 1, as in Mitsuba).
     fn area_radiance(&mut self, e: &Elem) -> Result<DVec3, SceneError> {
         let ty = plugin_type(e)?;
@@ -560,7 +522,7 @@ impl<'a> Builder<'a> {
         let flip_normals = p.boolean("flip_normals")?.unwrap_or(false);
         let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
         let bsdf = match p.object("bsdf")? {
-            Some(b) => self.bsdf(&b, false)?,
+            Some(b) => self.bsdf(&b)?,
             None => Bsdf::Diffuse {
                 reflectance: [0.5; 3],
             },

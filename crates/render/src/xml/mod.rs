@@ -3,8 +3,9 @@
 //! Supported: `<scene version="3.0.0">`, `default`/`$name`, `ref`/`id`, `include`, transforms
 //! (`translate`, `rotate`, `scale`, `matrix`, `lookat`), `sensor perspective` with `film hdrfilm`
 //! (`rfilter box`) and `sampler independent`, `integrator direct`, shapes `rectangle`, `cube`,
-//! `sphere`, `disk`, `cylinder`, `obj`, `ply`, BSDFs `diffuse` and `twosided`, and `area`
-//! emitters on cylinders, which become linear lights with K = radiance × radius.
+//! `sphere`, `disk`, `cylinder`, `obj`, `ply`, BSDFs `diffuse`, `roughconductor` (GGX),
+//! `principled`, `blendbsdf` and `twosided` (see `bsdf.rs` for what of each), and `area` emitters
+//! on cylinders, which become linear lights with K = radiance × radius.
 //! Everything else is an error naming file:line:column and the element — never a silent
 //! difference from Mitsuba.
 //!
@@ -16,6 +17,7 @@
 //! top scene file, as Mitsuba's file resolver does (it would try the working directory first;
 //! we do not, so that loading never depends on where the program runs).
 
+mod bsdf;
 mod build;
 mod obj;
 mod ply;

@@ -24,7 +24,7 @@ fn write(d: &std::path::Path, name: &str, data: impl AsRef<[u8]>) -> PathBuf {
 const SENSOR: &str = r#"<sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/><rfilter type="box"/></film></sensor>"#;
 
 /// A scene with a sensor and integrator around `body`.
-fn wrap(body: &str) -> String {
+pub(super) fn wrap(body: &str) -> String {
     format!(
         "<scene version=\"3.0.0\">\n<integrator type=\"direct\"/>\n{SENSOR}\n{body}\n</scene>\n"
     )
@@ -40,7 +40,7 @@ fn load_in(name: &str, xml: &str, overrides: &[(&str, &str)]) -> Result<Scene, S
     load_scene(&p, &o)
 }
 
-fn load(name: &str, body: &str) -> Scene {
+pub(super) fn load(name: &str, body: &str) -> Scene {
     load_in(name, &wrap(body), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -536,7 +536,7 @@ fn ply_meshes() {
 }
 
 /// Asserts that loading `xml` fails with `file:line:col: ` followed by text containing `want`.
-fn expect_error(name: &str, xml: &str, line_col: &str, want: &str) {
+pub(super) fn expect_error(name: &str, xml: &str, line_col: &str, want: &str) {
     let e = load_err(name, xml);
     assert!(
         e.contains(&format!("scene.xml:{line_col}: ")) && e.contains(want),
@@ -551,7 +551,8 @@ fn errors_name_file_line_column_and_element() {
         "e_bsdf",
         &scene(r#"<shape type="cube"><bsdf type="roughplastic"/></shape>"#),
         "4:20",
-        "unsupported bsdf type 'roughplastic' (supported: diffuse, twosided)",
+        "unsupported bsdf type 'roughplastic' (supported: diffuse, roughconductor, principled, \
+         blendbsdf, twosided)",
     );
     expect_error(
         "e_version",

@@ -193,6 +193,12 @@ impl Props {
         }
     }
 
+    /// A float and the place it was given (for messages about its value).
+    pub fn float_at(&self, name: &str) -> Result<Option<(f64, SourceLocation)>, SceneError> {
+        let loc = self.find(name).map(|e| e.loc.clone());
+        Ok(self.float(name)?.zip(loc))
+    }
+
     pub fn integer(&self, name: &str) -> Result<Option<(i64, SourceLocation)>, SceneError> {
         match self.find(name) {
             None => Ok(None),
@@ -278,6 +284,27 @@ impl Props {
                 _ => self.type_error(e, "an rgb, spectrum or float"),
             },
         }
+    }
+
+    /// A constant reflectance, as [`Props::color`], and where it was given. As in Mitsuba, an
+    /// `<rgb>` value (an sRGB reflectance spectrum) must lie in [0, 1]; `float` and constant
+    /// `spectrum` values are not range-checked.
+    pub fn reflectance(&self, name: &str) -> Result<Option<(DVec3, SourceLocation)>, SceneError> {
+        let Some(c) = self.color(name)? else {
+            return Ok(None);
+        };
+        let e = self.find(name).expect("color() found it");
+        if matches!(e.value, Value::Rgb(_)) && !(c.min_element() >= 0.0 && c.max_element() <= 1.0) {
+            return err(
+                &e.loc,
+                format!(
+                    "RGB reflectance '{name}' of {} must lie in [0, 1] (got {}, {}, {}); Mitsuba \
+                     rejects it too",
+                    self.owner, c.x, c.y, c.z
+                ),
+            );
+        }
+        Ok(Some((c, e.loc.clone())))
     }
 
     /// All nested objects (named or not) whose element tag is `tag`, e.g. every `bsdf`.

@@ -1,0 +1,159 @@
+//! The BSDF of a surface: one of Mitsuba's plugins this crate reproduces, evaluated in the
+//! shading frame, and the lobe summary that steers multiple importance sampling.
+
+use crate::blendbsdf::Blend;
+use crate::principled::Principled;
+use crate::roughconductor::RoughConductor;
+use crate::{diffuse, twosided};
+use glam::DVec3;
+
+/// Linear RGB parameters, stored in single precision as Mitsuba stores them.
+pub type Rgb = [f32; 3];
+
+/// A BSDF as the scene file describes it. Only [`Bsdf::TwoSided`] reflects on the back side;
+/// every other variant is one-sided (zero unless v_z > 0 and l_z > 0), as in Mitsuba.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Bsdf {
+    /// `diffuse`: Lambertian, f = reflectance/π.
+    Diffuse { reflectance: Rgb },
+    /// `roughconductor` (GGX, isotropic).
+    RoughConductor(RoughConductor),
+    /// `principled` (reflection lobes only).
+    Principled(Principled),
+    /// `blendbsdf` of two BSDFs.
+    Blend(Blend),
+    /// `twosided`: the nested BSDF on both sides. `eval` follows Mitsuba anywhere in the tree,
+    /// but the scene loader accepts it only as the outermost BSDF, so that a renderer can flip
+    /// its shading frame toward the viewer exactly when [`Bsdf::is_two_sided`] says so.
+    TwoSided(Box<Bsdf>),
+}
+
+/// Per-shading-point summary of a BSDF seen from direction v, for the weights of a
+/// diffuse + specular MIS estimator (all per RGB channel, all ≥ 0 for physical parameters):
+///
+/// - `diffuse` = ρ_d, an estimate of the directional albedo of the non-specular part. The MIS
+///   weight of the diffuse (projected-solid-angle) technique is W_d = max(ρ_d, 0.01)·Ω⊥_R, and
+///   with no specular lobe the integrator samples diffusely only.
+/// - `specular` = the GGX lobe, if any: its α (as evaluated, after Mitsuba's clamping) selects
+///   the LTC table entry, and `weight` = k_s is the Fresnel × tint factor the table's F ≡ 1
+///   albedo ρ_s multiplies: W_s = k_s·ρ_s·Ω⊥_o/κ.
+///
+/// The summary is an *estimate*: weights built from it change the variance of an MIS
+/// estimator, never its expectation, so models are free to approximate (e.g. Fresnel at the
+/// mirror configuration instead of its average over the lobe).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lobes {
+    pub diffuse: DVec3,
+    pub specular: Option<SpecularLobe>,
+}
+
+/// The GGX lobe of a [`Lobes`] summary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpecularLobe {
+    /// GGX roughness α of the lobe (isotropic).
+    pub alpha: f64,
+    /// k_s per channel: the factor between the lobe and the F ≡ 1 GGX lobe of the same α.
+    pub weight: DVec3,
+}
+
+impl Lobes {
+    /// Nothing reflects (the viewer is behind a one-sided BSDF).
+    pub const BLACK: Lobes = Lobes {
+        diffuse: DVec3::ZERO,
+        specular: None,
+    };
+}
+
+impl Bsdf {
+    /// f(v, l)·|l_z|: the BSDF value times the cosine at the light direction, exactly what
+    /// Mitsuba's `BSDF.eval(ctx, si, wo)` returns with `si.wi = v`, `wo = l`. Both directions
+    /// are unit vectors in the shading frame (z = shading normal), v toward the viewer, l toward
+    /// the light. Per RGB channel, f64.
+    pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
+        match self {
+            Bsdf::Diffuse { reflectance } => diffuse::eval(*reflectance, v, l),
+            Bsdf::RoughConductor(c) => c.eval(v, l),
+            Bsdf::Principled(p) => p.eval(v, l),
+            Bsdf::Blend(b) => b.eval(v, l),
+            Bsdf::TwoSided(inner) => twosided::eval(inner, v, l),
+        }
+    }
+
+    /// The lobe summary seen from v (shading frame); [`Lobes::BLACK`] when the viewer is behind
+    /// a one-sided BSDF.
+    pub fn lobes(&self, v: DVec3) -> Lobes {
+        match self {
+            Bsdf::Diffuse { reflectance } => diffuse::lobes(*reflectance, v),
+            Bsdf::RoughConductor(c) => c.lobes(v),
+            Bsdf::Principled(p) => p.lobes(v),
+            Bsdf::Blend(b) => b.lobes(v),
+            Bsdf::TwoSided(inner) => twosided::lobes(inner, v),
+        }
+    }
+
+    /// Whether the BSDF reflects light on the back side too (only `twosided` does).
+    #[inline]
+    pub fn is_two_sided(&self) -> bool {
+        matches!(self, Bsdf::TwoSided(_))
+    }
+
+    /// Some(ρ) iff the BSDF is exactly Lambertian on the side it reflects on (eval = ρ/π·l_z
+    /// there): `diffuse`, blends of Lambertians, and `twosided` of those. Lets a renderer keep
+    /// its fast path for diffuse surfaces.
+    pub fn lambertian(&self) -> Option<DVec3> {
+        match self {
+            Bsdf::Diffuse { reflectance } => Some(diffuse::rgb(*reflectance)),
+            Bsdf::Blend(b) => {
+                let w = b.weight();
+                let [first, second] = &*b.bsdfs;
+                Some(first.lambertian()? * (1.0 - w) + second.lambertian()? * w)
+            }
+            Bsdf::TwoSided(inner) => inner.lambertian(),
+            Bsdf::RoughConductor(_) | Bsdf::Principled(_) => None,
+        }
+    }
+
+    /// Mitsuba's plugin name, for messages.
+    pub fn plugin_name(&self) -> &'static str {
+        match self {
+            Bsdf::Diffuse { .. } => "diffuse",
+            Bsdf::RoughConductor(_) => "roughconductor",
+            Bsdf::Principled(_) => "principled",
+            Bsdf::Blend(_) => "blendbsdf",
+            Bsdf::TwoSided(_) => "twosided",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::roughconductor::ConductorFresnel;
+    use crate::test_util::unit;
+
+    #[test]
+    fn lambertian_fast_path_agrees_with_eval() {
+        let d = |r: f32| Bsdf::Diffuse {
+            reflectance: [r, 0.5, 0.1],
+        };
+        let blend = Bsdf::Blend(Blend {
+            weight: 0.3,
+            bsdfs: Box::new([d(0.2), d(0.9)]),
+        });
+        let two = Bsdf::TwoSided(Box::new(blend.clone()));
+        let (v, l) = (unit(0.3, 0.1, 0.9), unit(-0.5, 0.2, 0.4));
+        for b in [d(0.4), blend, two] {
+            let rho = b.lambertian().unwrap();
+            let want = rho * std::f64::consts::FRAC_1_PI * l.z;
+            assert!((b.eval(v, l) - want).abs().max_element() < 1e-15, "{b:?}");
+        }
+        let c = Bsdf::RoughConductor(RoughConductor {
+            alpha: 0.2,
+            fresnel: ConductorFresnel::One,
+            specular_reflectance: [1.0; 3],
+        });
+        assert!(c.lambertian().is_none());
+        assert_eq!(c.plugin_name(), "roughconductor");
+        assert!(Bsdf::TwoSided(Box::new(c.clone())).is_two_sided() && !c.is_two_sided());
+    }
+}

@@ -1,0 +1,47 @@
+//! Mitsuba's `diffuse`: a one-sided Lambertian reflector, f = ρ/π.
+
+use crate::{Lobes, Rgb};
+use glam::DVec3;
+
+/// ρ/π · l_z (cosine included) for v_z > 0 and l_z > 0, else 0.
+#[inline]
+pub fn eval(reflectance: Rgb, v: DVec3, l: DVec3) -> DVec3 {
+    if !(v.z > 0.0 && l.z > 0.0) {
+        return DVec3::ZERO;
+    }
+    rgb(reflectance) * (std::f64::consts::FRAC_1_PI * l.z)
+}
+
+/// ρ_d = ρ (the directional albedo of a Lambertian reflector, exact); no specular lobe.
+pub fn lobes(reflectance: Rgb, v: DVec3) -> Lobes {
+    if !(v.z > 0.0) {
+        return Lobes::BLACK;
+    }
+    Lobes {
+        diffuse: rgb(reflectance),
+        specular: None,
+    }
+}
+
+#[inline]
+pub(crate) fn rgb(c: Rgb) -> DVec3 {
+    DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_util::{hemisphere_integral, unit};
+
+    #[test]
+    fn albedo_is_the_reflectance_and_back_is_black() {
+        let rho = [0.2, 0.5, 0.8];
+        let v = unit(0.3, -0.2, 0.7);
+        let a = hemisphere_integral(|l| eval(rho, v, l), 64);
+        assert!((a - rgb(rho)).abs().max_element() < 1e-9, "{a}");
+        assert_eq!(eval(rho, -v, v), DVec3::ZERO);
+        assert_eq!(eval(rho, v, DVec3::new(v.x, v.y, -v.z)), DVec3::ZERO);
+        assert_eq!(lobes(rho, v).diffuse, rgb(rho));
+        assert_eq!(lobes(rho, -v), Lobes::BLACK);
+    }
+}

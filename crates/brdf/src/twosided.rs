@@ -1,0 +1,47 @@
+//! Mitsuba's `twosided` with one nested BSDF: seen from below (v_z < 0) both directions are
+//! mirrored through the surface, so the nested one-sided BSDF reflects on both sides.
+
+use crate::{Bsdf, Lobes};
+use glam::DVec3;
+
+/// Mitsuba's rule: l_z takes the sign of v_z relative to the flip, v_z becomes |v_z|.
+#[inline]
+fn flip(v: DVec3, l: DVec3) -> (DVec3, DVec3) {
+    if v.z.is_sign_negative() {
+        (DVec3::new(v.x, v.y, -v.z), DVec3::new(l.x, l.y, -l.z))
+    } else {
+        (v, l)
+    }
+}
+
+/// f(v, l)·|l_z| of `inner` on the side the viewer is on.
+pub fn eval(inner: &Bsdf, v: DVec3, l: DVec3) -> DVec3 {
+    let (v, l) = flip(v, l);
+    inner.eval(v, l)
+}
+
+/// The nested BSDF's summary on the viewer's side.
+pub fn lobes(inner: &Bsdf, v: DVec3) -> Lobes {
+    inner.lobes(flip(v, v).0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::principled::Principled;
+    use crate::test_util::unit;
+
+    #[test]
+    fn below_mirrors_above() {
+        let inner = Bsdf::Principled(Principled {
+            metallic: 0.3,
+            ..Principled::new()
+        });
+        let (v, l) = (unit(0.2, 0.3, 0.8), unit(-0.1, -0.3, 0.7));
+        let m = |d: DVec3| DVec3::new(d.x, d.y, -d.z);
+        assert_eq!(eval(&inner, m(v), m(l)), inner.eval(v, l));
+        assert_eq!(eval(&inner, v, l), inner.eval(v, l));
+        assert_eq!(eval(&inner, m(v), l), DVec3::ZERO);
+        assert_eq!(lobes(&inner, m(v)), inner.lobes(v));
+    }
+}
