@@ -77,14 +77,19 @@ pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, 
     let top_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut tb = tree::TreeBuilder::new(top_dir, overrides);
     let root = tb.parse_top(path, &text)?;
-    let mut warnings: Vec<String> = tb
-        .unused_overrides()
-        .into_iter()
-        .map(|k| format!("parameter override '{k}' is not used by the scene"))
-        .collect();
+    let unused = tb.unused_overrides();
+    if !unused.is_empty() {
+        let list: Vec<String> = unused.iter().map(|kv| format!("${kv}")).collect();
+        return Err(SceneError {
+            location: Some(tree::file_location(path)),
+            message: format!(
+                "found unused parameters: {} (Mitsuba refuses them too: a -D must name a \
+                 parameter the scene substitutes as $name, once)",
+                list.join(", ")
+            ),
+        });
+    }
     let mut scene = build::Builder::new(&tb).scene(&root)?;
-    warnings.append(&mut scene.warnings);
-    scene.warnings = warnings;
     scene.sha256 = sha256;
     Ok(scene)
 }
