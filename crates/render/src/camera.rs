@@ -55,6 +55,21 @@ pub fn fov_x_degrees(fov_deg: f64, axis: FovAxis, aspect: f64) -> f64 {
     }
 }
 
+/// [`Camera::projection`]: camera to world, full film size, tan(fov_x/2), W/H, principal-point
+/// offsets and clip distances.
+#[derive(Clone, Copy, Debug)]
+pub struct Projection {
+    pub to_world: glam::DMat4,
+    pub width: f64,
+    pub height: f64,
+    pub tan_half_x: f64,
+    pub aspect: f64,
+    pub ppx: f64,
+    pub ppy: f64,
+    pub near: f64,
+    pub far: f64,
+}
+
 impl Camera {
     /// `None` for a zero-size film, a non-invertible to_world, or an unusable field of view.
     pub fn new(sensor: &Sensor) -> Option<Self> {
@@ -126,6 +141,21 @@ impl Camera {
         let sx = 0.5 * (1.0 - q.x / (q.z * t)) - self.ppx;
         let sy = 0.5 * (1.0 - q.y * self.aspect / (q.z * t)) - self.ppy;
         Some(Vec2::new(sx * self.width as f32, sy * self.height as f32))
+    }
+
+    /// The camera's parameters in f64, for computations on the film plane.
+    pub fn projection(&self) -> Projection {
+        Projection {
+            to_world: self.to_world.as_dmat4(),
+            width: self.width as f64,
+            height: self.height as f64,
+            tan_half_x: self.tan_half_x as f64,
+            aspect: self.aspect as f64,
+            ppx: self.ppx as f64,
+            ppy: self.ppy as f64,
+            near: self.near as f64,
+            far: self.far as f64,
+        }
     }
 
     pub fn width(&self) -> u32 {

@@ -12,7 +12,8 @@
 //!     removes exactly what lies behind it;
 //!   - its BSDF is `diffuse`, one-sided or inside `twosided` (the normal then faces the viewer);
 //!   - any number of linear lights, which may pierce the plane (floor-crossing);
-//!   - any perspective sensor and crop window the renderer accepts.
+//!   - any perspective sensor and crop window the renderer accepts;
+//!   - `hide_emitters` set (the lines the camera sees are not part of the closed form).
 //!
 //! floor-tube, floor-crossing and two-tubes are of this kind; cornell-tube and mesh-occluder are
 //! not. A pixel value is the average of that radiance over an s×s grid of film positions at the
@@ -47,6 +48,12 @@ fn unsupported(msg: String) -> RenderError {
 
 /// `Ok` iff the closed form is exact for `scene` (see the module documentation).
 pub fn check_supported(scene: &Scene) -> Result<(), RenderError> {
+    if !scene.integrator.hide_emitters && !scene.lights.is_empty() {
+        return Err(unsupported(
+            "hide_emitters is false: the lines the camera sees are not part of the closed form"
+                .into(),
+        ));
+    }
     if scene.shapes.len() > 1 {
         return Err(unsupported(format!(
             "{} non-emitting shapes (at most one planar shape, which cannot shadow itself)",

@@ -357,18 +357,22 @@ fn metadata() {
 }
 
 #[test]
-fn progress_reaches_the_tile_count() {
+fn progress_advances_per_pass_of_each_tile_in_samples() {
     use std::sync::atomic::{AtomicUsize, Ordering};
     let sc = floor_scene(40, tilted()); // 3 × 3 tiles of 16
+    let total_samples = 40 * 40 * 3 * 4;
     let last = AtomicUsize::new(0);
     let calls = AtomicUsize::new(0);
     let progress = |done: usize, total: usize| {
-        assert_eq!(total, 9);
+        assert_eq!(total, total_samples);
         last.fetch_max(done, Ordering::Relaxed);
         calls.fetch_add(1, Ordering::Relaxed);
     };
-    render(&sc, &opts(1, 1, 0, Technique::SolidAngle), &progress).unwrap();
-    assert_eq!((last.into_inner(), calls.into_inner()), (9, 9));
+    render(&sc, &opts(3, 4, 0, Technique::SolidAngle), &progress).unwrap();
+    assert_eq!(
+        (last.into_inner(), calls.into_inner()),
+        (total_samples, 9 * 4)
+    );
 }
 
 /// First hit of a camera ray with the unit sphere at the origin (f64, independent of the
