@@ -522,6 +522,26 @@ pub fn write_rgb8_png(
     .map_err(|e| ImageError::Io(format!("cannot write {}: {e}", path.display())))
 }
 
+/// An 8-bit RGB buffer (row-major, row 0 at the top) encoded as PNG, in memory.
+pub fn rgb8_png_bytes(width: usize, height: usize, rgb: &[u8]) -> Result<Vec<u8>, ImageError> {
+    use image::ImageEncoder;
+    if width == 0 || height == 0 || rgb.len() != width * height * 3 {
+        return Err(ImageError::Format(format!(
+            "PNG buffer of {} bytes does not match {width}×{height}×3",
+            rgb.len()
+        )));
+    }
+    let (w, h) = (
+        u32::try_from(width).map_err(|_| ImageError::Format("PNG too wide".into()))?,
+        u32::try_from(height).map_err(|_| ImageError::Format("PNG too high".into()))?,
+    );
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
+        .map_err(|e| ImageError::Format(format!("cannot encode PNG: {e}")))?;
+    Ok(out)
+}
+
 /// Numeric attribute of any scalar EXR type (string, int, float, double).
 fn attr_f64(key: &str, v: &AttributeValue) -> Result<f64, String> {
     let x = match v {

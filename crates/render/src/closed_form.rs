@@ -229,7 +229,7 @@ pub fn unshadowed_pixel_average(scene: &Scene, subsamples: u32) -> Result<Image,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::{cornell_box, cuboid, diffuse, light, quad, scene, sensor};
+    use crate::build::{cornell_box, cuboid, diffuse, light, scene, sensor};
     use crate::camera::Camera;
     use crate::scene::Shape;
 
@@ -237,16 +237,7 @@ mod tests {
     const K: [f32; 3] = [1.0, 2.0, 0.5];
 
     fn floor() -> Shape {
-        let v = Vec3::new;
-        diffuse(
-            quad(
-                v(-3., -3., 0.),
-                v(3., -3., 0.),
-                v(3., 3., 0.),
-                v(-3., 3., 0.),
-            ),
-            RHO,
-        )
+        crate::build::floor(3.0, RHO)
     }
 
     /// A floor filling most of the view, a tilted light that crosses the floor's plane (so some

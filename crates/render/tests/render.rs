@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_render::build::{cuboid, diffuse, light, quad, scene, sensor};
+use linlight_render::build::{cuboid, diffuse, light, scene, sensor};
 use linlight_render::camera::Camera;
 use linlight_render::scene::{Bsdf, CropWindow, Scene};
 use linlight_render::{render, RenderOptions};
@@ -12,16 +12,7 @@ const RHO: [f32; 3] = [0.8, 0.5, 0.2];
 const K: [f32; 3] = [2.0, 1.0, 0.5];
 
 fn floor() -> linlight_render::scene::Shape {
-    let v = Vec3::new;
-    diffuse(
-        quad(
-            v(-3., -3., 0.),
-            v(3., -3., 0.),
-            v(3., 3., 0.),
-            v(-3., 3., 0.),
-        ),
-        RHO,
-    )
+    linlight_render::build::floor(3.0, RHO)
 }
 
 /// Diffuse floor z = 0 seen from above, one tilted light above it.

@@ -29,6 +29,7 @@ mod tests;
 
 use crate::scene::{Scene, SourceLocation};
 use std::path::Path;
+pub use transform::look_at;
 
 /// A loading failure; displays as `file:line:col: message` when the place is known.
 #[derive(Clone, Debug, PartialEq)]
