@@ -314,6 +314,21 @@ fn degenerate_lights_give_finite_images() {
     }
 }
 
+/// Light contributions that overflow to infinity are dropped (counted as 0) and counted in the
+/// header, so that the command line can warn as Mitsuba does; the image stays finite.
+#[test]
+fn non_finite_contributions_are_counted() {
+    let mut sc = floor_scene(8, tilted());
+    let img = render(&sc, &opts(4, 1, 2, Technique::Area), &quiet).unwrap();
+    assert!(!img.meta.extra.contains_key("nonfinite_dropped"));
+    // One sample per pixel: the variance of the finite (huge) samples is then not estimated.
+    sc.lights[0].radiance_times_radius = [f32::MAX; 3];
+    let img = render(&sc, &opts(1, 1, 2, Technique::Area), &quiet).unwrap();
+    assert_finite(&img);
+    let dropped: u64 = img.meta.extra["nonfinite_dropped"].parse().unwrap();
+    assert!(dropped > 0 && dropped < 8 * 8, "{dropped}");
+}
+
 /// One-sided diffuse is black from behind; twosided reflects on both sides.
 #[test]
 fn one_and_two_sided_floor_from_below() {
