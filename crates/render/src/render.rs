@@ -320,7 +320,8 @@ fn render_pixel_pass<S: LightSampling>(
             l
         } else {
             let mut t = Vec3::from_array(l);
-            rs.visible.add_estimate(seen, &rs.bvh, &mut rng, &mut t);
+            rs.visible
+                .add_estimate(seen, &rs.bvh, || rng.next_f64(), &mut t);
             t.to_array()
         };
         acc.push(l.map(|c| c as f64));

@@ -28,7 +28,6 @@ use crate::camera::Camera;
 use crate::integrator::SHADOW_EPSILON;
 use crate::shapes::Ray;
 use glam::{DMat4, DVec3, Vec3};
-use linlight_sampling::rng::Pcg32;
 
 /// A light segment in camera space (+z forward), in f64.
 #[derive(Clone, Debug)]
@@ -174,10 +173,17 @@ impl VisibleLines {
     }
 
     /// One-sample estimate of the lines in `seen` (from [`Self::pixel`]) for the pixel they were
-    /// computed for, added to `total`. Consumes one number of `rng` per entry of `seen`.
-    pub fn add_estimate(&self, seen: &[PixelLine], bvh: &Bvh, rng: &mut Pcg32, total: &mut Vec3) {
+    /// computed for, added to `total`. Draws one uniform number in [0, 1) from `uniform` per
+    /// entry of `seen`.
+    pub fn add_estimate(
+        &self,
+        seen: &[PixelLine],
+        bvh: &Bvh,
+        mut uniform: impl FnMut() -> f64,
+        total: &mut Vec3,
+    ) {
         for pl in seen {
-            let xi = rng.next_f64();
+            let xi = uniform();
             // Density ∝ 1/z³ on [la, lb]: 1/z² is linear in the CDF.
             let (za, zb) = (pl.za, pl.zb);
             let l = if (zb - za).abs() > 1e-12 * za {

@@ -10,7 +10,16 @@
 //!
 //! `integrator direct` accepts `emitter_samples`, `bsdf_samples` and `shading_samples` so that
 //! the same file renders in Mitsuba, but they do not reach the IR: the Rust renderer samples the
-//! linear lights only (these options change Mitsuba's variance, not its expectation).
+//! linear lights only (these options change Mitsuba's variance, not its expectation). What
+//! Mitsuba refuses is refused here too (no sample at all, `shading_samples` with either).
+//! `hide_emitters` (default false, as in Mitsuba) reaches the IR: the renderer then draws the
+//! lines the camera sees (`crate::visible_line`).
+//!
+//! `-D` overrides follow Mitsuba 3.9's parser: one that is never substituted is an error
+//! ("found unused parameters"), see `tree`. Cylinders are placed as Mitsuba places them
+//! (`to_world · translate(p0) · frame · scale(r, r, L)`), so the idiom `scale(r, r, L) · rotate ·
+//! translate` works; shears and unequal scales across the axis are refused (Mitsuba only warns,
+//! and the radius would not be defined).
 //!
 //! Relative file names (`include`, `obj`/`ply` `filename`) resolve against the directory of the
 //! top scene file, as Mitsuba's file resolver does (it would try the working directory first;
