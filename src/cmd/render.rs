@@ -317,40 +317,40 @@ pub fn run(args: Args) -> ExitCode {
     let result = match args.time {
         None => pool.install(|| render(&scene, &opts, &progress)),
         Some(limit) => pool.install(|| {
-            let mut batches: Vec<Image> = Vec::new();
+            // Batches are merged as they come (the merge of equal-size units is exactly the
+            // image of their union, so merging one at a time loses nothing but f32 rounding).
+            let mut merged: Option<Image> = None;
+            let mut batches = 0u64;
             loop {
-                let b = batches.len() as u64;
                 let t0 = Instant::now();
                 let img = render(
                     &scene,
                     &RenderOptions {
-                        seed: batch_seed(opts.seed, b),
+                        seed: batch_seed(opts.seed, batches),
                         ..opts
                     },
                     &|_, _| {},
                 )?;
-                batches.push(img);
+                batches += 1;
+                merged = Some(match merged {
+                    None => img,
+                    Some(m) => merge(&[&m, &img]).map_err(linlight_render::RenderError::Options)?,
+                });
                 let elapsed = start.elapsed().as_secs_f64();
                 bar.set_length(1000);
                 bar.set_position((1000.0 * (elapsed / limit).min(1.0)) as u64);
-                bar.set_message(format!("{} batch(es)", batches.len()));
+                bar.set_message(format!("{batches} batch(es)"));
                 if elapsed + t0.elapsed().as_secs_f64() > limit {
                     break;
                 }
             }
-            let refs: Vec<&Image> = batches.iter().collect();
-            let mut img = if refs.len() == 1 {
-                batches[0].clone()
-            } else {
-                merge(&refs).map_err(linlight_render::RenderError::Options)?
-            };
+            let mut img = merged.expect("at least one batch");
+            img.meta.extra.remove("merged_images");
             img.meta.extra.insert("seed".into(), opts.seed.to_string());
             img.meta
                 .extra
                 .insert("time_limit_s".into(), limit.to_string());
-            img.meta
-                .extra
-                .insert("batches".into(), batches.len().to_string());
+            img.meta.extra.insert("batches".into(), batches.to_string());
             Ok(img)
         }),
     };
