@@ -33,6 +33,10 @@ enum Command {
     Info(cmd::info::Args),
     /// Combine independent mean+variance images of one scene into one (runs, machines).
     Merge(cmd::merge::Args),
+    /// Fit the GGX LTC table (deterministic) and report its error; --check re-fits a sample
+    /// and compares it with the committed table (exit 0 consistent, 1 mismatch, 2 bad input).
+    #[command(after_help = cmd::fit_ltc::AFTER_HELP)]
+    FitLtc(cmd::fit_ltc::Args),
 }
 
 /// The technique names for `--help` (from the sampling crate, so the list cannot go stale).
@@ -66,5 +70,6 @@ fn main() -> ExitCode {
         Command::Compare(a) => cmd::compare::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Merge(a) => cmd::merge::run(a),
+        Command::FitLtc(a) => cmd::fit_ltc::run(a),
     }
 }
