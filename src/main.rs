@@ -3,7 +3,7 @@
 //! Exit codes of every subcommand: 0 = success / consistent, 1 = a check failed,
 //! 2 = bad usage or unusable input.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod cmd;
@@ -28,20 +28,48 @@ enum Command {
     Render(cmd::render::Args),
     /// Statistical comparison of two mean+variance EXRs (exit 0 consistent, 1 different).
     Compare(cmd::compare::Args),
+    /// Header, per-channel mean ± standard error and NaN/inf/negative/zero-variance pixel counts
+    /// of an image (exit 1 if it is not a valid image of the shared format).
+    Info(cmd::info::Args),
+    /// Combine independent mean+variance images of one scene into one (runs, machines).
+    Merge(cmd::merge::Args),
     /// Fit the GGX LTC table (deterministic) and report its error; --check re-fits a sample
     /// and compares it with the committed table (exit 0 consistent, 1 mismatch, 2 bad input).
     #[command(after_help = cmd::fit_ltc::AFTER_HELP)]
     FitLtc(cmd::fit_ltc::Args),
 }
 
+/// The technique names for `--help` (from the sampling crate, so the list cannot go stale).
+fn technique_help() -> String {
+    let names: Vec<String> = linlight_sampling::Technique::ALL
+        .iter()
+        .map(|t| {
+            if linlight_sampling::Technique::UNBIASED.contains(t) {
+                t.name().to_string()
+            } else {
+                format!("{} (biased by design)", t.name())
+            }
+        })
+        .collect();
+    format!("Line-sampling technique: {}", names.join(", "))
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let command = Cli::command().mut_subcommand("render", |c| {
+        c.mut_arg("technique", |a| a.help(technique_help()))
+    });
+    let cli = match Cli::from_arg_matches(&command.get_matches()) {
+        Ok(c) => c,
+        Err(e) => e.exit(),
+    };
     match cli.command {
         Command::Certify(a) => cmd::certify::run(a),
         Command::Samplers(a) => cmd::samplers::run(a),
         Command::BackwardError(a) => cmd::backward_error::run(a),
         Command::Render(a) => cmd::render::run(a),
         Command::Compare(a) => cmd::compare::run(a),
+        Command::Info(a) => cmd::info::run(a),
+        Command::Merge(a) => cmd::merge::run(a),
         Command::FitLtc(a) => cmd::fit_ltc::run(a),
     }
 }

@@ -1,14 +1,11 @@
 //! End-to-end test of `linlight backward-error` (small sweep): exit codes and the JSON report.
-use std::process::Command;
+mod common;
 
-fn linlight() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_linlight"))
-}
+use common::command as linlight;
 
 #[test]
 fn small_sweep_writes_json_and_orders_iterations() {
-    let dir = std::env::temp_dir().join(format!("linlight-be-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("be");
     let json = dir.join("be.json");
     let out = linlight()
         .args([

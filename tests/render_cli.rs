@@ -1,75 +1,16 @@
-//! `linlight render` end to end: a small scene renders to the shared EXR format; unusable input
-//! exits with 2 and a one-line reason.
+//! `linlight render` end to end: a small scene renders to the shared EXR format, byte-identical
+//! run to run; warnings survive --quiet; the output format follows the extension; --time and
+//! --match-variance. (Unusable input: tests/bad_inputs.rs.)
 
+mod common;
+
+use common::{linlight, scratch, write, FLOOR_SCENE};
 use linlight_imagefile::Image;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn linlight(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_linlight"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("linlight-render-cli-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// Floor, a sphere and a linear light (radiance K/R with K = 2, 1, 0.5), 24×16 film.
-const SCENE: &str = r#"<scene version="3.0.0">
-  <default name="spp" value="4"/>
-  <integrator type="direct">
-    <integer name="emitter_samples" value="1"/>
-    <integer name="bsdf_samples" value="0"/>
-    <boolean name="hide_emitters" value="true"/>
-  </integrator>
-  <sensor type="perspective">
-    <float name="fov" value="40"/>
-    <transform name="to_world"><lookat origin="0.3, -0.2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
-    <film type="hdrfilm">
-      <integer name="width" value="24"/>
-      <integer name="height" value="16"/>
-      <string name="component_format" value="float32"/>
-      <rfilter type="box"/>
-    </film>
-  </sensor>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value="3"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.5, 0.2"/></bsdf>
-  </shape>
-  <shape type="sphere">
-    <point name="center" value="0.4, 0.2, 0.3"/>
-    <float name="radius" value="0.25"/>
-    <bsdf type="diffuse"/>
-  </shape>
-  <shape type="cylinder">
-    <point name="p0" value="-0.5, -0.3, 0.3"/>
-    <point name="p1" value="0.7, 0.4, 1.2"/>
-    <float name="radius" value="0.0001"/>
-    <emitter type="area"><rgb name="radiance" value="20000, 10000, 5000"/></emitter>
-  </shape>
-</scene>
-"#;
-
-fn write(dir: &Path, name: &str, text: &str) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p.to_str().unwrap().to_string()
-}
 
 #[test]
 fn renders_a_scene_to_the_shared_format() {
     let dir = scratch("ok");
-    let scene = write(&dir, "floor.xml", SCENE);
+    let scene = write(&dir, "floor.xml", FLOOR_SCENE);
     let out = dir.join("floor.exr");
     let png = dir.join("floor.png");
     let (o, p) = (out.to_str().unwrap(), png.to_str().unwrap());
@@ -84,11 +25,15 @@ fn renders_a_scene_to_the_shared_format() {
         "3",
         "--seed",
         "5",
+        "-D",
+        "spp=2",
+        "--quiet",
+        "--threads",
+        "2",
     ];
-    let (code, err) =
-        linlight(&[&args[..], &["-D", "spp=2", "--quiet", "--threads", "2"]].concat());
-    assert_eq!(code, 0, "{err}");
-    assert!(err.is_empty(), "--quiet must be quiet: {err}");
+    let r = linlight(&args);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stderr.is_empty(), "--quiet must be quiet: {}", r.stderr);
     assert!(png.is_file());
     let img = Image::read(&out).unwrap();
     assert_eq!((img.width, img.height), (24, 16));
@@ -103,38 +48,121 @@ fn renders_a_scene_to_the_shared_format() {
         .chain(&img.var)
         .flatten()
         .all(|c| c.is_finite()));
+    // The same render again (other thread count, short options) gives the same bytes.
+    let again = dir.join("again.exr");
+    let args2 = [
+        "render",
+        &scene,
+        "-o",
+        again.to_str().unwrap(),
+        "--passes",
+        "3",
+        "--seed",
+        "5",
+        "-D",
+        "spp=2",
+        "-q",
+        "-t",
+        "1",
+    ];
+    assert_eq!(linlight(&args2).code, 0);
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// --quiet drops progress and the summary, never a warning (here: negative radiance, the biased
+/// baseline technique, the PNG output's missing variance).
+#[test]
+fn quiet_never_hides_a_warning() {
+    let dir = scratch("quiet");
+    let scene = write(
+        &dir,
+        "negative.xml",
+        FLOOR_SCENE.replace("20000, 10000, 5000", "-20000, 10000, 5000"),
+    );
+    let out = dir.join("n.png");
+    let r = linlight(&[
+        "render",
+        &scene,
+        "-q",
+        "-o",
+        out.to_str().unwrap(),
+        "--technique",
+        "baseline",
+        "--exposure",
+        "-2",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    for want in [
+        "negative component",
+        "biased by design",
+        "pixels have a negative mean",
+        "variance is not saved",
+    ] {
+        assert!(r.stderr.contains(want), "missing '{want}' in: {}", r.stderr);
+    }
+    assert!(
+        r.stderr.lines().all(|l| l.starts_with("warning: ")),
+        "{}",
+        r.stderr
+    );
+    assert_eq!(&std::fs::read(&out).unwrap()[1..4], b"PNG");
     std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
-fn bad_input_exits_with_2() {
-    let dir = scratch("bad");
-    let good = write(&dir, "good.xml", SCENE);
-    let truncated = write(&dir, "truncated.xml", &SCENE[..400]);
-    let zero = write(
-        &dir,
-        "zero.xml",
-        &SCENE.replace(r#"value="24""#, r#"value="0""#),
+fn time_limit_and_match_variance() {
+    let dir = scratch("budget");
+    let scene = write(&dir, "floor.xml", FLOOR_SCENE);
+    let timed = dir.join("timed.exr");
+    let r = linlight(&[
+        "render",
+        &scene,
+        "--spp",
+        "4",
+        "--time",
+        "0.5",
+        "-o",
+        timed.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let img = Image::read(&timed).unwrap();
+    let batches: u64 = img.meta.extra["batches"].parse().unwrap();
+    assert!(batches >= 1);
+    // Batches of 4 single-pass samples merge into one pass of 4·B samples.
+    assert_eq!(
+        (img.meta.spp, img.meta.dof),
+        (4 * batches, (4 * batches - 1) as f64)
     );
-    let torus = write(
-        &dir,
-        "torus.xml",
-        &SCENE.replace(r#"type="sphere""#, r#"type="torus""#),
-    );
-    for args in [
-        vec!["render", "/nonexistent/scene.xml"],
-        vec!["render", &good, "--technique", "no-such-technique"],
-        vec!["render", &good, "-D", "novalue"],
-        vec!["render", &good, "--spp", "0"],
-        vec!["render", &good, "--passes", "0"],
-        vec!["render", &truncated],
-        vec!["render", &zero],
-        vec!["render", &torus],
-    ] {
-        let (code, err) = linlight(&args);
-        assert_eq!(code, 2, "{args:?}: {err}");
-        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
-        assert!(err.starts_with("linlight render: "), "{err}");
-    }
+
+    // A reference rendered with 4096 spp: matching its variance needs about 4096 spp again
+    // (the budget rule is a 99 % quantile over pixels of a noisy pilot, in steps of 64).
+    let reference = dir.join("ref.exr");
+    let r = linlight(&[
+        "render",
+        &scene,
+        "--spp",
+        "4096",
+        "--seed",
+        "9",
+        "-o",
+        reference.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let matched = dir.join("matched.exr");
+    let r = linlight(&[
+        "render",
+        &scene,
+        "--match-variance",
+        reference.to_str().unwrap(),
+        "-o",
+        matched.to_str().unwrap(),
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stderr.contains("--match-variance: "), "{}", r.stderr);
+    let spp = Image::read(&matched).unwrap().meta.spp;
+    assert!((2048..=8192).contains(&spp), "{spp}");
     std::fs::remove_dir_all(&dir).ok();
 }

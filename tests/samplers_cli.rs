@@ -3,16 +3,13 @@
 //! (2 on bad usage). Runtime: about a minute on two idle cores (N = 10⁶ samples per
 //! configuration).
 
-use std::process::Command;
+mod common;
 
-fn linlight() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_linlight"))
-}
+use common::command as linlight;
 
 #[test]
 fn samplers_writes_a_report_consistent_with_its_exit_code() {
-    let dir = std::env::temp_dir().join(format!("linlight-samplers-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("samplers");
     let json = dir.join("report.json");
     let out = linlight()
         .args(["samplers", "--json"])

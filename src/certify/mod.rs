@@ -20,6 +20,7 @@ pub mod budget;
 pub mod closed_form;
 pub mod oracle;
 pub mod report;
+pub mod report_html;
 pub mod sampler_suite;
 pub mod scenes;
 
@@ -148,7 +149,7 @@ pub enum Event<'a> {
     Step {
         label: String,
     },
-    /// Tiles of the current render.
+    /// Progress of the current render, in camera samples (see `linlight_render::render`).
     Tiles {
         done: usize,
         total: usize,

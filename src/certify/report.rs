@@ -27,22 +27,27 @@ pub fn write_row_images(
     let stem = format!("{}-vs-{}", row.subject, row.oracle);
     let mut files = Vec::new();
     let render = format!("{}/{}.exr", row.scene, row.subject);
+    // The image writers' messages already name the file.
+    let written = |e: linlight_imagefile::ImageError| Unusable(e.to_string());
     if !dir.join(&render).exists() || row.oracle == "mitsuba" {
-        image
-            .write(&dir.join(&render))
-            .map_err(|e| io_err(&dir.join(&render), e))?;
+        image.write(&dir.join(&render)).map_err(written)?;
     }
     files.push(render);
+    // The oracle image, once per scene and oracle (report.html shows it; a closed form or a
+    // live render exists nowhere else).
+    let oracle_file = format!("{}/oracle-{}.exr", row.scene, row.oracle);
+    if !dir.join(&oracle_file).exists() {
+        oracle.write(&dir.join(&oracle_file)).map_err(written)?;
+    }
+    files.push(oracle_file);
     let heat = format!("{}/{stem}-z-tiles.png", row.scene);
     comparison_heatmap(&row.comparison)
         .write_png(&dir.join(&heat))
-        .map_err(|e| io_err(&dir.join(&heat), e))?;
+        .map_err(written)?;
     files.push(heat);
     let side = format!("{}/{stem}-side-by-side.png", row.scene);
     let (picture, _scale) = side_by_side(image, oracle, None).map_err(|e| io_err(&sub, e))?;
-    picture
-        .write_png(&dir.join(&side))
-        .map_err(|e| io_err(&dir.join(&side), e))?;
+    picture.write_png(&dir.join(&side)).map_err(written)?;
     files.push(side);
     Ok(files)
 }
@@ -283,7 +288,12 @@ pub fn markdown(report: &Report) -> String {
                 .map(|f| {
                     format!(
                         "[{}]({f})",
-                        if f.contains("z-tiles") { "z" } else { "A|B|Δ" }
+                        // `\|`: a bare `|` would end the table cell.
+                        if f.contains("z-tiles") {
+                            "z"
+                        } else {
+                            "A \\| B \\| Δ"
+                        }
                     )
                 })
                 .collect();
@@ -330,5 +340,7 @@ pub fn write_report(dir: &Path, report: &Report) -> Result<(), Unusable> {
     std::fs::write(&json, text + "\n").map_err(|e| io_err(&json, e))?;
     let md = dir.join("report.md");
     std::fs::write(&md, markdown(report)).map_err(|e| io_err(&md, e))?;
+    let html = dir.join("report.html");
+    std::fs::write(&html, super::report_html::html(dir, report)).map_err(|e| io_err(&html, e))?;
     Ok(())
 }

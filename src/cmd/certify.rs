@@ -4,6 +4,7 @@
 
 use indicatif::{ProgressBar, ProgressStyle};
 use linlight::certify::{self, report, Event, Options, Oracle, Subject};
+use linlight::outputs;
 use linlight_sampling::Technique;
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -35,14 +36,14 @@ pub struct Args {
     /// Comma-separated techniques [default: every unbiased technique].
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     techniques: Vec<String>,
-    /// Worker threads [default: all cores].
-    #[arg(long)]
+    /// Worker threads [default: all cores; at most 4 per core, or 64].
+    #[arg(short = 't', long)]
     threads: Option<usize>,
     /// Skip the sampler chi-square suite (image comparisons only).
     #[arg(long)]
     no_sampler_suite: bool,
     /// No progress bar and no per-comparison lines (the summary is still printed).
-    #[arg(long)]
+    #[arg(short = 'q', long)]
     quiet: bool,
     /// Project root holding references/ and scripts/ [default: the current directory].
     #[arg(long, value_name = "DIR", default_value = ".")]
@@ -78,17 +79,26 @@ pub fn run(args: Args) -> ExitCode {
     opts.report_dir = Some(args.report_dir.clone());
     opts.sampler_suite = !args.no_sampler_suite;
 
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(t) = args.threads {
-        if t == 0 {
-            return unusable("--threads must be at least 1");
-        }
-        pool = pool.num_threads(t);
-    }
-    let pool = match pool.build() {
+    let pool = match outputs::thread_pool(args.threads) {
         Ok(p) => p,
-        Err(e) => return unusable(format!("cannot start worker threads: {e}")),
+        Err(e) => return unusable(e),
     };
+    // Outputs are checked before anything runs (the report directory is created here).
+    if let Err(e) = outputs::check_dir_writable(&args.report_dir) {
+        return unusable(e);
+    }
+    if let Some(path) = &args.json {
+        let inside = ["report.json", "report.md", "report.html"].map(|f| args.report_dir.join(f));
+        let named: Vec<(&str, &std::path::Path)> = inside
+            .iter()
+            .map(|p| ("report written by certify", p.as_path()))
+            .collect();
+        if let Err(e) =
+            outputs::check_not_input(path, &named).and_then(|_| outputs::check_writable(path))
+        {
+            return unusable(format!("--json: {e}"));
+        }
+    }
 
     let bar = if !args.quiet && std::io::stderr().is_terminal() {
         ProgressBar::new(0)
@@ -115,7 +125,8 @@ pub fn run(args: Args) -> ExitCode {
         }
         Event::Tiles { done, total } => {
             if let Ok(g) = label.lock() {
-                bar.set_message(format!("{} (tile {done}/{total})", *g));
+                let pct = 100.0 * done as f64 / total.max(1) as f64;
+                bar.set_message(format!("{} ({pct:.0} %)", *g));
             }
         }
         Event::SuiteDone(s) => {

@@ -4,5 +4,7 @@ pub mod backward_error;
 pub mod certify;
 pub mod compare;
 pub mod fit_ltc;
+pub mod info;
+pub mod merge;
 pub mod render;
 pub mod samplers;

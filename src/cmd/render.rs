@@ -1,7 +1,17 @@
 //! `linlight render`: render a Mitsuba-XML scene with linear lights into the shared EXR format
 //! (mean + variance of the mean), optionally with a PNG preview.
+//!
+//! Everything that can make the run unusable is checked before rendering: the technique, the
+//! `-D` overrides and the scene (loading), the output paths (format from the extension, no
+//! output overwriting the scene or another output, writable), the thread count, the memory the
+//! film needs, and the `--match-variance` reference.
 
 use indicatif::{ProgressBar, ProgressStyle};
+use linlight::certify::budget::BudgetRule;
+use linlight::merge::merge;
+use linlight::outputs::{self, ImageFormat};
+use linlight_imagefile::Image;
+use linlight_render::scene::Scene;
 use linlight_render::{render, RenderOptions};
 use linlight_sampling::Technique;
 use std::io::IsTerminal;
@@ -11,7 +21,19 @@ use std::time::Instant;
 
 use linlight_render::xml;
 
+pub const EXAMPLES: &str = "\
+Examples:
+  linlight render scene.xml                          # -> scene.exr, the scene's own spp
+  linlight render scene.xml --spp 1024 --passes 16 -o out.exr --preview out.png --exposure -2
+  linlight render scene.xml -D res=64 -t 2 -q        # override a <default>, 2 threads, quiet
+  linlight render scene.xml --match-variance references/mitsuba/scene.exr -o mine.exr
+  linlight render scene.xml --spp 256 --time 60      # as many 256-spp passes as fit in 60 s
+
+The output format follows the extension: .exr holds mean and variance of the mean (for
+compare, merge, info); .png a tone-mapped preview only.";
+
 #[derive(clap::Args)]
+#[command(after_help = EXAMPLES)]
 pub struct Args {
     /// Scene file (Mitsuba 3 XML).
     scene: PathBuf,
@@ -21,32 +43,51 @@ pub struct Args {
     /// Seed of the random streams [default: the scene's sampler seed].
     #[arg(long)]
     seed: Option<u64>,
-    /// Line-sampling technique.
+    /// Line-sampling technique (names listed below).
     #[arg(long, default_value = "projected-solid-angle")]
     technique: String,
     /// Independent passes; with P > 1 the variance comes from the P pass means (dof = P − 1).
     #[arg(long, default_value_t = 1)]
     passes: u32,
-    /// Output image [default: <scene stem>.exr].
-    #[arg(long)]
+    /// Output image, .exr (mean + variance) or .png (preview) [default: <scene stem>.exr].
+    #[arg(short = 'o', long)]
     out: Option<PathBuf>,
     /// Also write a tone-mapped PNG preview.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE.png")]
     preview: Option<PathBuf>,
-    /// Worker threads [default: all cores].
-    #[arg(long)]
+    /// Exposure of the previews in stops: pixels are scaled by 2^E before tone mapping.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Worker threads [default: all cores; at most 4 per core, or 64].
+    #[arg(short = 't', long)]
     threads: Option<usize>,
-    /// No progress bar, no summary.
-    #[arg(long)]
+    /// No progress bar, no summary (warnings are always printed).
+    #[arg(short = 'q', long)]
     quiet: bool,
-    /// Override a `$name` default of the scene file (repeatable).
+    /// Override a `$name` default of the scene file (repeatable; every NAME must be used once).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     define: Vec<String>,
+    /// Choose the spp with certify's budget rule so that this render is at least as precise as
+    /// REF.exr in 99 % of the pixels (a pilot render estimates the per-sample variance).
+    #[arg(long, value_name = "REF.exr", conflicts_with_all = ["spp", "time"])]
+    match_variance: Option<PathBuf>,
+    /// Render passes of --spp samples until SECONDS have passed (at least one pass); the passes
+    /// are merged as by `linlight merge`.
+    #[arg(long, value_name = "SECONDS")]
+    time: Option<f64>,
+    /// Refuse renders that need more memory than this many GiB [default: 80 % of the physical
+    /// memory].
+    #[arg(long, value_name = "GiB")]
+    max_memory: Option<f64>,
 }
 
 fn usage_error(msg: impl std::fmt::Display) -> ExitCode {
     eprintln!("linlight render: {msg}");
     ExitCode::from(2)
+}
+
+fn warn(msg: impl std::fmt::Display) {
+    eprintln!("warning: {msg}");
 }
 
 fn parse_define(d: &str) -> Option<(String, String)> {
@@ -59,6 +100,77 @@ fn default_out(scene: &Path) -> PathBuf {
         .file_stem()
         .map_or_else(|| "render".into(), |s| s.to_os_string());
     PathBuf::from(stem).with_extension("exr")
+}
+
+/// Seed of batch `b` of a `--time` render (batch 0 uses the seed itself): a multiplicative hash,
+/// so that the batches of two runs with nearby seeds do not share streams.
+fn batch_seed(seed: u64, batch: u64) -> u64 {
+    seed ^ batch.wrapping_mul(0x9E37_79B9_7F4A_7C15)
+}
+
+/// The checked output files: (path, format) of --out, and the --preview path.
+struct Outputs {
+    out: PathBuf,
+    format: ImageFormat,
+    preview: Option<PathBuf>,
+}
+
+fn check_outputs(args: &Args) -> Result<Outputs, String> {
+    let out = args.out.clone().unwrap_or_else(|| default_out(&args.scene));
+    let scene: (&str, &Path) = ("scene file", &args.scene);
+    outputs::check_not_input(&out, &[scene])?;
+    let format = ImageFormat::from_path(&out).map_err(|e| format!("--out: {e}"))?;
+    if let Some(p) = &args.preview {
+        if ImageFormat::from_path(p) != Ok(ImageFormat::Png) {
+            return Err(format!(
+                "--preview {} must be a .png file (the preview is a tone-mapped PNG)",
+                p.display()
+            ));
+        }
+        outputs::check_not_input(p, &[scene, ("--out image", &out)])?;
+        outputs::check_writable(p)?;
+    }
+    outputs::check_writable(&out)?;
+    Ok(Outputs {
+        out,
+        format,
+        preview: args.preview.clone(),
+    })
+}
+
+/// The render window (crop or full film) and the memory it needs, refused above the limit.
+fn check_memory(scene: &Scene, limit_gib: Option<f64>) -> Result<(), String> {
+    let film = &scene.sensor.film;
+    let (w, h) = film
+        .crop
+        .map_or((film.width, film.height), |c| (c.width, c.height));
+    let prims: u64 = scene
+        .shapes
+        .iter()
+        .map(|s| match &s.geometry {
+            linlight_render::scene::Geometry::Mesh { indices, .. } => indices.len() as u64,
+            _ => 1,
+        })
+        .sum();
+    let need = outputs::render_memory(w as u64, h as u64, prims);
+    let (limit, why) = match limit_gib {
+        Some(g) if g > 0.0 && g.is_finite() => ((g * (1u64 << 30) as f64) as u64, "--max-memory"),
+        Some(g) => return Err(format!("--max-memory must be positive (got {g})")),
+        None => (
+            outputs::default_memory_limit(),
+            "80 % of this machine's memory; raise it with --max-memory",
+        ),
+    };
+    if need > limit {
+        return Err(format!(
+            "the render needs about {} ({w}×{h} px × {} B + geometry), more than the limit of {} \
+             ({why})",
+            outputs::gib(need),
+            outputs::RENDER_BYTES_PER_PIXEL,
+            outputs::gib(limit)
+        ));
+    }
+    Ok(())
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -76,16 +188,38 @@ pub fn run(args: Args) -> ExitCode {
     if !args.scene.is_file() {
         return usage_error(format!("cannot read scene file {}", args.scene.display()));
     }
+    let outs = match check_outputs(&args) {
+        Ok(o) => o,
+        Err(e) => return usage_error(e),
+    };
+    if !args.exposure.is_finite() || args.exposure.abs() > 100.0 {
+        return usage_error(format!(
+            "--exposure {} is not a usable number of stops",
+            args.exposure
+        ));
+    }
+    if let Some(t) = args.time {
+        if !(t > 0.0 && t.is_finite()) {
+            return usage_error(format!(
+                "--time must be a positive number of seconds (got {t})"
+            ));
+        }
+    }
     let scene = match xml::load_scene(&args.scene, &overrides) {
         Ok(s) => s,
         Err(e) => return usage_error(e),
     };
-    if !args.quiet {
-        for w in &scene.warnings {
-            eprintln!("warning: {w}");
-        }
+    // Warnings are never silenced: --quiet only drops progress and the summary.
+    for w in &scene.warnings {
+        warn(w);
     }
-    let opts = RenderOptions {
+    if technique == Technique::Baseline {
+        warn(
+            "the baseline technique is biased by design (its density is not exact); its images \
+             are not expected to agree with Mitsuba",
+        );
+    }
+    let mut opts = RenderOptions {
         spp: args.spp.unwrap_or(scene.sensor.sample_count),
         passes: args.passes,
         seed: args.seed.unwrap_or(scene.sensor.seed),
@@ -101,16 +235,32 @@ pub fn run(args: Args) -> ExitCode {
             film.width, film.height
         ));
     }
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(t) = args.threads {
-        if t == 0 {
-            return usage_error("--threads must be at least 1");
-        }
-        pool = pool.num_threads(t);
+    if let Err(e) = check_memory(&scene, args.max_memory) {
+        return usage_error(e);
     }
-    let pool = match pool.build() {
+    let pool = match outputs::thread_pool(args.threads) {
         Ok(p) => p,
-        Err(e) => return usage_error(format!("cannot start worker threads: {e}")),
+        Err(e) => return usage_error(e),
+    };
+    let reference = match &args.match_variance {
+        None => None,
+        Some(path) => match Image::read(path) {
+            Ok(r) => {
+                let (w, h) = film
+                    .crop
+                    .map_or((film.width, film.height), |c| (c.width, c.height));
+                if (r.width, r.height) != (w as usize, h as usize) {
+                    return usage_error(format!(
+                        "--match-variance {} is {}×{} but the scene renders {w}×{h}",
+                        path.display(),
+                        r.width,
+                        r.height
+                    ));
+                }
+                Some(r)
+            }
+            Err(e) => return usage_error(format!("--match-variance: {e}")),
+        },
     };
 
     let show = !args.quiet && std::io::stderr().is_terminal();
@@ -120,35 +270,142 @@ pub fn run(args: Args) -> ExitCode {
         ProgressBar::hidden()
     };
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} tiles {elapsed_precise} eta {eta}")
+        ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} {elapsed_precise} eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    let start = Instant::now();
     let progress = |done: usize, total: usize| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
+        let s = start.elapsed().as_secs_f64();
+        if s > 0.0 {
+            bar.set_message(format!("{:.2} M samples/s", done as f64 / s / 1e6));
+        }
     };
-    let start = Instant::now();
-    let image = match pool.install(|| render(&scene, &opts, &progress)) {
+
+    let mut notes = Vec::new();
+    if let Some(r) = &reference {
+        let rule = BudgetRule::default();
+        let pilot_opts = RenderOptions {
+            spp: rule.pilot_spp,
+            passes: 1,
+            seed: opts.seed ^ 0x5049_4c4f_5453_4545,
+            technique,
+        };
+        bar.set_message("pilot render");
+        let pilot = match pool.install(|| render(&scene, &pilot_opts, &|_, _| {})) {
+            Ok(p) => p,
+            Err(e) => return usage_error(e),
+        };
+        let budget = rule.choose(&pilot, r);
+        opts.spp = budget.spp.div_ceil(opts.passes).max(1);
+        notes.push(format!(
+            "--match-variance: {} spp in total (the rule asked for {}{})",
+            opts.spp as u64 * opts.passes as u64,
+            budget.required_spp.map_or_else(
+                || "nothing: no pixel with variance".into(),
+                |s| format!("{s:.0}")
+            ),
+            if budget.capped {
+                format!("; capped at {}", rule.max_spp)
+            } else {
+                String::new()
+            }
+        ));
+    }
+
+    let result = match args.time {
+        None => pool.install(|| render(&scene, &opts, &progress)),
+        Some(limit) => pool.install(|| {
+            // Batches are merged as they come (the merge of equal-size units is exactly the
+            // image of their union, so merging one at a time loses nothing but f32 rounding).
+            let mut merged: Option<Image> = None;
+            let mut batches = 0u64;
+            loop {
+                let t0 = Instant::now();
+                let img = render(
+                    &scene,
+                    &RenderOptions {
+                        seed: batch_seed(opts.seed, batches),
+                        ..opts
+                    },
+                    &|_, _| {},
+                )?;
+                batches += 1;
+                merged = Some(match merged {
+                    None => img,
+                    Some(m) => merge(&[&m, &img]).map_err(linlight_render::RenderError::Options)?,
+                });
+                let elapsed = start.elapsed().as_secs_f64();
+                bar.set_length(1000);
+                bar.set_position((1000.0 * (elapsed / limit).min(1.0)) as u64);
+                bar.set_message(format!("{batches} batch(es)"));
+                if elapsed + t0.elapsed().as_secs_f64() > limit {
+                    break;
+                }
+            }
+            let mut img = merged.expect("at least one batch");
+            img.meta.extra.remove("merged_images");
+            img.meta.extra.insert("seed".into(), opts.seed.to_string());
+            img.meta
+                .extra
+                .insert("time_limit_s".into(), limit.to_string());
+            img.meta.extra.insert("batches".into(), batches.to_string());
+            Ok(img)
+        }),
+    };
+    let image = match result {
         Ok(img) => img,
         Err(e) => return usage_error(e),
     };
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
 
-    let out = args.out.clone().unwrap_or_else(|| default_out(&args.scene));
-    if let Err(e) = image.write(&out) {
-        return usage_error(format!("cannot write {}: {e}", out.display()));
+    if let Some(n) = image.meta.extra.get("nonfinite_dropped") {
+        warn(format!(
+            "{n} light samples were not finite (NaN or infinite) and were counted as 0; Mitsuba \
+             warns \"Invalid sample value\" for such samples"
+        ));
     }
-    if let Some(p) = &args.preview {
-        if let Err(e) = image.write_preview_png(p) {
-            return usage_error(format!("cannot write {}: {e}", p.display()));
+    let negative = image
+        .mean
+        .iter()
+        .filter(|m| m.iter().any(|&c| c < 0.0))
+        .count();
+    if negative > 0 {
+        warn(format!(
+            "{negative} pixels have a negative mean (negative radiance or reflectance in the \
+             scene); Mitsuba warns \"Invalid sample value\" for such samples"
+        ));
+    }
+    let written = match outs.format {
+        ImageFormat::Exr => image.write(&outs.out),
+        ImageFormat::Png => {
+            warn(format!(
+                "{} is a tone-mapped preview: the variance is not saved (use .exr for compare, \
+                 merge and info)",
+                outs.out.display()
+            ));
+            image.write_preview_png_with_exposure(&outs.out, args.exposure)
+        }
+    };
+    // The image writer's messages already name the file.
+    if let Err(e) = written {
+        return usage_error(e);
+    }
+    if let Some(p) = &outs.preview {
+        if let Err(e) = image.write_preview_png_with_exposure(p, args.exposure) {
+            return usage_error(e);
         }
     }
     if !args.quiet {
+        for n in &notes {
+            eprintln!("{n}");
+        }
         let samples = (image.width * image.height) as f64 * image.meta.spp as f64;
         eprintln!(
             "wrote {} ({}x{}, {} spp in {} pass(es), {}, {:.2} s, {:.2} M samples/s)",
-            out.display(),
+            outs.out.display(),
             image.width,
             image.height,
             image.meta.spp,
@@ -175,5 +432,7 @@ mod tests {
             default_out(Path::new("dir/cornell.xml")),
             PathBuf::from("cornell.exr")
         );
+        assert_eq!(batch_seed(7, 0), 7);
+        assert_ne!(batch_seed(7, 1), batch_seed(8, 1));
     }
 }

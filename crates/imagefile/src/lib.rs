@@ -192,6 +192,19 @@ impl Image {
     }
 
     pub fn read(path: &Path) -> Result<Self, ImageError> {
+        let img = Self::read_unchecked(path)?;
+        let ctx = |msg: String| ImageError::Format(format!("{}: {msg}", path.display()));
+        if img.meta.dof.is_nan() {
+            return Err(ctx("missing header attribute dof".into()));
+        }
+        img.validate().map_err(|e| ctx(e.to_string()))?;
+        Ok(img)
+    }
+
+    /// Reads an image of the shared format without checking its content (for `linlight info`,
+    /// which reports what is wrong): non-finite values and negative variances are returned as
+    /// they are, and a missing `dof` is NaN. The six channels are still required.
+    pub fn read_unchecked(path: &Path) -> Result<Self, ImageError> {
         let file = exr::prelude::read()
             .no_deep_data()
             .largest_resolution_level()
@@ -274,10 +287,10 @@ impl Image {
 
         let attrs = &layer.attributes.other;
         let get = |key: &str| attrs.iter().find(|(k, _)| Text::eq(k, key)).map(|(_, v)| v);
-        let dof = get(KEY_DOF)
-            .ok_or_else(|| ctx("missing header attribute dof".into()))
-            .and_then(|v| attr_f64(KEY_DOF, v).map_err(ctx))?;
-        img.meta.dof = dof;
+        img.meta.dof = match get(KEY_DOF) {
+            Some(v) => attr_f64(KEY_DOF, v).map_err(ctx)?,
+            None => f64::NAN,
+        };
         if let Some(v) = get(KEY_SPP) {
             img.meta.spp = attr_u64(KEY_SPP, v).map_err(ctx)?;
         }
@@ -300,11 +313,19 @@ impl Image {
             }
         }
 
-        img.validate().map_err(|e| ctx(e.to_string()))?;
         Ok(img)
     }
 
+    /// Writes the image; the bytes depend only on the pixels and the metadata (the header
+    /// attributes are in name order, see [`canonical_header_order`]).
     pub fn write(&self, path: &Path) -> Result<(), ImageError> {
+        let bytes = self.to_exr_bytes()?;
+        std::fs::write(path, bytes)
+            .map_err(|io| ImageError::Io(format!("cannot write {}: {io}", path.display())))
+    }
+
+    /// The EXR file of this image, in memory.
+    pub fn to_exr_bytes(&self) -> Result<Vec<u8>, ImageError> {
         self.validate()?;
         let n = self.width * self.height;
         let mut channels = exr::prelude::SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
@@ -362,27 +383,100 @@ impl Image {
             encoding,
             AnyChannels::sort(channels),
         );
+        let mut out = std::io::Cursor::new(Vec::new());
         exr::prelude::Image::from_layer(layer)
             .write()
-            .to_file(path)
-            .map_err(|e| match e {
-                exr::error::Error::Io(io) => {
-                    ImageError::Io(format!("cannot write {}: {io}", path.display()))
-                }
-                other => ImageError::Format(format!("cannot write {}: {other}", path.display())),
-            })
+            .to_buffered(&mut out)
+            .map_err(|e| ImageError::Format(format!("cannot encode OpenEXR: {e}")))?;
+        let mut bytes = out.into_inner();
+        canonical_header_order(&mut bytes)?;
+        Ok(bytes)
     }
 
     /// Tone-mapped sRGB preview (exposure 1, clamp) as PNG.
     pub fn write_preview_png(&self, path: &Path) -> Result<(), ImageError> {
+        self.write_preview_png_with_exposure(path, 0.0)
+    }
+
+    /// Tone-mapped sRGB preview as PNG: the mean scaled by 2^`stops`, clamped to [0, 1].
+    pub fn write_preview_png_with_exposure(
+        &self,
+        path: &Path,
+        stops: f32,
+    ) -> Result<(), ImageError> {
         self.validate()?;
+        let scale = stops.exp2();
+        if !(scale > 0.0 && scale.is_finite()) {
+            return Err(ImageError::Format(format!(
+                "exposure {stops} gives the scale factor {scale}"
+            )));
+        }
         let buf: Vec<u8> = self
             .mean
             .iter()
-            .flat_map(|p| [srgb8(p[0]), srgb8(p[1]), srgb8(p[2])])
+            .flat_map(|p| {
+                [
+                    srgb8(scale * p[0]),
+                    srgb8(scale * p[1]),
+                    srgb8(scale * p[2]),
+                ]
+            })
             .collect();
         write_rgb8_png(path, self.width, self.height, &buf)
     }
+}
+
+/// Sorts the attributes of a single-part EXR header by name, in place. The `exr` crate keeps
+/// custom attributes in a `HashMap`, whose iteration order changes from run to run; the
+/// attributes keep their sizes, so the offset table after the header stays valid.
+pub fn canonical_header_order(bytes: &mut [u8]) -> Result<(), ImageError> {
+    let bad = |m: &str| ImageError::Format(format!("unexpected OpenEXR header layout: {m}"));
+    if bytes.len() < 8 || bytes[..4] != [0x76, 0x2f, 0x31, 0x01] {
+        return Err(bad("magic number"));
+    }
+    if bytes[5] & 0x10 != 0 {
+        return Err(bad("multi-part file"));
+    }
+    let cstr_end = |from: usize| {
+        bytes[from..]
+            .iter()
+            .position(|&b| b == 0)
+            .map(|k| from + k)
+            .ok_or_else(|| bad("unterminated name"))
+    };
+    let mut attrs: Vec<(usize, usize)> = Vec::new();
+    let mut pos = 8;
+    loop {
+        if pos >= bytes.len() {
+            return Err(bad("header runs past the end"));
+        }
+        if bytes[pos] == 0 {
+            break;
+        }
+        let name_end = cstr_end(pos)?;
+        let type_end = cstr_end(name_end + 1)?;
+        let size_at = type_end + 1;
+        let size = bytes
+            .get(size_at..size_at + 4)
+            .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .ok_or_else(|| bad("attribute size"))?;
+        let end = usize::try_from(size)
+            .ok()
+            .and_then(|s| (size_at + 4).checked_add(s))
+            .filter(|&e| e <= bytes.len())
+            .ok_or_else(|| bad("attribute size"))?;
+        attrs.push((pos, end));
+        pos = end;
+    }
+    let start = 8;
+    let mut sorted: Vec<&[u8]> = attrs.iter().map(|&(a, b)| &bytes[a..b]).collect();
+    sorted.sort_by(|x, y| {
+        let name = |v: &[u8]| v.split(|&b| b == 0).next().unwrap_or(&[]).to_vec();
+        name(x).cmp(&name(y))
+    });
+    let joined: Vec<u8> = sorted.concat();
+    bytes[start..pos].copy_from_slice(&joined);
+    Ok(())
 }
 
 /// Linear radiance → 8-bit sRGB: clamp to [0, 1], sRGB OETF, round. NaN maps to 0.
@@ -426,6 +520,26 @@ pub fn write_rgb8_png(
         image::ImageFormat::Png,
     )
     .map_err(|e| ImageError::Io(format!("cannot write {}: {e}", path.display())))
+}
+
+/// An 8-bit RGB buffer (row-major, row 0 at the top) encoded as PNG, in memory.
+pub fn rgb8_png_bytes(width: usize, height: usize, rgb: &[u8]) -> Result<Vec<u8>, ImageError> {
+    use image::ImageEncoder;
+    if width == 0 || height == 0 || rgb.len() != width * height * 3 {
+        return Err(ImageError::Format(format!(
+            "PNG buffer of {} bytes does not match {width}×{height}×3",
+            rgb.len()
+        )));
+    }
+    let (w, h) = (
+        u32::try_from(width).map_err(|_| ImageError::Format("PNG too wide".into()))?,
+        u32::try_from(height).map_err(|_| ImageError::Format("PNG too high".into()))?,
+    );
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(rgb, w, h, image::ExtendedColorType::Rgb8)
+        .map_err(|e| ImageError::Format(format!("cannot encode PNG: {e}")))?;
+    Ok(out)
 }
 
 /// Numeric attribute of any scalar EXR type (string, int, float, double).
@@ -750,6 +864,34 @@ mod tests {
             Image::new(0, 3).write(&tmp("empty.exr")),
             Err(ImageError::Format(_))
         ));
+    }
+
+    #[test]
+    fn identical_images_give_identical_bytes() {
+        let img = sample_image(37, 200); // 13 chunks of 16 lines, compressed in parallel
+        let first = img.to_exr_bytes().unwrap();
+        for _ in 0..20 {
+            assert_eq!(img.clone().to_exr_bytes().unwrap(), first);
+        }
+        let path = tmp("canonical.exr");
+        img.write(&path).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), first);
+        assert_eq!(Image::read(&path).unwrap(), img);
+    }
+
+    #[test]
+    fn unchecked_read_returns_what_the_file_holds() {
+        let path = tmp("unchecked.exr");
+        let chans = MEAN_CHANNELS.iter().chain(&VAR_CHANNELS).map(|c| {
+            (
+                *c,
+                FlatSamples::F32(vec![if *c == "G" { f32::NAN } else { 1.0 }; 4]),
+            )
+        });
+        write_raw(&path, 2, 2, chans.collect(), vec![], Encoding::UNCOMPRESSED);
+        let img = Image::read_unchecked(&path).unwrap();
+        assert!(img.meta.dof.is_nan() && img.mean[3][1].is_nan());
+        assert!(Image::read(&path).is_err());
     }
 
     #[test]

@@ -1,10 +1,10 @@
 //! Building scenes in code (tests, benchmarks): quads, boxes, diffuse shapes, a look-at sensor.
 
-use crate::camera::look_at;
 use crate::scene::{
     Bsdf, Film, FovAxis, Geometry, Integrator, LinearLight, Rgb, Scene, Sensor, Shape,
     SourceLocation,
 };
+use crate::xml::look_at;
 use glam::Vec3;
 
 /// Quad a-b-c-d (in order around its boundary) as two triangles whose normal is
@@ -50,6 +50,21 @@ pub fn cuboid(min: Vec3, max: Vec3) -> Geometry {
     }
 }
 
+/// The square [−half, half]² of the plane z = 0, normal +z, diffuse with reflectance `rho`: the
+/// floor of the tests' and benchmarks' scenes.
+pub fn floor(half: f32, rho: Rgb) -> Shape {
+    let v = Vec3::new;
+    diffuse(
+        quad(
+            v(-half, -half, 0.),
+            v(half, -half, 0.),
+            v(half, half, 0.),
+            v(-half, half, 0.),
+        ),
+        rho,
+    )
+}
+
 pub fn diffuse(geometry: Geometry, reflectance: Rgb) -> Shape {
     Shape {
         geometry,
@@ -79,7 +94,9 @@ pub fn sensor(
     height: u32,
 ) -> Sensor {
     Sensor {
-        to_world: look_at(origin, target, up),
+        to_world: look_at(origin.as_dvec3(), target.as_dvec3(), up.as_dvec3())
+            .expect("sensor: origin equals target, or up is parallel to the view direction")
+            .as_mat4(),
         fov_deg: fov_x_deg,
         fov_axis: FovAxis::X,
         principal_point_offset_x: 0.0,

@@ -55,6 +55,21 @@ pub fn fov_x_degrees(fov_deg: f64, axis: FovAxis, aspect: f64) -> f64 {
     }
 }
 
+/// [`Camera::projection`]: camera to world, full film size, tan(fov_x/2), W/H, principal-point
+/// offsets and clip distances.
+#[derive(Clone, Copy, Debug)]
+pub struct Projection {
+    pub to_world: glam::DMat4,
+    pub width: f64,
+    pub height: f64,
+    pub tan_half_x: f64,
+    pub aspect: f64,
+    pub ppx: f64,
+    pub ppy: f64,
+    pub near: f64,
+    pub far: f64,
+}
+
 impl Camera {
     /// `None` for a zero-size film, a non-invertible to_world, or an unusable field of view.
     pub fn new(sensor: &Sensor) -> Option<Self> {
@@ -128,6 +143,21 @@ impl Camera {
         Some(Vec2::new(sx * self.width as f32, sy * self.height as f32))
     }
 
+    /// The camera's parameters in f64, for computations on the film plane.
+    pub fn projection(&self) -> Projection {
+        Projection {
+            to_world: self.to_world.as_dmat4(),
+            width: self.width as f64,
+            height: self.height as f64,
+            tan_half_x: self.tan_half_x as f64,
+            aspect: self.aspect as f64,
+            ppx: self.ppx as f64,
+            ppy: self.ppy as f64,
+            near: self.near as f64,
+            far: self.far as f64,
+        }
+    }
+
     pub fn width(&self) -> u32 {
         self.width
     }
@@ -137,23 +167,17 @@ impl Camera {
     }
 }
 
-/// Mitsuba's `lookat`: camera axes (left, up', forward) with left = normalize(up × forward).
-pub fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
-    let dir = (target - origin).normalize();
-    let left = up.normalize().cross(dir).normalize();
-    let new_up = dir.cross(left);
-    Mat4::from_cols(
-        left.extend(0.0),
-        new_up.extend(0.0),
-        dir.extend(0.0),
-        origin.extend(1.0),
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::scene::{CropWindow, Film};
+
+    /// The loader's `lookat` (the one implementation), in f32.
+    fn look_at(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
+        crate::xml::look_at(origin.as_dvec3(), target.as_dvec3(), up.as_dvec3())
+            .expect("non-degenerate look-at")
+            .as_mat4()
+    }
 
     fn sensor(w: u32, h: u32, fov: f32, axis: FovAxis) -> Sensor {
         Sensor {
@@ -180,14 +204,6 @@ mod tests {
         // Camera space (+x left, +y up, +z forward), at depth 2.
         s.to_world
             .transform_point3(Vec3::new(tx * 2.0, ty * 2.0, 2.0))
-    }
-
-    #[test]
-    fn lookat_axes_match_mitsuba() {
-        let m = look_at(Vec3::ZERO, Vec3::Z, Vec3::Y);
-        // left = up × forward = y × z = +x.
-        assert!((m.transform_vector3(Vec3::X) - Vec3::X).length() < 1e-6);
-        assert!((m.transform_vector3(Vec3::Y) - Vec3::Y).length() < 1e-6);
     }
 
     #[test]

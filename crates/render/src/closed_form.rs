@@ -13,7 +13,8 @@
 //!   - its BSDF is Lambertian: `diffuse` (or a `blendbsdf` of two), one-sided or inside `twosided`
 //!     (the normal then faces the viewer);
 //!   - any number of linear lights, which may pierce the plane (floor-crossing);
-//!   - any perspective sensor and crop window the renderer accepts.
+//!   - any perspective sensor and crop window the renderer accepts;
+//!   - `hide_emitters` set (the lines the camera sees are not part of the closed form).
 //!
 //! floor-tube, floor-crossing and two-tubes are of this kind; cornell-tube and mesh-occluder are
 //! not. A pixel value is the average of that radiance over an s×s grid of film positions at the
@@ -48,6 +49,12 @@ fn unsupported(msg: String) -> RenderError {
 
 /// `Ok` iff the closed form is exact for `scene` (see the module documentation).
 pub fn check_supported(scene: &Scene) -> Result<(), RenderError> {
+    if !scene.integrator.hide_emitters && !scene.lights.is_empty() {
+        return Err(unsupported(
+            "hide_emitters is false: the lines the camera sees are not part of the closed form"
+                .into(),
+        ));
+    }
     if scene.shapes.len() > 1 {
         return Err(unsupported(format!(
             "{} non-emitting shapes (at most one planar shape, which cannot shadow itself)",
@@ -230,7 +237,7 @@ pub fn unshadowed_pixel_average(scene: &Scene, subsamples: u32) -> Result<Image,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::{cornell_box, cuboid, diffuse, light, quad, scene, sensor};
+    use crate::build::{cornell_box, cuboid, diffuse, light, scene, sensor};
     use crate::camera::Camera;
     use crate::scene::Shape;
 
@@ -238,16 +245,7 @@ mod tests {
     const K: [f32; 3] = [1.0, 2.0, 0.5];
 
     fn floor() -> Shape {
-        let v = Vec3::new;
-        diffuse(
-            quad(
-                v(-3., -3., 0.),
-                v(3., -3., 0.),
-                v(3., 3., 0.),
-                v(-3., 3., 0.),
-            ),
-            RHO,
-        )
+        crate::build::floor(3.0, RHO)
     }
 
     /// A floor filling most of the view, a tilted light that crosses the floor's plane (so some

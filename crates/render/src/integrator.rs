@@ -13,6 +13,7 @@ use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::scene::{Bsdf, Rgb};
 use crate::shapes::{Ray, SurfacePoint};
+use crate::visible_line::VisibleLines;
 use glam::{DVec3, Vec3};
 use linlight_sampling::philox::CounterRng;
 use linlight_sampling::{LineSampler, Prepared, Segment, Technique};
@@ -56,6 +57,30 @@ pub struct RenderScene {
     pub lambert: Vec<Option<Vec3>>,
     /// Segment and K = radiance × radius per light.
     pub lights: Vec<(Segment, Vec3)>,
+    /// The lights as the camera sees them (empty when the scene hides emitters).
+    pub visible: VisibleLines,
+    /// Light contributions dropped because they were not finite (reported by the renderer).
+    pub dropped: DroppedSamples,
+}
+
+/// A count shared by the threads of a render (relaxed: only the total is read, at the end).
+#[derive(Debug, Default)]
+pub struct DroppedSamples(pub std::sync::atomic::AtomicU64);
+
+impl Clone for DroppedSamples {
+    fn clone(&self) -> Self {
+        Self(std::sync::atomic::AtomicU64::new(self.get()))
+    }
+}
+
+impl DroppedSamples {
+    pub fn get(&self) -> u64 {
+        self.0.load(std::sync::atomic::Ordering::Relaxed)
+    }
+    #[cold]
+    fn add(&self) {
+        self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
 }
 
 /// Origin of a ray leaving surface point `p` (geometric normal `ng`) in direction `d`: pushed
@@ -207,6 +232,8 @@ pub fn radiance<S: LightSampling>(
         };
         if finite_rgb(c) {
             total += c;
+        } else {
+            scene.dropped.add();
         }
     }
     total.to_array()

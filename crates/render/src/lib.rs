@@ -13,6 +13,7 @@ pub mod integrator;
 pub mod render;
 pub mod scene;
 pub mod shapes;
+pub mod visible_line;
 pub mod xml;
 
 pub use integrator::LightSampling;

@@ -12,6 +12,7 @@ use crate::film::Welford;
 use crate::integrator::{radiance, LightSampling, RenderScene};
 use crate::scene::{Bsdf, Geometry, Scene};
 use crate::shapes::{transformed_normal, Primitive};
+use crate::visible_line::{PixelLine, VisibleLines};
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
 use linlight_sampling::philox::CounterRng;
@@ -163,7 +164,19 @@ impl RenderScene {
             scene.shapes.iter().all(|s| !nested_two_sided(&s.bsdf)),
             "twosided is supported only as the outermost BSDF"
         );
+        let visible = if scene.integrator.hide_emitters {
+            VisibleLines::default()
+        } else {
+            let lights: Vec<(Vec3, Vec3, Vec3)> = scene
+                .lights
+                .iter()
+                .map(|l| (l.begin, l.end, Vec3::from_array(l.radiance_times_radius)))
+                .collect();
+            VisibleLines::new(&camera, &lights)
+        };
         Ok(Self {
+            visible,
+            dropped: Default::default(),
             camera,
             bvh: Bvh::build(prims),
             surfaces: scene
@@ -217,7 +230,8 @@ pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> Counte
     CounterRng::camera_sample(seed, pass, pixel_index, sample)
 }
 
-/// Render `scene`. `progress(done, total)` is called (from worker threads) after each tile.
+/// Render `scene`. `progress(done, total)` is called (from worker threads) after each pass of
+/// each tile, in camera samples: `total` = pixels × spp × passes.
 /// Runs on the current rayon pool (use `ThreadPool::install` to choose the thread count).
 pub fn render(
     scene: &Scene,
@@ -247,22 +261,35 @@ pub fn render_with<S: LightSampling>(
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
     let done = AtomicUsize::new(0);
-    let total = tiles.len();
+    let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
     let results: Vec<Vec<([f32; 3], [f32; 3])>> = tiles
         .par_iter()
         .map(|&(tx, ty)| {
-            let mut out = Vec::with_capacity((TILE * TILE) as usize);
-            for y in ty..(ty + TILE).min(h) {
-                for x in tx..(tx + TILE).min(w) {
-                    let (fx, fy) = (x0 + x, y0 + y);
+            let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
+                .flat_map(|y| (tx..(tx + TILE).min(w)).map(move |x| (x0 + x, y0 + y)))
+                .collect();
+            let mut seen: Vec<Vec<PixelLine>> = vec![Vec::new(); pixels.len()];
+            for (&(fx, fy), s) in pixels.iter().zip(&mut seen) {
+                rs.visible.pixel(fx, fy, s);
+            }
+            let mut passes = vec![Welford::default(); pixels.len()];
+            let mut single = vec![Welford::default(); pixels.len()];
+            for pass in 0..opts.passes {
+                for (i, &(fx, fy)) in pixels.iter().enumerate() {
                     // < 2^32: checked by `window`.
                     let index = fy.wrapping_mul(full_width).wrapping_add(fx);
-                    out.push(render_pixel(&rs, opts, sampling, fx, fy, index));
+                    let acc = render_pixel_pass(&rs, opts, sampling, fx, fy, index, pass, &seen[i]);
+                    passes[i].push(acc.mean());
+                    single[i] = acc;
                 }
+                let step = pixels.len() * opts.spp as usize;
+                progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
             }
-            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            progress(d, total);
-            out
+            passes
+                .iter()
+                .zip(&single)
+                .map(|(p, s)| pixel_value(opts, p, s))
+                .collect()
         })
         .collect();
     let mut image = Image::new(w as usize, h as usize);
@@ -271,7 +298,7 @@ pub fn render_with<S: LightSampling>(
         for y in ty..(ty + TILE).min(h) {
             for x in tx..(tx + TILE).min(w) {
                 let (m, v) = it.next().copied().unwrap_or_default();
-                let k = (y * w + x) as usize;
+                let k = y as usize * w as usize + x as usize;
                 image.mean[k] = m;
                 image.var[k] = v;
             }
@@ -294,34 +321,51 @@ pub fn render_with<S: LightSampling>(
     meta.extra.insert("seed".into(), opts.seed.to_string());
     meta.extra
         .insert("spp_per_pass".into(), opts.spp.to_string());
+    let dropped = rs.dropped.get();
+    if dropped > 0 {
+        meta.extra
+            .insert("nonfinite_dropped".into(), dropped.to_string());
+    }
     image.meta = meta;
     Ok(image)
 }
 
-/// Mean and variance of the mean of one pixel (full-film coordinates).
-fn render_pixel<S: LightSampling>(
+/// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the
+/// camera sees in this pixel ([`VisibleLines::pixel`]).
+#[allow(clippy::too_many_arguments)]
+fn render_pixel_pass<S: LightSampling>(
     rs: &RenderScene,
     opts: &RenderOptions,
     sampling: &S,
     fx: u32,
     fy: u32,
     index: u32,
-) -> ([f32; 3], [f32; 3]) {
-    let mut passes = Welford::default();
-    let mut single = Welford::default();
-    for pass in 0..opts.passes {
-        let mut acc = Welford::default();
-        for sample in 0..opts.spp {
-            let mut rng = sample_rng(opts.seed, pass, index, sample);
-            let u = rng.next_f32();
-            let v = rng.next_f32();
-            let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
-            let l = radiance(rs, sampling, &ray, &mut rng);
-            acc.push(l.map(|c| c as f64));
-        }
-        passes.push(acc.mean());
-        single = acc;
+    pass: u32,
+    seen: &[PixelLine],
+) -> Welford {
+    let mut acc = Welford::default();
+    for sample in 0..opts.spp {
+        let mut rng = sample_rng(opts.seed, pass, index, sample);
+        let u = rng.next_f32();
+        let v = rng.next_f32();
+        let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
+        let l = radiance(rs, sampling, &ray, &mut rng);
+        let l = if seen.is_empty() {
+            l
+        } else {
+            let mut t = Vec3::from_array(l);
+            rs.visible
+                .add_estimate(seen, &rs.bvh, || rng.next_f64(), &mut t);
+            t.to_array()
+        };
+        acc.push(l.map(|c| c as f64));
     }
+    acc
+}
+
+/// Mean and variance of the mean of a pixel from its pass means (P > 1) or, with one pass, from
+/// its samples.
+fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> ([f32; 3], [f32; 3]) {
     let (mean, var) = if opts.passes > 1 {
         (passes.mean(), passes.variance_of_mean())
     } else {

@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_render::build::{cuboid, diffuse, light, quad, scene, sensor};
+use linlight_render::build::{cuboid, diffuse, light, scene, sensor};
 use linlight_render::camera::Camera;
 use linlight_render::scene::{Bsdf, CropWindow, Scene};
 use linlight_render::{render, RenderOptions};
@@ -12,16 +12,7 @@ const RHO: [f32; 3] = [0.8, 0.5, 0.2];
 const K: [f32; 3] = [2.0, 1.0, 0.5];
 
 fn floor() -> linlight_render::scene::Shape {
-    let v = Vec3::new;
-    diffuse(
-        quad(
-            v(-3., -3., 0.),
-            v(3., -3., 0.),
-            v(3., 3., 0.),
-            v(-3., 3., 0.),
-        ),
-        RHO,
-    )
+    linlight_render::build::floor(3.0, RHO)
 }
 
 /// Diffuse floor z = 0 seen from above, one tilted light above it.
@@ -326,6 +317,21 @@ fn degenerate_lights_give_finite_images() {
     }
 }
 
+/// Light contributions that overflow to infinity are dropped (counted as 0) and counted in the
+/// header, so that the command line can warn as Mitsuba does; the image stays finite.
+#[test]
+fn non_finite_contributions_are_counted() {
+    let mut sc = floor_scene(8, tilted());
+    let img = render(&sc, &opts(4, 1, 2, Technique::Area), &quiet).unwrap();
+    assert!(!img.meta.extra.contains_key("nonfinite_dropped"));
+    // One sample per pixel: the variance of the finite (huge) samples is then not estimated.
+    sc.lights[0].radiance_times_radius = [f32::MAX; 3];
+    let img = render(&sc, &opts(1, 1, 2, Technique::Area), &quiet).unwrap();
+    assert_finite(&img);
+    let dropped: u64 = img.meta.extra["nonfinite_dropped"].parse().unwrap();
+    assert!(dropped > 0 && dropped < 8 * 8, "{dropped}");
+}
+
 /// One-sided diffuse is black from behind; twosided reflects on both sides.
 #[test]
 fn one_and_two_sided_floor_from_below() {
@@ -360,18 +366,22 @@ fn metadata() {
 }
 
 #[test]
-fn progress_reaches_the_tile_count() {
+fn progress_advances_per_pass_of_each_tile_in_samples() {
     use std::sync::atomic::{AtomicUsize, Ordering};
     let sc = floor_scene(40, tilted()); // 3 × 3 tiles of 16
+    let total_samples = 40 * 40 * 3 * 4;
     let last = AtomicUsize::new(0);
     let calls = AtomicUsize::new(0);
     let progress = |done: usize, total: usize| {
-        assert_eq!(total, 9);
+        assert_eq!(total, total_samples);
         last.fetch_max(done, Ordering::Relaxed);
         calls.fetch_add(1, Ordering::Relaxed);
     };
-    render(&sc, &opts(1, 1, 0, Technique::SolidAngle), &progress).unwrap();
-    assert_eq!((last.into_inner(), calls.into_inner()), (9, 9));
+    render(&sc, &opts(3, 4, 0, Technique::SolidAngle), &progress).unwrap();
+    assert_eq!(
+        (last.into_inner(), calls.into_inner()),
+        (total_samples, 9 * 4)
+    );
 }
 
 /// First hit of a camera ray with the unit sphere at the origin (f64, independent of the

@@ -431,10 +431,7 @@ impl<'a> Builder<'a> {
         } else {
             None
         };
-        // Output options: they change the file Mitsuba writes, not the pixel values we compare.
-        for name in ["pixel_format", "component_format", "file_format"] {
-            p.string(name)?;
-        }
+        self.output_options(&p)?;
         match p.object("rfilter")? {
             None => self.warnings.push(no_box(&e.loc)),
             Some(f) => {
@@ -457,6 +454,75 @@ impl<'a> Builder<'a> {
             height,
             crop,
         })
+    }
+
+    /// hdrfilm's output options. They change the file Mitsuba writes, not the pixel values:
+    /// values Mitsuba refuses are refused with its message, and so are the pixel formats this
+    /// renderer cannot write (alpha, luminance, XYZ: its images are RGB mean + variance).
+    fn output_options(&mut self, p: &Props) -> Result<(), SceneError> {
+        let lower = |name: &str| -> Result<Option<(String, SourceLocation)>, SceneError> {
+            Ok(p.string(name)?.map(|(v, l)| (v.to_ascii_lowercase(), l)))
+        };
+        if let Some((f, loc)) = lower("file_format")? {
+            match f.as_str() {
+                "openexr" | "exr" => {}
+                "rgbe" | "pfm" => {
+                    return err(
+                        &loc,
+                        format!(
+                            "file_format '{f}' is not supported: linlight writes OpenEXR (the \
+                             output format follows the --out extension)"
+                        ),
+                    )
+                }
+                _ => {
+                    return err(
+                        &loc,
+                        format!(
+                            "the \"file_format\" parameter must either be equal to \"openexr\", \
+                             \"pfm\", or \"rgbe\" (found '{f}')"
+                        ),
+                    )
+                }
+            }
+        }
+        if let Some((f, loc)) = lower("pixel_format")? {
+            match f.as_str() {
+                "rgb" => {}
+                "rgba" | "luminance" | "luminance_alpha" | "xyz" | "xyza" => {
+                    return err(
+                        &loc,
+                        format!(
+                            "pixel_format '{f}' is not supported: linlight writes RGB mean and \
+                             variance only (use \"rgb\", the same pixels in Mitsuba)"
+                        ),
+                    )
+                }
+                _ => {
+                    return err(
+                        &loc,
+                        format!(
+                            "the \"pixel_format\" parameter must either be equal to \
+                             \"luminance\", \"luminance_alpha\", \"rgb\", \"rgba\", \"xyz\", \
+                             \"xyza\" (found '{f}')"
+                        ),
+                    )
+                }
+            }
+        }
+        if let Some((f, loc)) = lower("component_format")? {
+            // float16/uint32 only change how Mitsuba stores its file; linlight writes float32.
+            if !matches!(f.as_str(), "float16" | "float32" | "uint32") {
+                return err(
+                    &loc,
+                    format!(
+                        "the \"component_format\" parameter must either be equal to \
+                         \"float16\", \"float32\", or \"uint32\" (found '{f}')"
+                    ),
+                );
+            }
+        }
+        Ok(())
     }
 
     fn sampler(&mut self, e: Option<&Elem>) -> Result<(u32, u64), SceneError> {
@@ -487,9 +553,28 @@ impl<'a> Builder<'a> {
         }
         let p = self.props(e)?;
         let hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
-        // Accepted for Mitsuba; the Rust renderer samples the lights only (see module docs).
-        for name in ["emitter_samples", "bsdf_samples", "shading_samples"] {
-            p.integer_in(name, 0, u32::MAX as i64)?;
+        // Accepted for Mitsuba; the Rust renderer samples the lights only (see module docs), but
+        // what Mitsuba refuses is refused here too (direct.cpp).
+        let count = |name: &str| p.integer_in(name, 0, u32::MAX as i64);
+        let (emitter, bsdf, shading) = (
+            count("emitter_samples")?,
+            count("bsdf_samples")?,
+            count("shading_samples")?,
+        );
+        if shading.is_some() && (emitter.is_some() || bsdf.is_some()) {
+            return err(
+                &e.loc,
+                "cannot specify both 'shading_samples' and ('emitter_samples' and/or \
+                 'bsdf_samples') (Mitsuba refuses this too)",
+            );
+        }
+        let shading = shading.unwrap_or(1);
+        if emitter.unwrap_or(shading) + bsdf.unwrap_or(shading) == 0 {
+            return err(
+                &e.loc,
+                "integrator 'direct' must have at least 1 BSDF or emitter sample (Mitsuba \
+                 refuses emitter_samples = bsdf_samples = 0 too)",
+            );
         }
         p.finish()?;
         Ok(Integrator { hide_emitters })
@@ -592,6 +677,17 @@ impl<'a> Builder<'a> {
                         ),
                     )
                 })?;
+                if raw.triangles.is_empty() {
+                    return err(
+                        &loc,
+                        format!(
+                            "{} file '{}' contains no faces (Mitsuba cannot load an empty mesh \
+                             either)",
+                            ty.to_uppercase(),
+                            path.display()
+                        ),
+                    );
+                }
                 mesh(self, raw, face_normals, true)?
             }
             "sphere" => {
@@ -630,21 +726,8 @@ impl<'a> Builder<'a> {
                 if r <= 0.0 {
                     return err(&loc, format!("cylinder radius must be positive (got {r})"));
                 }
-                let Some(s) = uniform_scale(&m) else {
-                    return err(
-                        &loc,
-                        "cylinder to_world must not scale non-uniformly or shear (the radius \
-                         would not be defined)",
-                    );
-                };
-                if DMat3::from_mat4(m).determinant() < 0.0 {
-                    return err(&loc, "cylinder to_world must not mirror");
-                }
-                let (w0, w1) = (m.transform_point3(p0), m.transform_point3(p1));
-                if (w1 - w0).length() == 0.0 {
-                    return err(&loc, "cylinder p0 and p1 coincide");
-                }
-                let radius = f32_of(r * s, &loc, "cylinder radius")?;
+                let (w0, w1, radius) = cylinder_placement(&m, p0, p1, r, &loc)?;
+                let radius = f32_of(radius, &loc, "cylinder radius")?;
                 let (begin, end) = (
                     vec3_of(w0, &loc, "cylinder p0")?,
                     vec3_of(w1, &loc, "cylinder p1")?,
@@ -661,7 +744,15 @@ impl<'a> Builder<'a> {
                         );
                     }
                     p.finish()?;
-                    let k = radiance * (r * s);
+                    if radiance.min_element() < 0.0 {
+                        self.warnings.push(format!(
+                            "{}: the emitter's radiance ({}, {}, {}) has a negative component: \
+                             the image will have negative pixels (Mitsuba renders them too, \
+                             warning \"Invalid sample value\")",
+                            em.loc, radiance.x, radiance.y, radiance.z
+                        ));
+                    }
+                    let k = radiance * radius as f64;
                     return Ok(Built::Light(LinearLight {
                         begin,
                         end,
@@ -740,6 +831,53 @@ impl<'a> Builder<'a> {
 enum Built {
     Shape(Shape),
     Light(LinearLight),
+}
+
+/// World placement of a cylinder, as Mitsuba builds it (cylinder.cpp): the full transform is
+/// to_world · translate(p0) · frame(p1 − p0) · scale(r, r, |p1 − p0|); the axis runs from its
+/// image of the origin to its image of +z, and the radius is the length of its image of +x.
+/// Accepted when that image of the unit circle is a circle perpendicular to the axis, which
+/// includes the idiom `scale(r, r, L) · rotate · translate` with the default p0, p1, radius.
+/// Mitsuba only warns about shear or unequal x/y scales (the tube is then not round and the
+/// linear-light limit K = radiance × radius is not defined) and flips the normals of a mirroring
+/// transform (an emitter would face inward): both are refused here.
+fn cylinder_placement(
+    to_world: &DMat4,
+    p0: DVec3,
+    p1: DVec3,
+    r: f64,
+    loc: &SourceLocation,
+) -> Result<(DVec3, DVec3, f64), SceneError> {
+    let d = p1 - p0;
+    let length = d.length();
+    if !(length > 0.0) {
+        return err(loc, "cylinder p0 and p1 coincide");
+    }
+    let n = d / length;
+    let (s, t) = n.any_orthonormal_pair();
+    let m = DMat3::from_mat4(*to_world);
+    let (a, b, c) = (m * (r * s), m * (r * t), m * (length * n));
+    let radius = a.length();
+    let scale = radius.max(c.length());
+    let tol = 1e-6 * scale * scale;
+    let round = (a.length_squared() - b.length_squared()).abs() <= tol && a.dot(b).abs() <= tol;
+    let perpendicular = a.dot(c).abs() <= tol && b.dot(c).abs() <= tol;
+    if !(radius > 0.0 && radius.is_finite() && round && perpendicular) {
+        return err(
+            loc,
+            "cylinder to_world must keep the cross-section a circle perpendicular to the axis \
+             (no shear, equal scales across the axis; the radius would not be defined)",
+        );
+    }
+    if a.cross(b).dot(c) < 0.0 {
+        return err(loc, "cylinder to_world must not mirror");
+    }
+    let w0 = to_world.transform_point3(p0);
+    let w1 = to_world.transform_point3(p1);
+    if (w1 - w0).length() == 0.0 {
+        return err(loc, "cylinder p0 and p1 coincide");
+    }
+    Ok((w0, w1, radius))
 }
 
 /// Diagonal field of view of a 36 × 24 mm film behind a lens of focal length `mm`.

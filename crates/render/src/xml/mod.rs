@@ -11,7 +11,16 @@
 //!
 //! `integrator direct` accepts `emitter_samples`, `bsdf_samples` and `shading_samples` so that
 //! the same file renders in Mitsuba, but they do not reach the IR: the Rust renderer samples the
-//! linear lights only (these options change Mitsuba's variance, not its expectation).
+//! linear lights only (these options change Mitsuba's variance, not its expectation). What
+//! Mitsuba refuses is refused here too (no sample at all, `shading_samples` with either).
+//! `hide_emitters` (default false, as in Mitsuba) reaches the IR: the renderer then draws the
+//! lines the camera sees (`crate::visible_line`).
+//!
+//! `-D` overrides follow Mitsuba 3.9's parser: one that is never substituted is an error
+//! ("found unused parameters"), see `tree`. Cylinders are placed as Mitsuba places them
+//! (`to_world · translate(p0) · frame · scale(r, r, L)`), so the idiom `scale(r, r, L) · rotate ·
+//! translate` works; shears and unequal scales across the axis are refused (Mitsuba only warns,
+//! and the radius would not be defined).
 //!
 //! Relative file names (`include`, `obj`/`ply` `filename`) resolve against the directory of the
 //! top scene file, as Mitsuba's file resolver does (it would try the working directory first;
@@ -31,6 +40,7 @@ mod tests;
 
 use crate::scene::{Scene, SourceLocation};
 use std::path::Path;
+pub use transform::look_at;
 
 /// A loading failure; displays as `file:line:col: message` when the place is known.
 #[derive(Clone, Debug, PartialEq)]
@@ -79,14 +89,19 @@ pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, 
     let top_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut tb = tree::TreeBuilder::new(top_dir, overrides);
     let root = tb.parse_top(path, &text)?;
-    let mut warnings: Vec<String> = tb
-        .unused_overrides()
-        .into_iter()
-        .map(|k| format!("parameter override '{k}' is not used by the scene"))
-        .collect();
+    let unused = tb.unused_overrides();
+    if !unused.is_empty() {
+        let list: Vec<String> = unused.iter().map(|kv| format!("${kv}")).collect();
+        return Err(SceneError {
+            location: Some(tree::file_location(path)),
+            message: format!(
+                "found unused parameters: {} (Mitsuba refuses them too: a -D must name a \
+                 parameter the scene substitutes as $name, once)",
+                list.join(", ")
+            ),
+        });
+    }
     let mut scene = build::Builder::new(&tb).scene(&root)?;
-    warnings.append(&mut scene.warnings);
-    scene.warnings = warnings;
     scene.sha256 = sha256;
     Ok(scene)
 }

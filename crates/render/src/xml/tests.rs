@@ -243,8 +243,33 @@ fn substitution_defaults_and_overrides() {
     assert_eq!(s.sensor.sample_count, 64);
     assert_eq!((s.sensor.film.width, s.sensor.film.height), (22, 2));
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
-    let s = load_in("subst3", xml, &[("nothing", "1")]).unwrap();
-    assert!(s.warnings.iter().any(|w| w.contains("'nothing'")));
+    // Mitsuba 3.9: "Found unused parameters" for a name never substituted, for the second of
+    // two overrides of one name, and for an override whose only use is a <default>.
+    for (case, overrides, unused) in [
+        ("subst3", &[("nothing", "1")][..], "$nothing=1"),
+        ("subst3b", &[("s", "3"), ("s", "2")][..], "$s=2"),
+        ("subst3c", &[("w", "5")][..], "$w=5"),
+    ] {
+        let e = load_in(case, &xml.replace("$w\"/>", "7\"/>"), overrides)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("found unused parameters: ") && e.contains(unused),
+            "{case}: {e}"
+        );
+    }
+    // The first of two overrides wins (it is the one substituted).
+    let e = load_in("subst3d", xml, &[("s", "3"), ("s", "2")]).unwrap_err();
+    assert!(e.to_string().contains("$s=2"), "{e}");
+    // An escaped dollar is a literal '$', not a parameter.
+    let e = load_in(
+        "subst5",
+        &wrap(r#"<shape type="obj"><string name="filename" value="a\$b.obj"/></shape>"#),
+        &[],
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("a$b.obj"), "{e}");
     let e = load_in(
         "subst4",
         &wrap(r#"<shape type="sphere"><float name="radius" value="$r"/></shape>"#),
@@ -641,10 +666,33 @@ fn errors_name_file_line_column_and_element() {
     expect_error(
         "e_nonuniform_light",
         &scene(
-            r#"<shape type="cylinder"><transform name="to_world"><scale z="2"/></transform><emitter type="area"/></shape>"#,
+            r#"<shape type="cylinder"><transform name="to_world"><scale x="2"/></transform><emitter type="area"/></shape>"#,
         ),
         "4:1",
-        "cylinder to_world must not scale non-uniformly",
+        "cylinder to_world must keep the cross-section a circle perpendicular to the axis",
+    );
+    expect_error(
+        "e_sheared_light",
+        &scene(
+            r#"<shape type="cylinder"><transform name="to_world"><matrix value="1 0 0.5 0 0 1 0 0 0 0 1 0 0 0 0 1"/></transform><emitter type="area"/></shape>"#,
+        ),
+        "4:1",
+        "cylinder to_world must keep the cross-section a circle perpendicular to the axis",
+    );
+    expect_error(
+        "e_empty_obj",
+        &scene(r#"<shape type="obj"><string name="filename" value="/dev/null"/></shape>"#),
+        "4:1",
+        "contains no faces",
+    );
+    expect_error(
+        "e_no_samples",
+        &scene("").replace(
+            r#"<integrator type="direct"/>"#,
+            r#"<integrator type="direct"><integer name="emitter_samples" value="0"/><integer name="bsdf_samples" value="0"/></integrator>"#,
+        ),
+        "2:1",
+        "at least 1 BSDF or emitter sample",
     );
     expect_error(
         "e_rotate_axis",
@@ -945,4 +993,104 @@ fn mutated_scenes_never_panic() {
     }
     // Sanity: the mutations do hit things the loader rejects.
     assert!(failures > 50, "{failures}");
+}
+
+#[test]
+fn nesting_depth_is_limited() {
+    let depth = 10_000;
+    let xml = format!(
+        "<scene version=\"3.0.0\">{}{}</scene>",
+        "<transform name=\"t\">".repeat(depth),
+        "</transform>".repeat(depth)
+    );
+    let e = load_err("deep", &xml);
+    assert!(e.contains("nested more than 64 deep"), "{e}");
+}
+
+#[test]
+fn cylinder_idiom_scale_rotate_translate() {
+    // Mitsuba's default cylinder (p0 = 0, p1 = +z, radius 1) placed by scale(r, r, L), a
+    // rotation and a translation: the axis from t to t + L·R·z, the radius r.
+    let s = load(
+        "idiom",
+        r#"<shape type="cylinder">
+  <transform name="to_world">
+    <scale x="0.001" y="0.001" z="2"/>
+    <rotate x="1" angle="90"/>
+    <translate x="0.5" y="1" z="3"/>
+  </transform>
+  <emitter type="area"><rgb name="radiance" value="1000, 500, 250"/></emitter>
+</shape>"#,
+    );
+    let l = &s.lights[0];
+    assert!(close(l.begin, Vec3::new(0.5, 1.0, 3.0)), "{:?}", l.begin);
+    assert!(close(l.end, Vec3::new(0.5, -1.0, 3.0)), "{:?}", l.end);
+    assert!((l.radius - 0.001).abs() < 1e-9);
+    let k = l.radiance_times_radius;
+    assert!(
+        (k[0] - 1.0).abs() < 1e-5 && (k[2] - 0.25).abs() < 1e-5,
+        "{k:?}"
+    );
+    // The same with p0/p1/radius combined with a uniform scale.
+    let s = load(
+        "idiom2",
+        r#"<shape type="cylinder">
+  <point name="p0" value="0, 0, 1"/><point name="p1" value="1, 0, 1"/><float name="radius" value="0.01"/>
+  <transform name="to_world"><scale value="2"/></transform>
+  <emitter type="area"/>
+</shape>"#,
+    );
+    let l = &s.lights[0];
+    assert!(close(l.begin, Vec3::new(0.0, 0.0, 2.0)) && close(l.end, Vec3::new(2.0, 0.0, 2.0)));
+    assert!((l.radius - 0.02).abs() < 1e-8);
+}
+
+#[test]
+fn negative_radiance_warns() {
+    let s = load(
+        "negative",
+        r#"<shape type="cylinder"><float name="radius" value="0.001"/><emitter type="area"><rgb name="radiance" value="-1, 2, 3"/></emitter></shape>"#,
+    );
+    assert!(
+        s.warnings.iter().any(|w| w.contains("negative component")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+#[test]
+fn film_output_options_follow_mitsuba() {
+    let film = |opt: &str| {
+        format!(
+            "<scene version=\"3.0.0\">\n<integrator type=\"direct\"/>\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/><film type=\"hdrfilm\">{opt}<rfilter type=\"box\"/></film></sensor>\n</scene>\n"
+        )
+    };
+    for ok in [
+        r#"<string name="pixel_format" value="RGB"/>"#,
+        r#"<string name="component_format" value="float16"/>"#,
+        r#"<string name="file_format" value="openexr"/>"#,
+    ] {
+        load_in("film_ok", &film(ok), &[]).unwrap_or_else(|e| panic!("{ok}: {e}"));
+    }
+    for (bad, want) in [
+        (
+            r#"<string name="pixel_format" value="rgba"/>"#,
+            "pixel_format 'rgba' is not supported",
+        ),
+        (
+            r#"<string name="pixel_format" value="cmyk"/>"#,
+            "must either be equal to",
+        ),
+        (
+            r#"<string name="component_format" value="float64"/>"#,
+            "must either be equal to",
+        ),
+        (
+            r#"<string name="file_format" value="pfm"/>"#,
+            "file_format 'pfm' is not supported",
+        ),
+    ] {
+        let e = load_err("film_bad", &film(bad));
+        assert!(e.contains(want), "{bad}: {e}");
+    }
 }

@@ -2,13 +2,18 @@
 //! `<include>`s spliced in, every element remembering its file:line:column. Objects with an
 //! `id` are registered for `<ref>`.
 //!
-//! Substitution follows Mitsuba: parameters are the caller's overrides followed by the
-//! `<default>`s met so far in document order (a default never replaces an override); in each
-//! attribute value `$name` is replaced, longest names first; any `$` left over is an error.
+//! Substitution follows Mitsuba 3.9 (`parser.cpp`): parameters are the caller's overrides followed
+//! by the `<default>`s met so far in document order (a default never replaces an override); in
+//! each attribute value `$name` is replaced, longest names first, except where written `\$`
+//! (an escaped dollar, which becomes a plain `$`); any other `$` left over is an error. An
+//! override counts as used only when it is substituted somewhere: a `<default>` of the same name
+//! alone does not use it, and of two overrides of the same name only the first is ever
+//! substituted — Mitsuba fails with "Found unused parameters" in both cases, and so do we
+//! ([`TreeBuilder::unused_overrides`]).
 
 use super::{err, SceneError};
 use crate::scene::SourceLocation;
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
@@ -82,13 +87,24 @@ const TRANSFORM_OPS: &[&str] = &["translate", "rotate", "scale", "matrix", "look
 /// Nested `<include>` depth beyond which we assume a cycle.
 const MAX_INCLUDE_DEPTH: usize = 16;
 
+/// Element nesting depth beyond which a file is refused (Mitsuba scenes nest about 6 deep; XML
+/// parsing and the conversion here recurse once per level and must stay far from the stack size).
+pub const MAX_NESTING_DEPTH: usize = 64;
+
+/// A `$name` parameter: an override (`-D`) or a `<default>`.
+struct Param {
+    name: String,
+    value: String,
+    /// Substituted at least once (defaults are created used, as in Mitsuba).
+    used: bool,
+    is_override: bool,
+}
+
 pub struct TreeBuilder {
     /// Directory of the top scene file: relative `include`/`filename` paths resolve against it
     /// (Mitsuba's file resolver holds the top file's directory, not the including file's).
     pub top_dir: PathBuf,
-    params: Vec<(String, String)>,
-    overrides: Vec<String>,
-    used_params: HashSet<String>,
+    params: Vec<Param>,
     pub ids: HashMap<String, Rc<Elem>>,
     depth: usize,
 }
@@ -114,20 +130,27 @@ impl TreeBuilder {
     pub fn new(top_dir: PathBuf, overrides: &[(String, String)]) -> TreeBuilder {
         TreeBuilder {
             top_dir,
-            params: overrides.to_vec(),
-            overrides: overrides.iter().map(|(k, _)| k.clone()).collect(),
-            used_params: HashSet::new(),
+            params: overrides
+                .iter()
+                .map(|(name, value)| Param {
+                    name: name.clone(),
+                    value: value.clone(),
+                    used: false,
+                    is_override: true,
+                })
+                .collect(),
             ids: HashMap::new(),
             depth: 0,
         }
     }
 
-    /// Overrides that neither matched a `<default>` nor were substituted anywhere.
+    /// Overrides never substituted (`name=value`, in the order given): Mitsuba refuses the scene
+    /// ("Found unused parameters"). A repeated name leaves all but the first unused.
     pub fn unused_overrides(&self) -> Vec<String> {
-        self.overrides
+        self.params
             .iter()
-            .filter(|k| !self.used_params.contains(*k))
-            .cloned()
+            .filter(|p| p.is_override && !p.used)
+            .map(|p| format!("{}={}", p.name, p.value))
             .collect()
     }
 
@@ -164,24 +187,34 @@ impl TreeBuilder {
         if !value.contains('$') {
             return Ok(value.to_string());
         }
+        // Stable sort: of two parameters with the same name the first is substituted.
         let mut order: Vec<usize> = (0..self.params.len()).collect();
-        order.sort_by_key(|&i| std::cmp::Reverse(self.params[i].0.len()));
+        order.sort_by_key(|&i| std::cmp::Reverse(self.params[i].name.len()));
         let mut v = value.to_string();
         for i in order {
-            let (name, repl) = &self.params[i];
-            let pat = format!("${name}");
-            if v.contains(&pat) {
-                v = v.replace(&pat, repl);
-                self.used_params.insert(name.clone());
+            let pat = format!("${}", self.params[i].name);
+            let mut pos = 0;
+            while let Some(k) = v[pos..].find(&pat).map(|k| k + pos) {
+                if k > 0 && v.as_bytes()[k - 1] == b'\\' {
+                    pos = k + pat.len();
+                } else {
+                    let repl = &self.params[i].value;
+                    v.replace_range(k..k + pat.len(), repl);
+                    pos = k + repl.len();
+                    self.params[i].used = true;
+                }
             }
         }
-        if v.contains('$') {
+        let unescaped = v
+            .match_indices('$')
+            .any(|(k, _)| k == 0 || v.as_bytes()[k - 1] != b'\\');
+        if unescaped {
             return err(
                 loc,
                 format!("undefined parameter(s) in \"{value}\" (declare them with <default>)"),
             );
         }
-        Ok(v)
+        Ok(v.replace("\\$", "$"))
     }
 
     /// Converts one XML node, pushing zero (comment, default), one, or several (include)
@@ -229,10 +262,14 @@ impl TreeBuilder {
                 if name.is_empty() {
                     return err(&elem.loc, "<default> name must be non-empty");
                 }
-                if self.params.iter().any(|(k, _)| k == name) {
-                    self.used_params.insert(name.to_string());
-                } else {
-                    self.params.push((name.to_string(), value.to_string()));
+                // An override of the same name wins, and is *not* thereby used (Mitsuba).
+                if !self.params.iter().any(|p| p.name == name) {
+                    self.params.push(Param {
+                        name: name.to_string(),
+                        value: value.to_string(),
+                        used: true,
+                        is_override: false,
+                    });
                 }
                 return Ok(());
             }
@@ -319,7 +356,73 @@ fn check_version(v: &str, loc: &SourceLocation) -> Result<(), SceneError> {
     }
 }
 
+/// Byte offset of the first element start tag nested deeper than `limit`, by a linear scan that
+/// skips comments, CDATA, processing instructions, declarations and quoted attribute values.
+/// Run before roxmltree, whose tokenizer recurses once per level (a deep file would overflow the
+/// stack). Malformed text is left for roxmltree to report.
+fn too_deep(text: &str, limit: usize) -> Option<usize> {
+    let b = text.as_bytes();
+    let skip_to = |from: usize, end: &str| text[from..].find(end).map(|k| from + k + end.len());
+    let mut depth = 0usize;
+    let mut i = 0;
+    while let Some(k) = text[i..].find('<') {
+        let start = i + k;
+        let rest = &text[start..];
+        let next = if rest.starts_with("<!--") {
+            skip_to(start, "-->")
+        } else if rest.starts_with("<![CDATA[") {
+            skip_to(start, "]]>")
+        } else if rest.starts_with("<?") {
+            skip_to(start, "?>")
+        } else if rest.starts_with("<!") {
+            skip_to(start, ">")
+        } else {
+            // A tag: find its '>' outside quotes.
+            let mut j = start + 1;
+            let mut quote = None;
+            while j < b.len() {
+                match (quote, b[j]) {
+                    (None, b'"' | b'\'') => quote = Some(b[j]),
+                    (Some(q), c) if c == q => quote = None,
+                    (None, b'>') => break,
+                    _ => {}
+                }
+                j += 1;
+            }
+            if j >= b.len() {
+                return None;
+            }
+            if rest.starts_with("</") {
+                depth = depth.saturating_sub(1);
+            } else if b[j - 1] != b'/' {
+                depth += 1;
+                if depth > limit {
+                    return Some(start);
+                }
+            }
+            Some(j + 1)
+        };
+        match next {
+            Some(n) => i = n,
+            None => return None,
+        }
+    }
+    None
+}
+
 fn parse_xml<'a>(file: &Path, text: &'a str) -> Result<roxmltree::Document<'a>, SceneError> {
+    if let Some(at) = too_deep(text, MAX_NESTING_DEPTH) {
+        let line = text[..at].matches('\n').count() + 1;
+        let column = at - text[..at].rfind('\n').map_or(0, |n| n + 1) + 1;
+        return err(
+            &SourceLocation {
+                file: file.to_path_buf(),
+                line: line as u32,
+                column: column as u32,
+            },
+            format!("elements nested more than {MAX_NESTING_DEPTH} deep"),
+        );
+    }
     roxmltree::Document::parse(text).map_err(|e| {
         let p = e.pos();
         SceneError {
@@ -331,4 +434,19 @@ fn parse_xml<'a>(file: &Path, text: &'a str) -> Result<roxmltree::Document<'a>, 
             message: format!("malformed XML: {e}"),
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::too_deep;
+
+    #[test]
+    fn nesting_scan() {
+        assert_eq!(too_deep("<a><b/><c></c></a>", 2), None);
+        assert_eq!(too_deep("<a><b><c/></b></a>", 1), Some(3));
+        // Comments, CDATA, declarations and '>' inside quotes do not count.
+        let t = "<?xml version='1.0'?><!-- <x><y> --><a q=\"<>\" r='>'><![CDATA[<z>]]></a>";
+        assert_eq!(too_deep(t, 1), None);
+        assert_eq!(too_deep(&"<a>".repeat(100_000), 64), Some(64 * 3));
+    }
 }

@@ -1,0 +1,226 @@
+//! What every command checks before doing any work: that its output files can be written (and
+//! do not overwrite an input), that the thread count is sensible, and that a render fits in
+//! memory. "Unusable input is detected before anything is rendered."
+
+use std::path::{Path, PathBuf};
+
+/// Output image formats, chosen from the file extension (as Mitsuba's `Bitmap::write` does).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// OpenEXR: mean and variance of the mean (the project's image format).
+    Exr,
+    /// 8-bit sRGB PNG: a tone-mapped preview of the mean (the variance is not kept).
+    Png,
+}
+
+impl ImageFormat {
+    /// The format of `path` by its extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<Self, String> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("exr") => Ok(ImageFormat::Exr),
+            Some("png") => Ok(ImageFormat::Png),
+            _ => Err(format!(
+                "cannot tell the image format of {} from its extension (supported: .exr for \
+                 mean + variance, .png for a tone-mapped preview)",
+                path.display()
+            )),
+        }
+    }
+}
+
+/// `path` made absolute and free of `.`/`..`/symlinks as far as it exists (the file itself may
+/// not exist yet), so that two spellings of one file compare equal.
+pub fn identity(path: &Path) -> PathBuf {
+    if let Ok(p) = path.canonicalize() {
+        return p;
+    }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let parent = parent.canonicalize().unwrap_or(parent);
+    match path.file_name() {
+        Some(f) => parent.join(f),
+        None => parent,
+    }
+}
+
+/// Refuses `output` if it is the same file as any of `inputs` (name, path).
+pub fn check_not_input(output: &Path, inputs: &[(&str, &Path)]) -> Result<(), String> {
+    let out = identity(output);
+    for (what, input) in inputs {
+        if identity(input) == out {
+            return Err(format!(
+                "output {} is the {what} ({}); refusing to overwrite it",
+                output.display(),
+                input.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Checks that `path` can be written as a file, without leaving anything behind: it is not a
+/// directory, its directory exists, and opening it for writing succeeds (a file created by the
+/// probe is removed again; an existing file is not truncated).
+pub fn check_writable(path: &Path) -> Result<(), String> {
+    if path.as_os_str().is_empty() {
+        return Err("empty output path".into());
+    }
+    if path.is_dir() {
+        return Err(format!(
+            "cannot write {}: it is a directory",
+            path.display()
+        ));
+    }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        return Err(format!(
+            "cannot write {}: directory {} does not exist",
+            path.display(),
+            parent.display()
+        ));
+    }
+    let existed = path.exists();
+    std::fs::OpenOptions::new()
+        .append(true)
+        .create(true)
+        .open(path)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    if !existed {
+        let _ = std::fs::remove_file(path);
+    }
+    Ok(())
+}
+
+/// Checks that the directory `dir` exists or can be created (it is created).
+pub fn check_dir_writable(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("cannot create directory {}: {e}", dir.display()))?;
+    let probe = dir.join(format!(".linlight-write-probe-{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .map_err(|e| format!("cannot write into directory {}: {e}", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// Cores of this machine (1 if unknown).
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// Most worker threads a command accepts: 4 per core, at least 64. More only add overhead (and
+/// thousands of threads exhaust the process limits instead of rendering).
+pub fn max_threads() -> usize {
+    (4 * cores()).max(64)
+}
+
+/// A rayon pool of `threads` workers (default: one per core), refusing 0 and more than
+/// [`max_threads`].
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, String> {
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        if t == 0 {
+            return Err("--threads must be at least 1".into());
+        }
+        let max = max_threads();
+        if t > max {
+            return Err(format!(
+                "--threads {t} is more than {max} (4 per core on this machine's {} cores, at \
+                 least 64); more threads than cores only add overhead",
+                cores()
+            ));
+        }
+        pool = pool.num_threads(t);
+    }
+    pool.build()
+        .map_err(|e| format!("cannot start worker threads: {e}"))
+}
+
+/// Bytes a render needs per pixel of its window: the per-tile results (mean and variance, f32
+/// RGB: 24 B), the image (24 B), the EXR writer's channel copies (24 B) and its compression
+/// buffers (≤ 24 B).
+pub const RENDER_BYTES_PER_PIXEL: u64 = 96;
+
+/// Memory a render of a `width` × `height` window over `primitives` primitives needs, roughly
+/// (pixels × [`RENDER_BYTES_PER_PIXEL`] + 128 B per primitive for the BVH + 64 MiB of program).
+pub fn render_memory(width: u64, height: u64, primitives: u64) -> u64 {
+    width
+        .saturating_mul(height)
+        .saturating_mul(RENDER_BYTES_PER_PIXEL)
+        .saturating_add(primitives.saturating_mul(128))
+        .saturating_add(64 << 20)
+}
+
+/// Physical memory of this machine in bytes (Linux `/proc/meminfo`), if known.
+pub fn physical_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// The default memory limit of a render: 80 % of the physical memory, 8 GiB if unknown.
+pub fn default_memory_limit() -> u64 {
+    physical_memory().map_or(8 << 30, |m| m / 10 * 8)
+}
+
+pub fn gib(bytes: u64) -> String {
+    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_from_extensions() {
+        assert_eq!(
+            ImageFormat::from_path(Path::new("a/b.EXR")),
+            Ok(ImageFormat::Exr)
+        );
+        assert_eq!(
+            ImageFormat::from_path(Path::new("b.png")),
+            Ok(ImageFormat::Png)
+        );
+        assert!(ImageFormat::from_path(Path::new("b.jpg")).is_err());
+        assert!(ImageFormat::from_path(Path::new("b")).is_err());
+    }
+
+    #[test]
+    fn collisions_and_probes() {
+        let dir = std::env::temp_dir().join(format!("linlight-outputs-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let scene = dir.join("scene.xml");
+        std::fs::write(&scene, "x").unwrap();
+        let other = dir.join("sub/../scene.xml");
+        assert!(check_not_input(&other, &[("scene file", &scene)]).is_err());
+        assert!(check_not_input(&dir.join("out.exr"), &[("scene file", &scene)]).is_ok());
+        // The probe neither truncates an existing file nor leaves a new one behind.
+        check_writable(&scene).unwrap();
+        assert_eq!(std::fs::read_to_string(&scene).unwrap(), "x");
+        let fresh = dir.join("fresh.exr");
+        check_writable(&fresh).unwrap();
+        assert!(!fresh.exists());
+        assert!(check_writable(&dir.join("missing/x.exr"))
+            .unwrap_err()
+            .contains("does not exist"));
+        assert!(check_writable(&dir).unwrap_err().contains("directory"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn memory_estimate() {
+        let m = render_memory(100_000, 100_000, 12);
+        assert!(m > 800 << 30, "{}", gib(m));
+        assert!(render_memory(64, 64, 1000) < 128 << 20);
+        assert!(thread_pool(Some(0)).is_err());
+        assert!(thread_pool(Some(1_000_000)).is_err());
+    }
+}

@@ -1,0 +1,504 @@
+//! The table of unusable inputs (issue 9): each row is a command line, the exit code it must
+//! give, and a piece of its one-line message. Every row is also checked to have written no
+//! output: unusable input is detected before anything is rendered.
+
+mod common;
+
+use common::{linlight, scratch, write, FLOOR_SCENE};
+use linlight_imagefile::Image;
+use std::path::Path;
+
+/// One bad input: command line (`{dir}` stands for the scratch directory), exit code, message
+/// fragment.
+struct Case {
+    what: &'static str,
+    args: Vec<String>,
+    code: i32,
+    message: &'static str,
+}
+
+fn case(what: &'static str, args: &[&str], code: i32, message: &'static str) -> Case {
+    Case {
+        what,
+        args: args.iter().map(|s| s.to_string()).collect(),
+        code,
+        message,
+    }
+}
+
+/// The floor scene with one substitution.
+fn variant(dir: &Path, name: &str, from: &str, to: &str) {
+    assert!(FLOOR_SCENE.contains(from), "{from}");
+    write(dir, name, FLOOR_SCENE.replacen(from, to, 1));
+}
+
+fn setup(dir: &Path) {
+    write(dir, "good.xml", FLOOR_SCENE);
+    write(dir, "truncated.xml", &FLOOR_SCENE[..400]);
+    variant(dir, "zero.xml", r#"value="16""#, r#"value="0""#);
+    variant(dir, "torus.xml", r#"type="sphere""#, r#"type="torus""#);
+    variant(
+        dir,
+        "no_samples.xml",
+        r#"<integer name="emitter_samples" value="1"/>"#,
+        r#"<integer name="emitter_samples" value="0"/>"#,
+    );
+    variant(
+        dir,
+        "shading.xml",
+        r#"<integer name="bsdf_samples" value="0"/>"#,
+        r#"<integer name="shading_samples" value="2"/>"#,
+    );
+    write(dir, "empty.obj", "# no faces\nv 0 0 0\n");
+    variant(
+        dir,
+        "empty_obj.xml",
+        r#"<shape type="sphere">"#,
+        r#"<shape type="obj"><string name="filename" value="empty.obj"/></shape><shape type="sphere">"#,
+    );
+    variant(
+        dir,
+        "rgba.xml",
+        r#"<string name="component_format" value="float32"/>"#,
+        r#"<string name="pixel_format" value="rgba"/>"#,
+    );
+    variant(
+        dir,
+        "elliptic.xml",
+        r#"<float name="radius" value="0.0001"/>"#,
+        r#"<float name="radius" value="0.0001"/><transform name="to_world"><scale x="2"/></transform>"#,
+    );
+    variant(dir, "huge.xml", r#"value="16""#, r#"value="100000""#);
+    write(
+        dir,
+        "deep.xml",
+        format!(
+            "<scene version=\"3.0.0\">{}{}</scene>",
+            "<shape type=\"cube\">".repeat(10_000),
+            "</shape>".repeat(10_000)
+        ),
+    );
+    std::fs::create_dir_all(dir.join("a_directory.exr")).unwrap();
+    // A 4×4 image for --match-variance with the wrong size, and images for info and merge.
+    let mut small = Image::new(4, 4);
+    small.meta.dof = 3.0;
+    small.meta.spp = 4;
+    small.meta.passes = 4;
+    small.write(&dir.join("small.exr")).unwrap();
+    let mut ok = Image::new(24, 16);
+    ok.meta.dof = 3.0;
+    ok.meta.spp = 16;
+    ok.meta.passes = 4;
+    ok.meta.extra.insert("seed".into(), "1".into());
+    ok.write(&dir.join("a.exr")).unwrap();
+    ok.mean[0] = [1.0; 3];
+    ok.write(&dir.join("same_seed.exr")).unwrap();
+}
+
+fn cases() -> Vec<Case> {
+    vec![
+        // render: the scene and its parameters
+        case(
+            "no scene file",
+            &["render", "{dir}/missing.xml"],
+            2,
+            "cannot read scene file",
+        ),
+        case(
+            "unknown technique",
+            &["render", "{dir}/good.xml", "--technique", "nope"],
+            2,
+            "unknown technique 'nope'",
+        ),
+        case(
+            "-D without =",
+            &["render", "{dir}/good.xml", "-D", "novalue"],
+            2,
+            "-D expects NAME=VALUE",
+        ),
+        case(
+            "-D for an undeclared name",
+            &["render", "{dir}/good.xml", "-D", "nope=1"],
+            2,
+            "found unused parameters: $nope=1",
+        ),
+        case(
+            "repeated -D",
+            &["render", "{dir}/good.xml", "-D", "res=16", "-D", "res=8"],
+            2,
+            "found unused parameters: $res=8",
+        ),
+        case(
+            "--spp 0",
+            &["render", "{dir}/good.xml", "--spp", "0"],
+            2,
+            "must be at least 1",
+        ),
+        case(
+            "--passes 0",
+            &["render", "{dir}/good.xml", "--passes", "0"],
+            2,
+            "must be at least 1",
+        ),
+        case(
+            "truncated XML",
+            &["render", "{dir}/truncated.xml"],
+            2,
+            "malformed XML",
+        ),
+        case("empty film", &["render", "{dir}/zero.xml"], 2, "is empty"),
+        case(
+            "unsupported shape",
+            &["render", "{dir}/torus.xml"],
+            2,
+            "unsupported shape type 'torus'",
+        ),
+        case(
+            "no emitter and no BSDF samples",
+            &["render", "{dir}/no_samples.xml"],
+            2,
+            "at least 1 BSDF or emitter sample",
+        ),
+        case(
+            "shading_samples with emitter_samples",
+            &["render", "{dir}/shading.xml"],
+            2,
+            "cannot specify both 'shading_samples'",
+        ),
+        case(
+            "empty OBJ",
+            &["render", "{dir}/empty_obj.xml"],
+            2,
+            "contains no faces",
+        ),
+        case(
+            "pixel_format rgba",
+            &["render", "{dir}/rgba.xml"],
+            2,
+            "pixel_format 'rgba' is not supported",
+        ),
+        case(
+            "elliptic cylinder",
+            &["render", "{dir}/elliptic.xml"],
+            2,
+            "cross-section a circle",
+        ),
+        case(
+            "10000-deep XML",
+            &["render", "{dir}/deep.xml"],
+            2,
+            "nested more than 64 deep",
+        ),
+        // render: outputs and resources
+        case(
+            "--out is the scene",
+            &["render", "{dir}/good.xml", "-o", "{dir}/good.xml"],
+            2,
+            "is the scene file",
+        ),
+        case(
+            "--out is the scene, other spelling",
+            &["render", "{dir}/good.xml", "-o", "{dir}/./good.xml"],
+            2,
+            "is the scene file",
+        ),
+        case(
+            "--preview is --out",
+            &[
+                "render",
+                "{dir}/good.xml",
+                "-o",
+                "{dir}/x.png",
+                "--preview",
+                "{dir}/x.png",
+            ],
+            2,
+            "is the --out image",
+        ),
+        case(
+            "--preview not PNG",
+            &[
+                "render",
+                "{dir}/good.xml",
+                "-o",
+                "{dir}/x.exr",
+                "--preview",
+                "{dir}/x.exr",
+            ],
+            2,
+            "must be a .png file",
+        ),
+        case(
+            "--out of unknown format",
+            &["render", "{dir}/good.xml", "-o", "{dir}/x.jpg"],
+            2,
+            "cannot tell the image format",
+        ),
+        case(
+            "--out in a missing directory",
+            &["render", "{dir}/good.xml", "-o", "{dir}/missing/x.exr"],
+            2,
+            "does not exist",
+        ),
+        case(
+            "--out is a directory",
+            &["render", "{dir}/good.xml", "-o", "{dir}/a_directory.exr"],
+            2,
+            "it is a directory",
+        ),
+        case(
+            "100000² film",
+            &[
+                "render",
+                "{dir}/huge.xml",
+                "-D",
+                "res=100000",
+                "-o",
+                "{dir}/x.exr",
+            ],
+            2,
+            "more than the limit of",
+        ),
+        case(
+            "--max-memory too small",
+            &[
+                "render",
+                "{dir}/good.xml",
+                "-o",
+                "{dir}/x.exr",
+                "--max-memory",
+                "0.01",
+            ],
+            2,
+            "more than the limit of",
+        ),
+        case(
+            "--threads 10000",
+            &[
+                "render",
+                "{dir}/good.xml",
+                "-o",
+                "{dir}/x.exr",
+                "--threads",
+                "10000",
+            ],
+            2,
+            "--threads 10000 is more than",
+        ),
+        case(
+            "--threads 0",
+            &["render", "{dir}/good.xml", "-o", "{dir}/x.exr", "-t", "0"],
+            2,
+            "--threads must be at least 1",
+        ),
+        case(
+            "--match-variance of another size",
+            &[
+                "render",
+                "{dir}/good.xml",
+                "-o",
+                "{dir}/x.exr",
+                "--match-variance",
+                "{dir}/small.exr",
+            ],
+            2,
+            "is 4×4 but the scene renders 24×16",
+        ),
+        case(
+            "--match-variance unreadable",
+            &[
+                "render",
+                "{dir}/good.xml",
+                "-o",
+                "{dir}/x.exr",
+                "--match-variance",
+                "{dir}/missing.exr",
+            ],
+            2,
+            "--match-variance: cannot read",
+        ),
+        case(
+            "--time 0",
+            &[
+                "render",
+                "{dir}/good.xml",
+                "-o",
+                "{dir}/x.exr",
+                "--time",
+                "0",
+            ],
+            2,
+            "--time must be a positive number",
+        ),
+        case(
+            "--exposure NaN",
+            &[
+                "render",
+                "{dir}/good.xml",
+                "-o",
+                "{dir}/x.exr",
+                "--exposure",
+                "NaN",
+            ],
+            2,
+            "--exposure NaN",
+        ),
+        // certify: outputs checked before the sampler suite or any render
+        case(
+            "certify --json in a missing directory",
+            &[
+                "certify",
+                "--json",
+                "{dir}/missing/r.json",
+                "--report-dir",
+                "{dir}/report",
+            ],
+            2,
+            "does not exist",
+        ),
+        case(
+            "certify --report-dir under a file",
+            &["certify", "--report-dir", "{dir}/good.xml/report"],
+            2,
+            "cannot create directory",
+        ),
+        case(
+            "certify --threads 10000",
+            &[
+                "certify",
+                "--threads",
+                "10000",
+                "--report-dir",
+                "{dir}/report",
+            ],
+            2,
+            "--threads 10000 is more than",
+        ),
+        // info
+        case(
+            "info of a missing file",
+            &["info", "{dir}/missing.exr"],
+            2,
+            "cannot read",
+        ),
+        case(
+            "info of a scene file",
+            &["info", "{dir}/good.xml"],
+            2,
+            "not a readable OpenEXR file",
+        ),
+        // merge
+        case(
+            "merge of different sizes",
+            &[
+                "merge",
+                "{dir}/a.exr",
+                "{dir}/small.exr",
+                "-o",
+                "{dir}/m.exr",
+            ],
+            2,
+            "is 24×16 but",
+        ),
+        case(
+            "merge of dependent images",
+            &[
+                "merge",
+                "{dir}/a.exr",
+                "{dir}/same_seed.exr",
+                "-o",
+                "{dir}/m.exr",
+            ],
+            2,
+            "the same seed",
+        ),
+        case(
+            "merge over an input",
+            &[
+                "merge",
+                "{dir}/a.exr",
+                "{dir}/small.exr",
+                "-o",
+                "{dir}/a.exr",
+            ],
+            2,
+            "is the input",
+        ),
+        case(
+            "merge to PNG",
+            &[
+                "merge",
+                "{dir}/a.exr",
+                "{dir}/small.exr",
+                "-o",
+                "{dir}/m.png",
+            ],
+            2,
+            "must be an .exr file",
+        ),
+        case(
+            "merge of one image",
+            &["merge", "{dir}/a.exr", "-o", "{dir}/m.exr"],
+            2,
+            "required",
+        ),
+    ]
+}
+
+#[test]
+fn every_bad_input_gives_its_exit_code_and_message_before_any_work() {
+    let dir = scratch("table");
+    setup(&dir);
+    let d = dir.to_str().unwrap();
+    let before: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    let mut failures = Vec::new();
+    for c in cases() {
+        let args: Vec<String> = c.args.iter().map(|a| a.replace("{dir}", d)).collect();
+        let r = linlight(&args);
+        let err = r.stderr.trim();
+        let command = args[0].as_str();
+        let one_line = err.lines().count() == 1 || c.message == "required";
+        let prefixed = err.starts_with(&format!("linlight {command}: ")) || c.message == "required";
+        let doubled = err.matches("cannot write").count() > 1;
+        if r.code != c.code || !err.contains(c.message) || !one_line || !prefixed || doubled {
+            failures.push(format!(
+                "{}: exit {} (want {}), stderr {err:?} (want '{}')",
+                c.what, r.code, c.code, c.message
+            ));
+        }
+    }
+    // Nothing was written (the report directories of certify are created by the check itself).
+    let after: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .filter(|n| n != "report")
+        .collect();
+    assert_eq!(before, after, "a refused command left files behind");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// What Mitsuba accepts and the loader must too: the cylinder idiom scale(r, r, L)·rotate·
+/// translate, and an unused <default>.
+#[test]
+fn accepted_like_mitsuba() {
+    let dir = scratch("accepted");
+    let scene = FLOOR_SCENE.replace(
+        r#"<point name="p0" value="-0.5, -0.3, 0.3"/>
+    <point name="p1" value="0.7, 0.4, 1.2"/>
+    <float name="radius" value="0.0001"/>"#,
+        r#"<transform name="to_world"><scale x="0.0001" y="0.0001" z="1.2"/><rotate y="1" angle="60"/><translate x="-0.5" z="0.3"/></transform>"#,
+    );
+    assert_ne!(scene, FLOOR_SCENE);
+    let path = write(&dir, "idiom.xml", scene);
+    let out = dir.join("idiom.exr");
+    let r = linlight(&["render", &path, "-o", out.to_str().unwrap(), "-q"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let img = Image::read(&out).unwrap();
+    assert!(img.mean.iter().any(|m| m[0] > 0.0));
+    assert_eq!(img.meta.extra["technique"], "projected-solid-angle");
+    std::fs::remove_dir_all(&dir).ok();
+}
