@@ -9,6 +9,7 @@
 //! p(l) = c + l·u, s(l) = l / √(l² + d²). A [`LineFrame`] carries an l-interval; horizon
 //! clipping only shrinks that interval, the frame (u, ĉ, d) stays the same.
 
+use crate::trig::{atan2_f64, sin_cos_f64};
 use glam::Vec3;
 
 /// A segment light in world space.
@@ -54,10 +55,12 @@ const MIN_RELATIVE_DISTANCE: f32 = 1e-7;
 /// Bound on |s_of(direction(s)) − s| for s in a frame's interval (a few ulps at 1).
 pub const S_ROUNDING: f32 = 4.0 * f32::EPSILON;
 
+/// s = l / √(l² + d²) of the line point at parameter l: in f64, where the squares of f32 values
+/// neither overflow nor underflow (no libm `hypotf` call; one rounding to f32).
 #[inline]
 fn s_of_l(l: f32, d: f32) -> f32 {
-    // l / √(l² + d²), robust for large |l| (hypot avoids overflow).
-    (l / l.hypot(d)).clamp(-1.0, 1.0)
+    let (l, d) = (l as f64, d as f64);
+    ((l / (l * l + d * d).sqrt()) as f32).clamp(-1.0, 1.0)
 }
 
 impl LineFrame {
@@ -73,19 +76,25 @@ impl LineFrame {
         let b = segment.begin.as_dvec3() - x.as_dvec3();
         let e = segment.end.as_dvec3() - x.as_dvec3();
         let axis = e - b;
-        let length = axis.length();
-        if !(length > 0.0 && length.is_finite() && b.is_finite() && e.is_finite()) {
+        let length2 = axis.length_squared();
+        // Non-finite b or e makes the axis inf or NaN, so this also rejects non-finite input.
+        if !(length2 > 0.0 && length2 < f64::INFINITY) {
             return None;
         }
-        let u = axis / length;
+        let length = length2.sqrt();
+        let u = axis * (1.0 / length);
         let sigma = u.dot(b);
         let c = b - sigma * u;
-        let d = c.length();
-        let scale = length.max(b.length()).max(e.length());
-        if !(d.is_finite() && d > MIN_RELATIVE_DISTANCE as f64 * scale) {
+        let d2 = c.length_squared();
+        // d > MIN_RELATIVE_DISTANCE · max(ℓ, |b|, |e|), compared in squares (no square roots
+        // for a degeneracy test).
+        let scale2 = length2.max(b.length_squared()).max(e.length_squared());
+        let min_rel = MIN_RELATIVE_DISTANCE as f64;
+        if d2.is_nan() || d2 <= min_rel * min_rel * scale2 {
             return None;
         }
-        let c_hat = (c / d).as_vec3();
+        let d = d2.sqrt();
+        let c_hat = (c * (1.0 / d)).as_vec3();
         let (d, l_begin, l_end) = (d as f32, sigma as f32, (sigma + length) as f32);
         // Rounded to f32, d may underflow to 0 and l overflow to ±inf.
         if !(d > 0.0 && l_begin.is_finite() && l_end.is_finite()) {
@@ -275,16 +284,15 @@ impl FrameArc {
         let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
         let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
         // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
-        let width = ((le - lb) * d).atan2(d * d + lb * le);
-        let (sh, ch) = (0.5 * width).sin_cos();
+        let width = atan2_f64((le - lb) * d, d * d + lb * le);
+        let (sh, ch) = sin_cos_f64(0.5 * width);
         let delta_s = 2.0 * (c_b * ch - s_b * sh) * sh;
         Self {
             s_b,
             c_b,
             width,
             delta_s,
-            // An f32 direction's φ is rounded by ~ε; τ of the interval's own ends by ~ε·Δ.
-            tolerance: 2.5e-7 + 1e-6 * width,
+            tolerance: arc_tolerance(width),
         }
     }
 
@@ -292,11 +300,8 @@ impl FrameArc {
     /// clamped to [0, Δ].
     #[inline]
     pub fn tau_in_support(&self, frame: &LineFrame, dir: Vec3) -> Option<f64> {
-        let w = dir.as_dvec3();
-        let (s, t) = (frame.u.as_dvec3().dot(w), frame.c_hat.as_dvec3().dot(w));
-        let tau = (s * self.c_b - t * self.s_b).atan2(t * self.c_b + s * self.s_b);
-        (t >= 0.0 && tau >= -self.tolerance && tau <= self.width + self.tolerance)
-            .then(|| tau.clamp(0.0, self.width))
+        tau_in_arc(frame, (self.s_b, self.c_b, self.width), self.tolerance, dir)
+            .map(|tau| tau.clamp(0.0, self.width))
     }
 
     /// Whether a direction toward the line points into the arc (up to rounding).
@@ -308,7 +313,7 @@ impl FrameArc {
     /// sin(φ_b + τ) − sin φ_b = c_b sin τ − 2 s_b sin²(τ/2), without cancellation.
     #[inline]
     pub fn delta_s_at(&self, tau: f64) -> f64 {
-        let (sh, ch) = (0.5 * tau).sin_cos();
+        let (sh, ch) = sin_cos_f64(0.5 * tau);
         2.0 * sh * (self.c_b * ch - self.s_b * sh)
     }
 
@@ -326,23 +331,51 @@ impl FrameArc {
         let q = y * (2.0 * self.s_b + y);
         let c = (self.c_b * self.c_b - q).max(0.0).sqrt();
         let denom = self.c_b + c;
-        let sin_tau = if denom > 0.0 {
-            y * self.c_b + self.s_b * q / denom
-        } else {
-            y
-        };
         let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
-        sin_tau.atan2(cos_tau).clamp(0.0, self.width)
+        // atan2 is invariant under a common positive factor: (sin τ, cos τ)·denom saves the
+        // division by denom.
+        let (sin_tau, cos_tau) = if denom > 0.0 {
+            (y * self.c_b * denom + self.s_b * q, cos_tau * denom)
+        } else {
+            (y, cos_tau)
+        };
+        atan2_f64(sin_tau, cos_tau).clamp(0.0, self.width)
     }
 
-    /// Unit direction at offset τ (clamped to [0, Δ]).
+    /// Unit direction at offset τ (clamped to [0, Δ]); (sin, cos) τ from the half angle, which
+    /// is in the range of the polynomial [`sin_cos_f64`].
     #[inline]
     pub fn direction(&self, frame: &LineFrame, tau: f64) -> Vec3 {
-        let (st, ct) = tau.clamp(0.0, self.width).sin_cos();
+        let (sh, ch) = sin_cos_f64(0.5 * tau.clamp(0.0, self.width));
+        let (st, ct) = (2.0 * sh * ch, 1.0 - 2.0 * sh * sh);
         let s = self.s_b * ct + self.c_b * st;
         let t = (self.c_b * ct - self.s_b * st).max(0.0);
         (s * frame.u.as_dvec3() + t * frame.c_hat.as_dvec3()).as_vec3()
     }
+}
+
+/// Rounding tolerance (radians) of a support test in τ for an arc of width Δ: an f32 direction's
+/// φ is rounded by ~ε, τ of the interval's own ends by ~ε·Δ. Shared by every technique.
+#[inline]
+pub fn arc_tolerance(width: f64) -> f64 {
+    2.5e-7 + 1e-6 * width
+}
+
+/// The support test of every technique: τ = φ − φ_b of a direction toward the line relative to
+/// the arc `(sin φ_b, cos φ_b, Δ)` in the plane of (u, ĉ), if it lies in [−tol, Δ + tol] (not
+/// clamped). In f64 from the f32 direction (exact products, one rounding per sum), with the
+/// libm-free [`atan2_f64`].
+#[inline]
+pub fn tau_in_arc(
+    frame: &LineFrame,
+    (s_b, c_b, width): (f64, f64, f64),
+    tolerance: f64,
+    dir: Vec3,
+) -> Option<f64> {
+    let w = dir.as_dvec3();
+    let (s, t) = (frame.u.as_dvec3().dot(w), frame.c_hat.as_dvec3().dot(w));
+    let tau = atan2_f64(s * c_b - t * s_b, t * c_b + s * s_b);
+    (t >= 0.0 && tau >= -tolerance && tau <= width + tolerance).then_some(tau)
 }
 
 /// (sin φ, cos φ) = (l, d)/√(l² + d²) of the line point at parameter l, in f64 (squares of f32
@@ -377,10 +410,14 @@ pub fn stable_length(v: Vec3) -> f32 {
 /// Normalise a user-supplied normal. Policy of this crate: normals are *normalised*; a zero,
 /// denormal-length or non-finite normal is rejected (`None`), which makes the light contribute
 /// nothing at that shading point.
+///
+/// In f64, where the squares of f32 components neither overflow nor underflow: one square root
+/// and one division, no rescaling pass.
 #[inline]
 pub fn unit_normal(n: Vec3) -> Option<Vec3> {
-    let len = stable_length(n);
-    (len > 1e-20 && len.is_finite()).then(|| n / len)
+    let n = n.as_dvec3();
+    let len = n.length_squared().sqrt();
+    (len > 1e-20 && len < f64::INFINITY).then(|| (n * (1.0 / len)).as_vec3())
 }
 
 #[cfg(test)]

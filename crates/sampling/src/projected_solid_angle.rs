@@ -43,9 +43,9 @@
 //! scale-invariant), and the pdf of a sample is (n·ω)/Ω⊥_R with n·ω from the rotation already at
 //! hand. The f64 instantiation keeps std's functions and the full series.
 
-use crate::geometry::{unit_normal, LineFrame, Segment};
+use crate::geometry::{arc_tolerance, sin_cos_at, tau_in_arc, unit_normal, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
-use crate::trig::{atan2, atan2_f64};
+use crate::trig::atan2_f64;
 use glam::Vec3;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -236,10 +236,18 @@ impl<T: Real> PsaCore<T> {
         Self::with_frame_values(ns, nt, s_b, c_b, phi_e - phi_b)
     }
 
-    /// From sin φ_b, cos φ_b and Δ. `None` if the interval carries no finite, positive
-    /// projected solid angle.
+    /// From sin φ_b, cos φ_b and Δ, with n·ω and its φ-derivative at φ_b formed here. `None` if
+    /// the interval carries no finite, positive projected solid angle.
     #[inline]
     pub fn with_frame_values(ns: T, nt: T, s_b: T, c_b: T, width: T) -> Option<Self> {
+        let (p0, p1) = (T::dot2(ns, s_b, nt, c_b), T::dot2(ns, c_b, -nt, s_b));
+        Self::new(ns, nt, s_b, c_b, width, p0, p1)
+    }
+
+    /// From sin φ_b, cos φ_b, Δ and n·ω = p0, d(n·ω)/dφ = p1 at φ_b (each rounded once from a
+    /// more accurate source where the caller has one). One sin/cos of Δ/2 gives Δs and the total.
+    #[inline]
+    pub fn new(ns: T, nt: T, s_b: T, c_b: T, width: T, p0: T, p1: T) -> Option<Self> {
         let mut core = Self {
             ns,
             nt,
@@ -248,24 +256,14 @@ impl<T: Real> PsaCore<T> {
             delta_s: T::ZERO,
             width,
             // Clamped: the interval is clipped to the horizon, n·ω_b < 0 is rounding.
-            p0: T::dot2(ns, s_b, nt, c_b).max(T::ZERO),
-            p1: T::dot2(ns, c_b, -nt, s_b),
+            p0: p0.max(T::ZERO),
+            p1,
             total: T::ZERO,
         };
         let (sh, ch) = (width * T::HALF).sin_cos();
         core.delta_s = T::TWO * core.rotate(sh, ch).1 * sh;
         core.total = core.delta_c_half(width, sh, ch);
         (width > T::ZERO && core.total > T::ZERO && core.total.is_finite()).then_some(core)
-    }
-
-    /// The same with n·ω and d(n·ω)/dφ at φ_b supplied from a more accurate source (each
-    /// rounded once), and the total recomputed from them.
-    pub fn with_cosine_at_begin(mut self, p0: T, p1: T) -> Option<Self> {
-        self.p0 = p0.max(T::ZERO);
-        self.p1 = p1;
-        let (sh, ch) = (self.width * T::HALF).sin_cos();
-        self.total = self.delta_c_half(self.width, sh, ch);
-        (self.total > T::ZERO && self.total.is_finite()).then_some(self)
     }
 
     /// (sin, cos) of φ_b + τ given (sin, cos) of τ.
@@ -394,45 +392,6 @@ impl<T: Real> PsaCore<T> {
     }
 }
 
-/// The directions toward an interval of a line as an arc φ ∈ [φ_b, φ_b + Δ] in the plane of
-/// (u, ĉ), for accurate support tests and directions (s = u·ω is quantised near ±1, the offset τ
-/// from the begin of the arc is not).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Arc {
-    pub s_b: f32,
-    pub c_b: f32,
-    pub width: f32,
-    /// Rounding tolerance of the support test in τ (radians).
-    pub tolerance: f32,
-}
-
-impl Arc {
-    #[inline]
-    pub fn of(frame: &LineFrame) -> Self {
-        let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
-        // cos φ_b = d/r_b is accurate where s_b ≈ ±1 is not; Δ = φ_e − φ_b from
-        // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
-        // In f64 (from f32 data): the products neither overflow nor underflow, l_e − l_b is exact
-        // or a single rounding, and no division precedes the one inside atan2.
-        let width = atan2_f64((le - lb) * d, d * d + lb * le) as f32;
-        let r_b = (lb * lb + d * d).sqrt();
-        Self {
-            s_b: frame.s_begin,
-            c_b: (d / r_b) as f32,
-            width,
-            tolerance: 2.5e-7 + 1e-6 * width,
-        }
-    }
-
-    /// τ of a direction if it points into the arc (up to rounding).
-    #[inline]
-    pub fn tau_in_support(&self, frame: &LineFrame, dir: Vec3) -> Option<f32> {
-        let (s, t) = (frame.u.dot(dir), frame.c_hat.dot(dir));
-        let tau = atan2(s * self.c_b - t * self.s_b, t * self.c_b + s * self.s_b);
-        (t >= 0.0 && tau >= -self.tolerance && tau <= self.width + self.tolerance).then_some(tau)
-    }
-}
-
 /// Projected-solid-angle sampler of Peters 2021 (technique 8).
 #[derive(Clone, Copy, Debug)]
 pub struct ProjectedSolidAngle {
@@ -442,7 +401,7 @@ pub struct ProjectedSolidAngle {
     core: PsaCore<f32>,
     /// 1/Ω⊥_R = d / (C(φ_e) − C(φ_b)).
     inv_psa: f32,
-    /// Support tolerance of the arc ([`Arc::tolerance`]); the arc itself is (s_b, c_b, Δ) of
+    /// Support tolerance of the arc ([`arc_tolerance`]); the arc itself is (s_b, c_b, Δ) of
     /// `core`, not stored twice (keeps the struct, and `Prepared`, small enough to be moved
     /// without a memcpy call).
     tolerance: f32,
@@ -474,28 +433,36 @@ impl ProjectedSolidAngle {
     /// On an already clipped frame (n unit, frame clipped to its horizon).
     #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
-        let (ns, nt) = frame.normal_coefficients(n);
-        let arc = Arc::of(&frame);
-        // p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b from f64 n_s, n_t, sin φ_b, cos φ_b: at a
-        // horizon-clipped begin p0 ≈ 0 is a difference of O(1) terms, and with the f32-rounded
-        // factors its absolute error ~ε was ~1e-5 of Ω⊥ of a 3e-3-rad interval (random-090:
-        // ∫p − 1 = 6e-6). Preparation only; the per-sample path is unchanged.
-        let (n64, d, lb) = (n.as_dvec3(), frame.d as f64, frame.l_begin as f64);
-        let (ns64, nt64) = (n64.dot(frame.u.as_dvec3()), n64.dot(frame.c_hat.as_dvec3()));
-        let r_b = (lb * lb + d * d).sqrt();
-        let (s_b, c_b) = (lb / r_b, d / r_b);
-        let core = PsaCore::with_frame_values(ns, nt, arc.s_b, arc.c_b, arc.width)?
-            .with_cosine_at_begin(
-                (ns64 * s_b + nt64 * c_b) as f32,
-                (ns64 * c_b - nt64 * s_b) as f32,
-            )?;
+        // In f64 from the f32 frame (no overflow, exact products), each value rounded once:
+        // n_s, n_t; (sin φ_b, cos φ_b) = (l_b, d)/r_b, cos φ_b accurate where s_b ≈ ±1 is not;
+        // Δ from tan Δ = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b;
+        // p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b: at a horizon-clipped begin p0 ≈ 0 is a
+        // difference of O(1) terms, whose f32 rounding was ~1e-5 of Ω⊥ of a 3e-3-rad interval.
+        let (n64, d, lb, le) = (
+            n.as_dvec3(),
+            frame.d as f64,
+            frame.l_begin as f64,
+            frame.l_end as f64,
+        );
+        let (ns, nt) = (n64.dot(frame.u.as_dvec3()), n64.dot(frame.c_hat.as_dvec3()));
+        let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
+        let width = atan2_f64((le - lb) * d, d * d + lb * le);
+        let core = PsaCore::new(
+            ns as f32,
+            nt as f32,
+            s_b as f32,
+            c_b as f32,
+            width as f32,
+            (ns * s_b + nt * c_b) as f32,
+            (ns * c_b - nt * s_b) as f32,
+        )?;
         let inv_psa = frame.d / core.total;
         (inv_psa.is_finite() && inv_psa > 0.0).then_some(Self {
             frame,
             n,
             core,
             inv_psa,
-            tolerance: arc.tolerance,
+            tolerance: arc_tolerance(width) as f32,
             iterations,
         })
     }
@@ -519,7 +486,7 @@ impl ProjectedSolidAngle {
             l.clamp(f.l_begin, f.l_end) as f64,
             f.d as f64,
         );
-        // In f64 as in `Arc::of` (no overflow, no division before atan2's).
+        // In f64 as in `on_frame` (no overflow, no division before atan2's).
         let tau = atan2_f64((l - lb) * d, d * d + lb * l) as f32;
         self.core.cdf(tau)
     }
@@ -552,13 +519,8 @@ impl ProjectedSolidAngle {
     #[inline]
     fn tau_in_support(&self, dir: Vec3) -> Option<f32> {
         let c = &self.core;
-        let arc = Arc {
-            s_b: c.s_b,
-            c_b: c.c_b,
-            width: c.width,
-            tolerance: self.tolerance,
-        };
-        arc.tau_in_support(&self.frame, dir)
+        let arc = (c.s_b as f64, c.c_b as f64, c.width as f64);
+        tau_in_arc(&self.frame, arc, self.tolerance as f64, dir).map(|tau| tau as f32)
     }
 }
 

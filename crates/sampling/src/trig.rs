@@ -63,7 +63,8 @@ pub fn atan2_f64(y: f64, x: f64) -> f64 {
     // 0 ≤ num ≤ den. One division either way: above tan(π/8),
     // atan(num/den) = π/4 + atan((num − den)/(num + den)), where num − den is a single rounding
     // (no cancellation of a rounded quotient). den = 0 only for x = y = 0 (then 0); inf/inf
-    // (only in the second branch) gives NaN, where std returns π/4.
+    // (only in the second branch) gives NaN, where std returns π/4. (Branches, not selects:
+    // measured faster, as the division starts on the predicted path.)
     let mut r = if num > TAN_PI_8 * den {
         FRAC_PI_4 + atan_small((num - den) / (num + den))
     } else if den > 0.0 {
@@ -114,10 +115,17 @@ const SIN_COS_RANGE: f64 = 1.570_875;
 /// (sin x, cos x) for f32 x. Polynomial for |x| ≤ ~π/2 (the callers' half angles), libm beyond.
 #[inline]
 pub fn sin_cos(x: f32) -> (f32, f32) {
-    let xd = x as f64;
-    if xd.abs() <= SIN_COS_RANGE {
-        let v = xd * xd;
-        ((xd * poly5(&S, v)) as f32, (1.0 - v * poly5(&K, v)) as f32)
+    let (s, c) = sin_cos_f64(x as f64);
+    (s as f32, c as f32)
+}
+
+/// (sin x, cos x) in f64 arithmetic: the polynomials of [`sin_cos`] (relative error of sin
+/// ≤ 2.7e-11, absolute error of cos ≤ 3e-12) for |x| ≤ ~π/2, libm beyond.
+#[inline]
+pub fn sin_cos_f64(x: f64) -> (f64, f64) {
+    if x.abs() <= SIN_COS_RANGE {
+        let v = x * x;
+        (x * poly5(&S, v), 1.0 - v * poly5(&K, v))
     } else {
         sin_cos_libm(x)
     }
@@ -126,7 +134,7 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
 /// Out of line and cold, so that the register spills around the libm call stay off the hot path.
 #[cold]
 #[inline(never)]
-fn sin_cos_libm(x: f32) -> (f32, f32) {
+fn sin_cos_libm(x: f64) -> (f64, f64) {
     x.sin_cos()
 }
 
