@@ -73,18 +73,47 @@ impl LineFrame {
     /// `MIN_RELATIVE_DISTANCE`·|b|, which left ĉ far from orthogonal to u; and the squares in
     /// |b| leave the f32 range for coordinates beyond ~1e±19.
     pub fn new(segment: &Segment, x: Vec3) -> Option<Self> {
+        Self::build(segment, x, None)
+    }
+
+    /// `LineFrame::new(segment, x)?.clip_to_horizon(n)` (n unit) in one pass: the endpoints'
+    /// heights n·b, n·e come straight from the input, so the (data-dependent, often
+    /// mispredicted) clipping decision resolves before the frame's dependency chain of square
+    /// roots and divisions, not after it, and the clipped parameter is formed in f64 as
+    /// l = σ + ℓ·n·b/(n·b − n·e) (a sum of like-signed terms in the denominator).
+    #[inline]
+    pub fn clipped(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
+        Self::build(segment, x, Some(n))
+    }
+
+    #[inline(always)]
+    fn build(segment: &Segment, x: Vec3, horizon: Option<Vec3>) -> Option<Self> {
         let b = segment.begin.as_dvec3() - x.as_dvec3();
         let e = segment.end.as_dvec3() - x.as_dvec3();
+        // Fraction along the segment where it crosses the horizon, for the end to move.
+        let mut cut = None;
+        if let Some(n) = horizon {
+            let n = n.as_dvec3();
+            let (hb, he) = (n.dot(b), n.dot(e));
+            if !(hb > 0.0 || he > 0.0) {
+                return None; // entirely below or within the plane (zero projected solid angle)
+            }
+            if hb < 0.0 {
+                cut = Some((true, hb / (hb - he)));
+            } else if he < 0.0 {
+                cut = Some((false, hb / (hb - he)));
+            }
+        }
         let axis = e - b;
         let length2 = axis.length_squared();
         // Non-finite b or e makes the axis inf or NaN, so this also rejects non-finite input.
         if !(length2 > 0.0 && length2 < f64::INFINITY) {
             return None;
         }
-        let length = length2.sqrt();
-        let u = axis * (1.0 / length);
-        let sigma = u.dot(b);
-        let c = b - sigma * u;
+        // c = b − (a·b/|a|²)a with a the axis: the two dot products run in parallel and only
+        // one division precedes c (not the square root and reciprocal that normalise u).
+        let k = axis.dot(b) / length2;
+        let c = b - k * axis;
         let d2 = c.length_squared();
         // d > MIN_RELATIVE_DISTANCE · max(ℓ, |b|, |e|), compared in squares (no square roots
         // for a degeneracy test).
@@ -93,9 +122,18 @@ impl LineFrame {
         if d2.is_nan() || d2 <= min_rel * min_rel * scale2 {
             return None;
         }
+        let length = length2.sqrt();
+        let u = axis * (1.0 / length);
+        let sigma = k * length;
+        let (mut lb, mut le) = (sigma, sigma + length);
+        match cut {
+            Some((true, t)) => lb = (sigma + t * length).max(lb),
+            Some((false, t)) => le = (sigma + t * length).min(le),
+            None => {}
+        }
         let d = d2.sqrt();
         let c_hat = (c * (1.0 / d)).as_vec3();
-        let (d, l_begin, l_end) = (d as f32, sigma as f32, (sigma + length) as f32);
+        let (d, l_begin, l_end) = (d as f32, lb as f32, le as f32);
         // Rounded to f32, d may underflow to 0 and l overflow to ±inf.
         if !(d > 0.0 && l_begin.is_finite() && l_end.is_finite()) {
             return None;
@@ -148,16 +186,22 @@ impl LineFrame {
         if hb >= 0.0 && he >= 0.0 {
             return Some(*self);
         }
-        // Exactly one endpoint below: the root lies strictly inside, nu ≠ 0.
+        // Exactly one endpoint below: the root lies strictly inside, nu ≠ 0. Only the moved
+        // end's s is recomputed.
         let root = -nc / nu;
+        let mut clipped = *self;
         if hb < 0.0 {
             lb = root.max(lb);
+            clipped.l_begin = lb;
+            clipped.s_begin = s_of_l(lb, self.d);
         } else {
             le = root.min(le);
+            clipped.l_end = le;
+            clipped.s_end = s_of_l(le, self.d);
         }
         // Test "length > 0" (not "≤ 0") so that a NaN root yields None.
         if le - lb > 0.0 {
-            self.with_interval(lb, le)
+            clipped.nonempty()
         } else {
             None
         }

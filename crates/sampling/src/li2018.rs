@@ -42,7 +42,7 @@ pub struct Li2018 {
 impl Li2018 {
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
         let n = unit_normal(n)?;
-        let frame = LineFrame::new(segment, x)?.clip_to_horizon(n)?;
+        let frame = LineFrame::clipped(segment, x, n)?;
         let exact = ProjectedSolidAngle::on_frame(frame, n, DEFAULT_ITERATIONS)?;
         let (ns, nt) = frame.normal_coefficients(n);
         Some(Self {

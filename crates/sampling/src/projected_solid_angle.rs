@@ -49,6 +49,10 @@ use crate::trig::atan2_f64;
 use glam::Vec3;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
+/// Largest last Halley step |h| after which the values at the sample are rotated from those at
+/// the step's start instead of evaluated afresh (see [`PsaCore::solve_with_values`]).
+const ROTATION_STEP: f64 = 0.125;
+
 /// Number of Halley steps of the paper.
 pub const DEFAULT_ITERATIONS: u32 = 2;
 
@@ -80,6 +84,7 @@ pub(crate) trait Real:
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
     fn is_finite(self) -> bool;
+    fn is_nan(self) -> bool;
     /// a·b + c·d with (close to) a single rounding.
     fn dot2(a: Self, b: Self, c: Self, d: Self) -> Self;
     #[inline]
@@ -139,6 +144,10 @@ macro_rules! impl_real {
             #[inline]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)
+            }
+            #[inline]
+            fn is_nan(self) -> bool {
+                <$t>::is_nan(self)
             }
             #[inline]
             fn dot2(a: Self, b: Self, c: Self, d: Self) -> Self {
@@ -267,7 +276,7 @@ impl<T: Real> PsaCore<T> {
     }
 
     /// (sin, cos) of φ_b + τ given (sin, cos) of τ.
-    #[inline]
+    #[inline(always)]
     fn rotate(&self, sin_tau: T, cos_tau: T) -> (T, T) {
         (
             self.s_b * cos_tau + self.c_b * sin_tau,
@@ -277,7 +286,7 @@ impl<T: Real> PsaCore<T> {
 
     /// C(φ_b + τ) − C(φ_b) given (sin, cos) of τ/2 (cancellation-free, see the module
     /// documentation).
-    #[inline]
+    #[inline(always)]
     fn delta_c_half(&self, tau: T, sh: T, ch: T) -> T {
         let cm = self.c_b * ch - self.s_b * sh; // cos of the midpoint φ_b + τ/2
         let n_dot_wm = self.p0 * ch + self.p1 * sh;
@@ -287,7 +296,7 @@ impl<T: Real> PsaCore<T> {
 
     /// C(φ_b + τ) − C(φ_b), cancellation-free (see the module documentation), with the values
     /// at φ = φ_b + τ that the Halley step needs.
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, tau: T) -> Eval<T> {
         let (sh, ch) = (tau * T::HALF).sin_cos();
         let sin_tau = T::TWO * sh * ch;
@@ -321,7 +330,7 @@ impl<T: Real> PsaCore<T> {
     /// c = √(c_b² − y(2s_b + y)) = cos(φ_b + τ), sin τ = y c_b + s_b·y(2s_b + y)/(c_b + c),
     /// cos τ = c c_b + (s_b + y)s_b. The textbook form is quantised to a few values in f32 when
     /// s_b ≈ ±1 (then two iterations do not recover). Exact at ξ = 0 and 1.
-    #[inline]
+    #[inline(always)]
     pub fn start(&self, xi: T) -> T {
         if xi <= T::ZERO {
             return T::ZERO;
@@ -348,26 +357,27 @@ impl<T: Real> PsaCore<T> {
     /// to [0, Δ].
     #[inline]
     pub fn halley_step(&self, tau: T, xi: T) -> T {
-        let e = self.eval(tau);
+        self.halley_from(tau, xi, &self.eval(tau))
+    }
+
+    /// [`Self::halley_step`] from the values `e` = `eval(τ)`.
+    #[inline(always)]
+    fn halley_from(&self, tau: T, xi: T, e: &Eval<T>) -> T {
         let g = e.delta_c - xi * self.total;
         // G' = 2t(n·ω), G''/2 = t(n_s t − n_t s) − s(n·ω) with n_s t − n_t s = d(n·ω)/dφ.
         let g1 = T::TWO * e.t * e.n_dot_w;
         let g2 = T::TWO * (e.t * e.n_dot_w_prime - e.s * e.n_dot_w);
-        // Smallest root of G + G'h + G''h²/2, h = −2G / (G' + √(G'² − 2GG'')), kept as the pair
-        // (num, den) with den ≥ 0 (G' ≥ 0 on the clipped interval) and clamped to the interval
-        // before any division, so that den = 0 cannot produce inf/NaN.
+        // Smallest root of G + G'h + G''h²/2, h = −2G / (G' + √(G'² − 2GG'')) with
+        // den = G' + √… ≥ 0 (G' ≥ 0 on the clipped interval). Without branches (their outcome is
+        // data-dependent): den = 0 makes h = ±inf, clamped to an end of [0, Δ], or NaN for
+        // G = 0, where τ is kept.
         let num = -T::TWO * g;
         let den = g1.max(T::ZERO) + (g1 * g1 - T::TWO * g * g2).max(T::ZERO).sqrt();
-        let up = self.width - tau; // ≥ 0
-        let down = -tau; // ≤ 0
-        if num > T::ZERO && num >= den * up {
-            self.width
-        } else if num < T::ZERO && num <= den * down {
-            T::ZERO
-        } else if den > T::ZERO {
-            (tau + num / den).clamp(T::ZERO, self.width)
-        } else {
+        let next = tau + num / den;
+        if next.is_nan() {
             tau
+        } else {
+            next.clamp(T::ZERO, self.width)
         }
     }
 
@@ -382,6 +392,52 @@ impl<T: Real> PsaCore<T> {
             tau = self.halley_step(tau, xi);
         }
         tau
+    }
+
+    /// (sin φ, cos φ, n·ω) at φ = φ_b + τ, τ ∈ [0, Δ] ⊂ [0, π]: (sin, cos) τ from the half
+    /// angle, which is in the range of the libm-free [`Real::sin_cos`].
+    #[inline(always)]
+    pub fn at(&self, tau: T) -> (T, T, T) {
+        let (sh, ch) = (tau * T::HALF).sin_cos();
+        let (st, ct) = (T::TWO * sh * ch, T::ONE - T::TWO * sh * sh);
+        let (s, t) = self.rotate(st, ct);
+        (s, t, self.p0 * ct + self.p1 * st)
+    }
+
+    /// [`Self::solve`] and (sin φ, cos φ, n·ω) at the sample. The last step starts from values
+    /// at τ that its evaluation already holds; rotating them by the step h (short Taylor series
+    /// for |h| ≤ [`ROTATION_STEP`], almost always the case for the last step) replaces a
+    /// further sin/cos.
+    #[inline(always)]
+    pub fn solve_with_values(&self, xi: T, iterations: u32) -> (T, (T, T, T)) {
+        let mut tau = self.start(xi);
+        if iterations == 0 || Self::in_guard(xi) {
+            return (tau, self.at(tau));
+        }
+        for _ in 1..iterations {
+            tau = self.halley_step(tau, xi);
+        }
+        let e = self.eval(tau);
+        let next = self.halley_from(tau, xi, &e);
+        let h = next - tau;
+        if h.abs() > T::from_f64(ROTATION_STEP) {
+            return (next, self.at(next));
+        }
+        // sin h and cos h to h⁵ and h⁶: truncation < 1e-9 relative for |h| ≤ 1/8.
+        let h2 = h * h;
+        let sin_h = h - h * h2 * T::from_f64(1.0 / 6.0) * (T::ONE - h2 * T::from_f64(1.0 / 20.0));
+        let one_minus_cos_h = h2
+            * T::HALF
+            * (T::ONE - h2 * T::from_f64(1.0 / 12.0) * (T::ONE - h2 * T::from_f64(1.0 / 30.0)));
+        let rot = |a: T, b: T| a - a * one_minus_cos_h + b * sin_h;
+        (
+            next,
+            (
+                rot(e.s, e.t),
+                rot(e.t, -e.s),
+                rot(e.n_dot_w, e.n_dot_w_prime),
+            ),
+        )
     }
 
     /// Exact CDF: ξ of τ (clamped to the interval).
@@ -426,7 +482,7 @@ impl ProjectedSolidAngle {
         iterations: u32,
     ) -> Option<Self> {
         let n = unit_normal(n)?;
-        let frame = LineFrame::new(segment, x)?.clip_to_horizon(n)?;
+        let frame = LineFrame::clipped(segment, x, n)?;
         Self::on_frame(frame, n, iterations)
     }
 
@@ -497,16 +553,12 @@ impl ProjectedSolidAngle {
         self.core.solve(clamp_xi(xi), self.iterations)
     }
 
-    /// Direction and n·ω at offset τ ∈ [0, Δ] ⊂ [0, π]: (sin, cos) τ from the half angle, which
-    /// is in the range of the libm-free [`Real::sin_cos`].
+    /// Direction and n·ω of the sample for ξ.
     #[inline]
-    fn direction_of_tau(&self, tau: f32) -> (Vec3, f32) {
-        let (sh, ch) = Real::sin_cos(0.5 * tau);
-        let (st, ct) = (2.0 * sh * ch, 1.0 - 2.0 * sh * sh);
-        let c = &self.core;
-        let (s, t) = (c.s_b * ct + c.c_b * st, c.c_b * ct - c.s_b * st);
+    fn sample_values(&self, xi: f32) -> (Vec3, f32) {
+        let (_, (s, t, n_dot_w)) = self.core.solve_with_values(clamp_xi(xi), self.iterations);
         let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
-        (dir, c.p0 * ct + c.p1 * st)
+        (dir, n_dot_w)
     }
 
     /// Density of a direction known to lie in the support (no support test): (n·ω)/Ω⊥_R.
@@ -526,7 +578,7 @@ impl ProjectedSolidAngle {
 
 impl LineSampler for ProjectedSolidAngle {
     fn sample(&self, xi: f32) -> Vec3 {
-        self.direction_of_tau(self.sample_tau(xi)).0
+        self.sample_values(xi).0
     }
 
     /// Support test in τ rather than via the frame's s-interval: s is coarsely quantised when the
@@ -548,7 +600,7 @@ impl LineSampler for ProjectedSolidAngle {
 
     #[inline]
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
-        let (dir, n_dot_w) = self.direction_of_tau(self.sample_tau(xi));
+        let (dir, n_dot_w) = self.sample_values(xi);
         (dir, n_dot_w.max(0.0) * self.inv_psa)
     }
 }

@@ -29,7 +29,7 @@ const P: [f64; 7] = [
 ];
 
 /// c₀v⁶ + c₁v⁵ + … + c₆ by Estrin's scheme (shorter dependency chains than Horner's).
-#[inline]
+#[inline(always)]
 fn poly6(c: &[f64; 7], v: f64) -> f64 {
     let v2 = v * v;
     let v4 = v2 * v2;
@@ -37,7 +37,7 @@ fn poly6(c: &[f64; 7], v: f64) -> f64 {
 }
 
 /// c₀v⁵ + c₁v⁴ + … + c₅ by Estrin's scheme.
-#[inline]
+#[inline(always)]
 fn poly5(c: &[f64; 6], v: f64) -> f64 {
     let v2 = v * v;
     let v4 = v2 * v2;
@@ -45,14 +45,14 @@ fn poly5(c: &[f64; 6], v: f64) -> f64 {
 }
 
 /// atan t for |t| ≤ tan(π/8).
-#[inline]
+#[inline(always)]
 fn atan_small(t: f64) -> f64 {
     t * poly6(&P, t * t)
 }
 
 /// atan2(y, x) in f64 arithmetic (relative error ≤ ~3e-11), same quadrant conventions as
 /// `f64::atan2` for finite and signed-zero arguments; NaN in, NaN out.
-#[inline]
+#[inline(always)]
 pub fn atan2_f64(y: f64, x: f64) -> f64 {
     if y.is_nan() || x.is_nan() {
         return f64::NAN;
@@ -113,7 +113,7 @@ const K: [f64; 6] = [
 const SIN_COS_RANGE: f64 = 1.570_875;
 
 /// (sin x, cos x) for f32 x. Polynomial for |x| ≤ ~π/2 (the callers' half angles), libm beyond.
-#[inline]
+#[inline(always)]
 pub fn sin_cos(x: f32) -> (f32, f32) {
     let (s, c) = sin_cos_f64(x as f64);
     (s as f32, c as f32)
@@ -121,7 +121,7 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
 
 /// (sin x, cos x) in f64 arithmetic: the polynomials of [`sin_cos`] (relative error of sin
 /// ≤ 2.7e-11, absolute error of cos ≤ 3e-12) for |x| ≤ ~π/2, libm beyond.
-#[inline]
+#[inline(always)]
 pub fn sin_cos_f64(x: f64) -> (f64, f64) {
     if x.abs() <= SIN_COS_RANGE {
         let v = x * x;
