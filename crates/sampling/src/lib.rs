@@ -8,6 +8,7 @@
 pub mod area;
 pub mod backward_error;
 pub mod baseline;
+pub mod batch;
 pub mod geometry;
 pub mod hart;
 pub mod li2018;

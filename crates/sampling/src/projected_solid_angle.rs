@@ -257,6 +257,13 @@ impl<T: Real> PsaCore<T> {
     /// more accurate source where the caller has one). One sin/cos of Δ/2 gives Δs and the total.
     #[inline]
     pub fn new(ns: T, nt: T, s_b: T, c_b: T, width: T, p0: T, p1: T) -> Option<Self> {
+        let (core, valid) = Self::new_lane(ns, nt, s_b, c_b, width, p0, p1);
+        valid.then_some(core)
+    }
+
+    /// [`Self::new`] without a branch: the core and whether `new` returns it.
+    #[inline(always)]
+    pub(crate) fn new_lane(ns: T, nt: T, s_b: T, c_b: T, width: T, p0: T, p1: T) -> (Self, bool) {
         let mut core = Self {
             ns,
             nt,
@@ -272,7 +279,8 @@ impl<T: Real> PsaCore<T> {
         let (sh, ch) = (width * T::HALF).sin_cos();
         core.delta_s = T::TWO * core.rotate(sh, ch).1 * sh;
         core.total = core.delta_c_half(width, sh, ch);
-        (width > T::ZERO && core.total > T::ZERO && core.total.is_finite()).then_some(core)
+        let valid = width > T::ZERO && core.total > T::ZERO && core.total.is_finite();
+        (core, valid)
     }
 
     /// (sin, cos) of φ_b + τ given (sin, cos) of τ.
@@ -332,12 +340,13 @@ impl<T: Real> PsaCore<T> {
     /// s_b ≈ ±1 (then two iterations do not recover). Exact at ξ = 0 and 1.
     #[inline(always)]
     pub fn start(&self, xi: T) -> T {
-        if xi <= T::ZERO {
-            return T::ZERO;
-        }
-        if xi >= T::ONE {
-            return self.width;
-        }
+        self.start_with(xi, T::atan2)
+    }
+
+    /// [`Self::start`] with a given atan2 (the lanes of [`crate::batch`] use a branch-free one
+    /// with bitwise the same results), itself without branches.
+    #[inline(always)]
+    pub(crate) fn start_with(&self, xi: T, atan2: impl Fn(T, T) -> T) -> T {
         let y = xi * self.delta_s;
         let q = y * (T::TWO * self.s_b + y);
         let c = (self.c_b * self.c_b - q).max(T::ZERO).sqrt();
@@ -345,12 +354,22 @@ impl<T: Real> PsaCore<T> {
         let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
         // atan2 is invariant under a common positive factor: (sin τ, cos τ)·denom saves the
         // division by denom.
-        let (sin_tau, cos_tau) = if denom > T::ZERO {
-            (y * self.c_b * denom + self.s_b * q, cos_tau * denom)
+        let scaled = denom > T::ZERO;
+        let sin_tau = if scaled {
+            y * self.c_b * denom + self.s_b * q
         } else {
-            (y, cos_tau)
+            y
         };
-        sin_tau.atan2(cos_tau).clamp(T::ZERO, self.width)
+        let cos_tau = if scaled { cos_tau * denom } else { cos_tau };
+        let tau = atan2(sin_tau, cos_tau).clamp(T::ZERO, self.width);
+        // Exact ends (also for ξ outside [0, 1]).
+        if xi <= T::ZERO {
+            T::ZERO
+        } else if xi >= T::ONE {
+            self.width
+        } else {
+            tau
+        }
     }
 
     /// One step of Halley's irrational formula on G(τ) = C(φ_b + τ) − C(φ_b) − ξ·total, clamped
@@ -423,6 +442,40 @@ impl<T: Real> PsaCore<T> {
         if h.abs() > T::from_f64(ROTATION_STEP) {
             return (next, self.at(next));
         }
+        (next, Self::rotate_by(&e, h))
+    }
+
+    /// [`Self::solve_with_values`] without branches (both ways of every decision computed,
+    /// then selected; bitwise the same results), for the lanes of [`crate::batch`].
+    #[inline(always)]
+    pub(crate) fn solve_with_values_lane(
+        &self,
+        xi: T,
+        iterations: u32,
+        atan2: impl Fn(T, T) -> T,
+    ) -> (T, T, T) {
+        let start = self.start_with(xi, atan2);
+        let mut tau = start;
+        for _ in 1..iterations {
+            tau = self.halley_step(tau, xi);
+        }
+        let e = self.eval(tau);
+        let next = self.halley_from(tau, xi, &e);
+        let h = next - tau;
+        let guard = iterations == 0 || Self::in_guard(xi);
+        let fresh = guard || h.abs() > T::from_f64(ROTATION_STEP);
+        let (s, t, n_dot_w) = self.at(if guard { start } else { next });
+        let rotated = Self::rotate_by(&e, h);
+        if fresh {
+            (s, t, n_dot_w)
+        } else {
+            rotated
+        }
+    }
+
+    /// (sin φ, cos φ, n·ω) of `e` rotated by a small angle h (|h| ≤ [`ROTATION_STEP`]).
+    #[inline(always)]
+    fn rotate_by(e: &Eval<T>, h: T) -> (T, T, T) {
         // sin h and cos h to h⁵ and h⁶: truncation < 1e-9 relative for |h| ≤ 1/8.
         let h2 = h * h;
         let sin_h = h - h * h2 * T::from_f64(1.0 / 6.0) * (T::ONE - h2 * T::from_f64(1.0 / 20.0));
@@ -431,12 +484,9 @@ impl<T: Real> PsaCore<T> {
             * (T::ONE - h2 * T::from_f64(1.0 / 12.0) * (T::ONE - h2 * T::from_f64(1.0 / 30.0)));
         let rot = |a: T, b: T| a - a * one_minus_cos_h + b * sin_h;
         (
-            next,
-            (
-                rot(e.s, e.t),
-                rot(e.t, -e.s),
-                rot(e.n_dot_w, e.n_dot_w_prime),
-            ),
+            rot(e.s, e.t),
+            rot(e.t, -e.s),
+            rot(e.n_dot_w, e.n_dot_w_prime),
         )
     }
 
@@ -489,6 +539,19 @@ impl ProjectedSolidAngle {
     /// On an already clipped frame (n unit, frame clipped to its horizon).
     #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
+        let (sampler, valid) = Self::lane(frame, n, iterations, atan2_f64);
+        valid.then_some(sampler)
+    }
+
+    /// [`Self::on_frame`] without branches: the sampler and whether `on_frame` returns it (the
+    /// one implementation of the scalar path and the lanes of [`crate::batch`]).
+    #[inline(always)]
+    pub(crate) fn lane(
+        frame: LineFrame,
+        n: Vec3,
+        iterations: u32,
+        atan2: impl Fn(f64, f64) -> f64,
+    ) -> (Self, bool) {
         // In f64 from the f32 frame (no overflow, exact products), each value rounded once:
         // n_s, n_t; (sin φ_b, cos φ_b) = (l_b, d)/r_b, cos φ_b accurate where s_b ≈ ±1 is not;
         // Δ from tan Δ = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b;
@@ -502,8 +565,8 @@ impl ProjectedSolidAngle {
         );
         let (ns, nt) = (n64.dot(frame.u.as_dvec3()), n64.dot(frame.c_hat.as_dvec3()));
         let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
-        let width = atan2_f64((le - lb) * d, d * d + lb * le);
-        let core = PsaCore::new(
+        let width = atan2((le - lb) * d, d * d + lb * le);
+        let (core, valid) = PsaCore::new_lane(
             ns as f32,
             nt as f32,
             s_b as f32,
@@ -511,16 +574,17 @@ impl ProjectedSolidAngle {
             width as f32,
             (ns * s_b + nt * c_b) as f32,
             (ns * c_b - nt * s_b) as f32,
-        )?;
+        );
         let inv_psa = frame.d / core.total;
-        (inv_psa.is_finite() && inv_psa > 0.0).then_some(Self {
+        let sampler = Self {
             frame,
             n,
             core,
             inv_psa,
             tolerance: arc_tolerance(width) as f32,
             iterations,
-        })
+        };
+        (sampler, valid && inv_psa.is_finite() && inv_psa > 0.0)
     }
 
     /// Ω⊥_R of the clipped segment.
@@ -559,6 +623,19 @@ impl ProjectedSolidAngle {
         let (_, (s, t, n_dot_w)) = self.core.solve_with_values(clamp_xi(xi), self.iterations);
         let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
         (dir, n_dot_w)
+    }
+
+    /// [`LineSampler::sample_with_pdf`] without branches (bitwise the same), for the lanes of
+    /// [`crate::batch`].
+    #[inline(always)]
+    pub(crate) fn sample_with_pdf_lane(
+        &self,
+        xi: f32,
+        atan2: impl Fn(f32, f32) -> f32,
+    ) -> (Vec3, f32) {
+        let (s, t, n_dot_w) = self.core.solve_with_values_lane(xi, self.iterations, atan2);
+        let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
+        (dir, n_dot_w.max(0.0) * self.inv_psa)
     }
 
     /// Density of a direction known to lie in the support (no support test): (n·ω)/Ω⊥_R.

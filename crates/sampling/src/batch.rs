@@ -1,0 +1,326 @@
+//! Projected-solid-angle sampling (technique 8) of eight (light, shading point) pairs at once.
+//!
+//! For a batched renderer: structure-of-arrays inputs (segment ends, shading point, normal, ξ
+//! per lane) and outputs (direction, density per radius, distance to the line along the
+//! direction, and a mask of the lanes that contribute). Lane i is exactly what the scalar
+//! `Technique::ProjectedSolidAngle.prepare(..)` + `sample_with_pdf(ξ)` return for the same
+//! inputs — bit for bit, since both run the same branch-free building blocks
+//! ([`LineFrame::lane`], [`ProjectedSolidAngle::lane`], `PsaCore::solve_with_values_lane`; the
+//! scalar path takes cheap early branches in front of them where a branch pays) with the same
+//! operations (no fused multiply-adds are formed by the compiler). A lane whose scalar
+//! preparation returns `None` has its bit cleared in [`PsaBatchOutput::mask`] and zero outputs.
+//!
+//! SIMD: the kernel is one loop over the lanes of branch-free code, which the compiler
+//! vectorises (f32 and f64 lanes side by side); it is compiled three times — for AVX-512,
+//! for AVX2 + FMA, and for the target's baseline (SSE2 on x86-64, or any other architecture) —
+//! and [`sample_projected_solid_angle`] picks one at run time (`is_x86_feature_detected!`), so
+//! the binary runs on any CPU of its target. Cost per lane: `cargo bench -p linlight-sampling
+//! --bench techniques` (the `batch` rows).
+
+use crate::geometry::{unit_normal_lane, LineFrame};
+use crate::projected_solid_angle::{ProjectedSolidAngle, DEFAULT_ITERATIONS};
+use crate::sampler::clamp_xi;
+use crate::trig::{atan2_f64_select, atan2_select};
+use glam::Vec3;
+
+/// Lanes of a batch.
+pub const LANES: usize = 8;
+
+/// Eight 3-vectors as structure of arrays.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Vec3x8 {
+    pub x: [f32; LANES],
+    pub y: [f32; LANES],
+    pub z: [f32; LANES],
+}
+
+impl Vec3x8 {
+    /// The same vector in every lane.
+    pub fn splat(v: Vec3) -> Self {
+        Self {
+            x: [v.x; LANES],
+            y: [v.y; LANES],
+            z: [v.z; LANES],
+        }
+    }
+
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> Vec3 {
+        Vec3::new(self.x[i], self.y[i], self.z[i])
+    }
+
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, v: Vec3) {
+        self.x[i] = v.x;
+        self.y[i] = v.y;
+        self.z[i] = v.z;
+    }
+}
+
+/// Eight sampling problems: lane i samples the segment `begin[i]` → `end[i]` seen from the
+/// shading point `x[i]` with normal `n[i]` (any length; normalised, and rejected when zero or
+/// not finite, as by [`crate::unit_normal`]) for the primary sample `xi[i]` (clamped to [0, 1]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PsaBatchInput {
+    pub begin: Vec3x8,
+    pub end: Vec3x8,
+    pub x: Vec3x8,
+    pub n: Vec3x8,
+    pub xi: [f32; LANES],
+}
+
+/// Samples of a batch. Lanes outside `mask` (no contribution: the light is degenerate, below
+/// the horizon or seen from on its line) hold zeros.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PsaBatchOutput {
+    /// Unit direction toward the line.
+    pub dir: Vec3x8,
+    /// Density per radius (w.r.t. dΩ_R) of `dir`: (n·ω)/Ω⊥_R.
+    pub pdf: [f32; LANES],
+    /// Distance from the shading point to the line along `dir` (d/t with t = ĉ·ω): the end of
+    /// a shadow ray toward the sampled point.
+    pub distance: [f32; LANES],
+    /// Bit i set: lane i contributes.
+    pub mask: u8,
+}
+
+impl PsaBatchOutput {
+    /// Whether lane i contributes.
+    #[inline]
+    pub fn contributes(&self, i: usize) -> bool {
+        self.mask & (1 << i) != 0
+    }
+}
+
+/// A compiled variant of the kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    /// The target's baseline (SSE2 on x86-64).
+    Baseline,
+    /// x86-64 with AVX2 and FMA.
+    Avx2,
+    /// x86-64 with AVX-512 (F, VL, DQ).
+    Avx512,
+}
+
+impl Isa {
+    /// Every variant, fastest first.
+    pub const ALL: [Isa; 3] = [Isa::Avx512, Isa::Avx2, Isa::Baseline];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Baseline => "baseline",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
+    }
+
+    /// Whether this CPU runs the variant.
+    pub fn supported(self) -> bool {
+        match self {
+            Isa::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => {
+                std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+            }
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+                    && std::arch::is_x86_feature_detected!("avx512dq")
+                    && Isa::Avx2.supported()
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The fastest variant this CPU runs (cached by the standard library's feature detection).
+    pub fn detect() -> Isa {
+        Isa::ALL
+            .into_iter()
+            .find(|isa| isa.supported())
+            .unwrap_or(Isa::Baseline)
+    }
+}
+
+/// Sample every lane of `input` with the fastest kernel this CPU runs (see the module
+/// documentation). Lane i equals the scalar `ProjectedSolidAngle::prepare` + `sample_with_pdf`
+/// on lane i's inputs.
+pub fn sample_projected_solid_angle(input: &PsaBatchInput) -> PsaBatchOutput {
+    sample_projected_solid_angle_with(Isa::detect(), input)
+}
+
+/// The same with a chosen kernel; one the CPU does not run ([`Isa::supported`]) falls back
+/// to the baseline.
+pub fn sample_projected_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBatchOutput {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if isa == Isa::Avx512 && isa.supported() {
+            // SAFETY: the features the function is compiled for were just detected.
+            return unsafe { kernel_avx512(input) };
+        }
+        if isa == Isa::Avx2 && isa.supported() {
+            // SAFETY: as above.
+            return unsafe { kernel_avx2(input) };
+        }
+    }
+    let _ = isa;
+    kernel(input)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+unsafe fn kernel_avx512(input: &PsaBatchInput) -> PsaBatchOutput {
+    kernel(input)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn kernel_avx2(input: &PsaBatchInput) -> PsaBatchOutput {
+    kernel(input)
+}
+
+/// One loop over the lanes of branch-free code (vectorised by the compiler).
+#[inline(always)]
+fn kernel(input: &PsaBatchInput) -> PsaBatchOutput {
+    let mut out = PsaBatchOutput::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+    for i in 0..LANES {
+        let (dir, pdf, distance, ok) = lane(input, i);
+        out.dir.x[i] = if ok { dir.x } else { 0.0 };
+        out.dir.y[i] = if ok { dir.y } else { 0.0 };
+        out.dir.z[i] = if ok { dir.z } else { 0.0 };
+        out.pdf[i] = if ok { pdf } else { 0.0 };
+        out.distance[i] = if ok { distance } else { 0.0 };
+        valid[i] = ok;
+    }
+    out.mask = valid
+        .iter()
+        .enumerate()
+        .fold(0u8, |m, (i, &v)| m | ((v as u8) << i));
+    out
+}
+
+/// Lane i: (direction, density, distance, contributes), every value computed (garbage where
+/// the lane does not contribute).
+#[inline(always)]
+fn lane(input: &PsaBatchInput, i: usize) -> (Vec3, f32, f32, bool) {
+    let (n, normal_ok) = unit_normal_lane(input.n.get(i));
+    let (frame, frame_ok) = LineFrame::lane(
+        input.begin.get(i),
+        input.end.get(i),
+        input.x.get(i),
+        Some(n),
+    );
+    let (sampler, sampler_ok) =
+        ProjectedSolidAngle::lane(frame, n, DEFAULT_ITERATIONS, atan2_f64_select);
+    let (dir, pdf) = sampler.sample_with_pdf_lane(clamp_xi(input.xi[i]), atan2_select);
+    let distance = frame.d / frame.c_hat.dot(dir);
+    (dir, pdf, distance, normal_ok && frame_ok && sampler_ok)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Pcg32;
+    use crate::{LineSampler, Segment, Technique};
+
+    /// Random problems in the benchmark's box plus degenerate lanes of every kind.
+    fn batches(count: usize) -> Vec<PsaBatchInput> {
+        let mut rng = Pcg32::new(99, 4);
+        let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+        let mut out = Vec::new();
+        for k in 0..count {
+            let mut b = PsaBatchInput::default();
+            for i in 0..LANES {
+                let scale = [1.0, 1e-3, 1e3, 1e-12, 1e12][(k + i) % 5];
+                b.begin.set(
+                    i,
+                    scale * Vec3::new(r(-2.0, 2.0), r(-2.0, 2.0), r(-0.5, 2.0)),
+                );
+                b.end.set(
+                    i,
+                    scale * Vec3::new(r(-2.0, 2.0), r(-2.0, 2.0), r(-0.5, 2.0)),
+                );
+                b.x.set(
+                    i,
+                    scale * Vec3::new(r(-0.1, 0.1), r(-0.1, 0.1), r(-0.01, 0.01)),
+                );
+                b.n.set(i, Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-0.2, 1.0)));
+                b.xi[i] = [r(0.0, 1.0), 0.0, 1.0, 3e-6, 1.0 - 3e-6, -1.0, f32::NAN][i % 7];
+            }
+            out.push(b);
+        }
+        // Degenerate lanes: zero / NaN normal, zero-length segment, shading point on the line,
+        // segment below the horizon, in the tangent plane, non-finite input, far along the axis.
+        let mut d = out[0];
+        d.n.set(0, Vec3::ZERO);
+        d.n.set(1, Vec3::new(f32::NAN, 0.0, 1.0));
+        d.end.set(2, d.begin.get(2));
+        d.x.set(3, 0.5 * (d.begin.get(3) + d.end.get(3)));
+        d.begin.set(4, Vec3::new(-1.0, 0.0, -1.0));
+        d.end.set(4, Vec3::new(1.0, 0.0, -1.0));
+        d.x.set(4, Vec3::ZERO);
+        d.n.set(4, Vec3::Z);
+        d.begin.set(5, Vec3::new(-1.0, 1.0, 0.0));
+        d.end.set(5, Vec3::new(1.0, 1.0, 0.0));
+        d.x.set(5, Vec3::ZERO);
+        d.n.set(5, Vec3::Z);
+        d.begin.set(6, Vec3::new(f32::INFINITY, 0.0, 1.0));
+        d.begin.set(7, Vec3::new(0.0, 1e-3, 1e4));
+        d.end.set(7, Vec3::new(0.0, 1e-3, 1e4 + 1.0));
+        d.x.set(7, Vec3::ZERO);
+        d.n.set(7, Vec3::Z);
+        out.push(d);
+        out
+    }
+
+    /// Every lane equals the scalar technique bit for bit (direction, density, mask), on
+    /// every compiled variant this CPU can run.
+    #[test]
+    fn lanes_equal_the_scalar_technique() {
+        let mut valid = 0;
+        let mut invalid = 0;
+        for input in batches(3000) {
+            let outputs = Isa::ALL
+                .into_iter()
+                .filter(|isa| isa.supported())
+                .map(|isa| sample_projected_solid_angle_with(isa, &input));
+            for out in outputs {
+                for i in 0..LANES {
+                    let seg = Segment::new(input.begin.get(i), input.end.get(i));
+                    let scalar = Technique::ProjectedSolidAngle.prepare(
+                        &seg,
+                        input.x.get(i),
+                        input.n.get(i),
+                    );
+                    match scalar {
+                        Some(p) => {
+                            valid += 1;
+                            assert!(out.contributes(i), "lane {i} of {input:?}");
+                            let (dir, pdf) = p.sample_with_pdf(input.xi[i]);
+                            let got = out.dir.get(i);
+                            assert_eq!(
+                                (got.to_array().map(f32::to_bits), out.pdf[i].to_bits()),
+                                (dir.to_array().map(f32::to_bits), pdf.to_bits()),
+                                "lane {i}: {got:?} {} vs {dir:?} {pdf}",
+                                out.pdf[i]
+                            );
+                            let f = p.support();
+                            assert_eq!(out.distance[i], f.d / f.c_hat.dot(dir));
+                        }
+                        None => {
+                            invalid += 1;
+                            assert!(!out.contributes(i), "lane {i} of {input:?}");
+                            assert_eq!((out.dir.get(i), out.pdf[i]), (Vec3::ZERO, 0.0));
+                        }
+                    }
+                }
+            }
+        }
+        assert!(valid > 10_000 && invalid > 1_000, "{valid} {invalid}");
+    }
+}
