@@ -8,7 +8,10 @@
 
 use criterion::{black_box, Criterion, Throughput};
 use glam::Vec3;
-use linlight_sampling::batch::{sample_projected_solid_angle_with, Isa, PsaBatchInput, LANES};
+use linlight_sampling::batch::{
+    sample_projected_solid_angle_slice, sample_projected_solid_angle_with, Isa, PsaBatchInput,
+    PsaBatchOutput, LANES,
+};
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::rng::Pcg32;
 use linlight_sampling::{LineSampler, Segment, Technique};
@@ -95,6 +98,15 @@ fn batch_pass(isa: Isa, batches: &[PsaBatchInput]) -> f32 {
     acc
 }
 
+/// One pass through the slice entry point (two batches interleaved per loop).
+#[inline(never)]
+fn slice_pass(isa: Isa, batches: &[PsaBatchInput], out: &mut [PsaBatchOutput]) -> f32 {
+    sample_projected_solid_angle_slice(isa, batches, out);
+    out.iter()
+        .map(|o| (0..LANES).map(|i| o.dir.x[i] + o.pdf[i]).sum::<f32>())
+        .sum()
+}
+
 fn active() -> impl Iterator<Item = Technique> {
     Technique::ALL.into_iter().filter(|t| !PENDING.contains(t))
 }
@@ -178,6 +190,8 @@ fn main() {
     println!("  {:<40} {:>8}    {:>8}", "", "median", "minimum");
     let techniques: Vec<Technique> = active().collect();
     let batches = batches(&configurations);
+    let out = std::cell::RefCell::new(vec![PsaBatchOutput::default(); batches.len()]);
+    let out = &out;
     let mut rows: Vec<Row> = techniques
         .iter()
         .map(|&t| -> Row {
@@ -193,6 +207,10 @@ fn main() {
         rows.push((
             format!("projected-solid-angle batch x{LANES} {}", isa.name()),
             Box::new(move || batch_pass(isa, black_box(b))),
+        ));
+        rows.push((
+            format!("  same, slice of batches {}", isa.name()),
+            Box::new(move || slice_pass(isa, black_box(b), &mut out.borrow_mut())),
         ));
     }
     let times = plain_timing(&rows, configurations.len());

@@ -170,6 +170,31 @@ pub fn sample_projected_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> Psa
     kernel(input)
 }
 
+/// Sample many batches (`outputs[k]` for `inputs[k]`; the slices must have the same length),
+/// choosing the kernel once. Two batches are interleaved in one loop over the lanes: a batch
+/// is one long dependency chain (square roots, divisions and the iteration), and a second,
+/// independent chain beside it keeps the vector units busy while the first one waits.
+pub fn sample_projected_solid_angle_slice(
+    isa: Isa,
+    inputs: &[PsaBatchInput],
+    outputs: &mut [PsaBatchOutput],
+) {
+    assert_eq!(inputs.len(), outputs.len(), "one output per input batch");
+    #[cfg(target_arch = "x86_64")]
+    {
+        if isa == Isa::Avx512 && isa.supported() {
+            // SAFETY: the features the function is compiled for were just detected.
+            return unsafe { slice_avx512(inputs, outputs) };
+        }
+        if isa == Isa::Avx2 && isa.supported() {
+            // SAFETY: as above.
+            return unsafe { slice_avx2(inputs, outputs) };
+        }
+    }
+    let _ = isa;
+    slice(inputs, outputs)
+}
+
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
 unsafe fn kernel_avx512(input: &PsaBatchInput) -> PsaBatchOutput {
@@ -182,6 +207,73 @@ unsafe fn kernel_avx2(input: &PsaBatchInput) -> PsaBatchOutput {
     kernel(input)
 }
 
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+unsafe fn slice_avx512(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) {
+    slice(inputs, outputs)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn slice_avx2(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) {
+    slice(inputs, outputs)
+}
+
+#[inline(always)]
+fn slice(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) {
+    let mut pairs_in = inputs.chunks_exact(2);
+    let mut pairs_out = outputs.chunks_exact_mut(2);
+    for (i, o) in (&mut pairs_in).zip(&mut pairs_out) {
+        let (a, b) = kernel2(&i[0], &i[1]);
+        o[0] = a;
+        o[1] = b;
+    }
+    for (i, o) in pairs_in.remainder().iter().zip(pairs_out.into_remainder()) {
+        *o = kernel(i);
+    }
+}
+
+/// Two batches in one loop over the lanes (two independent chains per vector instruction
+/// stream).
+#[inline(always)]
+fn kernel2(a: &PsaBatchInput, b: &PsaBatchInput) -> (PsaBatchOutput, PsaBatchOutput) {
+    let (mut out_a, mut out_b) = (PsaBatchOutput::default(), PsaBatchOutput::default());
+    let (mut valid_a, mut valid_b) = ([false; LANES], [false; LANES]);
+    #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+    for i in 0..LANES {
+        let ra = lane(a, i);
+        let rb = lane(b, i);
+        valid_a[i] = store(&mut out_a, i, ra);
+        valid_b[i] = store(&mut out_b, i, rb);
+    }
+    out_a.mask = pack(valid_a);
+    out_b.mask = pack(valid_b);
+    (out_a, out_b)
+}
+
+/// Write lane i's results (zeros where it does not contribute); returns whether it does.
+#[inline(always)]
+fn store(
+    out: &mut PsaBatchOutput,
+    i: usize,
+    (dir, pdf, distance, ok): (Vec3, f32, f32, bool),
+) -> bool {
+    out.dir.x[i] = if ok { dir.x } else { 0.0 };
+    out.dir.y[i] = if ok { dir.y } else { 0.0 };
+    out.dir.z[i] = if ok { dir.z } else { 0.0 };
+    out.pdf[i] = if ok { pdf } else { 0.0 };
+    out.distance[i] = if ok { distance } else { 0.0 };
+    ok
+}
+
+#[inline(always)]
+fn pack(valid: [bool; LANES]) -> u8 {
+    valid
+        .iter()
+        .enumerate()
+        .fold(0u8, |m, (i, &v)| m | ((v as u8) << i))
+}
+
 /// One loop over the lanes of branch-free code (vectorised by the compiler).
 #[inline(always)]
 fn kernel(input: &PsaBatchInput) -> PsaBatchOutput {
@@ -189,18 +281,9 @@ fn kernel(input: &PsaBatchInput) -> PsaBatchOutput {
     let mut valid = [false; LANES];
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
     for i in 0..LANES {
-        let (dir, pdf, distance, ok) = lane(input, i);
-        out.dir.x[i] = if ok { dir.x } else { 0.0 };
-        out.dir.y[i] = if ok { dir.y } else { 0.0 };
-        out.dir.z[i] = if ok { dir.z } else { 0.0 };
-        out.pdf[i] = if ok { pdf } else { 0.0 };
-        out.distance[i] = if ok { distance } else { 0.0 };
-        valid[i] = ok;
+        valid[i] = store(&mut out, i, lane(input, i));
     }
-    out.mask = valid
-        .iter()
-        .enumerate()
-        .fold(0u8, |m, (i, &v)| m | ((v as u8) << i));
+    out.mask = pack(valid);
     out
 }
 
@@ -276,6 +359,24 @@ mod tests {
         d.n.set(7, Vec3::Z);
         out.push(d);
         out
+    }
+
+    /// The slice entry point (two batches interleaved, and an odd remainder) gives the same
+    /// outputs as one batch at a time.
+    #[test]
+    fn slices_equal_single_batches() {
+        let inputs = batches(7);
+        for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
+            let mut outputs = vec![PsaBatchOutput::default(); inputs.len()];
+            sample_projected_solid_angle_slice(isa, &inputs, &mut outputs);
+            for (input, out) in inputs.iter().zip(&outputs) {
+                assert_eq!(
+                    *out,
+                    sample_projected_solid_angle_with(isa, input),
+                    "{isa:?}"
+                );
+            }
+        }
     }
 
     /// Every lane equals the scalar technique bit for bit (direction, density, mask), on
