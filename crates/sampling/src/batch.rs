@@ -18,8 +18,10 @@
 //! --bench techniques` (the `batch` rows).
 
 use crate::geometry::{unit_normal_lane, LineFrame};
+use crate::li2018::{Li2018, LiState, MAX_ITERATIONS};
 use crate::projected_solid_angle::{ProjectedSolidAngle, DEFAULT_ITERATIONS};
 use crate::sampler::clamp_xi;
+use crate::sampler::LineSampler;
 use crate::trig::{atan2_f64_select, atan2_select};
 use glam::Vec3;
 
@@ -233,6 +235,78 @@ fn slice(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) {
     }
 }
 
+/// Li et al. 2018 (technique 7) on every lane of `input`, as on a GPU: the Newton–bisection
+/// iteration runs until the *last* lane has converged (at most 20 steps), every lane paying for
+/// the slowest. Lane i equals the scalar `Technique::Li2018` bit for bit. Returns the outputs
+/// and the number of iterations the batch ran.
+pub fn sample_li2018_with(isa: Isa, input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if isa == Isa::Avx512 && isa.supported() {
+            // SAFETY: the features the function is compiled for were just detected.
+            return unsafe { li_kernel_avx512(input) };
+        }
+        if isa == Isa::Avx2 && isa.supported() {
+            // SAFETY: as above.
+            return unsafe { li_kernel_avx2(input) };
+        }
+    }
+    let _ = isa;
+    li_kernel(input)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+unsafe fn li_kernel_avx512(input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
+    li_kernel(input)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn li_kernel_avx2(input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
+    li_kernel(input)
+}
+
+#[inline(always)]
+fn li_kernel(input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
+    let prepared: [(Li2018, bool); LANES] = std::array::from_fn(|i| {
+        let (n, normal_ok) = unit_normal_lane(input.n.get(i));
+        let (frame, frame_ok) = LineFrame::lane(
+            input.begin.get(i),
+            input.end.get(i),
+            input.x.get(i),
+            Some(n),
+        );
+        let (li, li_ok) = Li2018::lane(frame, n);
+        (li, normal_ok && frame_ok && li_ok)
+    });
+    let xi: [f32; LANES] = std::array::from_fn(|i| clamp_xi(input.xi[i]));
+    // Lanes without a contribution start converged (inactive, as threads of a GPU warp).
+    let mut state: [LiState; LANES] = std::array::from_fn(|i| LiState {
+        done: !prepared[i].1,
+        ..prepared[i].0.start_state()
+    });
+    let mut iterations = 0;
+    while iterations < MAX_ITERATIONS && !state.iter().all(|s| s.done) {
+        #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+        for i in 0..LANES {
+            state[i] = prepared[i].0.step(state[i], xi[i], atan2_f64_select);
+        }
+        iterations += 1;
+    }
+    let mut out = PsaBatchOutput::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)]
+    for i in 0..LANES {
+        let (li, ok) = &prepared[i];
+        let (dir, pdf) = li.finish(state[i].l);
+        let f = li.support();
+        valid[i] = store(&mut out, i, (dir, pdf, f.d / f.c_hat.dot(dir), *ok));
+    }
+    out.mask = pack(valid);
+    (out, iterations)
+}
+
 /// Two batches in one loop over the lanes (two independent chains per vector instruction
 /// stream).
 #[inline(always)]
@@ -377,6 +451,41 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Li et al. on every lane equals the scalar technique bit for bit, and the batch runs as
+    /// many iterations as its slowest contributing lane.
+    #[test]
+    fn li2018_lanes_equal_the_scalar_technique() {
+        let mut total = (0u64, 0u64);
+        for input in batches(1500) {
+            for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
+                let (out, iterations) = sample_li2018_with(isa, &input);
+                let mut slowest = 0;
+                for i in 0..LANES {
+                    let seg = Segment::new(input.begin.get(i), input.end.get(i));
+                    match Li2018::prepare(&seg, input.x.get(i), input.n.get(i)) {
+                        Some(li) => {
+                            assert!(out.contributes(i));
+                            let (dir, pdf) = li.sample_with_pdf(input.xi[i]);
+                            assert_eq!(
+                                (out.dir.get(i).to_array(), out.pdf[i]),
+                                (dir.to_array(), pdf),
+                                "lane {i}"
+                            );
+                            let k = li.sample_l(input.xi[i]).1;
+                            slowest = slowest.max((k + 1).min(MAX_ITERATIONS));
+                            total.1 += (k + 1).min(MAX_ITERATIONS) as u64;
+                        }
+                        None => assert!(!out.contributes(i)),
+                    }
+                }
+                assert_eq!(iterations, slowest);
+                total.0 += (iterations * out.mask.count_ones()) as u64;
+            }
+        }
+        // Lanes wait for the slowest: the batch pays more iterations than the lanes need.
+        assert!(total.0 > total.1, "{total:?}");
     }
 
     /// Every lane equals the scalar technique bit for bit (direction, density, mask), on

@@ -285,6 +285,23 @@ impl LineFrame {
         p / p.length()
     }
 
+    /// [`Self::direction_to`] without a branch (both ways computed, one selected; bitwise the
+    /// same), for the lanes of [`crate::batch`].
+    #[inline(always)]
+    pub(crate) fn direction_to_lane(&self, l: f32) -> Vec3 {
+        let p = self.point(l);
+        let len2 = p.length_squared();
+        let direct = p / len2.sqrt();
+        let m = self.d.max(l.abs());
+        let q = (self.d / m) * self.c_hat + (l / m) * self.u;
+        let scaled = q / q.length();
+        if len2 > 1e-30 && len2 <= f32::MAX {
+            direct
+        } else {
+            scaled
+        }
+    }
+
     /// Unit direction with u·ω = s.
     #[inline]
     pub fn direction(&self, s: f32) -> Vec3 {

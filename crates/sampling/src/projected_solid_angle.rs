@@ -502,11 +502,11 @@ impl<T: Real> PsaCore<T> {
 #[derive(Clone, Copy, Debug)]
 pub struct ProjectedSolidAngle {
     /// Horizon-clipped frame: the support.
-    frame: LineFrame,
+    pub(crate) frame: LineFrame,
     n: Vec3,
-    core: PsaCore<f32>,
+    pub(crate) core: PsaCore<f32>,
     /// 1/Ω⊥_R = d / (C(φ_e) − C(φ_b)).
-    inv_psa: f32,
+    pub(crate) inv_psa: f32,
     /// Support tolerance of the arc ([`arc_tolerance`]); the arc itself is (s_b, c_b, Δ) of
     /// `core`, not stored twice (keeps the struct, and `Prepared`, small enough to be moved
     /// without a memcpy call).
@@ -600,14 +600,21 @@ impl ProjectedSolidAngle {
     /// Exact CDF at the line parameter l (clamped to the support): the fraction of Ω⊥_R between
     /// l_begin and l. τ(l) = atan2((l − l_b)d, d² + l_b l) avoids the cancellation of φ − φ_b.
     pub fn cdf_of_l(&self, l: f32) -> f32 {
+        self.cdf_of_l_with(l, atan2_f64)
+    }
+
+    /// [`Self::cdf_of_l`] with a given atan2 (branch-free in [`crate::batch`]; bitwise equal).
+    #[inline(always)]
+    pub(crate) fn cdf_of_l_with(&self, l: f32, atan2: impl Fn(f64, f64) -> f64) -> f32 {
         let f = &self.frame;
+        // max/min rather than clamp: no assertion (a branch) in the lanes of a batch.
         let (lb, l, d) = (
             f.l_begin as f64,
-            l.clamp(f.l_begin, f.l_end) as f64,
+            l.max(f.l_begin).min(f.l_end) as f64,
             f.d as f64,
         );
         // In f64 as in `on_frame` (no overflow, no division before atan2's).
-        let tau = atan2_f64((l - lb) * d, d * d + lb * l) as f32;
+        let tau = atan2((l - lb) * d, d * d + lb * l) as f32;
         self.core.cdf(tau)
     }
 
