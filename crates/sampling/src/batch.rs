@@ -19,7 +19,7 @@
 
 use crate::geometry::{unit_normal_lane, LineFrame};
 use crate::li2018::{Li2018, LiState, MAX_ITERATIONS};
-use crate::projected_solid_angle::{ProjectedSolidAngle, DEFAULT_ITERATIONS};
+use crate::projected_solid_angle::{ProjectedSolidAngle, PsaCore, DEFAULT_ITERATIONS};
 use crate::sampler::clamp_xi;
 use crate::sampler::LineSampler;
 use crate::trig::{atan2_f64_select, atan2_select};
@@ -27,6 +27,44 @@ use glam::Vec3;
 
 /// Lanes of a batch.
 pub const LANES: usize = 8;
+
+/// `fn $name(isa, args…)`: `$kernel(args…)` compiled for the chosen ISA — inlined into a
+/// function with that ISA's target features — or for the baseline when the CPU lacks it.
+macro_rules! isa_variants {
+    ($(fn $name:ident($($a:ident: $t:ty),*) -> $r:ty = $kernel:ident;)*) => {$(
+        fn $name(isa: Isa, $($a: $t),*) -> $r {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+                unsafe fn avx512($($a: $t),*) -> $r {
+                    $kernel($($a),*)
+                }
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn avx2($($a: $t),*) -> $r {
+                    $kernel($($a),*)
+                }
+                if isa == Isa::Avx512 && isa.supported() {
+                    // SAFETY: the features the function is compiled for were just detected.
+                    return unsafe { avx512($($a),*) };
+                }
+                if isa == Isa::Avx2 && isa.supported() {
+                    // SAFETY: as above.
+                    return unsafe { avx2($($a),*) };
+                }
+            }
+            let _ = isa;
+            $kernel($($a),*)
+        }
+    )*};
+}
+
+isa_variants! {
+    fn run_kernel(input: &PsaBatchInput) -> PsaBatchOutput = kernel;
+    fn run_slice(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) -> () = slice;
+    fn run_prepare(input: &PsaBatchInput) -> PreparedBatch = prepare_kernel;
+    fn run_psa_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput = psa_sample_kernel;
+    fn run_li_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) = li_sample_kernel;
+}
 
 /// Eight 3-vectors as structure of arrays.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -157,19 +195,7 @@ pub fn sample_projected_solid_angle(input: &PsaBatchInput) -> PsaBatchOutput {
 /// The same with a chosen kernel; one the CPU does not run ([`Isa::supported`]) falls back
 /// to the baseline.
 pub fn sample_projected_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBatchOutput {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if isa == Isa::Avx512 && isa.supported() {
-            // SAFETY: the features the function is compiled for were just detected.
-            return unsafe { kernel_avx512(input) };
-        }
-        if isa == Isa::Avx2 && isa.supported() {
-            // SAFETY: as above.
-            return unsafe { kernel_avx2(input) };
-        }
-    }
-    let _ = isa;
-    kernel(input)
+    run_kernel(isa, input)
 }
 
 /// Sample many batches (`outputs[k]` for `inputs[k]`; the slices must have the same length),
@@ -182,43 +208,7 @@ pub fn sample_projected_solid_angle_slice(
     outputs: &mut [PsaBatchOutput],
 ) {
     assert_eq!(inputs.len(), outputs.len(), "one output per input batch");
-    #[cfg(target_arch = "x86_64")]
-    {
-        if isa == Isa::Avx512 && isa.supported() {
-            // SAFETY: the features the function is compiled for were just detected.
-            return unsafe { slice_avx512(inputs, outputs) };
-        }
-        if isa == Isa::Avx2 && isa.supported() {
-            // SAFETY: as above.
-            return unsafe { slice_avx2(inputs, outputs) };
-        }
-    }
-    let _ = isa;
-    slice(inputs, outputs)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
-unsafe fn kernel_avx512(input: &PsaBatchInput) -> PsaBatchOutput {
-    kernel(input)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn kernel_avx2(input: &PsaBatchInput) -> PsaBatchOutput {
-    kernel(input)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
-unsafe fn slice_avx512(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) {
-    slice(inputs, outputs)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn slice_avx2(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) {
-    slice(inputs, outputs)
+    run_slice(isa, inputs, outputs)
 }
 
 #[inline(always)]
@@ -235,41 +225,121 @@ fn slice(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) {
     }
 }
 
-/// Li et al. 2018 (technique 7) on every lane of `input`, as on a GPU: the Newton–bisection
-/// iteration runs until the *last* lane has converged (at most 20 steps), every lane paying for
-/// the slowest. Lane i equals the scalar `Technique::Li2018` bit for bit. Returns the outputs
-/// and the number of iterations the batch ran.
-pub fn sample_li2018_with(isa: Isa, input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if isa == Isa::Avx512 && isa.supported() {
-            // SAFETY: the features the function is compiled for were just detected.
-            return unsafe { li_kernel_avx512(input) };
-        }
-        if isa == Isa::Avx2 && isa.supported() {
-            // SAFETY: as above.
-            return unsafe { li_kernel_avx2(input) };
+/// Eight prepared samplers as structure of arrays: what [`ProjectedSolidAngle::prepare`] (and
+/// [`Li2018::prepare`], which shares it) keep per (light, shading point), to draw any number of
+/// samples with [`PreparedBatch::sample_projected_solid_angle`] or
+/// [`PreparedBatch::sample_li2018`]. Lanes outside `mask` hold meaningless values.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PreparedBatch {
+    u: Vec3x8,
+    c_hat: Vec3x8,
+    n: Vec3x8,
+    d: [f32; LANES],
+    l_begin: [f32; LANES],
+    l_end: [f32; LANES],
+    s_begin: [f32; LANES],
+    s_end: [f32; LANES],
+    // PsaCore
+    ns: [f32; LANES],
+    nt: [f32; LANES],
+    s_b: [f32; LANES],
+    c_b: [f32; LANES],
+    delta_s: [f32; LANES],
+    width: [f32; LANES],
+    p0: [f32; LANES],
+    p1: [f32; LANES],
+    total: [f32; LANES],
+    inv_psa: [f32; LANES],
+    tolerance: [f32; LANES],
+    /// Li et al.: n·c and n·u (f32 dot products, not the core's f64-rounded n_s).
+    n_dot_c: [f32; LANES],
+    n_dot_u: [f32; LANES],
+    /// Bit i set: lane i contributes.
+    pub mask: u8,
+}
+
+impl PreparedBatch {
+    /// Prepare every lane of `input` (its `xi` is not used) with the chosen kernel.
+    pub fn prepare(isa: Isa, input: &PsaBatchInput) -> Self {
+        run_prepare(isa, input)
+    }
+
+    /// One sample per lane for `xi` (projected solid angle, two Halley steps): lane i equals
+    /// the scalar sampler's `sample_with_pdf(xi[i])`.
+    pub fn sample_projected_solid_angle(&self, isa: Isa, xi: &[f32; LANES]) -> PsaBatchOutput {
+        run_psa_sample(isa, self, xi)
+    }
+
+    /// One sample per lane for `xi` by Li et al. 2018, iterating until the slowest lane has
+    /// converged (as on a GPU); also returns the number of iterations run.
+    pub fn sample_li2018(&self, isa: Isa, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) {
+        run_li_sample(isa, self, xi)
+    }
+
+    #[inline(always)]
+    fn store(&mut self, i: usize, li: &Li2018) {
+        let p = &li.exact;
+        let f = &p.frame;
+        self.u.set(i, f.u);
+        self.c_hat.set(i, f.c_hat);
+        self.n.set(i, p.n);
+        (self.d[i], self.l_begin[i], self.l_end[i]) = (f.d, f.l_begin, f.l_end);
+        (self.s_begin[i], self.s_end[i]) = (f.s_begin, f.s_end);
+        let c = &p.core;
+        (self.ns[i], self.nt[i], self.s_b[i], self.c_b[i]) = (c.ns, c.nt, c.s_b, c.c_b);
+        (self.delta_s[i], self.width[i], self.p0[i], self.p1[i]) = (c.delta_s, c.width, c.p0, c.p1);
+        (self.total[i], self.inv_psa[i], self.tolerance[i]) = (c.total, p.inv_psa, p.tolerance);
+        (self.n_dot_c[i], self.n_dot_u[i]) = (li.n_dot_c, li.ns);
+    }
+
+    /// Lane i as the scalar sampler (fields read from the arrays, so the lane loop vectorises).
+    #[inline(always)]
+    fn psa(&self, i: usize) -> ProjectedSolidAngle {
+        ProjectedSolidAngle {
+            frame: LineFrame {
+                u: self.u.get(i),
+                c_hat: self.c_hat.get(i),
+                d: self.d[i],
+                l_begin: self.l_begin[i],
+                l_end: self.l_end[i],
+                s_begin: self.s_begin[i],
+                s_end: self.s_end[i],
+            },
+            n: self.n.get(i),
+            core: PsaCore {
+                ns: self.ns[i],
+                nt: self.nt[i],
+                s_b: self.s_b[i],
+                c_b: self.c_b[i],
+                delta_s: self.delta_s[i],
+                width: self.width[i],
+                p0: self.p0[i],
+                p1: self.p1[i],
+                total: self.total[i],
+            },
+            inv_psa: self.inv_psa[i],
+            tolerance: self.tolerance[i],
+            iterations: DEFAULT_ITERATIONS,
         }
     }
-    let _ = isa;
-    li_kernel(input)
-}
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
-unsafe fn li_kernel_avx512(input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
-    li_kernel(input)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn li_kernel_avx2(input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
-    li_kernel(input)
+    #[inline(always)]
+    fn li(&self, i: usize) -> Li2018 {
+        Li2018 {
+            exact: self.psa(i),
+            n_dot_c: self.n_dot_c[i],
+            ns: self.n_dot_u[i],
+            max_iterations: MAX_ITERATIONS,
+        }
+    }
 }
 
 #[inline(always)]
-fn li_kernel(input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
-    let prepared: [(Li2018, bool); LANES] = std::array::from_fn(|i| {
+fn prepare_kernel(input: &PsaBatchInput) -> PreparedBatch {
+    let mut out = PreparedBatch::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+    for i in 0..LANES {
         let (n, normal_ok) = unit_normal_lane(input.n.get(i));
         let (frame, frame_ok) = LineFrame::lane(
             input.begin.get(i),
@@ -277,20 +347,42 @@ fn li_kernel(input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
             input.x.get(i),
             Some(n),
         );
-        let (li, li_ok) = Li2018::lane(frame, n);
-        (li, normal_ok && frame_ok && li_ok)
-    });
-    let xi: [f32; LANES] = std::array::from_fn(|i| clamp_xi(input.xi[i]));
-    // Lanes without a contribution start converged (inactive, as threads of a GPU warp).
+        let (li, ok) = Li2018::lane(frame, n);
+        out.store(i, &li);
+        valid[i] = normal_ok && frame_ok && ok;
+    }
+    out.mask = pack(valid);
+    out
+}
+
+#[inline(always)]
+fn psa_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput {
+    let mut out = PsaBatchOutput::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)]
+    for i in 0..LANES {
+        let p = prepared.psa(i);
+        let (dir, pdf) = p.sample_with_pdf_lane(clamp_xi(xi[i]), atan2_select);
+        let f = &p.frame;
+        let ok = prepared.mask & (1 << i) != 0;
+        valid[i] = store(&mut out, i, (dir, pdf, f.d / f.c_hat.dot(dir), ok));
+    }
+    out.mask = pack(valid);
+    out
+}
+
+#[inline(always)]
+fn li_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) {
+    let xi: [f32; LANES] = std::array::from_fn(|i| clamp_xi(xi[i]));
     let mut state: [LiState; LANES] = std::array::from_fn(|i| LiState {
-        done: !prepared[i].1,
-        ..prepared[i].0.start_state()
+        done: prepared.mask & (1 << i) == 0,
+        ..prepared.li(i).start_state()
     });
     let mut iterations = 0;
     while iterations < MAX_ITERATIONS && !state.iter().all(|s| s.done) {
-        #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+        #[allow(clippy::needless_range_loop)]
         for i in 0..LANES {
-            state[i] = prepared[i].0.step(state[i], xi[i], atan2_f64_select);
+            state[i] = prepared.li(i).step(state[i], xi[i], atan2_f64_select);
         }
         iterations += 1;
     }
@@ -298,13 +390,22 @@ fn li_kernel(input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
     let mut valid = [false; LANES];
     #[allow(clippy::needless_range_loop)]
     for i in 0..LANES {
-        let (li, ok) = &prepared[i];
+        let li = prepared.li(i);
         let (dir, pdf) = li.finish(state[i].l);
         let f = li.support();
-        valid[i] = store(&mut out, i, (dir, pdf, f.d / f.c_hat.dot(dir), *ok));
+        let ok = prepared.mask & (1 << i) != 0;
+        valid[i] = store(&mut out, i, (dir, pdf, f.d / f.c_hat.dot(dir), ok));
     }
     out.mask = pack(valid);
     (out, iterations)
+}
+
+/// Li et al. 2018 (technique 7) on every lane of `input` (prepare and one sample), as on a
+/// GPU: the Newton–bisection iteration runs until the *last* lane has converged (at most 20
+/// steps), every lane paying for the slowest. Lane i equals the scalar `Technique::Li2018`
+/// bit for bit. Returns the outputs and the number of iterations the batch ran.
+pub fn sample_li2018_with(isa: Isa, input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
+    PreparedBatch::prepare(isa, input).sample_li2018(isa, &input.xi)
 }
 
 /// Two batches in one loop over the lanes (two independent chains per vector instruction
@@ -449,6 +550,22 @@ mod tests {
                     sample_projected_solid_angle_with(isa, input),
                     "{isa:?}"
                 );
+            }
+        }
+    }
+
+    /// Prepared once, sampled several times: the same as preparing and sampling together.
+    #[test]
+    fn prepared_batches_sample_like_the_fused_kernel() {
+        for input in batches(300) {
+            for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
+                let prepared = PreparedBatch::prepare(isa, &input);
+                for k in 0..3 {
+                    let xi: [f32; LANES] = std::array::from_fn(|i| input.xi[(i + k) % LANES]);
+                    let fused =
+                        sample_projected_solid_angle_with(isa, &PsaBatchInput { xi, ..input });
+                    assert_eq!(prepared.sample_projected_solid_angle(isa, &xi), fused);
+                }
             }
         }
     }

@@ -35,9 +35,9 @@ pub struct Li2018 {
     /// Shares the clipped frame, the exact density and the exact CDF.
     pub(crate) exact: ProjectedSolidAngle,
     /// n·c = d n_t and n_s = n·u, for F'(l) = 2d(n·c + l n_s)/r⁴.
-    n_dot_c: f32,
-    ns: f32,
-    max_iterations: u32,
+    pub(crate) n_dot_c: f32,
+    pub(crate) ns: f32,
+    pub(crate) max_iterations: u32,
 }
 
 impl Li2018 {

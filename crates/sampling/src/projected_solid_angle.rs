@@ -503,15 +503,15 @@ impl<T: Real> PsaCore<T> {
 pub struct ProjectedSolidAngle {
     /// Horizon-clipped frame: the support.
     pub(crate) frame: LineFrame,
-    n: Vec3,
+    pub(crate) n: Vec3,
     pub(crate) core: PsaCore<f32>,
     /// 1/Ω⊥_R = d / (C(φ_e) − C(φ_b)).
     pub(crate) inv_psa: f32,
     /// Support tolerance of the arc ([`arc_tolerance`]); the arc itself is (s_b, c_b, Δ) of
     /// `core`, not stored twice (keeps the struct, and `Prepared`, small enough to be moved
     /// without a memcpy call).
-    tolerance: f32,
-    iterations: u32,
+    pub(crate) tolerance: f32,
+    pub(crate) iterations: u32,
 }
 
 impl ProjectedSolidAngle {
