@@ -373,19 +373,35 @@ fn psa_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOut
 
 #[inline(always)]
 fn li_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) {
-    let xi: [f32; LANES] = std::array::from_fn(|i| clamp_xi(xi[i]));
-    let mut state: [LiState; LANES] = std::array::from_fn(|i| LiState {
-        done: prepared.mask & (1 << i) == 0,
-        ..prepared.li(i).start_state()
-    });
+    // The iteration state as structure of arrays (so that the step loop vectorises).
+    let (mut l, mut lo, mut hi, mut done) =
+        ([0.0f32; LANES], [0.0; LANES], [0.0; LANES], [0u32; LANES]);
+    let mut xs = [0.0f32; LANES];
+    for i in 0..LANES {
+        let s = prepared.li(i).start_state();
+        (l[i], lo[i], hi[i]) = (s.l, s.lo, s.hi);
+        // Lanes without a contribution start converged (inactive, as threads of a GPU warp).
+        done[i] = (prepared.mask & (1 << i) == 0) as u32;
+        xs[i] = clamp_xi(xi[i]);
+    }
     let mut iterations = 0;
-    while iterations < MAX_ITERATIONS && !state.iter().all(|s| s.done) {
-        #[allow(clippy::needless_range_loop)]
+    while iterations < MAX_ITERATIONS && done.iter().any(|&d| d == 0) {
         for i in 0..LANES {
-            state[i] = prepared.li(i).step(state[i], xi[i], atan2_f64_select);
+            let state = LiState {
+                l: l[i],
+                lo: lo[i],
+                hi: hi[i],
+                done: done[i] != 0,
+            };
+            let next = prepared.li(i).step(state, xs[i], atan2_f64_select);
+            (l[i], lo[i], hi[i], done[i]) = (next.l, next.lo, next.hi, next.done as u32);
         }
         iterations += 1;
     }
+    let state: [LiState; LANES] = std::array::from_fn(|i| LiState {
+        l: l[i],
+        ..LiState::default()
+    });
     let mut out = PsaBatchOutput::default();
     let mut valid = [false; LANES];
     #[allow(clippy::needless_range_loop)]
