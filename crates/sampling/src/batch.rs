@@ -385,7 +385,7 @@ fn li_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOut
         xs[i] = clamp_xi(xi[i]);
     }
     let mut iterations = 0;
-    while iterations < MAX_ITERATIONS && done.iter().any(|&d| d == 0) {
+    while iterations < MAX_ITERATIONS && done.contains(&0) {
         for i in 0..LANES {
             let state = LiState {
                 l: l[i],
