@@ -417,15 +417,15 @@ pub fn write_rgb8_png(
         u32::try_from(width).map_err(|_| ImageError::Format("PNG too wide".into()))?,
         u32::try_from(height).map_err(|_| ImageError::Format("PNG too high".into()))?,
     );
-    image::save_buffer_with_format(
-        path,
-        rgb,
-        w,
-        h,
-        image::ExtendedColorType::Rgb8,
-        image::ImageFormat::Png,
-    )
-    .map_err(|e| ImageError::Io(format!("cannot write {}: {e}", path.display())))
+    let io =
+        |e: &dyn std::fmt::Display| ImageError::Io(format!("cannot write {}: {e}", path.display()));
+    let file = std::fs::File::create(path).map_err(|e| io(&e))?;
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(|e| io(&e))?;
+    writer.write_image_data(rgb).map_err(|e| io(&e))?;
+    writer.finish().map_err(|e| io(&e))
 }
 
 /// Numeric attribute of any scalar EXR type (string, int, float, double).
