@@ -55,12 +55,11 @@ const MIN_RELATIVE_DISTANCE: f32 = 1e-7;
 /// Bound on |s_of(direction(s)) − s| for s in a frame's interval (a few ulps at 1).
 pub const S_ROUNDING: f32 = 4.0 * f32::EPSILON;
 
-/// s = l / √(l² + d²) of the line point at parameter l: in f64, where the squares of f32 values
-/// neither overflow nor underflow (no libm `hypotf` call; one rounding to f32).
-#[inline]
+/// s = l / √(l² + d²) of the line point at parameter l: [`sin_cos_at`] (in f64, where the
+/// squares of f32 values neither overflow nor underflow; no libm `hypotf` call), rounded once.
+#[inline(always)]
 fn s_of_l(l: f32, d: f32) -> f32 {
-    let (l, d) = (l as f64, d as f64);
-    ((l / (l * l + d * d).sqrt()) as f32).clamp(-1.0, 1.0)
+    (sin_cos_at(l, d).0 as f32).clamp(-1.0, 1.0)
 }
 
 impl LineFrame {
@@ -124,7 +123,6 @@ impl LineFrame {
             return None;
         }
         let length = length2.sqrt();
-        let u = axis * (1.0 / length);
         let sigma = k * length;
         let (mut lb, mut le) = (sigma, sigma + length);
         match cut {
@@ -133,7 +131,10 @@ impl LineFrame {
             None => {}
         }
         let d = d2.sqrt();
-        let c_hat = (c * (1.0 / d)).as_vec3();
+        // 1/ℓ and 1/d from one division.
+        let inv = 1.0 / (length * d);
+        let u = axis * (d * inv);
+        let c_hat = (c * (length * inv)).as_vec3();
         let (d, l_begin, l_end) = (d as f32, lb as f32, le as f32);
         if !(d > 0.0 && l_begin.is_finite() && l_end.is_finite()) {
             return None;
@@ -172,7 +173,6 @@ impl LineFrame {
         let min_rel = MIN_RELATIVE_DISTANCE as f64;
         valid &= d2 > min_rel * min_rel * scale2;
         let length = length2.sqrt();
-        let u = axis * (1.0 / length);
         let sigma = k * length;
         let (mut lb, mut le) = (sigma, sigma + length);
         if let Some(n) = horizon {
@@ -190,7 +190,10 @@ impl LineFrame {
             };
         }
         let d = d2.sqrt();
-        let c_hat = (c * (1.0 / d)).as_vec3();
+        // 1/ℓ and 1/d from one division.
+        let inv = 1.0 / (length * d);
+        let u = axis * (d * inv);
+        let c_hat = (c * (length * inv)).as_vec3();
         let (d, l_begin, l_end) = (d as f32, lb as f32, le as f32);
         // Rounded to f32, d may underflow to 0 and l overflow to ±inf.
         valid &= d > 0.0 && l_begin.is_finite() && l_end.is_finite();
@@ -498,11 +501,12 @@ pub fn tau_in_arc(
 
 /// (sin φ, cos φ) = (l, d)/√(l² + d²) of the line point at parameter l, in f64 (squares of f32
 /// values neither overflow nor underflow there).
-#[inline]
+/// One division (a reciprocal) for both.
+#[inline(always)]
 pub fn sin_cos_at(l: f32, d: f32) -> (f64, f64) {
     let (l, d) = (l as f64, d as f64);
-    let r = (l * l + d * d).sqrt();
-    (l / r, d / r)
+    let inv_r = 1.0 / (l * l + d * d).sqrt();
+    (l * inv_r, d * inv_r)
 }
 
 /// C(s) = n_s s² + n_t (s√(1−s²) + asin s), so that ∫ (n·ω) dΩ_R = (1/d)[C].
