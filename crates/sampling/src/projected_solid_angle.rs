@@ -340,6 +340,13 @@ impl<T: Real> PsaCore<T> {
     /// s_b ≈ ±1 (then two iterations do not recover). Exact at ξ = 0 and 1.
     #[inline(always)]
     pub fn start(&self, xi: T) -> T {
+        // The ends as early (predictable) branches on the scalar path.
+        if xi <= T::ZERO {
+            return T::ZERO;
+        }
+        if xi >= T::ONE {
+            return self.width;
+        }
         self.start_with(xi, T::atan2)
     }
 
