@@ -245,15 +245,49 @@ struct Row<'a> {
     pass: Box<dyn FnMut() -> f32 + 'a>,
 }
 
+/// Instruction-count mode for callgrind (`--toggle-collect='*shade_*'`):
+/// `LINLIGHT_SHADING_ONLY=<row>:<config>` with row a technique name, `psa-x8` or `li-x8`, config
+/// `128x1` or `1x128`, shades once and prints the number of samples (instructions per sample
+/// = Ir / samples). Batches run the kernel the CPU supports (under valgrind: AVX2).
+fn count_mode(spec: &str, stride: usize) {
+    let (row, config) = spec
+        .split_once(':')
+        .expect("LINLIGHT_SHADING_ONLY=<row>:<128x1|1x128>");
+    let h = hit_points(stride);
+    let all = lights();
+    let (lights, spp) = match config {
+        "128x1" => (&all[..], 1),
+        "1x128" => (&all[..1], SPP),
+        _ => panic!("config must be 128x1 or 1x128"),
+    };
+    let isa = Isa::detect();
+    let sum = match row {
+        "psa-x8" => shade_batched(Batched::ProjectedSolidAngle, isa, &h, lights, spp).0,
+        "li-x8" => shade_batched(Batched::Li2018, isa, &h, lights, spp).0,
+        t => shade_scalar(t.parse().expect("technique"), &h, lights, spp),
+    };
+    println!(
+        "{spec}: {} samples, checksum {sum}",
+        h.p.len() * lights.len() * spp
+    );
+}
+
 fn main() {
+    let stride_of = |default: usize| {
+        std::env::var("LINLIGHT_SHADING_STRIDE")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .filter(|&s| s >= 1)
+            .unwrap_or(default)
+    };
+    if let Ok(spec) = std::env::var("LINLIGHT_SHADING_ONLY") {
+        count_mode(&spec, stride_of(32));
+        return;
+    }
     if !std::env::args().any(|a| a == "--bench") {
         return; // `cargo test --benches`: nothing to check here
     }
-    let stride: usize = std::env::var("LINLIGHT_SHADING_STRIDE")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .filter(|&s| s >= 1)
-        .unwrap_or(8);
+    let stride = stride_of(8);
     let repeats: usize = std::env::var("LINLIGHT_SHADING_REPEATS")
         .ok()
         .and_then(|s| s.parse().ok())
