@@ -369,11 +369,10 @@ impl LineFrame {
             n.as_dvec3().dot(self.u.as_dvec3()),
             n.as_dvec3().dot(self.c_hat.as_dvec3()),
         );
-        let c = |l: f32| {
-            let (s, t) = sin_cos_at(l, self.d);
-            ns * s * s + nt * (s * t + (l as f64).atan2(self.d as f64))
-        };
-        ((c(self.l_end) - c(self.l_begin)) / self.d as f64) as f32
+        let (d, c) = (self.d as f64, |l: f32| l as f64);
+        let total = antiderivative_at(ns, nt, c(self.l_end), d)
+            - antiderivative_at(ns, nt, c(self.l_begin), d);
+        (total / d) as f32
     }
 }
 
@@ -509,12 +508,26 @@ pub fn sin_cos_at(l: f32, d: f32) -> (f64, f64) {
     (l * inv_r, d * inv_r)
 }
 
-/// C(s) = n_s s² + n_t (s√(1−s²) + asin s), so that ∫ (n·ω) dΩ_R = (1/d)[C].
+/// The antiderivative of the projected solid angle along a line, the one implementation of the
+/// crate: C(φ) = n_s sin²φ + n_t (sin φ cos φ + φ) at φ = atan2(l, d), so that
+/// ∫ (n·ω) dΩ_R = (1/d)[C] between two line parameters (n_s = n·u, n_t = n·ĉ). In f64 with
+/// std's atan2, for references and preparation (the sampler's hot path evaluates differences of
+/// C without cancellation instead: `projected_solid_angle::PsaCore`). A difference of two C
+/// values cancels for short or distant intervals; that is the caller's concern.
+#[inline]
+pub fn antiderivative_at(ns: f64, nt: f64, l: f64, d: f64) -> f64 {
+    let inv_r = 1.0 / (l * l + d * d).sqrt();
+    let (s, t) = (l * inv_r, d * inv_r);
+    ns * s * s + nt * (s * t + l.atan2(d))
+}
+
+/// C in terms of s = sin φ: n_s s² + n_t (s√(1−s²) + asin s) ([`antiderivative_at`] at
+/// (l, d) = (s, √(1 − s²))), rounded to f32.
 #[inline]
 pub fn projected_antiderivative(ns: f32, nt: f32, s: f32) -> f32 {
-    let s = s.clamp(-1.0, 1.0);
+    let s = s.clamp(-1.0, 1.0) as f64;
     let t = (1.0 - s * s).max(0.0).sqrt();
-    ns * s * s + nt * (s * t + s.asin())
+    antiderivative_at(ns as f64, nt as f64, s, t) as f32
 }
 
 /// |v| without underflow or overflow of the squares, which leave the normal f32 range for |v|

@@ -21,6 +21,8 @@ pub mod solid_angle;
 pub mod technique;
 pub mod trig;
 
-pub use geometry::{projected_antiderivative, unit_normal, FrameArc, LineFrame, Segment};
+pub use geometry::{
+    antiderivative_at, projected_antiderivative, unit_normal, FrameArc, LineFrame, Segment,
+};
 pub use sampler::LineSampler;
 pub use technique::{Prepared, Technique};
