@@ -8,6 +8,10 @@
 
 use criterion::{black_box, Criterion, Throughput};
 use glam::Vec3;
+use linlight_sampling::batch::{
+    sample_projected_solid_angle_slice, sample_projected_solid_angle_with, Isa, PsaBatchInput,
+    PsaBatchOutput, LANES,
+};
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::rng::Pcg32;
 use linlight_sampling::{LineSampler, Segment, Technique};
@@ -62,6 +66,47 @@ fn pass(technique: Technique, configurations: &[Configuration]) -> f32 {
     acc
 }
 
+/// The configurations as batches of [`LANES`] (1024 = 128 full batches).
+fn batches(configurations: &[Configuration]) -> Vec<PsaBatchInput> {
+    configurations
+        .chunks(LANES)
+        .map(|chunk| {
+            let mut b = PsaBatchInput::default();
+            for (i, c) in chunk.iter().enumerate() {
+                b.begin.set(i, c.segment.begin);
+                b.end.set(i, c.segment.end);
+                b.x.set(i, c.x);
+                b.n.set(i, c.n);
+                b.xi[i] = c.xi;
+            }
+            b
+        })
+        .collect()
+}
+
+/// One pass of the 8-wide batch over all configurations (same work as `pass` for
+/// projected-solid-angle, same checksum).
+#[inline(never)]
+fn batch_pass(isa: Isa, batches: &[PsaBatchInput]) -> f32 {
+    let mut acc = 0.0f32;
+    for b in batches {
+        let out = sample_projected_solid_angle_with(isa, b);
+        for i in 0..LANES {
+            acc += out.dir.x[i] + out.pdf[i];
+        }
+    }
+    acc
+}
+
+/// One pass through the slice entry point (two batches interleaved per loop).
+#[inline(never)]
+fn slice_pass(isa: Isa, batches: &[PsaBatchInput], out: &mut [PsaBatchOutput]) -> f32 {
+    sample_projected_solid_angle_slice(isa, batches, out);
+    out.iter()
+        .map(|o| (0..LANES).map(|i| o.dir.x[i] + o.pdf[i]).sum::<f32>())
+        .sum()
+}
+
 fn active() -> impl Iterator<Item = Technique> {
     Technique::ALL.into_iter().filter(|t| !PENDING.contains(t))
 }
@@ -77,18 +122,21 @@ fn criterion_groups(c: &mut Criterion, configurations: &[Configuration]) {
     group.finish();
 }
 
+/// A timed row: a name and one pass over all configurations.
+type Row<'a> = (String, Box<dyn Fn() -> f32 + 'a>);
+
 /// Mean time per configuration in ns of single passes, (median, minimum) over repeats. Repeats
-/// are interleaved across the techniques (round robin), so that a change of machine load hits
-/// all of them alike. On a loaded machine the minimum (a pass that was not descheduled) is the
+/// are interleaved across the rows (round robin), so that a change of machine load hits all of
+/// them alike. On a loaded machine the minimum (a pass that was not descheduled) is the
 /// reproducible figure; the median shows the load.
-fn plain_timing(techniques: &[Technique], configurations: &[Configuration]) -> Vec<(f64, f64)> {
+fn plain_timing(rows: &[Row], configurations: usize) -> Vec<(f64, f64)> {
     const REPEATS: usize = 301;
-    let mut times = vec![Vec::with_capacity(REPEATS); techniques.len()];
+    let mut times = vec![Vec::with_capacity(REPEATS); rows.len()];
     for _ in 0..REPEATS {
-        for (k, &technique) in techniques.iter().enumerate() {
+        for (k, (_, pass)) in rows.iter().enumerate() {
             let start = Instant::now();
-            black_box(pass(technique, black_box(configurations)));
-            times[k].push(start.elapsed().as_secs_f64() * 1e9 / configurations.len() as f64);
+            black_box(pass());
+            times[k].push(start.elapsed().as_secs_f64() * 1e9 / configurations as f64);
         }
     }
     times
@@ -104,10 +152,22 @@ fn plain_timing(techniques: &[Technique], configurations: &[Configuration]) -> V
 /// `LINLIGHT_BENCH_ONLY=<technique> <bench binary>` runs 10 passes of that technique and exits
 /// (no criterion, no timing), so that instructions per configuration = Ir(pass) / (10·1024).
 fn count_mode(name: &str, configurations: &[Configuration]) {
-    let technique = Technique::from_name(name).expect("unknown technique in LINLIGHT_BENCH_ONLY");
     let mut acc = 0.0;
-    for _ in 0..10 {
-        acc += black_box(pass(technique, black_box(configurations)));
+    if let Some(isa) = name.strip_prefix("batch-") {
+        let isa = Isa::ALL
+            .into_iter()
+            .find(|i| i.name() == isa)
+            .expect("LINLIGHT_BENCH_ONLY=batch-<avx512|avx2|baseline>");
+        let batches = batches(configurations);
+        for _ in 0..10 {
+            acc += black_box(batch_pass(isa, black_box(&batches)));
+        }
+    } else {
+        let technique =
+            Technique::from_name(name).expect("unknown technique in LINLIGHT_BENCH_ONLY");
+        for _ in 0..10 {
+            acc += black_box(pass(technique, black_box(configurations)));
+        }
     }
     println!("{name}: checksum {acc}");
 }
@@ -127,21 +187,57 @@ fn main() {
         return;
     }
     println!("\nplain timing loop (301 interleaved single passes, ns per configuration):");
-    println!("  {:<24} {:>8}    {:>8}", "", "median", "minimum");
+    println!("  {:<40} {:>8}    {:>8}", "", "median", "minimum");
     let techniques: Vec<Technique> = active().collect();
-    let times = plain_timing(&techniques, &configurations);
+    let batches = batches(&configurations);
+    let out = std::cell::RefCell::new(vec![PsaBatchOutput::default(); batches.len()]);
+    let out = &out;
+    let mut rows: Vec<Row> = techniques
+        .iter()
+        .map(|&t| -> Row {
+            let c = &configurations;
+            (
+                t.name().to_string(),
+                Box::new(move || pass(t, black_box(c))),
+            )
+        })
+        .collect();
+    let b = &batches;
+    for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
+        rows.push((
+            format!("projected-solid-angle batch x{LANES} {}", isa.name()),
+            Box::new(move || batch_pass(isa, black_box(b))),
+        ));
+        rows.push((
+            format!("  same, slice of batches {}", isa.name()),
+            Box::new(move || slice_pass(isa, black_box(b), &mut out.borrow_mut())),
+        ));
+    }
+    let times = plain_timing(&rows, configurations.len());
     let mut ns = std::collections::HashMap::new();
-    for (&technique, &(median, min)) in techniques.iter().zip(&times) {
-        let prepared = configurations
-            .iter()
-            .filter(|c| technique.prepare(&c.segment, c.x, c.n).is_some())
-            .count();
+    for (k, (name, _)) in rows.iter().enumerate() {
+        let (median, min) = times[k];
+        let prepared = match techniques.get(k) {
+            Some(&t) => configurations
+                .iter()
+                .filter(|c| t.prepare(&c.segment, c.x, c.n).is_some())
+                .count(),
+            None => batches
+                .iter()
+                .map(|b| {
+                    sample_projected_solid_angle_with(Isa::Baseline, b)
+                        .mask
+                        .count_ones() as usize
+                })
+                .sum(),
+        };
         println!(
-            "  {:<24} {median:8.2} ns {min:8.2} ns   ({prepared}/{} prepared)",
-            technique.name(),
+            "  {name:<40} {median:8.2} ns {min:8.2} ns   ({prepared}/{} prepared)",
             CONFIGURATIONS
         );
-        ns.insert(technique, (median, min));
+        if let Some(&t) = techniques.get(k) {
+            ns.insert(t, (median, min));
+        }
     }
     let ratio = |a: Technique, b: Technique| match (ns.get(&a), ns.get(&b)) {
         (Some(x), Some(y)) => format!("{:.3} (median)  {:.3} (minimum)", x.0 / y.0, x.1 / y.1),

@@ -9,6 +9,7 @@
 //! p(l) = c + l·u, s(l) = l / √(l² + d²). A [`LineFrame`] carries an l-interval; horizon
 //! clipping only shrinks that interval, the frame (u, ĉ, d) stays the same.
 
+use crate::trig::{atan2_f64, sin_cos_f64};
 use glam::Vec3;
 
 /// A segment light in world space.
@@ -54,10 +55,11 @@ const MIN_RELATIVE_DISTANCE: f32 = 1e-7;
 /// Bound on |s_of(direction(s)) − s| for s in a frame's interval (a few ulps at 1).
 pub const S_ROUNDING: f32 = 4.0 * f32::EPSILON;
 
-#[inline]
+/// s = l / √(l² + d²) of the line point at parameter l: [`sin_cos_at`] (in f64, where the
+/// squares of f32 values neither overflow nor underflow; no libm `hypotf` call), rounded once.
+#[inline(always)]
 fn s_of_l(l: f32, d: f32) -> f32 {
-    // l / √(l² + d²), robust for large |l| (hypot avoids overflow).
-    (l / l.hypot(d)).clamp(-1.0, 1.0)
+    (sin_cos_at(l, d).0 as f32).clamp(-1.0, 1.0)
 }
 
 impl LineFrame {
@@ -70,27 +72,131 @@ impl LineFrame {
     /// `MIN_RELATIVE_DISTANCE`·|b|, which left ĉ far from orthogonal to u; and the squares in
     /// |b| leave the f32 range for coordinates beyond ~1e±19.
     pub fn new(segment: &Segment, x: Vec3) -> Option<Self> {
+        Self::build(segment, x, None)
+    }
+
+    /// `LineFrame::new(segment, x)?.clip_to_horizon(n)` (n unit) in one pass: the endpoints'
+    /// heights n·b, n·e come straight from the input, so the (data-dependent, often
+    /// mispredicted) clipping decision resolves before the frame's dependency chain of square
+    /// roots and divisions, not after it, and the clipped parameter is formed in f64 as
+    /// l = σ + ℓ·n·b/(n·b − n·e) (a sum of like-signed terms in the denominator).
+    #[inline]
+    pub fn clipped(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
+        Self::build(segment, x, Some(n))
+    }
+
+    /// The scalar constructors: the computation of [`Self::lane`] with early returns. Not a
+    /// call of `lane` (whose results it must equal bit for bit, as `crate::batch` tests): without
+    /// the branches the compiler pairs the square roots of |a|² and d² into one packed
+    /// instruction, so that u and l wait for d (measured 15 → 42 ns per frame).
+    #[inline(always)]
+    fn build(segment: &Segment, x: Vec3, horizon: Option<Vec3>) -> Option<Self> {
         let b = segment.begin.as_dvec3() - x.as_dvec3();
         let e = segment.end.as_dvec3() - x.as_dvec3();
+        // Fraction along the segment where it crosses the horizon, for the end to move. Decided
+        // first: the (data-dependent, often mispredicted) branch then resolves before the
+        // frame's dependency chain of square roots and divisions, not after it.
+        let mut cut = None;
+        if let Some(n) = horizon {
+            let n = n.as_dvec3();
+            let (hb, he) = (n.dot(b), n.dot(e));
+            if !(hb > 0.0 || he > 0.0) {
+                return None; // entirely below or within the plane (zero projected solid angle)
+            }
+            if hb < 0.0 {
+                cut = Some((true, hb / (hb - he)));
+            } else if he < 0.0 {
+                cut = Some((false, hb / (hb - he)));
+            }
+        }
         let axis = e - b;
-        let length = axis.length();
-        if !(length > 0.0 && length.is_finite() && b.is_finite() && e.is_finite()) {
+        let length2 = axis.length_squared();
+        if !(length2 > 0.0 && length2 < f64::INFINITY) {
             return None;
         }
-        let u = axis / length;
-        let sigma = u.dot(b);
-        let c = b - sigma * u;
-        let d = c.length();
-        let scale = length.max(b.length()).max(e.length());
-        if !(d.is_finite() && d > MIN_RELATIVE_DISTANCE as f64 * scale) {
+        let k = axis.dot(b) / length2;
+        let c = b - k * axis;
+        let d2 = c.length_squared();
+        let scale2 = length2.max(b.length_squared()).max(e.length_squared());
+        let min_rel = MIN_RELATIVE_DISTANCE as f64;
+        if d2.is_nan() || d2 <= min_rel * min_rel * scale2 {
             return None;
         }
-        let c_hat = (c / d).as_vec3();
-        let (d, l_begin, l_end) = (d as f32, sigma as f32, (sigma + length) as f32);
-        // Rounded to f32, d may underflow to 0 and l overflow to ±inf.
+        let length = length2.sqrt();
+        let sigma = k * length;
+        let (mut lb, mut le) = (sigma, sigma + length);
+        match cut {
+            Some((true, t)) => lb = (sigma + t * length).max(lb),
+            Some((false, t)) => le = (sigma + t * length).min(le),
+            None => {}
+        }
+        let d = d2.sqrt();
+        // 1/ℓ and 1/d from one division.
+        let inv = 1.0 / (length * d);
+        let u = axis * (d * inv);
+        let c_hat = (c * (length * inv)).as_vec3();
+        let (d, l_begin, l_end) = (d as f32, lb as f32, le as f32);
         if !(d > 0.0 && l_begin.is_finite() && l_end.is_finite()) {
             return None;
         }
+        Self {
+            u: u.as_vec3(),
+            c_hat,
+            d,
+            l_begin,
+            l_end,
+            s_begin: s_of_l(l_begin, d),
+            s_end: s_of_l(l_end, d),
+        }
+        .nonempty()
+    }
+
+    /// The frame as [`Self::new`] / [`Self::clipped`] compute it, without branches (every value
+    /// computed, `valid` = whether the constructor returns `Some`): the one implementation of
+    /// both the scalar constructors and the lanes of [`crate::batch`].
+    #[inline(always)]
+    pub(crate) fn lane(begin: Vec3, end: Vec3, x: Vec3, horizon: Option<Vec3>) -> (Self, bool) {
+        let b = begin.as_dvec3() - x.as_dvec3();
+        let e = end.as_dvec3() - x.as_dvec3();
+        let axis = e - b;
+        let length2 = axis.length_squared();
+        // Non-finite b or e makes the axis inf or NaN, so this also rejects non-finite input.
+        let mut valid = length2 > 0.0 && length2 < f64::INFINITY;
+        // c = b − (a·b/|a|²)a with a the axis: the two dot products run in parallel and only
+        // one division precedes c (not the square root and reciprocal that normalise u).
+        let k = axis.dot(b) / length2;
+        let c = b - k * axis;
+        let d2 = c.length_squared();
+        // d > MIN_RELATIVE_DISTANCE · max(ℓ, |b|, |e|), compared in squares (no square roots
+        // for a degeneracy test).
+        let scale2 = length2.max(b.length_squared()).max(e.length_squared());
+        let min_rel = MIN_RELATIVE_DISTANCE as f64;
+        valid &= d2 > min_rel * min_rel * scale2;
+        let length = length2.sqrt();
+        let sigma = k * length;
+        let (mut lb, mut le) = (sigma, sigma + length);
+        if let Some(n) = horizon {
+            // Clip to n·p ≥ 0: the plane cuts the segment at the fraction hb/(hb − he) from the
+            // begin when exactly one end is below (like-signed terms in hb − he).
+            let n = n.as_dvec3();
+            let (hb, he) = (n.dot(b), n.dot(e));
+            valid &= hb > 0.0 || he > 0.0; // else entirely below or within the plane
+            let cut = sigma + hb / (hb - he) * length;
+            lb = if hb < 0.0 { cut.max(lb) } else { lb };
+            le = if hb >= 0.0 && he < 0.0 {
+                cut.min(le)
+            } else {
+                le
+            };
+        }
+        let d = d2.sqrt();
+        // 1/ℓ and 1/d from one division.
+        let inv = 1.0 / (length * d);
+        let u = axis * (d * inv);
+        let c_hat = (c * (length * inv)).as_vec3();
+        let (d, l_begin, l_end) = (d as f32, lb as f32, le as f32);
+        // Rounded to f32, d may underflow to 0 and l overflow to ±inf.
+        valid &= d > 0.0 && l_begin.is_finite() && l_end.is_finite();
         let frame = Self {
             u: u.as_vec3(),
             c_hat,
@@ -100,7 +206,8 @@ impl LineFrame {
             s_begin: s_of_l(l_begin, d),
             s_end: s_of_l(l_end, d),
         };
-        frame.nonempty()
+        valid &= frame.l_end > frame.l_begin && frame.s_end > frame.s_begin;
+        (frame, valid)
     }
 
     /// `Some(self)` iff the interval is non-degenerate in both l and s. A segment so far away
@@ -139,16 +246,22 @@ impl LineFrame {
         if hb >= 0.0 && he >= 0.0 {
             return Some(*self);
         }
-        // Exactly one endpoint below: the root lies strictly inside, nu ≠ 0.
+        // Exactly one endpoint below: the root lies strictly inside, nu ≠ 0. Only the moved
+        // end's s is recomputed.
         let root = -nc / nu;
+        let mut clipped = *self;
         if hb < 0.0 {
             lb = root.max(lb);
+            clipped.l_begin = lb;
+            clipped.s_begin = s_of_l(lb, self.d);
         } else {
             le = root.min(le);
+            clipped.l_end = le;
+            clipped.s_end = s_of_l(le, self.d);
         }
         // Test "length > 0" (not "≤ 0") so that a NaN root yields None.
         if le - lb > 0.0 {
-            self.with_interval(lb, le)
+            clipped.nonempty()
         } else {
             None
         }
@@ -173,6 +286,23 @@ impl LineFrame {
         let m = self.d.max(l.abs());
         let p = (self.d / m) * self.c_hat + (l / m) * self.u;
         p / p.length()
+    }
+
+    /// [`Self::direction_to`] without a branch (both ways computed, one selected; bitwise the
+    /// same), for the lanes of [`crate::batch`].
+    #[inline(always)]
+    pub(crate) fn direction_to_lane(&self, l: f32) -> Vec3 {
+        let p = self.point(l);
+        let len2 = p.length_squared();
+        let direct = p / len2.sqrt();
+        let m = self.d.max(l.abs());
+        let q = (self.d / m) * self.c_hat + (l / m) * self.u;
+        let scaled = q / q.length();
+        if len2 > 1e-30 && len2 <= f32::MAX {
+            direct
+        } else {
+            scaled
+        }
     }
 
     /// Unit direction with u·ω = s.
@@ -239,11 +369,10 @@ impl LineFrame {
             n.as_dvec3().dot(self.u.as_dvec3()),
             n.as_dvec3().dot(self.c_hat.as_dvec3()),
         );
-        let c = |l: f32| {
-            let (s, t) = sin_cos_at(l, self.d);
-            ns * s * s + nt * (s * t + (l as f64).atan2(self.d as f64))
-        };
-        ((c(self.l_end) - c(self.l_begin)) / self.d as f64) as f32
+        let (d, c) = (self.d as f64, |l: f32| l as f64);
+        let total = antiderivative_at(ns, nt, c(self.l_end), d)
+            - antiderivative_at(ns, nt, c(self.l_begin), d);
+        (total / d) as f32
     }
 }
 
@@ -275,16 +404,15 @@ impl FrameArc {
         let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
         let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
         // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
-        let width = ((le - lb) * d).atan2(d * d + lb * le);
-        let (sh, ch) = (0.5 * width).sin_cos();
+        let width = atan2_f64((le - lb) * d, d * d + lb * le);
+        let (sh, ch) = sin_cos_f64(0.5 * width);
         let delta_s = 2.0 * (c_b * ch - s_b * sh) * sh;
         Self {
             s_b,
             c_b,
             width,
             delta_s,
-            // An f32 direction's φ is rounded by ~ε; τ of the interval's own ends by ~ε·Δ.
-            tolerance: 2.5e-7 + 1e-6 * width,
+            tolerance: arc_tolerance(width),
         }
     }
 
@@ -292,11 +420,8 @@ impl FrameArc {
     /// clamped to [0, Δ].
     #[inline]
     pub fn tau_in_support(&self, frame: &LineFrame, dir: Vec3) -> Option<f64> {
-        let w = dir.as_dvec3();
-        let (s, t) = (frame.u.as_dvec3().dot(w), frame.c_hat.as_dvec3().dot(w));
-        let tau = (s * self.c_b - t * self.s_b).atan2(t * self.c_b + s * self.s_b);
-        (t >= 0.0 && tau >= -self.tolerance && tau <= self.width + self.tolerance)
-            .then(|| tau.clamp(0.0, self.width))
+        tau_in_arc(frame, (self.s_b, self.c_b, self.width), self.tolerance, dir)
+            .map(|tau| tau.clamp(0.0, self.width))
     }
 
     /// Whether a direction toward the line points into the arc (up to rounding).
@@ -308,7 +433,7 @@ impl FrameArc {
     /// sin(φ_b + τ) − sin φ_b = c_b sin τ − 2 s_b sin²(τ/2), without cancellation.
     #[inline]
     pub fn delta_s_at(&self, tau: f64) -> f64 {
-        let (sh, ch) = (0.5 * tau).sin_cos();
+        let (sh, ch) = sin_cos_f64(0.5 * tau);
         2.0 * sh * (self.c_b * ch - self.s_b * sh)
     }
 
@@ -326,40 +451,83 @@ impl FrameArc {
         let q = y * (2.0 * self.s_b + y);
         let c = (self.c_b * self.c_b - q).max(0.0).sqrt();
         let denom = self.c_b + c;
-        let sin_tau = if denom > 0.0 {
-            y * self.c_b + self.s_b * q / denom
-        } else {
-            y
-        };
         let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
-        sin_tau.atan2(cos_tau).clamp(0.0, self.width)
+        // atan2 is invariant under a common positive factor: (sin τ, cos τ)·denom saves the
+        // division by denom.
+        let (sin_tau, cos_tau) = if denom > 0.0 {
+            (y * self.c_b * denom + self.s_b * q, cos_tau * denom)
+        } else {
+            (y, cos_tau)
+        };
+        atan2_f64(sin_tau, cos_tau).clamp(0.0, self.width)
     }
 
-    /// Unit direction at offset τ (clamped to [0, Δ]).
+    /// Unit direction at offset τ (clamped to [0, Δ]); (sin, cos) τ from the half angle, which
+    /// is in the range of the polynomial [`sin_cos_f64`].
     #[inline]
     pub fn direction(&self, frame: &LineFrame, tau: f64) -> Vec3 {
-        let (st, ct) = tau.clamp(0.0, self.width).sin_cos();
+        let (sh, ch) = sin_cos_f64(0.5 * tau.clamp(0.0, self.width));
+        let (st, ct) = (2.0 * sh * ch, 1.0 - 2.0 * sh * sh);
         let s = self.s_b * ct + self.c_b * st;
         let t = (self.c_b * ct - self.s_b * st).max(0.0);
         (s * frame.u.as_dvec3() + t * frame.c_hat.as_dvec3()).as_vec3()
     }
 }
 
-/// (sin φ, cos φ) = (l, d)/√(l² + d²) of the line point at parameter l, in f64 (squares of f32
-/// values neither overflow nor underflow there).
+/// Rounding tolerance (radians) of a support test in τ for an arc of width Δ: an f32 direction's
+/// φ is rounded by ~ε, τ of the interval's own ends by ~ε·Δ. Shared by every technique.
 #[inline]
-pub fn sin_cos_at(l: f32, d: f32) -> (f64, f64) {
-    let (l, d) = (l as f64, d as f64);
-    let r = (l * l + d * d).sqrt();
-    (l / r, d / r)
+pub fn arc_tolerance(width: f64) -> f64 {
+    2.5e-7 + 1e-6 * width
 }
 
-/// C(s) = n_s s² + n_t (s√(1−s²) + asin s), so that ∫ (n·ω) dΩ_R = (1/d)[C].
+/// The support test of every technique: τ = φ − φ_b of a direction toward the line relative to
+/// the arc `(sin φ_b, cos φ_b, Δ)` in the plane of (u, ĉ), if it lies in [−tol, Δ + tol] (not
+/// clamped). In f64 from the f32 direction (exact products, one rounding per sum), with the
+/// libm-free [`atan2_f64`].
+#[inline]
+pub fn tau_in_arc(
+    frame: &LineFrame,
+    (s_b, c_b, width): (f64, f64, f64),
+    tolerance: f64,
+    dir: Vec3,
+) -> Option<f64> {
+    let w = dir.as_dvec3();
+    let (s, t) = (frame.u.as_dvec3().dot(w), frame.c_hat.as_dvec3().dot(w));
+    let tau = atan2_f64(s * c_b - t * s_b, t * c_b + s * s_b);
+    (t >= 0.0 && tau >= -tolerance && tau <= width + tolerance).then_some(tau)
+}
+
+/// (sin φ, cos φ) = (l, d)/√(l² + d²) of the line point at parameter l, in f64 (squares of f32
+/// values neither overflow nor underflow there).
+/// One division (a reciprocal) for both.
+#[inline(always)]
+pub fn sin_cos_at(l: f32, d: f32) -> (f64, f64) {
+    let (l, d) = (l as f64, d as f64);
+    let inv_r = 1.0 / (l * l + d * d).sqrt();
+    (l * inv_r, d * inv_r)
+}
+
+/// The antiderivative of the projected solid angle along a line, the one implementation of the
+/// crate: C(φ) = n_s sin²φ + n_t (sin φ cos φ + φ) at φ = atan2(l, d), so that
+/// ∫ (n·ω) dΩ_R = (1/d)[C] between two line parameters (n_s = n·u, n_t = n·ĉ). In f64 with
+/// std's atan2, for references and preparation (the sampler's hot path evaluates differences of
+/// C without cancellation instead: `projected_solid_angle::PsaCore`). A difference of two C
+/// values cancels for short or distant intervals; that is the caller's concern.
+#[inline]
+pub fn antiderivative_at(ns: f64, nt: f64, l: f64, d: f64) -> f64 {
+    let inv_r = 1.0 / (l * l + d * d).sqrt();
+    let (s, t) = (l * inv_r, d * inv_r);
+    ns * s * s + nt * (s * t + l.atan2(d))
+}
+
+/// C in terms of s = sin φ: n_s s² + n_t (s√(1−s²) + asin s) ([`antiderivative_at`] at
+/// (l, d) = (s, √(1 − s²))), rounded to f32.
 #[inline]
 pub fn projected_antiderivative(ns: f32, nt: f32, s: f32) -> f32 {
-    let s = s.clamp(-1.0, 1.0);
+    let s = s.clamp(-1.0, 1.0) as f64;
     let t = (1.0 - s * s).max(0.0).sqrt();
-    ns * s * s + nt * (s * t + s.asin())
+    antiderivative_at(ns as f64, nt as f64, s, t) as f32
 }
 
 /// |v| without underflow or overflow of the squares, which leave the normal f32 range for |v|
@@ -374,13 +542,28 @@ pub fn stable_length(v: Vec3) -> f32 {
     }
 }
 
+/// [`unit_normal`] without a branch: the normalised normal (meaningless when invalid) and
+/// whether it is valid.
+#[inline(always)]
+pub(crate) fn unit_normal_lane(n: Vec3) -> (Vec3, bool) {
+    let n = n.as_dvec3();
+    let len = n.length_squared().sqrt();
+    (
+        (n * (1.0 / len)).as_vec3(),
+        len > 1e-20 && len < f64::INFINITY,
+    )
+}
+
 /// Normalise a user-supplied normal. Policy of this crate: normals are *normalised*; a zero,
 /// denormal-length or non-finite normal is rejected (`None`), which makes the light contribute
 /// nothing at that shading point.
+///
+/// In f64, where the squares of f32 components neither overflow nor underflow: one square root
+/// and one division, no rescaling pass.
 #[inline]
 pub fn unit_normal(n: Vec3) -> Option<Vec3> {
-    let len = stable_length(n);
-    (len > 1e-20 && len.is_finite()).then(|| n / len)
+    let (n, valid) = unit_normal_lane(n);
+    valid.then_some(n)
 }
 
 #[cfg(test)]

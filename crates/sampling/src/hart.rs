@@ -33,7 +33,7 @@ const MIN_COSINE_SUM: f32 = 1e-6;
 /// when even the largest density (≤ 3/Ω_R for both warps) would not be a finite f32.
 fn clipped_frame(segment: &Segment, x: Vec3, n: Vec3) -> Option<(LineFrame, FrameArc, Vec3, f32)> {
     let n = unit_normal(n)?;
-    let frame = LineFrame::new(segment, x)?.clip_to_horizon(n)?;
+    let frame = LineFrame::clipped(segment, x, n)?;
     let arc = FrameArc::of(&frame);
     let inv_solid_angle = 1.0 / frame.solid_angle();
     let ok = inv_solid_angle > 0.0 && (3.0 * inv_solid_angle).is_finite() && arc.delta_s > 0.0;

@@ -22,6 +22,7 @@
 use crate::geometry::{unit_normal, LineFrame, Segment};
 use crate::projected_solid_angle::{ProjectedSolidAngle, DEFAULT_ITERATIONS};
 use crate::sampler::{clamp_xi, LineSampler};
+use crate::trig::atan2_f64;
 use glam::Vec3;
 
 /// Iteration limit of Li et al.
@@ -32,17 +33,17 @@ pub const TOLERANCE: f32 = 1e-5;
 #[derive(Clone, Copy, Debug)]
 pub struct Li2018 {
     /// Shares the clipped frame, the exact density and the exact CDF.
-    exact: ProjectedSolidAngle,
+    pub(crate) exact: ProjectedSolidAngle,
     /// n·c = d n_t and n_s = n·u, for F'(l) = 2d(n·c + l n_s)/r⁴.
-    n_dot_c: f32,
-    ns: f32,
-    max_iterations: u32,
+    pub(crate) n_dot_c: f32,
+    pub(crate) ns: f32,
+    pub(crate) max_iterations: u32,
 }
 
 impl Li2018 {
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
         let n = unit_normal(n)?;
-        let frame = LineFrame::new(segment, x)?.clip_to_horizon(n)?;
+        let frame = LineFrame::clipped(segment, x, n)?;
         let exact = ProjectedSolidAngle::on_frame(frame, n, DEFAULT_ITERATIONS)?;
         let (ns, nt) = frame.normal_coefficients(n);
         Some(Self {
@@ -65,41 +66,100 @@ impl Li2018 {
 
     /// l of the sample for ξ, and the number of iterations used.
     pub fn sample_l(&self, xi: f32) -> (f32, u32) {
-        let f = self.exact.support();
         let xi = clamp_xi(xi);
-        let (mut lo, mut hi) = (f.l_begin, f.l_end);
-        let d = f.d;
-        let mut l = 0.5 * (lo + hi);
+        let mut state = self.start_state();
         for k in 0..self.max_iterations {
-            let g = self.exact.cdf_of_l(l) - xi; // in units of the total
-            if g.abs() < TOLERANCE {
-                return (l, k);
+            state = self.step(state, xi, atan2_f64);
+            if state.done {
+                return (state.l, k);
             }
-            if g < 0.0 {
-                lo = l;
-            } else {
-                hi = l;
-            }
-            // F'(l)/total = 2d(n·c + l n_s)/(r⁴ Ω⊥_R)  (total = F(l_e) − F(l_b) = Ω⊥_R).
-            let r2 = l * l + d * d;
-            let slope = 2.0 * d * (self.n_dot_c + l * self.ns)
-                / (r2 * r2)
-                / self.exact.projected_solid_angle();
-            let newton = l - g / slope;
-            l = if newton > lo && newton < hi {
-                newton
-            } else {
-                0.5 * (lo + hi)
-            };
         }
-        (l, self.max_iterations)
+        (state.l, self.max_iterations)
     }
+
+    /// The bracket [l_b, l_e] and its midpoint, not converged.
+    #[inline(always)]
+    pub(crate) fn start_state(&self) -> LiState {
+        let f = self.exact.support();
+        let (lo, hi) = (f.l_begin, f.l_end);
+        LiState {
+            l: 0.5 * (lo + hi),
+            lo,
+            hi,
+            done: false,
+        }
+    }
+
+    /// One iteration of the root finding (nothing once converged), without branches: the
+    /// residual test, the bracket update and the Newton step, or the bisection where the Newton
+    /// step leaves the bracket. `atan2` as in [`ProjectedSolidAngle::cdf_of_l_with`].
+    #[inline(always)]
+    pub(crate) fn step(&self, s: LiState, xi: f32, atan2: impl Fn(f64, f64) -> f64) -> LiState {
+        let d = self.exact.support().d;
+        let l = s.l;
+        let g = self.exact.cdf_of_l_with(l, atan2) - xi; // in units of the total
+        let converged = g.abs() < TOLERANCE;
+        let lo = if g < 0.0 { l } else { s.lo };
+        let hi = if g < 0.0 { s.hi } else { l };
+        // F'(l)/total = 2d(n·c + l n_s)/(r⁴ Ω⊥_R)  (total = F(l_e) − F(l_b) = Ω⊥_R).
+        let r2 = l * l + d * d;
+        let slope = 2.0 * d * (self.n_dot_c + l * self.ns) / (r2 * r2) * self.exact.inv_psa;
+        let newton = l - g / slope;
+        let next = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+        if s.done || converged {
+            LiState { done: true, ..s }
+        } else {
+            LiState {
+                l: next,
+                lo,
+                hi,
+                done: false,
+            }
+        }
+    }
+
+    /// Prepared lane without branches (for [`crate::batch`]): the sampler and whether
+    /// [`Self::prepare`] returns it.
+    #[inline(always)]
+    pub(crate) fn lane(frame: LineFrame, n: Vec3) -> (Self, bool) {
+        let (exact, ok) =
+            ProjectedSolidAngle::lane(frame, n, DEFAULT_ITERATIONS, crate::trig::atan2_f64_select);
+        let (ns, nt) = frame.normal_coefficients(n);
+        let li = Self {
+            exact,
+            n_dot_c: frame.d * nt,
+            ns,
+            max_iterations: MAX_ITERATIONS,
+        };
+        (li, ok)
+    }
+
+    /// Direction and density of the sample at line parameter l (the end of `sample_with_pdf`).
+    #[inline(always)]
+    pub(crate) fn finish(&self, l: f32) -> (Vec3, f32) {
+        let f = self.exact.support();
+        let dir = f.direction_to_lane(l.max(f.l_begin).min(f.l_end));
+        (dir, self.exact.density_in_support(dir))
+    }
+}
+
+/// Root-finding state of one sample: the iterate, the bracket, and whether it has converged.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct LiState {
+    pub l: f32,
+    pub lo: f32,
+    pub hi: f32,
+    pub done: bool,
 }
 
 impl LineSampler for Li2018 {
     fn sample(&self, xi: f32) -> Vec3 {
         let f = self.exact.support();
-        let l = self.sample_l(xi).0.clamp(f.l_begin, f.l_end);
+        let l = self.sample_l(xi).0.max(f.l_begin).min(f.l_end);
         f.direction_to(l) // overflow-safe, unlike point(l).normalize()
     }
 

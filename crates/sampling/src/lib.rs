@@ -8,6 +8,7 @@
 pub mod area;
 pub mod backward_error;
 pub mod baseline;
+pub mod batch;
 pub mod geometry;
 pub mod hart;
 pub mod li2018;
@@ -21,6 +22,8 @@ pub mod solid_angle;
 pub mod technique;
 pub mod trig;
 
-pub use geometry::{projected_antiderivative, unit_normal, FrameArc, LineFrame, Segment};
+pub use geometry::{
+    antiderivative_at, projected_antiderivative, unit_normal, FrameArc, LineFrame, Segment,
+};
 pub use sampler::LineSampler;
 pub use technique::{Prepared, Technique};

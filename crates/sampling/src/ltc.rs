@@ -18,7 +18,7 @@
 // `!(x > 0.0)` is deliberate throughout: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use crate::geometry::{unit_normal, FrameArc, LineFrame, Segment};
+use crate::geometry::{antiderivative_at, unit_normal, FrameArc, LineFrame, Segment};
 use crate::projected_solid_angle::{ProjectedSolidAngle, DEFAULT_ITERATIONS};
 use crate::sampler::LineSampler;
 use glam::{DVec3, Mat3, Vec3};
@@ -132,12 +132,8 @@ fn projected_solid_angle_up(b: DVec3, e: DVec3) -> Option<f64> {
     let c = b - sigma * u;
     let d = c.length();
     let (ns, nt) = (u.z, c.z / d);
-    let antiderivative = |l: f64| {
-        let r = l.hypot(d);
-        let (s, t) = (l / r, d / r);
-        ns * s * s + nt * (s * t + l.atan2(d))
-    };
-    let psa = (antiderivative(sigma + length) - antiderivative(sigma)) / d;
+    let psa =
+        (antiderivative_at(ns, nt, sigma + length, d) - antiderivative_at(ns, nt, sigma, d)) / d;
     (psa > 0.0 && psa.is_finite()).then_some(psa)
 }
 

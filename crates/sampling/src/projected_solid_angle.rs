@@ -43,11 +43,15 @@
 //! scale-invariant), and the pdf of a sample is (n·ω)/Ω⊥_R with n·ω from the rotation already at
 //! hand. The f64 instantiation keeps std's functions and the full series.
 
-use crate::geometry::{unit_normal, LineFrame, Segment};
+use crate::geometry::{arc_tolerance, sin_cos_at, tau_in_arc, unit_normal, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
-use crate::trig::{atan2, atan2_f64};
+use crate::trig::atan2_f64;
 use glam::Vec3;
 use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// Largest last Halley step |h| after which the values at the sample are rotated from those at
+/// the step's start instead of evaluated afresh (see [`PsaCore::solve_with_values`]).
+const ROTATION_STEP: f64 = 0.125;
 
 /// Number of Halley steps of the paper.
 pub const DEFAULT_ITERATIONS: u32 = 2;
@@ -80,6 +84,7 @@ pub(crate) trait Real:
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
     fn is_finite(self) -> bool;
+    fn is_nan(self) -> bool;
     /// a·b + c·d with (close to) a single rounding.
     fn dot2(a: Self, b: Self, c: Self, d: Self) -> Self;
     #[inline]
@@ -139,6 +144,10 @@ macro_rules! impl_real {
             #[inline]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)
+            }
+            #[inline]
+            fn is_nan(self) -> bool {
+                <$t>::is_nan(self)
             }
             #[inline]
             fn dot2(a: Self, b: Self, c: Self, d: Self) -> Self {
@@ -236,10 +245,25 @@ impl<T: Real> PsaCore<T> {
         Self::with_frame_values(ns, nt, s_b, c_b, phi_e - phi_b)
     }
 
-    /// From sin φ_b, cos φ_b and Δ. `None` if the interval carries no finite, positive
-    /// projected solid angle.
+    /// From sin φ_b, cos φ_b and Δ, with n·ω and its φ-derivative at φ_b formed here. `None` if
+    /// the interval carries no finite, positive projected solid angle.
     #[inline]
     pub fn with_frame_values(ns: T, nt: T, s_b: T, c_b: T, width: T) -> Option<Self> {
+        let (p0, p1) = (T::dot2(ns, s_b, nt, c_b), T::dot2(ns, c_b, -nt, s_b));
+        Self::new(ns, nt, s_b, c_b, width, p0, p1)
+    }
+
+    /// From sin φ_b, cos φ_b, Δ and n·ω = p0, d(n·ω)/dφ = p1 at φ_b (each rounded once from a
+    /// more accurate source where the caller has one). One sin/cos of Δ/2 gives Δs and the total.
+    #[inline]
+    pub fn new(ns: T, nt: T, s_b: T, c_b: T, width: T, p0: T, p1: T) -> Option<Self> {
+        let (core, valid) = Self::new_lane(ns, nt, s_b, c_b, width, p0, p1);
+        valid.then_some(core)
+    }
+
+    /// [`Self::new`] without a branch: the core and whether `new` returns it.
+    #[inline(always)]
+    pub(crate) fn new_lane(ns: T, nt: T, s_b: T, c_b: T, width: T, p0: T, p1: T) -> (Self, bool) {
         let mut core = Self {
             ns,
             nt,
@@ -248,28 +272,19 @@ impl<T: Real> PsaCore<T> {
             delta_s: T::ZERO,
             width,
             // Clamped: the interval is clipped to the horizon, n·ω_b < 0 is rounding.
-            p0: T::dot2(ns, s_b, nt, c_b).max(T::ZERO),
-            p1: T::dot2(ns, c_b, -nt, s_b),
+            p0: p0.max(T::ZERO),
+            p1,
             total: T::ZERO,
         };
         let (sh, ch) = (width * T::HALF).sin_cos();
         core.delta_s = T::TWO * core.rotate(sh, ch).1 * sh;
         core.total = core.delta_c_half(width, sh, ch);
-        (width > T::ZERO && core.total > T::ZERO && core.total.is_finite()).then_some(core)
-    }
-
-    /// The same with n·ω and d(n·ω)/dφ at φ_b supplied from a more accurate source (each
-    /// rounded once), and the total recomputed from them.
-    pub fn with_cosine_at_begin(mut self, p0: T, p1: T) -> Option<Self> {
-        self.p0 = p0.max(T::ZERO);
-        self.p1 = p1;
-        let (sh, ch) = (self.width * T::HALF).sin_cos();
-        self.total = self.delta_c_half(self.width, sh, ch);
-        (self.total > T::ZERO && self.total.is_finite()).then_some(self)
+        let valid = width > T::ZERO && core.total > T::ZERO && core.total.is_finite();
+        (core, valid)
     }
 
     /// (sin, cos) of φ_b + τ given (sin, cos) of τ.
-    #[inline]
+    #[inline(always)]
     fn rotate(&self, sin_tau: T, cos_tau: T) -> (T, T) {
         (
             self.s_b * cos_tau + self.c_b * sin_tau,
@@ -279,7 +294,7 @@ impl<T: Real> PsaCore<T> {
 
     /// C(φ_b + τ) − C(φ_b) given (sin, cos) of τ/2 (cancellation-free, see the module
     /// documentation).
-    #[inline]
+    #[inline(always)]
     fn delta_c_half(&self, tau: T, sh: T, ch: T) -> T {
         let cm = self.c_b * ch - self.s_b * sh; // cos of the midpoint φ_b + τ/2
         let n_dot_wm = self.p0 * ch + self.p1 * sh;
@@ -289,7 +304,7 @@ impl<T: Real> PsaCore<T> {
 
     /// C(φ_b + τ) − C(φ_b), cancellation-free (see the module documentation), with the values
     /// at φ = φ_b + τ that the Halley step needs.
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, tau: T) -> Eval<T> {
         let (sh, ch) = (tau * T::HALF).sin_cos();
         let sin_tau = T::TWO * sh * ch;
@@ -323,14 +338,22 @@ impl<T: Real> PsaCore<T> {
     /// c = √(c_b² − y(2s_b + y)) = cos(φ_b + τ), sin τ = y c_b + s_b·y(2s_b + y)/(c_b + c),
     /// cos τ = c c_b + (s_b + y)s_b. The textbook form is quantised to a few values in f32 when
     /// s_b ≈ ±1 (then two iterations do not recover). Exact at ξ = 0 and 1.
-    #[inline]
+    #[inline(always)]
     pub fn start(&self, xi: T) -> T {
+        // The ends as early (predictable) branches on the scalar path.
         if xi <= T::ZERO {
             return T::ZERO;
         }
         if xi >= T::ONE {
             return self.width;
         }
+        self.start_with(xi, T::atan2)
+    }
+
+    /// [`Self::start`] with a given atan2 (the lanes of [`crate::batch`] use a branch-free one
+    /// with bitwise the same results), itself without branches.
+    #[inline(always)]
+    pub(crate) fn start_with(&self, xi: T, atan2: impl Fn(T, T) -> T) -> T {
         let y = xi * self.delta_s;
         let q = y * (T::TWO * self.s_b + y);
         let c = (self.c_b * self.c_b - q).max(T::ZERO).sqrt();
@@ -338,38 +361,49 @@ impl<T: Real> PsaCore<T> {
         let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
         // atan2 is invariant under a common positive factor: (sin τ, cos τ)·denom saves the
         // division by denom.
-        let (sin_tau, cos_tau) = if denom > T::ZERO {
-            (y * self.c_b * denom + self.s_b * q, cos_tau * denom)
+        let scaled = denom > T::ZERO;
+        let sin_tau = if scaled {
+            y * self.c_b * denom + self.s_b * q
         } else {
-            (y, cos_tau)
+            y
         };
-        sin_tau.atan2(cos_tau).clamp(T::ZERO, self.width)
+        let cos_tau = if scaled { cos_tau * denom } else { cos_tau };
+        let tau = atan2(sin_tau, cos_tau).clamp(T::ZERO, self.width);
+        // Exact ends (also for ξ outside [0, 1]).
+        if xi <= T::ZERO {
+            T::ZERO
+        } else if xi >= T::ONE {
+            self.width
+        } else {
+            tau
+        }
     }
 
     /// One step of Halley's irrational formula on G(τ) = C(φ_b + τ) − C(φ_b) − ξ·total, clamped
     /// to [0, Δ].
     #[inline]
     pub fn halley_step(&self, tau: T, xi: T) -> T {
-        let e = self.eval(tau);
+        self.halley_from(tau, xi, &self.eval(tau))
+    }
+
+    /// [`Self::halley_step`] from the values `e` = `eval(τ)`.
+    #[inline(always)]
+    fn halley_from(&self, tau: T, xi: T, e: &Eval<T>) -> T {
         let g = e.delta_c - xi * self.total;
         // G' = 2t(n·ω), G''/2 = t(n_s t − n_t s) − s(n·ω) with n_s t − n_t s = d(n·ω)/dφ.
         let g1 = T::TWO * e.t * e.n_dot_w;
         let g2 = T::TWO * (e.t * e.n_dot_w_prime - e.s * e.n_dot_w);
-        // Smallest root of G + G'h + G''h²/2, h = −2G / (G' + √(G'² − 2GG'')), kept as the pair
-        // (num, den) with den ≥ 0 (G' ≥ 0 on the clipped interval) and clamped to the interval
-        // before any division, so that den = 0 cannot produce inf/NaN.
+        // Smallest root of G + G'h + G''h²/2, h = −2G / (G' + √(G'² − 2GG'')) with
+        // den = G' + √… ≥ 0 (G' ≥ 0 on the clipped interval). Without branches (their outcome is
+        // data-dependent): den = 0 makes h = ±inf, clamped to an end of [0, Δ], or NaN for
+        // G = 0, where τ is kept.
         let num = -T::TWO * g;
         let den = g1.max(T::ZERO) + (g1 * g1 - T::TWO * g * g2).max(T::ZERO).sqrt();
-        let up = self.width - tau; // ≥ 0
-        let down = -tau; // ≤ 0
-        if num > T::ZERO && num >= den * up {
-            self.width
-        } else if num < T::ZERO && num <= den * down {
-            T::ZERO
-        } else if den > T::ZERO {
-            (tau + num / den).clamp(T::ZERO, self.width)
-        } else {
+        let next = tau + num / den;
+        if next.is_nan() {
             tau
+        } else {
+            next.clamp(T::ZERO, self.width)
         }
     }
 
@@ -386,6 +420,83 @@ impl<T: Real> PsaCore<T> {
         tau
     }
 
+    /// (sin φ, cos φ, n·ω) at φ = φ_b + τ, τ ∈ [0, Δ] ⊂ [0, π]: (sin, cos) τ from the half
+    /// angle, which is in the range of the libm-free [`Real::sin_cos`].
+    #[inline(always)]
+    pub fn at(&self, tau: T) -> (T, T, T) {
+        let (sh, ch) = (tau * T::HALF).sin_cos();
+        let (st, ct) = (T::TWO * sh * ch, T::ONE - T::TWO * sh * sh);
+        let (s, t) = self.rotate(st, ct);
+        (s, t, self.p0 * ct + self.p1 * st)
+    }
+
+    /// [`Self::solve`] and (sin φ, cos φ, n·ω) at the sample. The last step starts from values
+    /// at τ that its evaluation already holds; rotating them by the step h (short Taylor series
+    /// for |h| ≤ [`ROTATION_STEP`], almost always the case for the last step) replaces a
+    /// further sin/cos.
+    #[inline(always)]
+    pub fn solve_with_values(&self, xi: T, iterations: u32) -> (T, (T, T, T)) {
+        let mut tau = self.start(xi);
+        if iterations == 0 || Self::in_guard(xi) {
+            return (tau, self.at(tau));
+        }
+        for _ in 1..iterations {
+            tau = self.halley_step(tau, xi);
+        }
+        let e = self.eval(tau);
+        let next = self.halley_from(tau, xi, &e);
+        let h = next - tau;
+        if h.abs() > T::from_f64(ROTATION_STEP) {
+            return (next, self.at(next));
+        }
+        (next, Self::rotate_by(&e, h))
+    }
+
+    /// [`Self::solve_with_values`] without branches (both ways of every decision computed,
+    /// then selected; bitwise the same results), for the lanes of [`crate::batch`].
+    #[inline(always)]
+    pub(crate) fn solve_with_values_lane(
+        &self,
+        xi: T,
+        iterations: u32,
+        atan2: impl Fn(T, T) -> T,
+    ) -> (T, T, T) {
+        let start = self.start_with(xi, atan2);
+        let mut tau = start;
+        for _ in 1..iterations {
+            tau = self.halley_step(tau, xi);
+        }
+        let e = self.eval(tau);
+        let next = self.halley_from(tau, xi, &e);
+        let h = next - tau;
+        let guard = iterations == 0 || Self::in_guard(xi);
+        let fresh = guard || h.abs() > T::from_f64(ROTATION_STEP);
+        let (s, t, n_dot_w) = self.at(if guard { start } else { next });
+        let rotated = Self::rotate_by(&e, h);
+        if fresh {
+            (s, t, n_dot_w)
+        } else {
+            rotated
+        }
+    }
+
+    /// (sin φ, cos φ, n·ω) of `e` rotated by a small angle h (|h| ≤ [`ROTATION_STEP`]).
+    #[inline(always)]
+    fn rotate_by(e: &Eval<T>, h: T) -> (T, T, T) {
+        // sin h and cos h to h⁵ and h⁶: truncation < 1e-9 relative for |h| ≤ 1/8.
+        let h2 = h * h;
+        let sin_h = h - h * h2 * T::from_f64(1.0 / 6.0) * (T::ONE - h2 * T::from_f64(1.0 / 20.0));
+        let one_minus_cos_h = h2
+            * T::HALF
+            * (T::ONE - h2 * T::from_f64(1.0 / 12.0) * (T::ONE - h2 * T::from_f64(1.0 / 30.0)));
+        let rot = |a: T, b: T| a - a * one_minus_cos_h + b * sin_h;
+        (
+            rot(e.s, e.t),
+            rot(e.t, -e.s),
+            rot(e.n_dot_w, e.n_dot_w_prime),
+        )
+    }
+
     /// Exact CDF: ξ of τ (clamped to the interval).
     #[inline]
     pub fn cdf(&self, tau: T) -> T {
@@ -394,59 +505,20 @@ impl<T: Real> PsaCore<T> {
     }
 }
 
-/// The directions toward an interval of a line as an arc φ ∈ [φ_b, φ_b + Δ] in the plane of
-/// (u, ĉ), for accurate support tests and directions (s = u·ω is quantised near ±1, the offset τ
-/// from the begin of the arc is not).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Arc {
-    pub s_b: f32,
-    pub c_b: f32,
-    pub width: f32,
-    /// Rounding tolerance of the support test in τ (radians).
-    pub tolerance: f32,
-}
-
-impl Arc {
-    #[inline]
-    pub fn of(frame: &LineFrame) -> Self {
-        let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
-        // cos φ_b = d/r_b is accurate where s_b ≈ ±1 is not; Δ = φ_e − φ_b from
-        // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
-        // In f64 (from f32 data): the products neither overflow nor underflow, l_e − l_b is exact
-        // or a single rounding, and no division precedes the one inside atan2.
-        let width = atan2_f64((le - lb) * d, d * d + lb * le) as f32;
-        let r_b = (lb * lb + d * d).sqrt();
-        Self {
-            s_b: frame.s_begin,
-            c_b: (d / r_b) as f32,
-            width,
-            tolerance: 2.5e-7 + 1e-6 * width,
-        }
-    }
-
-    /// τ of a direction if it points into the arc (up to rounding).
-    #[inline]
-    pub fn tau_in_support(&self, frame: &LineFrame, dir: Vec3) -> Option<f32> {
-        let (s, t) = (frame.u.dot(dir), frame.c_hat.dot(dir));
-        let tau = atan2(s * self.c_b - t * self.s_b, t * self.c_b + s * self.s_b);
-        (t >= 0.0 && tau >= -self.tolerance && tau <= self.width + self.tolerance).then_some(tau)
-    }
-}
-
 /// Projected-solid-angle sampler of Peters 2021 (technique 8).
 #[derive(Clone, Copy, Debug)]
 pub struct ProjectedSolidAngle {
     /// Horizon-clipped frame: the support.
-    frame: LineFrame,
-    n: Vec3,
-    core: PsaCore<f32>,
+    pub(crate) frame: LineFrame,
+    pub(crate) n: Vec3,
+    pub(crate) core: PsaCore<f32>,
     /// 1/Ω⊥_R = d / (C(φ_e) − C(φ_b)).
-    inv_psa: f32,
-    /// Support tolerance of the arc ([`Arc::tolerance`]); the arc itself is (s_b, c_b, Δ) of
+    pub(crate) inv_psa: f32,
+    /// Support tolerance of the arc ([`arc_tolerance`]); the arc itself is (s_b, c_b, Δ) of
     /// `core`, not stored twice (keeps the struct, and `Prepared`, small enough to be moved
     /// without a memcpy call).
-    tolerance: f32,
-    iterations: u32,
+    pub(crate) tolerance: f32,
+    pub(crate) iterations: u32,
 }
 
 impl ProjectedSolidAngle {
@@ -467,37 +539,59 @@ impl ProjectedSolidAngle {
         iterations: u32,
     ) -> Option<Self> {
         let n = unit_normal(n)?;
-        let frame = LineFrame::new(segment, x)?.clip_to_horizon(n)?;
+        let frame = LineFrame::clipped(segment, x, n)?;
         Self::on_frame(frame, n, iterations)
     }
 
     /// On an already clipped frame (n unit, frame clipped to its horizon).
     #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
-        let (ns, nt) = frame.normal_coefficients(n);
-        let arc = Arc::of(&frame);
-        // p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b from f64 n_s, n_t, sin φ_b, cos φ_b: at a
-        // horizon-clipped begin p0 ≈ 0 is a difference of O(1) terms, and with the f32-rounded
-        // factors its absolute error ~ε was ~1e-5 of Ω⊥ of a 3e-3-rad interval (random-090:
-        // ∫p − 1 = 6e-6). Preparation only; the per-sample path is unchanged.
-        let (n64, d, lb) = (n.as_dvec3(), frame.d as f64, frame.l_begin as f64);
-        let (ns64, nt64) = (n64.dot(frame.u.as_dvec3()), n64.dot(frame.c_hat.as_dvec3()));
-        let r_b = (lb * lb + d * d).sqrt();
-        let (s_b, c_b) = (lb / r_b, d / r_b);
-        let core = PsaCore::with_frame_values(ns, nt, arc.s_b, arc.c_b, arc.width)?
-            .with_cosine_at_begin(
-                (ns64 * s_b + nt64 * c_b) as f32,
-                (ns64 * c_b - nt64 * s_b) as f32,
-            )?;
+        let (sampler, valid) = Self::lane(frame, n, iterations, atan2_f64);
+        valid.then_some(sampler)
+    }
+
+    /// [`Self::on_frame`] without branches: the sampler and whether `on_frame` returns it (the
+    /// one implementation of the scalar path and the lanes of [`crate::batch`]).
+    #[inline(always)]
+    pub(crate) fn lane(
+        frame: LineFrame,
+        n: Vec3,
+        iterations: u32,
+        atan2: impl Fn(f64, f64) -> f64,
+    ) -> (Self, bool) {
+        // In f64 from the f32 frame (no overflow, exact products), each value rounded once:
+        // n_s, n_t; (sin φ_b, cos φ_b) = (l_b, d)/r_b, cos φ_b accurate where s_b ≈ ±1 is not;
+        // Δ from tan Δ = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b;
+        // p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b: at a horizon-clipped begin p0 ≈ 0 is a
+        // difference of O(1) terms, whose f32 rounding was ~1e-5 of Ω⊥ of a 3e-3-rad interval.
+        let (n64, d, lb, le) = (
+            n.as_dvec3(),
+            frame.d as f64,
+            frame.l_begin as f64,
+            frame.l_end as f64,
+        );
+        let (ns, nt) = (n64.dot(frame.u.as_dvec3()), n64.dot(frame.c_hat.as_dvec3()));
+        let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
+        let width = atan2((le - lb) * d, d * d + lb * le);
+        let (core, valid) = PsaCore::new_lane(
+            ns as f32,
+            nt as f32,
+            s_b as f32,
+            c_b as f32,
+            width as f32,
+            (ns * s_b + nt * c_b) as f32,
+            (ns * c_b - nt * s_b) as f32,
+        );
         let inv_psa = frame.d / core.total;
-        (inv_psa.is_finite() && inv_psa > 0.0).then_some(Self {
+        let sampler = Self {
             frame,
             n,
             core,
             inv_psa,
-            tolerance: arc.tolerance,
+            tolerance: arc_tolerance(width) as f32,
             iterations,
-        })
+        };
+        (sampler, valid && inv_psa.is_finite() && inv_psa > 0.0)
     }
 
     /// Ω⊥_R of the clipped segment.
@@ -513,14 +607,21 @@ impl ProjectedSolidAngle {
     /// Exact CDF at the line parameter l (clamped to the support): the fraction of Ω⊥_R between
     /// l_begin and l. τ(l) = atan2((l − l_b)d, d² + l_b l) avoids the cancellation of φ − φ_b.
     pub fn cdf_of_l(&self, l: f32) -> f32 {
+        self.cdf_of_l_with(l, atan2_f64)
+    }
+
+    /// [`Self::cdf_of_l`] with a given atan2 (branch-free in [`crate::batch`]; bitwise equal).
+    #[inline(always)]
+    pub(crate) fn cdf_of_l_with(&self, l: f32, atan2: impl Fn(f64, f64) -> f64) -> f32 {
         let f = &self.frame;
+        // max/min rather than clamp: no assertion (a branch) in the lanes of a batch.
         let (lb, l, d) = (
             f.l_begin as f64,
-            l.clamp(f.l_begin, f.l_end) as f64,
+            l.max(f.l_begin).min(f.l_end) as f64,
             f.d as f64,
         );
-        // In f64 as in `Arc::of` (no overflow, no division before atan2's).
-        let tau = atan2_f64((l - lb) * d, d * d + lb * l) as f32;
+        // In f64 as in `on_frame` (no overflow, no division before atan2's).
+        let tau = atan2((l - lb) * d, d * d + lb * l) as f32;
         self.core.cdf(tau)
     }
 
@@ -530,16 +631,25 @@ impl ProjectedSolidAngle {
         self.core.solve(clamp_xi(xi), self.iterations)
     }
 
-    /// Direction and n·ω at offset τ ∈ [0, Δ] ⊂ [0, π]: (sin, cos) τ from the half angle, which
-    /// is in the range of the libm-free [`Real::sin_cos`].
+    /// Direction and n·ω of the sample for ξ.
     #[inline]
-    fn direction_of_tau(&self, tau: f32) -> (Vec3, f32) {
-        let (sh, ch) = Real::sin_cos(0.5 * tau);
-        let (st, ct) = (2.0 * sh * ch, 1.0 - 2.0 * sh * sh);
-        let c = &self.core;
-        let (s, t) = (c.s_b * ct + c.c_b * st, c.c_b * ct - c.s_b * st);
+    fn sample_values(&self, xi: f32) -> (Vec3, f32) {
+        let (_, (s, t, n_dot_w)) = self.core.solve_with_values(clamp_xi(xi), self.iterations);
         let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
-        (dir, c.p0 * ct + c.p1 * st)
+        (dir, n_dot_w)
+    }
+
+    /// [`LineSampler::sample_with_pdf`] without branches (bitwise the same), for the lanes of
+    /// [`crate::batch`].
+    #[inline(always)]
+    pub(crate) fn sample_with_pdf_lane(
+        &self,
+        xi: f32,
+        atan2: impl Fn(f32, f32) -> f32,
+    ) -> (Vec3, f32) {
+        let (s, t, n_dot_w) = self.core.solve_with_values_lane(xi, self.iterations, atan2);
+        let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
+        (dir, n_dot_w.max(0.0) * self.inv_psa)
     }
 
     /// Density of a direction known to lie in the support (no support test): (n·ω)/Ω⊥_R.
@@ -552,19 +662,14 @@ impl ProjectedSolidAngle {
     #[inline]
     fn tau_in_support(&self, dir: Vec3) -> Option<f32> {
         let c = &self.core;
-        let arc = Arc {
-            s_b: c.s_b,
-            c_b: c.c_b,
-            width: c.width,
-            tolerance: self.tolerance,
-        };
-        arc.tau_in_support(&self.frame, dir)
+        let arc = (c.s_b as f64, c.c_b as f64, c.width as f64);
+        tau_in_arc(&self.frame, arc, self.tolerance as f64, dir).map(|tau| tau as f32)
     }
 }
 
 impl LineSampler for ProjectedSolidAngle {
     fn sample(&self, xi: f32) -> Vec3 {
-        self.direction_of_tau(self.sample_tau(xi)).0
+        self.sample_values(xi).0
     }
 
     /// Support test in τ rather than via the frame's s-interval: s is coarsely quantised when the
@@ -586,7 +691,7 @@ impl LineSampler for ProjectedSolidAngle {
 
     #[inline]
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
-        let (dir, n_dot_w) = self.direction_of_tau(self.sample_tau(xi));
+        let (dir, n_dot_w) = self.sample_values(xi);
         (dir, n_dot_w.max(0.0) * self.inv_psa)
     }
 }

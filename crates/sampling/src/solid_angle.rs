@@ -31,7 +31,7 @@ impl SolidAngle {
     /// Uniform in solid angle over the part of the segment above the horizon of `n`.
     pub fn prepare_clipped(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
         let n = unit_normal(n)?;
-        Self::on_frame(LineFrame::new(segment, x)?.clip_to_horizon(n)?)
+        Self::on_frame(LineFrame::clipped(segment, x, n)?)
     }
 
     /// Uniform in solid angle over an already prepared interval.

@@ -1,0 +1,669 @@
+//! Projected-solid-angle sampling (technique 8) of eight (light, shading point) pairs at once.
+//!
+//! For a batched renderer: structure-of-arrays inputs (segment ends, shading point, normal, ξ
+//! per lane) and outputs (direction, density per radius, distance to the line along the
+//! direction, and a mask of the lanes that contribute). Lane i is exactly what the scalar
+//! `Technique::ProjectedSolidAngle.prepare(..)` + `sample_with_pdf(ξ)` return for the same
+//! inputs — bit for bit, since both run the same branch-free building blocks
+//! ([`LineFrame::lane`], [`ProjectedSolidAngle::lane`], `PsaCore::solve_with_values_lane`; the
+//! scalar path takes cheap early branches in front of them where a branch pays) with the same
+//! operations (no fused multiply-adds are formed by the compiler). A lane whose scalar
+//! preparation returns `None` has its bit cleared in [`PsaBatchOutput::mask`] and zero outputs.
+//!
+//! SIMD: the kernel is one loop over the lanes of branch-free code, which the compiler
+//! vectorises (f32 and f64 lanes side by side); it is compiled three times — for AVX-512,
+//! for AVX2 + FMA, and for the target's baseline (SSE2 on x86-64, or any other architecture) —
+//! and [`sample_projected_solid_angle`] picks one at run time (`is_x86_feature_detected!`), so
+//! the binary runs on any CPU of its target. Cost per lane: `cargo bench -p linlight-sampling
+//! --bench techniques` (the `batch` rows).
+
+use crate::geometry::{unit_normal_lane, LineFrame};
+use crate::li2018::{Li2018, LiState, MAX_ITERATIONS};
+use crate::projected_solid_angle::{ProjectedSolidAngle, PsaCore, DEFAULT_ITERATIONS};
+use crate::sampler::clamp_xi;
+use crate::sampler::LineSampler;
+use crate::trig::{atan2_f64_select, atan2_select};
+use glam::Vec3;
+
+/// Lanes of a batch.
+pub const LANES: usize = 8;
+
+/// `fn $name(isa, args…)`: `$kernel(args…)` compiled for the chosen ISA — inlined into a
+/// function with that ISA's target features — or for the baseline when the CPU lacks it.
+macro_rules! isa_variants {
+    ($(fn $name:ident($($a:ident: $t:ty),*) -> $r:ty = $kernel:ident;)*) => {$(
+        fn $name(isa: Isa, $($a: $t),*) -> $r {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+                unsafe fn avx512($($a: $t),*) -> $r {
+                    $kernel($($a),*)
+                }
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn avx2($($a: $t),*) -> $r {
+                    $kernel($($a),*)
+                }
+                if isa == Isa::Avx512 && isa.supported() {
+                    // SAFETY: the features the function is compiled for were just detected.
+                    return unsafe { avx512($($a),*) };
+                }
+                if isa == Isa::Avx2 && isa.supported() {
+                    // SAFETY: as above.
+                    return unsafe { avx2($($a),*) };
+                }
+            }
+            let _ = isa;
+            $kernel($($a),*)
+        }
+    )*};
+}
+
+isa_variants! {
+    fn run_kernel(input: &PsaBatchInput) -> PsaBatchOutput = kernel;
+    fn run_slice(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) -> () = slice;
+    fn run_prepare(input: &PsaBatchInput) -> PreparedBatch = prepare_kernel;
+    fn run_psa_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput = psa_sample_kernel;
+    fn run_li_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) = li_sample_kernel;
+}
+
+/// Eight 3-vectors as structure of arrays.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Vec3x8 {
+    pub x: [f32; LANES],
+    pub y: [f32; LANES],
+    pub z: [f32; LANES],
+}
+
+impl Vec3x8 {
+    /// The same vector in every lane.
+    pub fn splat(v: Vec3) -> Self {
+        Self {
+            x: [v.x; LANES],
+            y: [v.y; LANES],
+            z: [v.z; LANES],
+        }
+    }
+
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> Vec3 {
+        Vec3::new(self.x[i], self.y[i], self.z[i])
+    }
+
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, v: Vec3) {
+        self.x[i] = v.x;
+        self.y[i] = v.y;
+        self.z[i] = v.z;
+    }
+}
+
+/// Eight sampling problems: lane i samples the segment `begin[i]` → `end[i]` seen from the
+/// shading point `x[i]` with normal `n[i]` (any length; normalised, and rejected when zero or
+/// not finite, as by [`crate::unit_normal`]) for the primary sample `xi[i]` (clamped to [0, 1]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PsaBatchInput {
+    pub begin: Vec3x8,
+    pub end: Vec3x8,
+    pub x: Vec3x8,
+    pub n: Vec3x8,
+    pub xi: [f32; LANES],
+}
+
+/// Samples of a batch. Lanes outside `mask` (no contribution: the light is degenerate, below
+/// the horizon or seen from on its line) hold zeros.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PsaBatchOutput {
+    /// Unit direction toward the line.
+    pub dir: Vec3x8,
+    /// Density per radius (w.r.t. dΩ_R) of `dir`: (n·ω)/Ω⊥_R.
+    pub pdf: [f32; LANES],
+    /// Distance from the shading point to the line along `dir` (d/t with t = ĉ·ω): the end of
+    /// a shadow ray toward the sampled point.
+    pub distance: [f32; LANES],
+    /// Bit i set: lane i contributes.
+    pub mask: u8,
+}
+
+impl PsaBatchOutput {
+    /// Whether lane i contributes.
+    #[inline]
+    pub fn contributes(&self, i: usize) -> bool {
+        self.mask & (1 << i) != 0
+    }
+}
+
+/// A compiled variant of the kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    /// The target's baseline (SSE2 on x86-64).
+    Baseline,
+    /// x86-64 with AVX2 and FMA.
+    Avx2,
+    /// x86-64 with AVX-512 (F, VL, DQ).
+    Avx512,
+}
+
+impl Isa {
+    /// Every variant, fastest first.
+    pub const ALL: [Isa; 3] = [Isa::Avx512, Isa::Avx2, Isa::Baseline];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Baseline => "baseline",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
+    }
+
+    /// Whether this CPU runs the variant.
+    pub fn supported(self) -> bool {
+        match self {
+            Isa::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => {
+                std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+            }
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+                    && std::arch::is_x86_feature_detected!("avx512dq")
+                    && Isa::Avx2.supported()
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The fastest variant this CPU runs (cached by the standard library's feature detection).
+    pub fn detect() -> Isa {
+        Isa::ALL
+            .into_iter()
+            .find(|isa| isa.supported())
+            .unwrap_or(Isa::Baseline)
+    }
+}
+
+/// Sample every lane of `input` with the fastest kernel this CPU runs (see the module
+/// documentation). Lane i equals the scalar `ProjectedSolidAngle::prepare` + `sample_with_pdf`
+/// on lane i's inputs.
+pub fn sample_projected_solid_angle(input: &PsaBatchInput) -> PsaBatchOutput {
+    sample_projected_solid_angle_with(Isa::detect(), input)
+}
+
+/// The same with a chosen kernel; one the CPU does not run ([`Isa::supported`]) falls back
+/// to the baseline.
+pub fn sample_projected_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBatchOutput {
+    run_kernel(isa, input)
+}
+
+/// Sample many batches (`outputs[k]` for `inputs[k]`; the slices must have the same length),
+/// choosing the kernel once. Two batches are interleaved in one loop over the lanes: a batch
+/// is one long dependency chain (square roots, divisions and the iteration), and a second,
+/// independent chain beside it keeps the vector units busy while the first one waits.
+pub fn sample_projected_solid_angle_slice(
+    isa: Isa,
+    inputs: &[PsaBatchInput],
+    outputs: &mut [PsaBatchOutput],
+) {
+    assert_eq!(inputs.len(), outputs.len(), "one output per input batch");
+    run_slice(isa, inputs, outputs)
+}
+
+#[inline(always)]
+fn slice(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) {
+    let mut pairs_in = inputs.chunks_exact(2);
+    let mut pairs_out = outputs.chunks_exact_mut(2);
+    for (i, o) in (&mut pairs_in).zip(&mut pairs_out) {
+        let (a, b) = kernel2(&i[0], &i[1]);
+        o[0] = a;
+        o[1] = b;
+    }
+    for (i, o) in pairs_in.remainder().iter().zip(pairs_out.into_remainder()) {
+        *o = kernel(i);
+    }
+}
+
+/// Eight prepared samplers as structure of arrays: what [`ProjectedSolidAngle::prepare`] (and
+/// [`Li2018::prepare`], which shares it) keep per (light, shading point), to draw any number of
+/// samples with [`PreparedBatch::sample_projected_solid_angle`] or
+/// [`PreparedBatch::sample_li2018`]. Lanes outside `mask` hold meaningless values.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PreparedBatch {
+    u: Vec3x8,
+    c_hat: Vec3x8,
+    n: Vec3x8,
+    d: [f32; LANES],
+    l_begin: [f32; LANES],
+    l_end: [f32; LANES],
+    s_begin: [f32; LANES],
+    s_end: [f32; LANES],
+    // PsaCore
+    ns: [f32; LANES],
+    nt: [f32; LANES],
+    s_b: [f32; LANES],
+    c_b: [f32; LANES],
+    delta_s: [f32; LANES],
+    width: [f32; LANES],
+    p0: [f32; LANES],
+    p1: [f32; LANES],
+    total: [f32; LANES],
+    inv_psa: [f32; LANES],
+    tolerance: [f32; LANES],
+    /// Li et al.: n·c and n·u (f32 dot products, not the core's f64-rounded n_s).
+    n_dot_c: [f32; LANES],
+    n_dot_u: [f32; LANES],
+    /// Bit i set: lane i contributes.
+    pub mask: u8,
+}
+
+impl PreparedBatch {
+    /// Prepare every lane of `input` (its `xi` is not used) with the chosen kernel.
+    pub fn prepare(isa: Isa, input: &PsaBatchInput) -> Self {
+        run_prepare(isa, input)
+    }
+
+    /// One sample per lane for `xi` (projected solid angle, two Halley steps): lane i equals
+    /// the scalar sampler's `sample_with_pdf(xi[i])`.
+    pub fn sample_projected_solid_angle(&self, isa: Isa, xi: &[f32; LANES]) -> PsaBatchOutput {
+        run_psa_sample(isa, self, xi)
+    }
+
+    /// One sample per lane for `xi` by Li et al. 2018, iterating until the slowest lane has
+    /// converged (as on a GPU); also returns the number of iterations run.
+    pub fn sample_li2018(&self, isa: Isa, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) {
+        run_li_sample(isa, self, xi)
+    }
+
+    #[inline(always)]
+    fn store(&mut self, i: usize, li: &Li2018) {
+        let p = &li.exact;
+        let f = &p.frame;
+        self.u.set(i, f.u);
+        self.c_hat.set(i, f.c_hat);
+        self.n.set(i, p.n);
+        (self.d[i], self.l_begin[i], self.l_end[i]) = (f.d, f.l_begin, f.l_end);
+        (self.s_begin[i], self.s_end[i]) = (f.s_begin, f.s_end);
+        let c = &p.core;
+        (self.ns[i], self.nt[i], self.s_b[i], self.c_b[i]) = (c.ns, c.nt, c.s_b, c.c_b);
+        (self.delta_s[i], self.width[i], self.p0[i], self.p1[i]) = (c.delta_s, c.width, c.p0, c.p1);
+        (self.total[i], self.inv_psa[i], self.tolerance[i]) = (c.total, p.inv_psa, p.tolerance);
+        (self.n_dot_c[i], self.n_dot_u[i]) = (li.n_dot_c, li.ns);
+    }
+
+    /// Lane i as the scalar sampler (fields read from the arrays, so the lane loop vectorises).
+    #[inline(always)]
+    fn psa(&self, i: usize) -> ProjectedSolidAngle {
+        ProjectedSolidAngle {
+            frame: LineFrame {
+                u: self.u.get(i),
+                c_hat: self.c_hat.get(i),
+                d: self.d[i],
+                l_begin: self.l_begin[i],
+                l_end: self.l_end[i],
+                s_begin: self.s_begin[i],
+                s_end: self.s_end[i],
+            },
+            n: self.n.get(i),
+            core: PsaCore {
+                ns: self.ns[i],
+                nt: self.nt[i],
+                s_b: self.s_b[i],
+                c_b: self.c_b[i],
+                delta_s: self.delta_s[i],
+                width: self.width[i],
+                p0: self.p0[i],
+                p1: self.p1[i],
+                total: self.total[i],
+            },
+            inv_psa: self.inv_psa[i],
+            tolerance: self.tolerance[i],
+            iterations: DEFAULT_ITERATIONS,
+        }
+    }
+
+    #[inline(always)]
+    fn li(&self, i: usize) -> Li2018 {
+        Li2018 {
+            exact: self.psa(i),
+            n_dot_c: self.n_dot_c[i],
+            ns: self.n_dot_u[i],
+            max_iterations: MAX_ITERATIONS,
+        }
+    }
+}
+
+#[inline(always)]
+fn prepare_kernel(input: &PsaBatchInput) -> PreparedBatch {
+    let mut out = PreparedBatch::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+    for i in 0..LANES {
+        let (n, normal_ok) = unit_normal_lane(input.n.get(i));
+        let (frame, frame_ok) = LineFrame::lane(
+            input.begin.get(i),
+            input.end.get(i),
+            input.x.get(i),
+            Some(n),
+        );
+        let (li, ok) = Li2018::lane(frame, n);
+        out.store(i, &li);
+        valid[i] = normal_ok && frame_ok && ok;
+    }
+    out.mask = pack(valid);
+    out
+}
+
+#[inline(always)]
+fn psa_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput {
+    let mut out = PsaBatchOutput::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)]
+    for i in 0..LANES {
+        let p = prepared.psa(i);
+        let (dir, pdf) = p.sample_with_pdf_lane(clamp_xi(xi[i]), atan2_select);
+        let f = &p.frame;
+        let ok = prepared.mask & (1 << i) != 0;
+        valid[i] = store(&mut out, i, (dir, pdf, f.d / f.c_hat.dot(dir), ok));
+    }
+    out.mask = pack(valid);
+    out
+}
+
+#[inline(always)]
+fn li_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) {
+    // The iteration state as structure of arrays (so that the step loop vectorises).
+    let (mut l, mut lo, mut hi, mut done) =
+        ([0.0f32; LANES], [0.0; LANES], [0.0; LANES], [0u32; LANES]);
+    let mut xs = [0.0f32; LANES];
+    for i in 0..LANES {
+        let s = prepared.li(i).start_state();
+        (l[i], lo[i], hi[i]) = (s.l, s.lo, s.hi);
+        // Lanes without a contribution start converged (inactive, as threads of a GPU warp).
+        done[i] = (prepared.mask & (1 << i) == 0) as u32;
+        xs[i] = clamp_xi(xi[i]);
+    }
+    let mut iterations = 0;
+    while iterations < MAX_ITERATIONS && done.contains(&0) {
+        for i in 0..LANES {
+            let state = LiState {
+                l: l[i],
+                lo: lo[i],
+                hi: hi[i],
+                done: done[i] != 0,
+            };
+            let next = prepared.li(i).step(state, xs[i], atan2_f64_select);
+            (l[i], lo[i], hi[i], done[i]) = (next.l, next.lo, next.hi, next.done as u32);
+        }
+        iterations += 1;
+    }
+    let state: [LiState; LANES] = std::array::from_fn(|i| LiState {
+        l: l[i],
+        ..LiState::default()
+    });
+    let mut out = PsaBatchOutput::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)]
+    for i in 0..LANES {
+        let li = prepared.li(i);
+        let (dir, pdf) = li.finish(state[i].l);
+        let f = li.support();
+        let ok = prepared.mask & (1 << i) != 0;
+        valid[i] = store(&mut out, i, (dir, pdf, f.d / f.c_hat.dot(dir), ok));
+    }
+    out.mask = pack(valid);
+    (out, iterations)
+}
+
+/// Li et al. 2018 (technique 7) on every lane of `input` (prepare and one sample), as on a
+/// GPU: the Newton–bisection iteration runs until the *last* lane has converged (at most 20
+/// steps), every lane paying for the slowest. Lane i equals the scalar `Technique::Li2018`
+/// bit for bit. Returns the outputs and the number of iterations the batch ran.
+pub fn sample_li2018_with(isa: Isa, input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
+    PreparedBatch::prepare(isa, input).sample_li2018(isa, &input.xi)
+}
+
+/// Two batches in one loop over the lanes (two independent chains per vector instruction
+/// stream).
+#[inline(always)]
+fn kernel2(a: &PsaBatchInput, b: &PsaBatchInput) -> (PsaBatchOutput, PsaBatchOutput) {
+    let (mut out_a, mut out_b) = (PsaBatchOutput::default(), PsaBatchOutput::default());
+    let (mut valid_a, mut valid_b) = ([false; LANES], [false; LANES]);
+    #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+    for i in 0..LANES {
+        let ra = lane(a, i);
+        let rb = lane(b, i);
+        valid_a[i] = store(&mut out_a, i, ra);
+        valid_b[i] = store(&mut out_b, i, rb);
+    }
+    out_a.mask = pack(valid_a);
+    out_b.mask = pack(valid_b);
+    (out_a, out_b)
+}
+
+/// Write lane i's results (zeros where it does not contribute); returns whether it does.
+#[inline(always)]
+fn store(
+    out: &mut PsaBatchOutput,
+    i: usize,
+    (dir, pdf, distance, ok): (Vec3, f32, f32, bool),
+) -> bool {
+    out.dir.x[i] = if ok { dir.x } else { 0.0 };
+    out.dir.y[i] = if ok { dir.y } else { 0.0 };
+    out.dir.z[i] = if ok { dir.z } else { 0.0 };
+    out.pdf[i] = if ok { pdf } else { 0.0 };
+    out.distance[i] = if ok { distance } else { 0.0 };
+    ok
+}
+
+#[inline(always)]
+fn pack(valid: [bool; LANES]) -> u8 {
+    valid
+        .iter()
+        .enumerate()
+        .fold(0u8, |m, (i, &v)| m | ((v as u8) << i))
+}
+
+/// One loop over the lanes of branch-free code (vectorised by the compiler).
+#[inline(always)]
+fn kernel(input: &PsaBatchInput) -> PsaBatchOutput {
+    let mut out = PsaBatchOutput::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+    for i in 0..LANES {
+        valid[i] = store(&mut out, i, lane(input, i));
+    }
+    out.mask = pack(valid);
+    out
+}
+
+/// Lane i: (direction, density, distance, contributes), every value computed (garbage where
+/// the lane does not contribute).
+#[inline(always)]
+fn lane(input: &PsaBatchInput, i: usize) -> (Vec3, f32, f32, bool) {
+    let (n, normal_ok) = unit_normal_lane(input.n.get(i));
+    let (frame, frame_ok) = LineFrame::lane(
+        input.begin.get(i),
+        input.end.get(i),
+        input.x.get(i),
+        Some(n),
+    );
+    let (sampler, sampler_ok) =
+        ProjectedSolidAngle::lane(frame, n, DEFAULT_ITERATIONS, atan2_f64_select);
+    let (dir, pdf) = sampler.sample_with_pdf_lane(clamp_xi(input.xi[i]), atan2_select);
+    let distance = frame.d / frame.c_hat.dot(dir);
+    (dir, pdf, distance, normal_ok && frame_ok && sampler_ok)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Pcg32;
+    use crate::{LineSampler, Segment, Technique};
+
+    /// Random problems in the benchmark's box plus degenerate lanes of every kind.
+    fn batches(count: usize) -> Vec<PsaBatchInput> {
+        let mut rng = Pcg32::new(99, 4);
+        let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+        let mut out = Vec::new();
+        for k in 0..count {
+            let mut b = PsaBatchInput::default();
+            for i in 0..LANES {
+                let scale = [1.0, 1e-3, 1e3, 1e-12, 1e12][(k + i) % 5];
+                b.begin.set(
+                    i,
+                    scale * Vec3::new(r(-2.0, 2.0), r(-2.0, 2.0), r(-0.5, 2.0)),
+                );
+                b.end.set(
+                    i,
+                    scale * Vec3::new(r(-2.0, 2.0), r(-2.0, 2.0), r(-0.5, 2.0)),
+                );
+                b.x.set(
+                    i,
+                    scale * Vec3::new(r(-0.1, 0.1), r(-0.1, 0.1), r(-0.01, 0.01)),
+                );
+                b.n.set(i, Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-0.2, 1.0)));
+                b.xi[i] = [r(0.0, 1.0), 0.0, 1.0, 3e-6, 1.0 - 3e-6, -1.0, f32::NAN][i % 7];
+            }
+            out.push(b);
+        }
+        // Degenerate lanes: zero / NaN normal, zero-length segment, shading point on the line,
+        // segment below the horizon, in the tangent plane, non-finite input, far along the axis.
+        let mut d = out[0];
+        d.n.set(0, Vec3::ZERO);
+        d.n.set(1, Vec3::new(f32::NAN, 0.0, 1.0));
+        d.end.set(2, d.begin.get(2));
+        d.x.set(3, 0.5 * (d.begin.get(3) + d.end.get(3)));
+        d.begin.set(4, Vec3::new(-1.0, 0.0, -1.0));
+        d.end.set(4, Vec3::new(1.0, 0.0, -1.0));
+        d.x.set(4, Vec3::ZERO);
+        d.n.set(4, Vec3::Z);
+        d.begin.set(5, Vec3::new(-1.0, 1.0, 0.0));
+        d.end.set(5, Vec3::new(1.0, 1.0, 0.0));
+        d.x.set(5, Vec3::ZERO);
+        d.n.set(5, Vec3::Z);
+        d.begin.set(6, Vec3::new(f32::INFINITY, 0.0, 1.0));
+        d.begin.set(7, Vec3::new(0.0, 1e-3, 1e4));
+        d.end.set(7, Vec3::new(0.0, 1e-3, 1e4 + 1.0));
+        d.x.set(7, Vec3::ZERO);
+        d.n.set(7, Vec3::Z);
+        out.push(d);
+        out
+    }
+
+    /// The slice entry point (two batches interleaved, and an odd remainder) gives the same
+    /// outputs as one batch at a time.
+    #[test]
+    fn slices_equal_single_batches() {
+        let inputs = batches(7);
+        for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
+            let mut outputs = vec![PsaBatchOutput::default(); inputs.len()];
+            sample_projected_solid_angle_slice(isa, &inputs, &mut outputs);
+            for (input, out) in inputs.iter().zip(&outputs) {
+                assert_eq!(
+                    *out,
+                    sample_projected_solid_angle_with(isa, input),
+                    "{isa:?}"
+                );
+            }
+        }
+    }
+
+    /// Prepared once, sampled several times: the same as preparing and sampling together.
+    #[test]
+    fn prepared_batches_sample_like_the_fused_kernel() {
+        for input in batches(300) {
+            for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
+                let prepared = PreparedBatch::prepare(isa, &input);
+                for k in 0..3 {
+                    let xi: [f32; LANES] = std::array::from_fn(|i| input.xi[(i + k) % LANES]);
+                    let fused =
+                        sample_projected_solid_angle_with(isa, &PsaBatchInput { xi, ..input });
+                    assert_eq!(prepared.sample_projected_solid_angle(isa, &xi), fused);
+                }
+            }
+        }
+    }
+
+    /// Li et al. on every lane equals the scalar technique bit for bit, and the batch runs as
+    /// many iterations as its slowest contributing lane.
+    #[test]
+    fn li2018_lanes_equal_the_scalar_technique() {
+        let mut total = (0u64, 0u64);
+        for input in batches(1500) {
+            for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
+                let (out, iterations) = sample_li2018_with(isa, &input);
+                let mut slowest = 0;
+                for i in 0..LANES {
+                    let seg = Segment::new(input.begin.get(i), input.end.get(i));
+                    match Li2018::prepare(&seg, input.x.get(i), input.n.get(i)) {
+                        Some(li) => {
+                            assert!(out.contributes(i));
+                            let (dir, pdf) = li.sample_with_pdf(input.xi[i]);
+                            assert_eq!(
+                                (out.dir.get(i).to_array(), out.pdf[i]),
+                                (dir.to_array(), pdf),
+                                "lane {i}"
+                            );
+                            let k = li.sample_l(input.xi[i]).1;
+                            slowest = slowest.max((k + 1).min(MAX_ITERATIONS));
+                            total.1 += (k + 1).min(MAX_ITERATIONS) as u64;
+                        }
+                        None => assert!(!out.contributes(i)),
+                    }
+                }
+                assert_eq!(iterations, slowest);
+                total.0 += (iterations * out.mask.count_ones()) as u64;
+            }
+        }
+        // Lanes wait for the slowest: the batch pays more iterations than the lanes need.
+        assert!(total.0 > total.1, "{total:?}");
+    }
+
+    /// Every lane equals the scalar technique bit for bit (direction, density, mask), on
+    /// every compiled variant this CPU can run.
+    #[test]
+    fn lanes_equal_the_scalar_technique() {
+        let mut valid = 0;
+        let mut invalid = 0;
+        for input in batches(3000) {
+            let outputs = Isa::ALL
+                .into_iter()
+                .filter(|isa| isa.supported())
+                .map(|isa| sample_projected_solid_angle_with(isa, &input));
+            for out in outputs {
+                for i in 0..LANES {
+                    let seg = Segment::new(input.begin.get(i), input.end.get(i));
+                    let scalar = Technique::ProjectedSolidAngle.prepare(
+                        &seg,
+                        input.x.get(i),
+                        input.n.get(i),
+                    );
+                    match scalar {
+                        Some(p) => {
+                            valid += 1;
+                            assert!(out.contributes(i), "lane {i} of {input:?}");
+                            let (dir, pdf) = p.sample_with_pdf(input.xi[i]);
+                            let got = out.dir.get(i);
+                            assert_eq!(
+                                (got.to_array().map(f32::to_bits), out.pdf[i].to_bits()),
+                                (dir.to_array().map(f32::to_bits), pdf.to_bits()),
+                                "lane {i}: {got:?} {} vs {dir:?} {pdf}",
+                                out.pdf[i]
+                            );
+                            let f = p.support();
+                            assert_eq!(out.distance[i], f.d / f.c_hat.dot(dir));
+                        }
+                        None => {
+                            invalid += 1;
+                            assert!(!out.contributes(i), "lane {i} of {input:?}");
+                            assert_eq!((out.dir.get(i), out.pdf[i]), (Vec3::ZERO, 0.0));
+                        }
+                    }
+                }
+            }
+        }
+        assert!(valid > 10_000 && invalid > 1_000, "{valid} {invalid}");
+    }
+}
