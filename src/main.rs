@@ -37,6 +37,9 @@ enum Command {
     /// and compares it with the committed table (exit 0 consistent, 1 mismatch, 2 bad input).
     #[command(after_help = cmd::fit_ltc::AFTER_HELP)]
     FitLtc(cmd::fit_ltc::Args),
+    /// The exact unshadowed image of an unoccluded plane (closed form, or quadrature along the
+    /// line for glossy BSDFs), variance 0: the ground truth certify compares with.
+    Unshadowed(cmd::unshadowed::Args),
 }
 
 /// The technique names for `--help` (from the sampling crate, so the list cannot go stale).
@@ -71,5 +74,6 @@ fn main() -> ExitCode {
         Command::Info(a) => cmd::info::run(a),
         Command::Merge(a) => cmd::merge::run(a),
         Command::FitLtc(a) => cmd::fit_ltc::run(a),
+        Command::Unshadowed(a) => cmd::unshadowed::run(a),
     }
 }

@@ -8,3 +8,4 @@ pub mod info;
 pub mod merge;
 pub mod render;
 pub mod samplers;
+pub mod unshadowed;

@@ -10,6 +10,7 @@ pub mod camera;
 pub mod closed_form;
 pub mod film;
 pub mod integrator;
+pub mod line_quadrature;
 pub mod render;
 pub mod scene;
 pub mod shapes;
