@@ -25,7 +25,7 @@ pub mod scenes;
 
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{render, RenderError, RenderOptions};
+use linlight_render::{record_inputs, render, RenderError, RenderOptions};
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
 use linlight_verify::z_score::sidak;
@@ -213,7 +213,11 @@ pub struct SceneReport {
 
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
+    /// Sampler suite passed and every comparison is consistent.
     pub passed: bool,
+    /// DIFFERENT if the sampler suite or a comparison failed, else INCONCLUSIVE if a comparison
+    /// is, else CONSISTENT.
+    pub verdict: Verdict,
     pub oracle: Oracle,
     pub scenes_pattern: String,
     pub alpha: f64,
@@ -413,7 +417,7 @@ pub fn run(
             let pilot_seconds = t.elapsed().as_secs_f64();
             let budget = opts.budget.choose(&pilot, &reference);
             let t = Instant::now();
-            let image = subject
+            let mut image = subject
                 .render(
                     &s.scene,
                     &RenderOptions {
@@ -425,6 +429,7 @@ pub fn run(
                 )
                 .map_err(|e| render_error(&s.name, &name, e))?;
             let render_seconds = t.elapsed().as_secs_f64();
+            record_inputs(&mut image.meta, &s.scene_file, &s.overrides);
             let mut oracles = vec![("mitsuba", &reference)];
             if let Some(c) = &closed {
                 oracles.push(("closed-form", c));
@@ -469,10 +474,18 @@ pub fn run(
         });
     }
 
-    let passed = sampler_suite.as_ref().is_none_or(|s| s.passed)
-        && scene_reports.iter().flat_map(|s| &s.rows).all(Row::passed);
+    let suite_ok = sampler_suite.as_ref().is_none_or(|s| s.passed);
+    let rows = || scene_reports.iter().flat_map(|s| &s.rows);
+    let verdict = if !suite_ok || rows().any(|r| r.verdict == Verdict::Different) {
+        Verdict::Different
+    } else if rows().any(|r| r.verdict == Verdict::Inconclusive) {
+        Verdict::Inconclusive
+    } else {
+        Verdict::Consistent
+    };
     let report = Report {
-        passed,
+        passed: verdict == Verdict::Consistent,
+        verdict,
         oracle: opts.oracle,
         scenes_pattern: opts.scenes.clone(),
         alpha: opts.alpha,

@@ -27,22 +27,20 @@ pub fn write_row_images(
     let stem = format!("{}-vs-{}", row.subject, row.oracle);
     let mut files = Vec::new();
     let render = format!("{}/{}.exr", row.scene, row.subject);
+    // Image and PNG errors already name their path ("cannot write X: …").
+    let named = |e: linlight_imagefile::ImageError| Unusable(e.to_string());
     if !dir.join(&render).exists() || row.oracle == "mitsuba" {
-        image
-            .write(&dir.join(&render))
-            .map_err(|e| io_err(&dir.join(&render), e))?;
+        image.write(&dir.join(&render)).map_err(named)?;
     }
     files.push(render);
     let heat = format!("{}/{stem}-z-tiles.png", row.scene);
     comparison_heatmap(&row.comparison)
         .write_png(&dir.join(&heat))
-        .map_err(|e| io_err(&dir.join(&heat), e))?;
+        .map_err(named)?;
     files.push(heat);
     let side = format!("{}/{stem}-side-by-side.png", row.scene);
-    let (picture, _scale) = side_by_side(image, oracle, None).map_err(|e| io_err(&sub, e))?;
-    picture
-        .write_png(&dir.join(&side))
-        .map_err(|e| io_err(&dir.join(&side), e))?;
+    let (picture, _scale) = side_by_side(image, oracle, None).map_err(named)?;
+    picture.write_png(&dir.join(&side)).map_err(named)?;
     files.push(side);
     Ok(files)
 }
@@ -63,10 +61,7 @@ fn worst_channel(row: &Row) -> Option<(&'static str, f64, f64)> {
 }
 
 fn verdict(v: Verdict) -> &'static str {
-    match v {
-        Verdict::Consistent => "CONSISTENT",
-        Verdict::Different => "DIFFERENT",
-    }
+    v.label()
 }
 
 fn rel_cell(row: &Row) -> String {
@@ -151,18 +146,30 @@ pub fn summary(report: &Report) -> String {
     let failed: Vec<String> = report
         .rows()
         .filter(|r| !r.passed())
-        .map(|r| format!("{}/{} vs {}", r.scene, r.subject, r.oracle))
+        .map(|r| {
+            format!(
+                "{}/{} vs {} ({})",
+                r.scene,
+                r.subject,
+                r.oracle,
+                r.verdict.label()
+            )
+        })
         .collect();
     let _ = writeln!(
         s,
         "certify: {} in {:.1} s ({} comparisons{})",
-        if report.passed { "PASS" } else { "FAIL" },
+        match report.verdict {
+            Verdict::Consistent => "PASS",
+            Verdict::Different => "FAIL",
+            Verdict::Inconclusive => "INCONCLUSIVE",
+        },
         report.elapsed_seconds,
         report.rows().count(),
         if failed.is_empty() {
             String::new()
         } else {
-            format!("; different: {}", failed.join(", "))
+            format!("; not consistent: {}", failed.join(", "))
         }
     );
     s
@@ -309,12 +316,16 @@ pub fn markdown(report: &Report) -> String {
         if !failures.is_empty() {
             s.push('\n');
             for row in failures {
-                for f in &row.comparison.failures {
+                let c = &row.comparison;
+                for f in c.failures.iter().chain(&c.not_equivalent) {
                     let _ = writeln!(
                         s,
                         "- {} vs {}: {:?} [{}]: {}",
                         row.subject, row.oracle, f.test, f.channel, f.detail
                     );
+                }
+                if let Some(h) = &c.precision {
+                    let _ = writeln!(s, "- {} vs {}: {}", row.subject, row.oracle, h.text);
                 }
             }
         }

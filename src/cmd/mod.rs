@@ -3,5 +3,6 @@
 pub mod backward_error;
 pub mod certify;
 pub mod compare;
+pub mod outputs;
 pub mod render;
 pub mod samplers;

@@ -2,7 +2,7 @@
 //! (mean + variance of the mean), optionally with a PNG preview.
 
 use indicatif::{ProgressBar, ProgressStyle};
-use linlight_render::{render, RenderOptions};
+use linlight_render::{record_inputs, render, RenderOptions};
 use linlight_sampling::Technique;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -94,6 +94,12 @@ pub fn run(args: Args) -> ExitCode {
     if opts.spp == 0 || opts.passes == 0 {
         return usage_error("--spp and --passes must be at least 1");
     }
+    if opts.spp == 1 && opts.passes == 1 {
+        // Shown even with --quiet: the output cannot be compared.
+        eprintln!(
+            "warning: one sample per pixel in one pass gives no variance estimate (dof 0):              `linlight compare` refuses such an image; use --spp ≥ 2 or --passes ≥ 2"
+        );
+    }
     let film = &scene.sensor.film;
     if film.width == 0 || film.height == 0 {
         return usage_error(format!(
@@ -128,23 +134,28 @@ pub fn run(args: Args) -> ExitCode {
         bar.set_position(done as u64);
     };
     let start = Instant::now();
-    let image = match pool.install(|| render(&scene, &opts, &progress)) {
+    let mut image = match pool.install(|| render(&scene, &opts, &progress)) {
         Ok(img) => img,
         Err(e) => return usage_error(e),
     };
+    record_inputs(&mut image.meta, &args.scene, &overrides);
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
 
     let out = args.out.clone().unwrap_or_else(|| default_out(&args.scene));
+    // The image file's errors already name the path ("cannot write X: …").
     if let Err(e) = image.write(&out) {
-        return usage_error(format!("cannot write {}: {e}", out.display()));
+        return usage_error(e);
     }
     if let Some(p) = &args.preview {
         if let Err(e) = image.write_preview_png(p) {
-            return usage_error(format!("cannot write {}: {e}", p.display()));
+            return usage_error(e);
         }
     }
     if !args.quiet {
+        if let Some(c) = image.meta.extra.get("contacts") {
+            eprintln!("light–surface contacts (tested apart by compare): {c}");
+        }
         let samples = (image.width * image.height) as f64 * image.meta.spp as f64;
         eprintln!(
             "wrote {} ({}x{}, {} spp in {} pass(es), {}, {:.2} s, {:.2} M samples/s)",

@@ -33,6 +33,7 @@ pub(super) fn global_tests(
     };
     let significant = p.is_some_and(|p| p <= levels.alpha_test);
     let (rel_diff, rel_ci) = relative_ci(global, nu.0, nu.1, levels.alpha_eq);
+    let (rel_var_a, rel_var_b) = relative_variances(global);
     let tol = levels.tolerance;
     let equivalent = rel_ci.is_some_and(|[lo, hi]| lo >= -tol && hi <= tol);
     let mut failures = Vec::new();
@@ -80,6 +81,8 @@ pub(super) fn global_tests(
         rel_diff,
         rel_ci,
         equivalent,
+        rel_var_a,
+        rel_var_b,
     };
     (report, failures)
 }
@@ -109,4 +112,17 @@ fn relative_ci(s: &Sums, nu_a: f64, nu_b: f64, alpha_eq: f64) -> (Option<f64>, O
     let se = var_sum.sqrt() / (n * gb.abs());
     let q = t_two_sided_quantile(alpha_eq, s.dof(k, nu_a, nu_b));
     (Some(r), Some([r - q * se, r + q * se]))
+}
+
+/// The two terms of Var r (delta method): Var Ḡ_A/Ḡ_B² and R²·Var Ḡ_B/Ḡ_B², R = Ḡ_A/Ḡ_B; what
+/// each image contributes to the uncertainty of the relative difference. (0, 0) if Ḡ_B = 0.
+fn relative_variances(s: &Sums) -> (f64, f64) {
+    let n = s.n as f64;
+    let (ga, gb) = (s.ma / n, s.mb / n);
+    if gb == 0.0 || !gb.is_finite() {
+        return (0.0, 0.0);
+    }
+    let ratio = ga / gb;
+    let d = (n * gb) * (n * gb);
+    (s.va / d, ratio * ratio * s.vb / d)
 }

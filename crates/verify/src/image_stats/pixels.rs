@@ -1,11 +1,179 @@
-//! Per-pixel statistics of one channel: the normal score z of every pixel with variance, the
-//! zero-variance check of the others, and the two pixel-level tests (Σz² against χ²(N), max|z|
-//! against its Šidák threshold).
+//! Per-pixel statistics of one channel: what a pixel's evidence allows (its class and the
+//! variances the tile and global tests may use), its normal score z, and the two pixel-level
+//! tests (Σz² against χ²(N), max|z| against its Šidák threshold).
 
-use statrs::distribution::{ChiSquared, ContinuousCDF};
+// `!(x > 0.0)` is deliberate: it treats NaN as "not positive".
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::{Failure, PixelReport, Region, TestKind};
+use linlight_imagefile::Image;
+use statrs::distribution::{ChiSquared, ContinuousCDF, StudentsT};
+
+use super::{is_exact, CompareConfig, Failure, PixelReport, PixelState, Region, TestKind};
 use crate::z_score::{normal_two_sided_quantile, normal_upper_tail, sidak, t_to_z, welch_dof};
+
+/// What the classification needs to know of one image.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Side {
+    /// Zero variances are exact (header `variance = exact`).
+    pub exact: bool,
+    /// Rule-of-three factor of its zero-sample-variance bound: 1/3 − 1/n for n samples per
+    /// pixel (1/3 when n is unknown), never negative.
+    pub zero_bound: f64,
+    /// Critical value of the tail share (None: no tail channel, or too few terms).
+    pub tail_critical: Option<f64>,
+    /// Samples per pixel (header `spp`; 0 if unknown).
+    pub samples: f64,
+}
+
+impl Side {
+    pub fn of(img: &Image, heavy_tail_alpha: f64) -> Self {
+        let n = img.meta.spp;
+        let zero_bound = if n == 0 {
+            1.0 / 3.0
+        } else {
+            (1.0 / 3.0 - 1.0 / n as f64).max(0.0)
+        };
+        // The tail share is over dof + 1 terms (samples of one pass, or pass means).
+        let terms = img.meta.dof + 1.0;
+        Self {
+            exact: is_exact(img),
+            samples: n as f64,
+            zero_bound,
+            tail_critical: img
+                .tail
+                .as_ref()
+                .and_then(|_| tail_share_critical(terms, heavy_tail_alpha)),
+        }
+    }
+}
+
+/// Critical value of the tail share max_i (x_i − x̄)²/Σ(x_i − x̄)² of n normal terms at level
+/// α, from Grubbs' two-sided outlier test: share = G²/(n − 1) and
+/// G_crit = (n − 1)/√n · √(t²/(n − 2 + t²)), t the upper α/(2n) quantile of Student's t with
+/// n − 2 dof. Under normality the share is independent of the mean (Basu), so leaving out
+/// flagged pixels does not bias the z tests. None for n < 3 (no outlier test possible).
+pub fn tail_share_critical(n: f64, alpha: f64) -> Option<f64> {
+    if !(n >= 3.0 && n.is_finite()) {
+        return None;
+    }
+    let t = StudentsT::new(0.0, 1.0, n - 2.0)
+        .ok()?
+        .inverse_cdf(1.0 - alpha / (2.0 * n));
+    let t2 = t * t;
+    let share = (n - 1.0) / n * t2 / (n - 2.0 + t2);
+    share.is_finite().then_some(share)
+}
+
+/// Whether a pixel has too few samples on either side for the normal approximation of its
+/// mean: a sample mean of n values is close to normal only when n·p is large for the rarest
+/// values that carry its mean, and for a rare value of probability p, CV² = σ²/μ² ≈ 1/p. Under
+/// the null both images average the same pixel integrand, so the larger per-sample CV² that
+/// either image shows (σ̂² = v·n, n its samples per pixel) must be resolved by both:
+/// n_X ≥ k·CV² for X = A, B (k = 10: n·p ≥ 10). A side with unknown n (spp = 0) is not
+/// checked; a side whose mean is 0 shows no CV.
+pub(super) fn undersampled(
+    (ma, mb): (f64, f64),
+    (va, vb): (f64, f64),
+    (sa, sb): (&Side, &Side),
+    k: f64,
+) -> bool {
+    let cv2 = |m: f64, v: f64, s: &Side| {
+        (m != 0.0 && s.samples > 0.0 && !s.exact).then(|| v * s.samples / (m * m))
+    };
+    let Some(worst) = [cv2(ma, va, sa), cv2(mb, vb, sb)]
+        .into_iter()
+        .flatten()
+        .max_by(f64::total_cmp)
+    else {
+        return false;
+    };
+    [sa, sb]
+        .iter()
+        .any(|s| !s.exact && s.samples > 0.0 && s.samples < k * worst)
+}
+
+/// A pixel-channel after classification.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Classified {
+    pub state: PixelState,
+    /// Normal score (None where v_A + v_B = 0 after the bound).
+    pub z: Option<f64>,
+    /// Variances for the tile and global sums (the rule-of-three bound replaces a zero sample
+    /// variance).
+    pub var: (f64, f64),
+    /// Heavy tail flagged in A, in B.
+    pub heavy_tail: (bool, bool),
+}
+
+/// What the evidence of one pixel-channel allows (module documentation of `image_stats`).
+pub(super) fn classify(
+    (ma, mb): (f64, f64),
+    (va, vb): (f64, f64),
+    (ta, tb): (Option<f64>, Option<f64>),
+    (sa, sb): &(Side, Side),
+    nu: (f64, f64),
+    cfg: &CompareConfig,
+) -> Classified {
+    let agree = exact_values_agree(ma, mb, cfg.zero_var_abs, cfg.zero_var_rel);
+    let unexact_zero = |v: f64, s: &Side| v == 0.0 && !s.exact;
+    if unexact_zero(va, sa) || unexact_zero(vb, sb) || (va == 0.0 && vb == 0.0) {
+        if agree && va == 0.0 && vb == 0.0 {
+            return Classified {
+                state: PixelState::ZeroVarAgree,
+                z: None,
+                var: (0.0, 0.0),
+                heavy_tail: (false, false),
+            };
+        }
+        if va == 0.0 && vb == 0.0 && sa.exact && sb.exact {
+            return Classified {
+                state: PixelState::ZeroVarMismatch,
+                z: None,
+                var: (0.0, 0.0),
+                heavy_tail: (false, false),
+            };
+        }
+        // A zero sample variance: bound it from below by the rule of three.
+        let d2 = (ma - mb) * (ma - mb);
+        let bound = |v: f64, s: &Side| {
+            if unexact_zero(v, s) {
+                d2 * s.zero_bound
+            } else {
+                v
+            }
+        };
+        return Classified {
+            state: PixelState::ZeroSampleVariance,
+            z: None,
+            var: (bound(va, sa), bound(vb, sb)),
+            heavy_tail: (false, false),
+        };
+    }
+    let z = pixel_z(ma, mb, va, vb, nu);
+    if undersampled((ma, mb), (va, vb), (sa, sb), cfg.samples_per_cv2) {
+        return Classified {
+            state: PixelState::Undersampled,
+            z,
+            var: (va, vb),
+            heavy_tail: (false, false),
+        };
+    }
+    let flagged = |t: Option<f64>, s: &Side| {
+        t.zip(s.tail_critical)
+            .is_some_and(|(share, crit)| share > crit)
+    };
+    let heavy_tail = (flagged(ta, sa), flagged(tb, sb));
+    Classified {
+        state: if heavy_tail.0 || heavy_tail.1 {
+            PixelState::HeavyTail
+        } else {
+            PixelState::Tested
+        },
+        z,
+        var: (va, vb),
+        heavy_tail,
+    }
+}
 
 /// z = Φ⁻¹(F_t(t; ν_W)) of the difference m_A − m_B with t = (m_A − m_B)/√(v_A + v_B) and the
 /// Welch–Satterthwaite dof; None when v_A + v_B = 0.

@@ -1,4 +1,3 @@
-
 use super::*;
 use linlight_sampling::rng::Pcg32;
 
@@ -97,13 +96,16 @@ fn fast_render_matches_pass_simulation_in_distribution() {
 }
 
 fn failed(cmp: &Comparison, test: TestKind) -> bool {
-    cmp.failures.iter().any(|f| f.test == test)
+    cmp.failures
+        .iter()
+        .chain(&cmp.not_equivalent)
+        .any(|f| f.test == test)
 }
 
 /// Rejection by the difference tests at family level `alpha`, recomputed from the reported
 /// p-values (the equivalence test has a different null and is excluded).
 fn rejects_at(cmp: &Comparison, alpha: f64) -> bool {
-    let a = sidak(alpha, TESTS_PER_CHANNEL * CHANNELS.len());
+    let a = alpha / cmp.tests as f64;
     cmp.channels.iter().any(|ch| {
         ch.global.p.is_some_and(|p| p <= a)
             || ch.tiles.worst.as_ref().is_some_and(|t| t.p_holm <= a)
@@ -310,31 +312,62 @@ fn five_percent_error_in_an_unaligned_region_is_caught_by_the_shifted_grid() {
 }
 
 #[test]
-fn noisy_render_of_a_one_percent_off_truth_is_not_consistent() {
+fn noisy_render_of_a_one_percent_off_truth_is_inconclusive_not_consistent() {
     let cfg = CompareConfig::default();
     for s in 0..5 {
-        // 60× the noise: the difference tests cannot resolve 1 %, equivalence must fail.
+        // 60× the noise: the difference tests cannot resolve 1 %, equivalence is not shown.
         let a = render(4000 + 2 * s, 60.0 * NOISE, |_, _| 1.01);
         let b = render(4001 + 2 * s, NOISE, |_, _| 1.0);
         let cmp = compare(&a, &b, &cfg).unwrap();
-        assert_eq!(cmp.verdict, Verdict::Different);
-        assert!(failed(&cmp, TestKind::Equivalence), "{:?}", cmp.failures);
+        assert_eq!(cmp.verdict, Verdict::Inconclusive, "{:?}", cmp.failures);
+        assert!(cmp.failures.is_empty());
+        assert!(failed(&cmp, TestKind::Equivalence));
+        let hint = cmp.precision.as_ref().expect("a samples-needed hint");
+        assert_eq!(hint.limiting, "A", "{}", hint.text);
+        // A holds 3600× the variance of B: A alone can make it decidable, B alone cannot.
+        assert!(hint.factor_a.is_some_and(|f| f > 1.0), "{}", hint.text);
+        assert_eq!(hint.factor_b, None, "{}", hint.text);
         if s == 0 {
-            let g = &cmp.channels[0].global;
-            eprintln!(
-                "noisy 1 %: failures {:?}, R rel CI {:?}, global p = {:.3}",
-                cmp.failures.iter().map(|f| f.test).collect::<Vec<_>>(),
-                g.rel_ci,
-                g.p.unwrap()
-            );
+            eprintln!("noisy 1 %: {}", hint.text);
         }
     }
-    // Noise alone is enough to fail: a noisy render of the exact truth is not certified.
+    // Noise alone is enough to withhold "consistent": a noisy render of the exact truth.
     let a = render(4100, 60.0 * NOISE, |_, _| 1.0);
     let b = render(4101, NOISE, |_, _| 1.0);
     let cmp = compare(&a, &b, &cfg).unwrap();
     assert!(failed(&cmp, TestKind::Equivalence));
-    assert_eq!(cmp.verdict, Verdict::Different);
+    assert_eq!(cmp.verdict, Verdict::Inconclusive);
+    assert_eq!(cmp.verdict.exit_code(), 3);
+}
+
+#[test]
+fn a_noisy_reference_is_named_as_the_limit_with_the_samples_it_needs() {
+    let cfg = CompareConfig::default();
+    let mut a = render(4200, NOISE, |_, _| 1.0);
+    let mut b = render(4201, 30.0 * NOISE, |_, _| 1.0);
+    a.meta.spp = 4096;
+    b.meta.spp = 32 * 1024;
+    let cmp = compare(&a, &b, &cfg).unwrap();
+    assert_eq!(cmp.verdict, Verdict::Inconclusive, "{:?}", cmp.failures);
+    let hint = cmp.precision.as_ref().unwrap();
+    assert_eq!(hint.limiting, "B", "{}", hint.text);
+    assert_eq!(
+        hint.factor_a, None,
+        "more samples of A cannot help: {}",
+        hint.text
+    );
+    let f = hint.factor_b.unwrap();
+    assert!(f > 1.0 && hint.spp_b == Some((32.0 * 1024.0 * f).ceil() as u64));
+    assert!(
+        hint.text.contains("more samples of A alone cannot"),
+        "{}",
+        hint.text
+    );
+    // Taking the hint: B with f× the samples (variance / f) makes the comparison decidable.
+    let mut b2 = render(4203, 30.0 * NOISE / (1.2 * f).sqrt(), |_, _| 1.0);
+    b2.meta.spp = hint.spp_b.unwrap();
+    let cmp = compare(&a, &b2, &cfg).unwrap();
+    assert_eq!(cmp.verdict, Verdict::Consistent, "{:?}", cmp.not_equivalent);
 }
 
 fn flat(w: usize, h: usize, m: f32, v: f32) -> Image {
@@ -345,10 +378,15 @@ fn flat(w: usize, h: usize, m: f32, v: f32) -> Image {
     img
 }
 
+fn exact(mut img: Image) -> Image {
+    img.meta.extra.insert(KEY_VARIANCE.into(), "exact".into());
+    img
+}
+
 #[test]
-fn zero_variance_pixels_are_counted_apart_and_must_agree() {
-    let mut a = flat(20, 10, 0.5, 1e-4);
-    let mut b = flat(20, 10, 0.5, 1e-4);
+fn exact_zero_variance_values_are_counted_apart_and_must_agree() {
+    let mut a = exact(flat(20, 10, 0.5, 1e-4));
+    let mut b = exact(flat(20, 10, 0.5, 1e-4));
     for i in 0..20 {
         a.var[i] = [0.0; 3];
         b.var[i] = [0.0; 3];
@@ -358,38 +396,176 @@ fn zero_variance_pixels_are_counted_apart_and_must_agree() {
     let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
     assert_eq!(cmp.zero_variance.count, 60);
     assert_eq!(cmp.zero_variance.mismatched, 0);
-    assert_eq!(cmp.zero_variance.one_sided, 0);
     assert_eq!(cmp.channels[0].pixels.tested, 180);
+    assert_eq!(cmp.pixel_classes.zero_variance_agree, 60);
     assert_eq!(cmp.verdict, Verdict::Consistent, "{:?}", cmp.failures);
 
     b.mean[7][1] = 3.001;
-    b.var[30][2] = 0.0;
     let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
     assert_eq!(cmp.verdict, Verdict::Different);
     assert_eq!(cmp.zero_variance.mismatched, 1);
-    assert_eq!(cmp.zero_variance.one_sided, 1);
     let f = &cmp.failures[0];
     assert_eq!((f.test, f.channel), (TestKind::ZeroVariance, "G"));
-    assert_eq!(
-        f.region,
-        Some(Region {
-            x: 7,
-            y: 0,
-            width: 1,
-            height: 1
-        })
+    assert_eq!(f.region, Some(Region::pixel(7, 0)));
+}
+
+#[test]
+fn zero_sample_variance_is_bounded_by_the_rule_of_three_not_trusted() {
+    // A dozen pixels where A (256 samples) saw only zeros while B is lit: a zero sample
+    // variance, not a zero variance. Alone they must not make the comparison fail.
+    let mut a = render(4300, NOISE, |_, _| 1.0);
+    let b = render(4301, NOISE, |_, _| 1.0);
+    a.meta.spp = 256;
+    for k in 0..12 {
+        let i = 37 * k + 5;
+        a.mean[i] = [0.0; 3];
+        a.var[i] = [0.0; 3];
+    }
+    let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
+    assert_eq!(cmp.pixel_classes.zero_sample_variance, 36);
+    assert_eq!(cmp.zero_variance.one_sided, 36);
+    assert_eq!(cmp.verdict, Verdict::Consistent, "{:?}", cmp.failures);
+    // The same pixels trusted with variance 0 (the old rule) would be |z| ≈ 20 or more.
+    let z_naive = (b.mean[5][0] as f64) / (b.var[5][0] as f64).sqrt();
+    assert!(z_naive > 20.0, "{z_naive}");
+    // A whole black tile is still a difference: the bound keeps the tile test's power.
+    let mut dark = a.clone();
+    for y in 32..48 {
+        for x in 64..80 {
+            dark.mean[y * W + x] = [0.0; 3];
+            dark.var[y * W + x] = [0.0; 3];
+        }
+    }
+    let cmp = compare(&dark, &b, &CompareConfig::default()).unwrap();
+    assert_eq!(cmp.verdict, Verdict::Different);
+    assert!(failed(&cmp, TestKind::Tile), "{:?}", cmp.failures);
+}
+
+#[test]
+fn rare_unseen_samples_make_a_pixel_undersampled_not_different() {
+    // A pixel whose reference shows a rare bright part (per-sample CV² = v·n/m² = 400) that A's
+    // 256 samples never met: A is low with a tiny variance. n_A = 256 < 10·CV².
+    let mut a = flat(32, 32, 1.0, 1e-6);
+    let mut b = flat(32, 32, 1.0, 1e-6);
+    a.meta.spp = 256;
+    b.meta.spp = 32768;
+    b.meta.dof = 31.0;
+    b.mean[100] = [1.6; 3];
+    b.var[100] = [400.0 * 1.6 * 1.6 / 32768.0; 3];
+    a.mean[100] = [1.0; 3];
+    let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
+    assert_eq!(cmp.maps.state[100][0], PixelState::Undersampled);
+    assert_eq!(cmp.pixel_classes.undersampled, 3);
+    assert!(!failed(&cmp, TestKind::PixelMax), "{:?}", cmp.failures);
+    // With 16× the samples A resolves CV² = 400 (4096 ≥ 4000): the pixel is tested again.
+    a.meta.spp = 4096;
+    let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
+    assert_eq!(cmp.maps.state[100][0], PixelState::Tested);
+}
+
+#[test]
+fn heavy_tailed_pixels_are_flagged_and_left_to_tiles() {
+    // Critical shares of the Grubbs test at 1e-3: about 0.43 for 32 terms, 0.08 for 256.
+    let c32 = pixels::tail_share_critical(32.0, 1e-3).unwrap();
+    let c256 = pixels::tail_share_critical(256.0, 1e-3).unwrap();
+    assert!(
+        (0.35..0.5).contains(&c32) && (0.05..0.1).contains(&c256),
+        "{c32} {c256}"
     );
+    assert_eq!(pixels::tail_share_critical(2.0, 1e-3), None);
+    let mut a = render(4400, NOISE, |_, _| 1.0);
+    let mut b = render(4401, NOISE, |_, _| 1.0);
+    b.tail = Some(vec![[0.2; 3]; W * H]);
+    // One pixel whose variance rests on one pass, far off (it would fail max|z| if trusted).
+    let i = 50 * W + 50;
+    b.tail.as_mut().unwrap()[i] = [0.9; 3];
+    a.mean[i] = [b.mean[i][0] + 10.0 * b.var[i][0].sqrt(); 3];
+    let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
+    assert_eq!(cmp.maps.state[i][1], PixelState::HeavyTail);
+    assert_eq!(cmp.pixel_classes.heavy_tail_b, 3);
+    assert!(!failed(&cmp, TestKind::PixelMax), "{:?}", cmp.failures);
+    a.tail = None;
+    b.tail = None;
+    let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
+    assert!(failed(&cmp, TestKind::PixelMax), "trusted, it fails");
+}
+
+#[test]
+fn contact_pixels_are_tested_apart_against_the_finite_radius_allowance() {
+    let a0 = render(4500, NOISE, |_, _| 1.0);
+    let mut b = render(4501, NOISE, |_, _| 1.0);
+    b.meta.extra.insert("radius".into(), "0.0001".into());
+    // A 1 % difference at 9 contact pixels: within c·R·ln(1/R) = 20·1e-4·9.21 = 1.84 %.
+    let contact: Vec<(usize, usize)> = (60..63)
+        .flat_map(|y| (60..63).map(move |x| (x, y)))
+        .collect();
+    let list = contact
+        .iter()
+        .map(|(x, y)| format!("{x},{y}"))
+        .collect::<Vec<_>>()
+        .join(";");
+    let mut a = a0.clone();
+    a.meta.extra.insert("contact_pixels".into(), list);
+    // Contact pixels: B's value times k, both nearly exact (variance 1e-10).
+    let scaled = |img: &Image, k: f32| {
+        let mut out = img.clone();
+        for &(x, y) in &contact {
+            out.mean[y * W + x] = b.mean[y * W + x].map(|m| m * k);
+            out.var[y * W + x] = [1e-10; 3];
+        }
+        out
+    };
+    let mut b_tight = scaled(&b, 1.0);
+    b_tight.meta = b.meta.clone();
+    let cmp = compare(&scaled(&a, 1.01), &b_tight, &CompareConfig::default()).unwrap();
+    assert_eq!(cmp.contact_pixels.len(), 9);
+    assert!((cmp.contact_allowance - 20.0 * 1e-4 * 1e4f64.ln()).abs() < 1e-12);
+    assert_eq!(cmp.tests, 15, "a fifth test per channel");
+    assert_eq!(cmp.pixel_classes.contact, 27);
+    assert_eq!(cmp.verdict, Verdict::Consistent, "{:?}", cmp.failures);
+    // 10 % is beyond the allowance.
+    let cmp = compare(&scaled(&a, 1.10), &b_tight, &CompareConfig::default()).unwrap();
+    assert!(failed(&cmp, TestKind::Contact), "{:?}", cmp.failures);
+    // A malformed list is unusable input.
+    a.meta.extra.insert("contact_pixels".into(), "3;4".into());
+    assert!(compare(&a, &b, &CompareConfig::default()).is_err());
+}
+
+#[test]
+fn different_scenes_are_refused_unless_allowed() {
+    let mut a = flat(4, 4, 1.0, 0.1);
+    let mut b = a.clone();
+    a.meta.scene_sha256 = "aa".repeat(32);
+    b.meta.scene_sha256 = "bb".repeat(32);
+    b.meta
+        .extra
+        .insert("scene".into(), "cornell-tube.xml".into());
+    let err = compare(&a, &b, &CompareConfig::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("different scene files") && err.contains("cornell-tube.xml"),
+        "{err}"
+    );
+    let allow = CompareConfig {
+        allow_different_scenes: true,
+        ..CompareConfig::default()
+    };
+    assert!(compare(&a, &b, &allow).is_ok());
+    // One side without a hash (a foreign image) is not refused.
+    a.meta.scene_sha256.clear();
+    assert!(compare(&a, &b, &CompareConfig::default()).is_ok());
 }
 
 #[test]
 fn exact_images_compare_exactly() {
     // No variance anywhere: only the zero-variance check and exact equivalence apply.
-    let a = flat(5, 5, 0.25, 0.0);
+    let a = exact(flat(5, 5, 0.25, 0.0));
     let cmp = compare(&a, &a.clone(), &CompareConfig::default()).unwrap();
     assert_eq!(cmp.verdict, Verdict::Consistent);
     assert_eq!(cmp.channels[2].global.rel_ci, Some([0.0, 0.0]));
     // An all-black channel in both is equivalent; black reference vs non-black is not.
-    let mut black = flat(5, 5, 0.0, 0.0);
+    let mut black = exact(flat(5, 5, 0.0, 0.0));
     let cmp = compare(&black, &black.clone(), &CompareConfig::default()).unwrap();
     assert_eq!(cmp.verdict, Verdict::Consistent);
     black.var[3] = [1e-3; 3];
@@ -408,7 +584,13 @@ fn unusable_inputs_are_errors() {
     let mut no_dof = a.clone();
     no_dof.meta.dof = 0.0;
     let err = compare(&a, &no_dof, &cfg).unwrap_err();
-    assert!(err.to_string().contains("dof"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("image B has no variance estimate (dof = 0"),
+        "{err}"
+    );
+    // An exact image needs no dof.
+    assert!(compare(&a, &exact(no_dof), &cfg).is_ok());
     let mut nan = a.clone();
     nan.mean[5][2] = f32::NAN;
     assert!(compare(&nan, &a, &cfg).is_err());
@@ -447,7 +629,10 @@ fn report_serialises_without_nulls_for_tested_values() {
     )
     .unwrap();
     let json = serde_json::to_value(&cmp).unwrap();
-    assert_eq!(json["verdict"], "Different");
+    // v = 0.01 per pixel: the ±0.5 % margin cannot be resolved, nothing differs.
+    assert_eq!(json["verdict"], "Inconclusive");
+    assert!(json["precision"]["text"].is_string());
+    assert!(json["metrics"]["mse"].is_number());
     assert_eq!(json["channels"][1]["channel"], "G");
     assert!(json["channels"][0]["pixels"]["chi2_p"].is_number());
     assert!(json["channels"][0]["tiles"]["worst"]["p_holm"].is_number());
