@@ -1,7 +1,7 @@
 //! `linlight`: certify importance sampling of linear lights and renders against Mitsuba 3.
 //!
 //! Exit codes of every subcommand: 0 = success / consistent, 1 = a check failed,
-//! 2 = bad usage or unusable input.
+//! 2 = bad usage or unusable input, 3 = inconclusive (compare, certify). See docs/exit-codes.md.
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -26,8 +26,11 @@ enum Command {
     BackwardError(cmd::backward_error::Args),
     /// Render a Mitsuba-XML scene with linear lights to EXR (mean + variance of the mean).
     Render(cmd::render::Args),
-    /// Statistical comparison of two mean+variance EXRs (exit 0 consistent, 1 different).
+    /// Statistical comparison of two mean+variance EXRs (exit 0 consistent, 1 different,
+    /// 2 unusable input, 3 inconclusive).
     Compare(cmd::compare::Args),
+    /// False-alarm rate and power of compare on real renders (seed pairs per scene family).
+    Calibrate(cmd::calibrate::Args),
 }
 
 fn main() -> ExitCode {
@@ -38,5 +41,6 @@ fn main() -> ExitCode {
         Command::BackwardError(a) => cmd::backward_error::run(a),
         Command::Render(a) => cmd::render::run(a),
         Command::Compare(a) => cmd::compare::run(a),
+        Command::Calibrate(a) => cmd::calibrate::run(a),
     }
 }

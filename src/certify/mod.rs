@@ -273,7 +273,7 @@ fn reference_info(s: &ReferencedScene) -> ReferenceInfo {
 
 /// Seed of the pilot renders: distinct from the render seed, so that the budget is chosen from
 /// samples the final render does not reuse.
-fn pilot_seed(seed: u64) -> u64 {
+pub fn pilot_seed(seed: u64) -> u64 {
     seed ^ 0x5049_4c4f_5453_4545 // "PILOTSEE"
 }
 

@@ -69,14 +69,15 @@ pub(super) fn samples_needed(
         let limiting = if va >= vb { "A" } else { "B" };
         let side_text = |name: &str, f: Option<f64>, spp: u64| match f {
             Some(f) => format!(
-                "≈ {f:.1}× the samples of {name}{}",
+                "≈ {f:.1}× the samples of {name} alone{}",
                 scaled(spp, Some(f)).map_or_else(String::new, |n| format!(" (≈ {n} spp)"))
             ),
             None => format!("more samples of {name} alone cannot"),
         };
         let text = format!(
             "{limiting} limits the precision ({:.0}% of the variance of the relative difference \
-             of {} comes from {limiting}); equivalence within ±{}% needs {}, or {}, or ≈ {factor_both:.1}× the samples of both",
+             of {} comes from {limiting}); equivalence within ±{}% needs ≈ {factor_both:.1}× the \
+             samples of both; {}; {}",
             100.0 * va.max(vb) / (va + vb),
             ch.channel,
             100.0 * tolerance,
