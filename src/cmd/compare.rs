@@ -215,13 +215,14 @@ fn table(cmp: &Comparison, args: &Args) -> String {
     }
     let k = &cmp.pixel_classes;
     s += &format!(
-        "pixel-channels: {} tested; left out of the pixel tests: {} zero sample variance \
-         (rule-of-three bound), {} undersampled (n < {}·CV²), {} heavy-tailed (A {}, B {}), {} near a light–surface contact; \
+        "pixel-channels: {} tested, {} of them undersampled (n < {}·CV², variance floored); \
+         left out of the pixel tests: {} zero sample variance (rule-of-three bound), \
+         {} heavy-tailed (A {}, B {}), {} near a light–surface contact; \
          {} zero variance on both sides and equal\n",
-        k.tested,
-        k.zero_sample_variance,
+        k.tested + k.undersampled,
         k.undersampled,
         cmp.config.samples_per_cv2,
+        k.zero_sample_variance,
         k.heavy_tail_a + k.heavy_tail_b,
         k.heavy_tail_a,
         k.heavy_tail_b,

@@ -96,7 +96,7 @@ pub fn sequential(s: f64) -> [u8; 3] {
 pub const ZERO_VAR_AGREE: [u8; 3] = [160, 160, 160];
 /// Colour of zero-variance pixels that disagree (a failure).
 pub const ZERO_VAR_MISMATCH: [u8; 3] = [0, 200, 0];
-/// Colour of pixels the pixel tests leave out (zero sample variance, undersampled, heavy tail).
+/// Colour of pixels the pixel tests leave out (zero sample variance, heavy tail).
 pub const UNDECIDABLE: [u8; 3] = [190, 170, 225];
 /// Colour of pixels near a light–surface contact (tested apart).
 pub const CONTACT: [u8; 3] = [255, 200, 0];
@@ -115,12 +115,7 @@ pub fn z_heatmap(cmp: &Comparison) -> Rgb8 {
             let i = y * w + x;
             let states = cmp.maps.state[i];
             let left_out = |s: &PixelState| {
-                matches!(
-                    s,
-                    PixelState::ZeroSampleVariance
-                        | PixelState::Undersampled
-                        | PixelState::HeavyTail
-                )
+                matches!(s, PixelState::ZeroSampleVariance | PixelState::HeavyTail)
             };
             let colour = if states.contains(&PixelState::ZeroVarMismatch) {
                 ZERO_VAR_MISMATCH

@@ -31,6 +31,10 @@
 //!   the null they can carry the whole difference Δ, which bounds the variance of that mean
 //!   below by Δ²·(1/3 − 1/n). The tile and global tests use this bound; the pixel is
 //!   undecidable on its own (|z| ≤ √3 with the bound).
+//! - undersampled: a side with fewer than k·CV² samples per pixel (CV² the larger per-sample
+//!   squared coefficient of variation either image shows) may have missed the rare samples that
+//!   carry the mean; its variance is floored at the other side's per-sample variance over its
+//!   sample count, and the pixel stays in every test (only ever more conservative).
 //! - heavy tails: the image's `tail` channel (share of the sum of squares from its largest
 //!   term) above the Grubbs critical value of a normal sample of the same size at level
 //!   `heavy_tail_alpha`: the variance rests on a few terms and is not trusted pixel by pixel.
@@ -287,7 +291,8 @@ pub struct PixelClasses {
     /// Zero sample variance in a sampled image with differing values: rule-of-three bound in
     /// tiles and global, undecidable on its own.
     pub zero_sample_variance: usize,
-    /// Too few samples for the pixel's spread (n < k·CV² in A or B): tiles and global only.
+    /// Too few samples for the pixel's spread (n < k·CV² in A or B): tested with that side's
+    /// variance floored at the other side's per-sample variance over its samples.
     pub undersampled: usize,
     /// Heavy-tailed (tail share above its critical value in A or B): tiles and global only.
     pub heavy_tail_a: usize,
@@ -318,7 +323,8 @@ pub enum PixelState {
     ZeroSampleVariance,
     /// Heavy tail flagged in A or B.
     HeavyTail,
-    /// Too few samples for the spread the pixel shows (n < k·CV² in A or B).
+    /// Too few samples for the spread the pixel shows (n < k·CV² in A or B): tested with a
+    /// floored variance.
     Undersampled,
     /// Near a light–surface contact.
     Contact,
@@ -549,7 +555,11 @@ fn scan_channel(
                     classes.heavy_tail_a += usize::from(k.heavy_tail.0);
                     classes.heavy_tail_b += usize::from(k.heavy_tail.1);
                 }
-                PixelState::Undersampled => classes.undersampled += 1,
+                PixelState::Undersampled => {
+                    // Tested, with the floored variance (conservative).
+                    classes.undersampled += 1;
+                    scan.z.add(k.z.unwrap_or(0.0), x, y);
+                }
                 PixelState::Contact => {}
             }
         }

@@ -64,32 +64,54 @@ pub fn tail_share_critical(n: f64, alpha: f64) -> Option<f64> {
     share.is_finite().then_some(share)
 }
 
-/// Whether a pixel has too few samples on either side for the normal approximation of its
-/// mean: a sample mean of n values is close to normal only when n·p is large for the rarest
-/// values that carry its mean, and for a rare value of probability p, CV² = σ²/μ² ≈ 1/p. Under
+/// Which sides have too few samples for the spread a pixel shows, for the normal approximation
+/// of its mean: a sample mean of n values is close to normal only when n·p is large for the
+/// rarest values that carry it, and for a rare value of probability p, CV² = σ²/μ² ≈ 1/p. Under
 /// the null both images average the same pixel integrand, so the larger per-sample CV² that
 /// either image shows (σ̂² = v·n, n its samples per pixel) must be resolved by both:
-/// n_X ≥ k·CV² for X = A, B (k = 10: n·p ≥ 10). A side with unknown n (spp = 0) is not
-/// checked; a side whose mean is 0 shows no CV.
+/// side X is undersampled if n_X < k·CV² (k = 10: n·p ≥ 10). A side with unknown n (spp = 0)
+/// or exact values is never undersampled.
+///
+/// μ is the inverse-variance weighted mean (m_A·v_B + m_B·v_A)/(v_A + v_B), which under the
+/// null is independent of the difference m_A − m_B.
 pub(super) fn undersampled(
     (ma, mb): (f64, f64),
     (va, vb): (f64, f64),
     (sa, sb): (&Side, &Side),
     k: f64,
-) -> bool {
-    let cv2 = |m: f64, v: f64, s: &Side| {
-        (m != 0.0 && s.samples > 0.0 && !s.exact).then(|| v * s.samples / (m * m))
-    };
-    let Some(worst) = [cv2(ma, va, sa), cv2(mb, vb, sb)]
+) -> (bool, bool) {
+    let s = va + vb;
+    if !(s > 0.0) {
+        return (false, false);
+    }
+    let mu = (ma * vb + mb * va) / s;
+    if mu == 0.0 || !mu.is_finite() {
+        return (false, false);
+    }
+    let known = |side: &Side| side.samples > 0.0 && !side.exact;
+    let cv2 = |v: f64, side: &Side| known(side).then(|| v * side.samples / (mu * mu));
+    let Some(worst) = [cv2(va, sa), cv2(vb, sb)]
         .into_iter()
         .flatten()
         .max_by(f64::total_cmp)
     else {
-        return false;
+        return (false, false);
     };
-    [sa, sb]
-        .iter()
-        .any(|s| !s.exact && s.samples > 0.0 && s.samples < k * worst)
+    let under = |side: &Side| known(side) && side.samples < k * worst;
+    (under(sa), under(sb))
+}
+
+/// The variance an undersampled side is given: at least the other side's per-sample variance
+/// spread over this side's samples, v_X ≥ v_Y·n_Y/n_X — "it could be as spread as the other
+/// image shows, and its samples did not see it". Only ever raises a variance, so |z| only
+/// shrinks: the pixel stays in every test, conservatively, and no selection on the estimated
+/// variance can inflate Σz².
+fn floored(v: f64, own: &Side, other_v: f64, other: &Side) -> f64 {
+    if own.samples > 0.0 && other.samples > 0.0 {
+        v.max(other_v * other.samples / own.samples)
+    } else {
+        v
+    }
 }
 
 /// A pixel-channel after classification.
@@ -149,15 +171,18 @@ pub(super) fn classify(
             heavy_tail: (false, false),
         };
     }
-    let z = pixel_z(ma, mb, va, vb, nu);
-    if undersampled((ma, mb), (va, vb), (sa, sb), cfg.samples_per_cv2) {
+    let under = undersampled((ma, mb), (va, vb), (sa, sb), cfg.samples_per_cv2);
+    if under.0 || under.1 {
+        let va2 = if under.0 { floored(va, sa, vb, sb) } else { va };
+        let vb2 = if under.1 { floored(vb, sb, va, sa) } else { vb };
         return Classified {
             state: PixelState::Undersampled,
-            z,
-            var: (va, vb),
+            z: pixel_z(ma, mb, va2, vb2, nu),
+            var: (va2, vb2),
             heavy_tail: (false, false),
         };
     }
+    let z = pixel_z(ma, mb, va, vb, nu);
     let flagged = |t: Option<f64>, s: &Side| {
         t.zip(s.tail_critical)
             .is_some_and(|(share, crit)| share > crit)

@@ -343,28 +343,22 @@ fn noisy_render_of_a_one_percent_off_truth_is_inconclusive_not_consistent() {
 #[test]
 fn a_noisy_reference_is_named_as_the_limit_with_the_samples_it_needs() {
     let cfg = CompareConfig::default();
+    // Same technique: B has 5.5² ≈ 30× fewer samples than A, so 30× its variance (per-pixel
+    // relative standard error 0.29, still resolved by its own samples: n ≥ 10·CV²).
     let mut a = render(4200, NOISE, |_, _| 1.0);
-    let mut b = render(4201, 30.0 * NOISE, |_, _| 1.0);
+    let mut b = render(4201, 5.5 * NOISE, |_, _| 1.0);
     a.meta.spp = 4096;
-    b.meta.spp = 32 * 1024;
+    b.meta.spp = 136;
     let cmp = compare(&a, &b, &cfg).unwrap();
     assert_eq!(cmp.verdict, Verdict::Inconclusive, "{:?}", cmp.failures);
     let hint = cmp.precision.as_ref().unwrap();
     assert_eq!(hint.limiting, "B", "{}", hint.text);
-    assert_eq!(
-        hint.factor_a, None,
-        "more samples of A cannot help: {}",
-        hint.text
-    );
+    assert_eq!(hint.factor_a, None, "more samples of A cannot help: {}", hint.text);
     let f = hint.factor_b.unwrap();
-    assert!(f > 1.0 && hint.spp_b == Some((32.0 * 1024.0 * f).ceil() as u64));
-    assert!(
-        hint.text.contains("more samples of A alone cannot"),
-        "{}",
-        hint.text
-    );
+    assert!(f > 1.0 && hint.spp_b == Some((136.0 * f).ceil() as u64));
+    assert!(hint.text.contains("more samples of A alone cannot"), "{}", hint.text);
     // Taking the hint: B with f× the samples (variance / f) makes the comparison decidable.
-    let mut b2 = render(4203, 30.0 * NOISE / (1.2 * f).sqrt(), |_, _| 1.0);
+    let mut b2 = render(4203, 5.5 * NOISE / (1.2 * f).sqrt(), |_, _| 1.0);
     b2.meta.spp = hint.spp_b.unwrap();
     let cmp = compare(&a, &b2, &cfg).unwrap();
     assert_eq!(cmp.verdict, Verdict::Consistent, "{:?}", cmp.not_equivalent);
@@ -457,8 +451,12 @@ fn rare_unseen_samples_make_a_pixel_undersampled_not_different() {
     assert_eq!(cmp.maps.state[100][0], PixelState::Undersampled);
     assert_eq!(cmp.pixel_classes.undersampled, 3);
     assert!(!failed(&cmp, TestKind::PixelMax), "{:?}", cmp.failures);
-    // With 16× the samples A resolves CV² = 400 (4096 ≥ 4000): the pixel is tested again.
-    a.meta.spp = 4096;
+    // Trusted as is, z = −0.6/√(v_B) ≈ −13; floored, A's variance is B's per-sample variance
+    // over A's 256 samples: |z| ≈ 0.6/√(401·v_B/... ) < 1.
+    assert!(cmp.maps.z[100][0].abs() < 1.5, "{}", cmp.maps.z[100][0]);
+    // With the weighted mean μ ≈ m_A = 1, B shows CV² = 400·1.6² = 1024; with 64× the samples
+    // A resolves it (16384 ≥ 10240) and is trusted as it is again.
+    a.meta.spp = 16384;
     let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
     assert_eq!(cmp.maps.state[100][0], PixelState::Tested);
 }
@@ -641,4 +639,31 @@ fn report_serialises_without_nulls_for_tested_values() {
     // The edge tile is clipped to the image.
     let w = &cmp.channels[0].tiles.worst.as_ref().unwrap().region;
     assert!(w.x + w.width <= 33 && w.y + w.height <= 17);
+}
+
+#[test]
+fn leaving_out_undersampled_pixels_does_not_bias_the_z_scores() {
+    // Relative standard error ≈ 1.8/√32 = 0.32 per pixel: about half the pixels fall under the
+    // rule μ² < k·v (k = 10) and get a floored variance. Floors only raise variances: the z²
+    // of all tested pixels must not average above 1.
+    let (mut sum_z2, mut n, mut floored) = (0.0, 0usize, 0usize);
+    for s in 0..4 {
+        let mut a = render(4600 + 2 * s, 1.8, |_, _| 1.0);
+        let mut b = render(4601 + 2 * s, 1.8, |_, _| 1.0);
+        a.meta.spp = 32 * 64;
+        b.meta.spp = 32 * 64;
+        let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
+        for ch in &cmp.channels {
+            sum_z2 += ch.pixels.sum_z2;
+            n += ch.pixels.tested;
+        }
+        floored += cmp.pixel_classes.undersampled;
+    }
+    let mean = sum_z2 / n as f64;
+    let sd = (2.0 / n as f64).sqrt();
+    eprintln!(
+        "undersampled rule: {floored} floored of {n} tested, mean z² = {mean:.4} (sd {sd:.4})"
+    );
+    assert!(floored > n / 4 && floored < n, "{floored} of {n}");
+    assert!(mean < 1.0 + 3.0 * sd, "mean z² = {mean}");
 }
