@@ -1,4 +1,4 @@
-//! `linlight certify`: the whole certification in one run (STATISTICS.md §1 and §2).
+//! `linlight certify`: the whole certification in one run (docs/statistics.md §1 and §2).
 //!
 //! 1. The sampler chi-square suite (`linlight samplers`).
 //! 2. For every selected scene: its committed Mitsuba reference (or a live Mitsuba render), and
@@ -231,6 +231,8 @@ pub struct Report {
     pub sampler_suite: Option<SuiteSummary>,
     pub scenes: Vec<SceneReport>,
     pub elapsed_seconds: f64,
+    /// The committed calibration of the comparison (docs/calibration.json), quoted by report.md.
+    pub calibration: Option<serde_json::Value>,
 }
 
 impl Report {
@@ -498,6 +500,9 @@ pub fn run(
         sampler_suite,
         scenes: scene_reports,
         elapsed_seconds: started.elapsed().as_secs_f64(),
+        calibration: std::fs::read_to_string(opts.root.join("docs/calibration.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok()),
     };
     if let Some(dir) = &opts.report_dir {
         report::write_report(dir, &report)?;

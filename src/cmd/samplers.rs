@@ -1,5 +1,5 @@
 //! `linlight samplers`: the chi-square certification suite of every line-sampling technique
-//! (STATISTICS.md §1), negative controls included. Exit 0 iff every technique passes every
+//! (docs/statistics.md §1), negative controls included. Exit 0 iff every technique passes every
 //! configuration and every negative control is rejected; 1 otherwise; 2 on bad usage.
 
 use linlight_verify::subjects::{certified, negative_controls};

@@ -1,4 +1,4 @@
-//! The project's image format (see `shared/README.md`): OpenEXR, float32, linear RGB. Channels
+//! The project's image format (see `docs/image-format.md`): OpenEXR, float32, linear RGB. Channels
 //! R, G, B hold the pixel mean; `var.R`, `var.G`, `var.B` the variance of that mean. Header
 //! attributes: `dof`, `spp`, `passes`, `renderer`, `scene_sha256` (+ free-form extras).
 //! Both the Rust renderer and the Mitsuba harness write this format.

@@ -1,4 +1,4 @@
-//! Chi-square goodness of fit of a line sampler (STATISTICS.md §1).
+//! Chi-square goodness of fit of a line sampler (docs/statistics.md §1).
 //!
 //! Domain: φ = asin s ∈ [φ_begin, φ_end] of the sampler's `support()`, cut into M equal bins.
 //! The ends are φ = atan2(l, d) in f64 of the support's l-interval (the segment, or its

@@ -2,7 +2,7 @@
 //! (for LTC techniques) a shading frame and the matrix A (shading → cosine space).
 //!
 //! Seeded random configurations cover the generic case; named edge cases cover the classes of
-//! STATISTICS.md §1 (horizon crossing, grazing, nearly parallel to the normal, very short / very
+//! docs/statistics.md §1 (horizon crossing, grazing, nearly parallel to the normal, very short / very
 //! long, close to the infinite line, fully clipped, anisotropic LTC with κ ≫ 1).
 
 use glam::{Mat3, Vec3};

@@ -226,7 +226,7 @@ pub fn control_ltc_without_kappa() -> Subject {
     )
 }
 
-/// The negative controls of STATISTICS.md §1.
+/// The negative controls of docs/statistics.md §1.
 pub fn negative_controls() -> Vec<Subject> {
     #[allow(unused_mut)]
     let mut v = vec![

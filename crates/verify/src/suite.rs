@@ -1,4 +1,4 @@
-//! The sampler certification suite (STATISTICS.md §1): every subject × every configuration.
+//! The sampler certification suite (docs/statistics.md §1): every subject × every configuration.
 //!
 //! Per configuration, with N samples from one seeded stream:
 //! - chi-square over M equal φ-bins of the support, expected counts N·∫_bin p_R dΩ_R (adaptive

@@ -1,6 +1,6 @@
 //! Closed-form ground truth: unshadowed Lambertian shading of a linear light,
 //! L_o = ρ/π · K · Ω⊥_R, against the Monte Carlo estimate K·(ρ/π)·(n·ω)⁺/p_R of every unbiased
-//! technique (STATISTICS.md §1, PAPER.md "Linear light").
+//! technique (docs/statistics.md §1, docs/measures.md "Linear light").
 //!
 //! Per (technique, configuration): N = 100 000 samples from a fixed seed; pass iff
 //! |estimate − truth| ≤ 4 SE + 1e-5·truth (the f32 floor of the suite's normalisation bound).
@@ -115,7 +115,7 @@ fn check(t: Technique) {
 
 #[test]
 fn paper_sanity_value_of_the_closed_form() {
-    // ρ/π·K·Ω⊥_R with Ω⊥_R = 1 + π/2 (PAPER.md); the truth used by every test below.
+    // ρ/π·K·Ω⊥_R with Ω⊥_R = 1 + π/2 (docs/measures.md); the truth used by every test below.
     let (_, seg, x, n) = configs()[0];
     let truth = LineFrame::new(&seg, x)
         .unwrap()

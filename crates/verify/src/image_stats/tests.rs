@@ -353,10 +353,18 @@ fn a_noisy_reference_is_named_as_the_limit_with_the_samples_it_needs() {
     assert_eq!(cmp.verdict, Verdict::Inconclusive, "{:?}", cmp.failures);
     let hint = cmp.precision.as_ref().unwrap();
     assert_eq!(hint.limiting, "B", "{}", hint.text);
-    assert_eq!(hint.factor_a, None, "more samples of A cannot help: {}", hint.text);
+    assert_eq!(
+        hint.factor_a, None,
+        "more samples of A cannot help: {}",
+        hint.text
+    );
     let f = hint.factor_b.unwrap();
     assert!(f > 1.0 && hint.spp_b == Some((136.0 * f).ceil() as u64));
-    assert!(hint.text.contains("more samples of A alone cannot"), "{}", hint.text);
+    assert!(
+        hint.text.contains("more samples of A alone cannot"),
+        "{}",
+        hint.text
+    );
     // Taking the hint: B with f× the samples (variance / f) makes the comparison decidable.
     let mut b2 = render(4203, 5.5 * NOISE / (1.2 * f).sqrt(), |_, _| 1.0);
     b2.meta.spp = hint.spp_b.unwrap();
