@@ -96,6 +96,15 @@ fn renders_a_scene_to_the_shared_format() {
     assert_eq!(img.meta.extra["technique"], "projected-solid-angle");
     assert_eq!(img.meta.extra["seed"], "5");
     assert_eq!(img.meta.scene_sha256.len(), 64);
+    // Traceable to its inputs: scene file name and the -D overrides.
+    assert_eq!(img.meta.extra["scene"], "floor.xml");
+    assert_eq!(img.meta.extra["overrides"], "spp=2");
+    // The heavy-tail share of the 3 passes, in [0, 2/3].
+    let tail = img.tail.as_ref().expect("tail channels");
+    assert!(tail
+        .iter()
+        .flatten()
+        .all(|&t| (0.0..=2.0 / 3.0 + 1e-6).contains(&t)));
     assert!(img.mean.iter().any(|m| m[0] > 0.0));
     assert!(img
         .mean
@@ -103,6 +112,32 @@ fn renders_a_scene_to_the_shared_format() {
         .chain(&img.var)
         .flatten()
         .all(|c| c.is_finite()));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn one_sample_in_one_pass_warns_even_when_quiet_and_compare_refuses_it() {
+    let dir = scratch("spp1");
+    let scene = write(&dir, "floor.xml", SCENE);
+    let out = dir.join("one.exr");
+    let (code, err) = linlight(&[
+        "render",
+        &scene,
+        "--spp",
+        "1",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("no variance estimate (dof 0)"), "{err}");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_linlight"))
+        .args(["compare", out.to_str().unwrap(), out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("image A has no variance estimate"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
