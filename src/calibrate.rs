@@ -74,9 +74,9 @@ impl Options {
         Self {
             scenes_dir: root.join("references/scenes"),
             pairs: 200,
-            res: 32,
+            res: 24,
             reference_passes: 16,
-            reference_spp: 128,
+            reference_spp: 64,
             compare: CompareConfig::default(),
             budget: BudgetRule::default(),
             families: Vec::new(),

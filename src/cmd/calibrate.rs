@@ -12,15 +12,15 @@ use super::outputs::check_writable;
 
 #[derive(clap::Args)]
 #[command(after_help = "Examples:
-  linlight calibrate                       # K = 200 pairs per family, 32×32 films (≈ 25 min on 2 cores)
-  linlight calibrate --pairs 20 --res 24   # a quick look
+  linlight calibrate                       # K = 200 pairs per family, 24×24 films
+  linlight calibrate --pairs 20            # a quick look
   linlight calibrate --families occluded --json calibration.json")]
 pub struct Args {
     /// Seed pairs per family.
     #[arg(long, default_value_t = 200)]
     pairs: usize,
     /// Film edge in pixels (the scenes' `res`).
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = 24)]
     res: u32,
     /// Comma-separated families [default: all].
     #[arg(long, value_delimiter = ',')]
