@@ -35,6 +35,9 @@
 //!   squared coefficient of variation either image shows) may have missed the rare samples that
 //!   carry the mean; its variance is floored at the other side's per-sample variance over its
 //!   sample count, and the pixel stays in every test (only ever more conservative).
+//! - unseen dark samples: n samples do not exclude an event of probability ≤ 3/n below the
+//!   bulk, at most |m| deep for non-negative radiance: every sampled variance is floored at
+//!   3·m²/n² (only relevant at low n).
 //! - heavy tails: the image's `tail` channel (share of the sum of squares from its largest
 //!   term) above the Grubbs critical value of a normal sample of the same size at level
 //!   `heavy_tail_alpha`: the variance rests on a few terms and is not trusted pixel by pixel.
