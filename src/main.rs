@@ -31,6 +31,10 @@ enum Command {
     Compare(cmd::compare::Args),
     /// False-alarm rate and power of compare on real renders (seed pairs per scene family).
     Calibrate(cmd::calibrate::Args),
+    /// Fit the GGX LTC table (deterministic) and report its error; --check re-fits a sample
+    /// and compares it with the committed table (exit 0 consistent, 1 mismatch, 2 bad input).
+    #[command(after_help = cmd::fit_ltc::AFTER_HELP)]
+    FitLtc(cmd::fit_ltc::Args),
 }
 
 fn main() -> ExitCode {
@@ -42,5 +46,6 @@ fn main() -> ExitCode {
         Command::Render(a) => cmd::render::run(a),
         Command::Compare(a) => cmd::compare::run(a),
         Command::Calibrate(a) => cmd::calibrate::run(a),
+        Command::FitLtc(a) => cmd::fit_ltc::run(a),
     }
 }

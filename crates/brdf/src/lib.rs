@@ -7,9 +7,10 @@
 //! Mitsuba's `BSDF::eval` does. Everything is zero unless v_z > 0 and l_z > 0 (one-sided), which
 //! `twosided` lifts by flipping the frame toward the viewer.
 //!
-//! No I/O; no dependency on the sampling crate.
+//! No I/O (the LTC table is compiled in); no dependency on the sampling crate.
 
 // `!(x > 0.0)` is deliberate throughout: it rejects NaN together with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod ltc;
 pub mod microfacet;

@@ -10,7 +10,7 @@ use crate::camera::Camera;
 use crate::scene::{Bsdf, Rgb};
 use crate::shapes::{Ray, SurfacePoint};
 use glam::Vec3;
-use linlight_sampling::rng::Pcg32;
+use linlight_sampling::philox::CounterRng;
 use linlight_sampling::{LineSampler, Prepared, Segment, Technique};
 
 /// Mitsuba's ray epsilon for f32 variants: 1500 ulp(1) = 1500·2⁻²⁴.
@@ -99,12 +99,13 @@ fn finite_rgb(v: Vec3) -> bool {
 
 /// One camera sample through film position (px, py) in pixels: direct lighting from every
 /// light with one sample of `technique` each. Consumes exactly `lights.len()` numbers of `rng`
-/// after the caller's pixel-position numbers (0 for misses and black surfaces).
+/// (the camera sample's own stream) after the caller's pixel-position numbers (0 for misses and
+/// black surfaces).
 pub fn radiance<S: LightSampling>(
     scene: &RenderScene,
     technique: &S,
     ray: &Ray,
-    rng: &mut Pcg32,
+    rng: &mut CounterRng,
 ) -> Rgb {
     let mut total = Vec3::ZERO;
     let Some(hit) = scene.bvh.intersect(ray) else {

@@ -15,7 +15,7 @@ use crate::scene::{Geometry, Scene};
 use crate::shapes::{transformed_normal, Primitive};
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
-use linlight_sampling::rng::Pcg32;
+use linlight_sampling::philox::CounterRng;
 use linlight_sampling::{Segment, Technique};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -56,6 +56,13 @@ fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
     if film.width == 0 || film.height == 0 {
         return Err(RenderError::Scene(format!(
             "film has zero size ({}x{})",
+            film.width, film.height
+        )));
+    }
+    if film.width as u64 * film.height as u64 > 1 << 32 {
+        return Err(RenderError::Scene(format!(
+            "film {}x{} has more than 2^32 pixels (the random streams are indexed by a 32-bit \
+             pixel index)",
             film.width, film.height
         )));
     }
@@ -172,17 +179,12 @@ impl RenderScene {
     }
 }
 
-/// SplitMix64 finaliser: decorrelates (seed, pass) before they become a PCG state.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// Random stream of one pixel (full-film index) in one pass.
-pub fn pixel_rng(seed: u64, pass: u32, pixel_index: u64) -> Pcg32 {
-    Pcg32::new(mix(seed ^ mix(pass as u64)), pixel_index)
+/// Random stream of one camera sample: Philox of (seed; sample, full-film pixel index, pass).
+/// Every pixel, pass and sample has its own counter-based stream (no state shared between
+/// pixels, so neighbouring pixels' errors are independent); its numbers are the sample's
+/// dimensions: film position (2), then one per light.
+pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> CounterRng {
+    CounterRng::camera_sample(seed, pass, pixel_index, sample)
 }
 
 /// Render `scene`. `progress(done, total)` is called (from worker threads) after each tile.
@@ -210,7 +212,7 @@ pub fn render_with<S: LightSampling>(
     }
     let (x0, y0, w, h) = window(scene)?;
     let rs = RenderScene::new(scene)?;
-    let full_width = scene.sensor.film.width as u64;
+    let full_width = scene.sensor.film.width;
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
@@ -223,7 +225,8 @@ pub fn render_with<S: LightSampling>(
             for y in ty..(ty + TILE).min(h) {
                 for x in tx..(tx + TILE).min(w) {
                     let (fx, fy) = (x0 + x, y0 + y);
-                    let index = fy as u64 * full_width + fx as u64;
+                    // < 2^32: checked by `window`.
+                    let index = fy.wrapping_mul(full_width).wrapping_add(fx);
                     out.push(render_pixel(&rs, opts, sampling, fx, fy, index));
                 }
             }
@@ -343,14 +346,14 @@ fn render_pixel<S: LightSampling>(
     sampling: &S,
     fx: u32,
     fy: u32,
-    index: u64,
+    index: u32,
 ) -> PixelResult {
     let mut passes = Welford::default();
     let mut single = Welford::default();
     for pass in 0..opts.passes {
-        let mut rng = pixel_rng(opts.seed, pass, index);
         let mut acc = Welford::default();
-        for _ in 0..opts.spp {
+        for sample in 0..opts.spp {
+            let mut rng = sample_rng(opts.seed, pass, index, sample);
             let u = rng.next_f32();
             let v = rng.next_f32();
             let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);

@@ -13,6 +13,7 @@ pub mod hart;
 pub mod li2018;
 pub mod ltc;
 pub mod mis;
+pub mod philox;
 pub mod projected_solid_angle;
 pub mod rng;
 pub mod sampler;

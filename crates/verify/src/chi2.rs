@@ -1,4 +1,4 @@
-//! Chi-square goodness of fit of a line sampler (docs/statistics.md §1).
+//! Chi-square goodness of fit of a line sampler (docs/sampler-suite.md).
 //!
 //! Domain: φ = asin s ∈ [φ_begin, φ_end] of the sampler's `support()`, cut into M equal bins.
 //! The ends are φ = atan2(l, d) in f64 of the support's l-interval (the segment, or its
@@ -18,6 +18,7 @@ use glam::{DVec3, Vec3};
 use linlight_sampling::{LineFrame, LineSampler};
 use serde::Serialize;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
+use std::ops::Range;
 
 /// A sample is outside the support when its s = u·ω lies more than this outside
 /// [s_begin, s_end] (≈ 8 f32 ulps at 1) *and* its φ more than [`SUPPORT_TOLERANCE_PHI`] outside
@@ -29,18 +30,26 @@ pub const SUPPORT_TOLERANCE_PHI: f64 = 1e-6;
 /// side of the line (components checked in f64 against these tolerances).
 pub const DIRECTION_TOLERANCE: f64 = 1e-4;
 
-/// Resolution of the test in s: φ-bins are merged with their neighbours until a group spans at
-/// least this much of s. Samples are f32 directions; near |s| → 1 consecutive representable s
-/// are ε/2 apart and a φ-bin can be narrower than that, so counts per bin would measure the f32
-/// grid, not the sampler. With 256 ε a group boundary misplaces at most 1/512 of the group's
-/// mass, < 0.4 standard deviations of its count for N ≤ 40 000.
-pub const S_RESOLUTION: f64 = 256.0 * f32::EPSILON as f64;
+/// Resolution of the test in s for N samples: cells are merged with their neighbours until a
+/// cell spans at least this much of s. Samples are f32 directions; near |s| → 1 consecutive
+/// representable s are ε/2 apart and a φ-bin can be narrower than that, so counts per bin would
+/// measure the f32 grid, not the sampler. A cell boundary misplaces at most (ε/2)/width of the
+/// cell's mass, N·m·ε/(2·width) samples against a standard deviation √(N·m) ≥ … of its count;
+/// width = 1.28·ε·√N keeps that below 0.4 standard deviations for every cell mass m ≤ 1
+/// (256 ε at N = 40 000, 1280 ε ≈ 1.5e-4 at N = 10⁶).
+pub fn s_resolution(samples: usize) -> f64 {
+    1.28 * f32::EPSILON as f64 * (samples as f64).sqrt()
+}
+
+/// Samples are counted in bins this many times finer than the fine χ² test's cells, so that the
+/// coarse test's cells of equal probability can be formed from them.
+pub const COUNTING_SUBDIVISION: usize = 5;
 
 /// Pooled bins must reach this expected count.
 pub const MIN_EXPECTED: f64 = 5.0;
 
 /// M equal bins in φ over a frame's interval.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct PhiBinning {
     u: DVec3,
     c_hat: DVec3,
@@ -51,6 +60,9 @@ pub struct PhiBinning {
     phi_begin: f64,
     phi_end: f64,
     bins: usize,
+    /// (sin, cos) of the M + 1 edges: a direction with plane coordinates (a, b) = (u·ω, ĉ·ω)
+    /// lies at or past edge k iff a·cos φ_k − b·sin φ_k ≥ 0 (the sign of sin(φ − φ_k)).
+    edge_sin_cos: Vec<(f64, f64)>,
 }
 
 /// Where a sampled direction falls.
@@ -77,7 +89,14 @@ impl PhiBinning {
             phi_begin,
             phi_end,
             bins: bins.max(1),
+            edge_sin_cos: Vec::new(),
         }
+        .with_edge_directions()
+    }
+
+    fn with_edge_directions(mut self) -> Self {
+        self.edge_sin_cos = (0..=self.bins).map(|i| self.edge(i).sin_cos()).collect();
+        self
     }
 
     /// φ_begin, φ_end.
@@ -102,24 +121,32 @@ impl PhiBinning {
         self.edge(i).sin()
     }
 
-    /// Contiguous groups of bins, each spanning ≥ [`S_RESOLUTION`] in s (a remainder below it
-    /// joins the previous group; a support narrower than it is one group).
-    pub fn resolution_groups(&self) -> Vec<std::ops::Range<usize>> {
-        let mut groups: Vec<std::ops::Range<usize>> = Vec::new();
-        let mut start = 0;
-        for i in 0..self.bins {
-            if self.s_edge(i + 1) - self.s_edge(start) >= S_RESOLUTION {
-                groups.push(start..i + 1);
-                start = i + 1;
+    /// Consecutive cells merged until each spans ≥ `resolution` in s (a remainder below it
+    /// joins the previous cell; a support narrower than it is one cell).
+    pub fn at_resolution(&self, cells: &[Range<usize>], resolution: f64) -> Vec<Range<usize>> {
+        let mut out: Vec<Range<usize>> = Vec::new();
+        let (Some(first), Some(last)) = (cells.first(), cells.last()) else {
+            return out;
+        };
+        let mut start = first.start;
+        for c in cells {
+            if self.s_edge(c.end) - self.s_edge(start) >= resolution {
+                out.push(start..c.end);
+                start = c.end;
             }
         }
-        if start < self.bins {
-            match groups.last_mut() {
-                Some(last) => last.end = self.bins,
-                None => groups.push(0..self.bins),
+        if start < last.end {
+            match out.last_mut() {
+                Some(prev) => prev.end = last.end,
+                None => out.push(start..last.end),
             }
         }
-        groups
+        out
+    }
+
+    /// Every bin its own cell, then merged to `resolution`.
+    pub fn resolution_groups(&self, resolution: f64) -> Vec<Range<usize>> {
+        self.at_resolution(&runs(self.bins, 1), resolution)
     }
 
     /// ω(φ) in f64, cast to f32.
@@ -132,6 +159,13 @@ impl PhiBinning {
         self.two_over_d * phi.cos()
     }
 
+    /// φ = atan2(u·ω, ĉ·ω) of a direction in f64 (the angular precision of the f32 direction,
+    /// where asin(u·ω) would lose it near |s| → 1).
+    pub fn phi_of(&self, dir: Vec3) -> f64 {
+        let w = dir.as_dvec3();
+        w.dot(self.u).atan2(w.dot(self.c_hat))
+    }
+
     /// The bin of a sampled direction.
     pub fn lookup(&self, dir: Vec3) -> BinLookup {
         let w = dir.as_dvec3();
@@ -142,23 +176,33 @@ impl PhiBinning {
         {
             return BinLookup::NotTowardLine;
         }
-        let s = w.dot(self.u);
-        let phi = s.atan2(w.dot(self.c_hat));
+        let (a, b) = (w.dot(self.u), w.dot(self.c_hat));
         let outside_s =
-            s < self.s_begin - SUPPORT_TOLERANCE_S || s > self.s_end + SUPPORT_TOLERANCE_S;
-        let outside_phi = phi < self.phi_begin - SUPPORT_TOLERANCE_PHI
-            || phi > self.phi_end + SUPPORT_TOLERANCE_PHI;
-        if outside_s && outside_phi {
-            return BinLookup::OutsideSupport;
+            a < self.s_begin - SUPPORT_TOLERANCE_S || a > self.s_end + SUPPORT_TOLERANCE_S;
+        if outside_s {
+            // Rare: only then is φ itself needed.
+            let phi = a.atan2(b);
+            let outside_phi = phi < self.phi_begin - SUPPORT_TOLERANCE_PHI
+                || phi > self.phi_end + SUPPORT_TOLERANCE_PHI;
+            if outside_phi {
+                return BinLookup::OutsideSupport;
+            }
         }
-        let x = (phi - self.phi_begin) / (self.phi_end - self.phi_begin) * self.bins as f64;
-        // NaN (zero-width domain) and out-of-range positions go to the end bins.
-        let i = if x > 0.0 {
-            (x as usize).min(self.bins - 1)
-        } else {
-            0
-        };
-        BinLookup::Bin(i)
+        // The bin is the number of inner edges the direction lies at or past (binary search
+        // by the sign of sin(φ − φ_k), no atan2): the same bin as ⌊(φ − φ_b)/(φ_e − φ_b)·M⌋
+        // up to f64 rounding; directions before the first edge or past the last go to the end
+        // bins.
+        let inner = &self.edge_sin_cos[1..self.bins];
+        let (mut lo, mut size) = (0usize, inner.len());
+        while size > 0 {
+            // Branch-free step (a sample's bin is unpredictable).
+            let half = size / 2;
+            let (sin, cos) = inner[lo + half];
+            let past = a * cos - b * sin >= 0.0;
+            lo = if past { lo + half + 1 } else { lo };
+            size = if past { size - half - 1 } else { half };
+        }
+        BinLookup::Bin(lo)
     }
 
     /// The M + 1 bin edges in φ.
@@ -205,6 +249,61 @@ impl Masses {
     pub fn total(&self) -> f64 {
         self.mass.iter().sum()
     }
+}
+
+/// `bins` bins in consecutive runs of `per` (the last may be shorter).
+pub fn runs(bins: usize, per: usize) -> Vec<Range<usize>> {
+    let per = per.max(1);
+    (0..bins.div_ceil(per))
+        .map(|i| i * per..((i + 1) * per).min(bins))
+        .collect()
+}
+
+/// Consecutive cells merged into about `k` cells of equal probability: a cell closes where the
+/// cumulative mass first reaches j/k of the total (j = 1, 2, …); a remainder joins the last.
+/// The cells depend only on the density under test, not on the samples.
+pub fn equal_mass_cells(cells: &[Range<usize>], mass: &[f64], k: usize) -> Vec<Range<usize>> {
+    let total: f64 = mass.iter().sum();
+    let mut out: Vec<Range<usize>> = Vec::new();
+    let (Some(first), Some(last)) = (cells.first(), cells.last()) else {
+        return out;
+    };
+    let (mut start, mut cumulative, mut j) = (first.start, 0.0, 1);
+    for c in cells {
+        cumulative += mass[c.clone()].iter().sum::<f64>();
+        if cumulative >= total * j as f64 / k.max(1) as f64 {
+            out.push(start..c.end);
+            start = c.end;
+            while j < k && cumulative >= total * j as f64 / k as f64 {
+                j += 1;
+            }
+        }
+    }
+    if start < last.end {
+        match out.last_mut() {
+            Some(prev) => prev.end = last.end,
+            None => out.push(start..last.end),
+        }
+    }
+    out
+}
+
+/// [`pooled_chi_square`] of the counts and expectations N·mass summed over `cells`.
+pub fn grouped_chi_square(
+    observed: &[u64],
+    mass: &[f64],
+    samples: f64,
+    cells: &[Range<usize>],
+) -> Chi2Outcome {
+    let o: Vec<u64> = cells
+        .iter()
+        .map(|c| observed[c.clone()].iter().sum())
+        .collect();
+    let e: Vec<f64> = cells
+        .iter()
+        .map(|c| mass[c.clone()].iter().sum::<f64>() * samples)
+        .collect();
+    pooled_chi_square(&o, &e)
 }
 
 /// Outcome of the pooled chi-square test.
@@ -279,7 +378,7 @@ pub fn pooled_chi_square(observed: &[u64], expected: &[f64]) -> Chi2Outcome {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use linlight_sampling::rng::Pcg32;
+    use linlight_sampling::philox::CounterRng;
     use linlight_sampling::solid_angle::SolidAngle;
     use linlight_sampling::Segment;
 
@@ -342,7 +441,7 @@ mod tests {
         let f = *SolidAngle::prepare(&seg, Vec3::ZERO, Vec3::Z)
             .unwrap()
             .support();
-        let g = PhiBinning::new(&f, 51).resolution_groups();
+        let g = PhiBinning::new(&f, 51).resolution_groups(s_resolution(40_000));
         assert_eq!(g.len(), 51);
         // Far along a nearly parallel line (s ∈ [0.9998, 0.999994]): bins are merged.
         let seg = Segment::new(Vec3::new(0.01, 0.0, 0.5), Vec3::new(0.01, 0.0, 3.0));
@@ -350,7 +449,7 @@ mod tests {
             .unwrap()
             .support();
         let b = PhiBinning::new(&f, 51);
-        let g = b.resolution_groups();
+        let g = b.resolution_groups(s_resolution(40_000));
         assert!(g.len() > 1 && g.len() < 51, "{}", g.len());
         assert_eq!(g.first().unwrap().start, 0);
         assert_eq!(g.last().unwrap().end, 51);
@@ -358,8 +457,27 @@ mod tests {
             assert_eq!(w[0].end, w[1].start);
         }
         for r in &g {
-            assert!(b.s_edge(r.end) - b.s_edge(r.start) >= S_RESOLUTION);
+            assert!(b.s_edge(r.end) - b.s_edge(r.start) >= s_resolution(40_000));
         }
+    }
+
+    #[test]
+    fn runs_and_equal_mass_cells_partition_the_bins() {
+        assert_eq!(runs(11, 5), vec![0..5, 5..10, 10..11]);
+        assert_eq!(runs(10, 5), vec![0..5, 5..10]);
+        let unit = runs(10, 1);
+        // Equal masses: 10 bins into 5 cells of 2.
+        let cells = equal_mass_cells(&unit, &[0.1; 10], 5);
+        assert_eq!(cells, vec![0..2, 2..4, 4..6, 6..8, 8..10]);
+        // One bin holds most of the mass: it closes several quantiles at once.
+        let mass = [0.05, 0.05, 0.7, 0.05, 0.05, 0.05, 0.05];
+        let cells = equal_mass_cells(&runs(7, 1), &mass, 4);
+        assert_eq!(cells.first().unwrap().start, 0);
+        assert_eq!(cells.last().unwrap().end, 7);
+        for w in cells.windows(2) {
+            assert_eq!(w[0].end, w[1].start);
+        }
+        assert!(cells.contains(&(0..3)), "{cells:?}");
     }
 
     #[test]
@@ -367,12 +485,13 @@ mod tests {
         let seg = Segment::new(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0));
         let s = SolidAngle::prepare(&seg, Vec3::ZERO, Vec3::Z).unwrap();
         let b = PhiBinning::new(s.support(), 51);
-        let mut rng = Pcg32::new(1, 2);
+        let mut rng = CounterRng::new(1, [2, 0, 0]);
         for _ in 0..1000 {
-            assert!(matches!(
-                b.lookup(s.sample(rng.next_f32())),
-                BinLookup::Bin(_)
-            ));
+            // The edge search gives the bin of ⌊(φ − φ_b)/(φ_e − φ_b)·M⌋.
+            let dir = s.sample(rng.next_f32());
+            let (pb, pe) = b.phi_range();
+            let x = ((b.phi_of(dir) - pb) / (pe - pb) * 51.0).clamp(0.0, 50.0) as usize;
+            assert_eq!(b.lookup(dir), BinLookup::Bin(x));
         }
         assert_eq!(
             b.lookup(Vec3::new(0.0, 1.0, 1.0).normalize()),

@@ -2,8 +2,8 @@
 //! (for LTC techniques) a shading frame and the matrix A (shading → cosine space).
 //!
 //! Seeded random configurations cover the generic case; named edge cases cover the classes of
-//! docs/statistics.md §1 (horizon crossing, grazing, nearly parallel to the normal, very short / very
-//! long, close to the infinite line, fully clipped, anisotropic LTC with κ ≫ 1).
+//! docs/sampler-suite.md (horizon crossing, grazing, nearly parallel to the normal, very short /
+//! very long, close to the infinite line, fully clipped, anisotropic LTC with κ ≫ 1).
 
 use glam::{Mat3, Vec3};
 use linlight_sampling::rng::Pcg32;
@@ -292,6 +292,67 @@ fn ltc_anisotropic_configs() -> Vec<Config> {
             [-0.9, -0.5, 1.0],
             [-1.1, 0.5, 1.0],
             ltc_rows(50.0, 0.0, 50.0, 0.0),
+        ),
+    ]
+}
+
+/// The paper's sanity configuration: the segment (−1, 0, 1)–(1, 0, 1) above the origin, normal
+/// +z, whose projected solid angle per radius is Ω⊥_R = 1 + π/2.
+pub fn paper_sanity() -> Config {
+    Config {
+        name: "paper-sanity".to_string(),
+        class: ConfigClass::Random,
+        begin: [-1.0, 0.0, 1.0],
+        end: [1.0, 0.0, 1.0],
+        x: [0.0; 3],
+        n: Z,
+        view: normal_view(Z),
+        a_rows: DEFAULT_A,
+    }
+}
+
+/// A small fixed set for tests outside the suite (the closed-form ground truth): the paper's
+/// sanity configuration, two edge cases of the suite (a horizon crossing, a tilted normal) and
+/// three generic shapes (shading point off the origin, a long segment, a segment nearly
+/// parallel to the normal).
+pub fn reference_configs() -> Vec<Config> {
+    let edge = |name: &str| {
+        edge_configs()
+            .into_iter()
+            .find(|c| c.name == name)
+            .unwrap_or_else(|| panic!("no edge configuration {name}"))
+    };
+    let generic = |name: &str, begin: [f32; 3], end: [f32; 3], x: [f32; 3], n: [f32; 3]| {
+        let n = v3(Vec3::from(n).normalize());
+        Config {
+            name: name.to_string(),
+            class: ConfigClass::Random,
+            begin,
+            end,
+            x,
+            n,
+            view: normal_view(n),
+            a_rows: DEFAULT_A,
+        }
+    };
+    vec![
+        paper_sanity(),
+        edge("crossing-oblique"),
+        edge("crossing-tilted-normal"),
+        generic(
+            "offset-point",
+            [2.0, 1.0, 3.0],
+            [-1.0, 2.5, 2.2],
+            [0.4, -0.3, 0.2],
+            [0.2, 0.3, 1.0],
+        ),
+        generic("long", [-30.0, 0.5, 1.0], [40.0, 0.5, 1.5], [0.0; 3], Z),
+        generic(
+            "near-parallel",
+            [0.2, 0.1, 0.5],
+            [0.25, 0.1, 3.0],
+            [0.0; 3],
+            Z,
         ),
     ]
 }

@@ -1,8 +1,17 @@
-//! What the suite certifies: a *subject* is a named way to prepare a [`LineSampler`] for a
-//! [`Config`]. Techniques are certified (must pass); negative controls are deliberately wrong
-//! wrappers that the suite must reject. New techniques (LTC, MIS) plug in as further subjects.
+//! What the suite certifies: a [`SamplerUnderTest`] is a named way to prepare a [`LineSampler`]
+//! for a [`Config`]. Techniques are certified (must pass); negative controls are deliberately
+//! wrong wrappers that the suite must reject, each with the check(s) that must reject it
+//! ([`Rejection`]). New techniques (LTC, MIS) plug in as further samplers under test.
+//!
+//! Two kinds of control matter for the power of the χ² test itself: a control whose inverse is
+//! the exact CDF while its samples are not is caught by the round trip alone, which a real bug
+//! with a *self-consistent* inverse would not be. [`TiltedSamples`] and [`OwnInverse`] build
+//! controls whose sample map, inverse, `sample_with_pdf` and pdf agree with each other and whose
+//! pdf integrates to 1 — only the distribution of the samples is wrong, so only the χ² tests (and
+//! the Monte Carlo integral, where f/p is not constant) can reject them.
 
 use crate::configs::Config;
+use crate::suite::Check;
 use glam::Vec3;
 use linlight_sampling::solid_angle::SolidAngle;
 use linlight_sampling::{LineFrame, LineSampler, Technique};
@@ -28,19 +37,58 @@ pub enum Coverage {
 pub enum Role {
     /// Must pass every configuration.
     Certify,
-    /// Must be rejected: at least one configuration fails.
+    /// Must be rejected as its [`Rejection`] says.
     NegativeControl,
 }
 
-pub struct Subject {
+/// When a negative control counts as rejected: at least `min_share` of its tested
+/// configurations (and at least one) fail one of the checks `by` (any check when empty).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Rejection {
+    pub by: Vec<Check>,
+    pub min_share: f64,
+}
+
+impl Rejection {
+    /// Any failing check on any configuration.
+    pub fn any() -> Self {
+        Self {
+            by: Vec::new(),
+            min_share: 0.0,
+        }
+    }
+
+    /// One of the χ² tests on at least `min_share` of the tested configurations.
+    pub fn by_chi2(min_share: f64) -> Self {
+        Self {
+            by: vec![Check::Chi2, Check::Chi2Coarse],
+            min_share,
+        }
+    }
+
+    /// Whether a failure of `check` counts.
+    pub fn counts(&self, check: Check) -> bool {
+        self.by.is_empty() || self.by.contains(&check)
+    }
+
+    /// Configurations that must be rejected out of `tested`.
+    pub fn needed(&self, tested: usize) -> usize {
+        ((self.min_share * tested as f64).ceil() as usize).max(1)
+    }
+}
+
+/// A named way to prepare a [`LineSampler`] for a configuration, with its role in the suite.
+pub struct SamplerUnderTest {
     pub name: String,
     pub description: String,
     pub role: Role,
     pub coverage: Coverage,
+    /// For negative controls: what must reject them (ignored for certified samplers).
+    pub rejection: Rejection,
     pub prepare: Box<Prepare>,
 }
 
-impl Subject {
+impl SamplerUnderTest {
     pub fn new(
         name: impl Into<String>,
         description: impl Into<String>,
@@ -53,8 +101,15 @@ impl Subject {
             description: description.into(),
             role,
             coverage,
+            rejection: Rejection::any(),
             prepare: Box::new(prepare),
         }
+    }
+
+    /// The same control, rejected only as `rejection` says.
+    pub fn rejected_by(mut self, rejection: Rejection) -> Self {
+        self.rejection = rejection;
+        self
     }
 }
 
@@ -63,8 +118,8 @@ fn boxed<S: LineSampler + 'static>(s: S) -> Box<dyn LineSampler> {
 }
 
 /// A technique of [`Technique`] prepared through `Technique::prepare`.
-pub fn technique(t: Technique) -> Subject {
-    Subject::new(
+pub fn technique(t: Technique) -> SamplerUnderTest {
+    SamplerUnderTest::new(
         t.name(),
         format!("Technique::{t:?} via Technique::prepare"),
         Role::Certify,
@@ -74,9 +129,9 @@ pub fn technique(t: Technique) -> Subject {
 }
 
 /// LTC line sampling with the configuration's shading frame and matrix A.
-pub fn ltc() -> Subject {
+pub fn ltc() -> SamplerUnderTest {
     use linlight_sampling::ltc::LtcLine;
-    Subject::new(
+    SamplerUnderTest::new(
         "ltc",
         "LtcLine::prepare(segment, x, shading frame, A)",
         Role::Certify,
@@ -86,9 +141,9 @@ pub fn ltc() -> Subject {
 }
 
 /// Every subject the suite certifies: each entry of `Technique::UNBIASED`, then LTC.
-pub fn certified() -> Vec<Subject> {
+pub fn certified() -> Vec<SamplerUnderTest> {
     #[allow(unused_mut)]
-    let mut v: Vec<Subject> = Technique::UNBIASED.into_iter().map(technique).collect();
+    let mut v: Vec<SamplerUnderTest> = Technique::UNBIASED.into_iter().map(technique).collect();
     v.push(ltc());
     v
 }
@@ -140,8 +195,8 @@ impl LineSampler for Mismatched {
 }
 
 /// pdf × 1.01 of a correct technique.
-pub fn control_scaled_pdf(t: Technique) -> Subject {
-    Subject::new(
+pub fn control_scaled_pdf(t: Technique) -> SamplerUnderTest {
+    SamplerUnderTest::new(
         format!("{}-pdf-x1.01", t.name()),
         format!(
             "{} with its pdf (and sample_with_pdf) multiplied by 1.01",
@@ -160,8 +215,8 @@ pub fn control_scaled_pdf(t: Technique) -> Subject {
 }
 
 /// Clipped solid angle samples against the unclipped solid angle density.
-pub fn control_clipped_samples_unclipped_pdf() -> Subject {
-    Subject::new(
+pub fn control_clipped_samples_unclipped_pdf() -> SamplerUnderTest {
+    SamplerUnderTest::new(
         "clipped-samples-unclipped-pdf",
         "ClippedSolidAngle samples, SolidAngle (unclipped) pdf and support",
         Role::NegativeControl,
@@ -176,9 +231,9 @@ pub fn control_clipped_samples_unclipped_pdf() -> Subject {
 }
 
 /// Peters' sampler with one Halley iteration, judged against the exact density.
-pub fn control_one_halley_iteration() -> Subject {
+pub fn control_one_halley_iteration() -> SamplerUnderTest {
     use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
-    Subject::new(
+    SamplerUnderTest::new(
         "projected-solid-angle-1-iteration",
         "ProjectedSolidAngle::prepare_with_iterations(.., 1) samples, exact pdf and inverse",
         Role::NegativeControl,
@@ -193,9 +248,9 @@ pub fn control_one_halley_iteration() -> Subject {
 }
 
 /// Li et al. 2018 stopped after two Newton iterations.
-pub fn control_li2018_two_iterations() -> Subject {
+pub fn control_li2018_two_iterations() -> SamplerUnderTest {
     use linlight_sampling::li2018::Li2018;
-    Subject::new(
+    SamplerUnderTest::new(
         "li2018-2-iterations",
         "Li2018::prepare(..).with_max_iterations(2)",
         Role::NegativeControl,
@@ -208,9 +263,9 @@ pub fn control_li2018_two_iterations() -> Subject {
 }
 
 /// LTC without the density correction κ (pdf / κ).
-pub fn control_ltc_without_kappa() -> Subject {
+pub fn control_ltc_without_kappa() -> SamplerUnderTest {
     use linlight_sampling::ltc::LtcLine;
-    Subject::new(
+    SamplerUnderTest::new(
         "ltc-without-kappa",
         "LtcLine with pdf / kappa() (the tube half-width correction left out)",
         Role::NegativeControl,
@@ -226,8 +281,167 @@ pub fn control_ltc_without_kappa() -> Subject {
     )
 }
 
-/// The negative controls of docs/statistics.md §1.
-pub fn negative_controls() -> Vec<Subject> {
+/// Samples whose density is the claimed one tilted by 1 + ε·(2u − 1), u = F(ω) the claimed CDF
+/// of the sample: a smooth, self-consistent density error of relative size ε (±ε at the ends).
+/// With S(u) = ε(u² − u) the tilted CDF is G(u) = u + S(u); sampling draws u = G⁻¹(ξ) and then
+/// the inner sampler at u; the inverse is G(F(ω)) from the inner inverse; `pdf` and
+/// `sample_with_pdf` stay the inner (claimed, untilted) density, which integrates to 1.
+pub struct TiltedSamples {
+    pub inner: Box<dyn LineSampler>,
+    pub epsilon: f64,
+}
+
+impl TiltedSamples {
+    /// G⁻¹(ξ) = 2ξ / ((1 − ε) + √((1 − ε)² + 4εξ)) (the cancellation-free root), |ε| < 1.
+    fn tilted_u(&self, xi: f32) -> f32 {
+        let (e, xi) = (self.epsilon, (xi as f64).clamp(0.0, 1.0));
+        (2.0 * xi / ((1.0 - e) + ((1.0 - e) * (1.0 - e) + 4.0 * e * xi).sqrt())) as f32
+    }
+}
+
+impl LineSampler for TiltedSamples {
+    fn sample(&self, xi: f32) -> Vec3 {
+        self.inner.sample(self.tilted_u(xi))
+    }
+    fn pdf(&self, dir: Vec3) -> f32 {
+        self.inner.pdf(dir)
+    }
+    fn support(&self) -> &LineFrame {
+        self.inner.support()
+    }
+    fn inverse(&self, dir: Vec3) -> Option<f32> {
+        let u = self.inner.inverse(dir)? as f64;
+        Some((u + self.epsilon * (u * u - u)) as f32)
+    }
+    fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
+        self.inner.sample_with_pdf(self.tilted_u(xi))
+    }
+}
+
+/// A sampler whose inverse is the numerical inverse of its *own* sample map (bisection on ξ over
+/// the directions' angle along the line), not of the exact CDF: the round trip passes however
+/// wrong the sample map is. For monotone sample maps (every technique here).
+pub struct OwnInverse {
+    pub inner: Box<dyn LineSampler>,
+}
+
+impl OwnInverse {
+    /// Angle φ = atan2(u·ω, ĉ·ω) along the line, in f64.
+    fn phi(&self, dir: Vec3) -> f64 {
+        let f = self.inner.support();
+        let w = dir.as_dvec3();
+        w.dot(f.u.as_dvec3()).atan2(w.dot(f.c_hat.as_dvec3()))
+    }
+}
+
+impl LineSampler for OwnInverse {
+    fn sample(&self, xi: f32) -> Vec3 {
+        self.inner.sample(xi)
+    }
+    fn pdf(&self, dir: Vec3) -> f32 {
+        self.inner.pdf(dir)
+    }
+    fn support(&self) -> &LineFrame {
+        self.inner.support()
+    }
+    fn inverse(&self, dir: Vec3) -> Option<f32> {
+        let p = self.inner.pdf(dir);
+        if p.is_nan() || p <= 0.0 {
+            return None;
+        }
+        let target = self.phi(dir);
+        let (mut lo, mut hi) = (0.0f32, 1.0f32);
+        // 24 halvings reach the f32 resolution of ξ near 1.
+        for _ in 0..24 {
+            let mid = 0.5 * (lo + hi);
+            if self.phi(self.inner.sample(mid)) < target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Some(0.5 * (lo + hi))
+    }
+    fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
+        let dir = self.inner.sample(xi);
+        (dir, self.inner.pdf(dir))
+    }
+}
+
+/// A technique whose samples are tilted by 1 + ε(2u − 1) ([`TiltedSamples`]): a
+/// self-consistent control that only the distribution tests can see.
+pub fn control_tilted(t: Technique, epsilon: f64) -> SamplerUnderTest {
+    SamplerUnderTest::new(
+        format!("{}-tilt-{}%", t.name(), epsilon * 100.0),
+        format!(
+            "{} with samples tilted by 1 + {epsilon}·(2F − 1) and a self-consistent inverse; \
+             pdf unchanged",
+            t.name()
+        ),
+        Role::NegativeControl,
+        Coverage::Lambert,
+        move |c| {
+            let inner = boxed(t.prepare(&c.segment(), c.x(), c.n())?);
+            Some(boxed(TiltedSamples { inner, epsilon }))
+        },
+    )
+}
+
+/// Peters' sampler with one Halley iteration, its inverse the inverse of that sample map (not
+/// the exact CDF), the exact density.
+pub fn control_one_halley_iteration_own_inverse() -> SamplerUnderTest {
+    use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
+    SamplerUnderTest::new(
+        "projected-solid-angle-1-iteration-own-inverse",
+        "ProjectedSolidAngle with 1 Halley iteration; inverse = bisection of that sample map; exact pdf",
+        Role::NegativeControl,
+        Coverage::Lambert,
+        |c| {
+            let (seg, x, n) = (c.segment(), c.x(), c.n());
+            let sampler = boxed(ProjectedSolidAngle::prepare_with_iterations(&seg, x, n, 1)?);
+            let density = boxed(ProjectedSolidAngle::prepare(&seg, x, n)?);
+            Some(boxed(OwnInverse {
+                inner: boxed(Mismatched { sampler, density }),
+            }))
+        },
+    )
+}
+
+/// Relative size of the smooth tilt the suite must detect ([`tilt_control`]).
+pub const DETECTABLE_TILT: f64 = 0.01;
+
+/// Share of the tested configurations in which the χ² tests must reject the tilt.
+pub const DETECTABLE_TILT_SHARE: f64 = 0.5;
+
+/// The suite's power requirement as a control: Peters' sampler tilted by
+/// [`DETECTABLE_TILT`] must be rejected by χ² in most configurations (its f/p is constant, so
+/// the integral check cannot see it).
+pub fn tilt_control() -> SamplerUnderTest {
+    control_tilted(Technique::ProjectedSolidAngle, DETECTABLE_TILT)
+        .rejected_by(Rejection::by_chi2(DETECTABLE_TILT_SHARE))
+}
+
+/// The tilt sizes of the power table (`linlight samplers --tilt-power`).
+pub const TILT_POWER_EPSILONS: [f64; 4] = [0.005, 0.01, 0.02, 0.05];
+
+/// The techniques the power table tilts: the paper's (f/p constant: χ² alone can see a tilt) and
+/// the clipped solid angle (a smooth density of its own).
+pub const TILT_POWER_TECHNIQUES: [Technique; 2] =
+    [Technique::ProjectedSolidAngle, Technique::ClippedSolidAngle];
+
+/// Controls of the power table: every technique of [`TILT_POWER_TECHNIQUES`] tilted by every
+/// ε of [`TILT_POWER_EPSILONS`], judged by χ² alone.
+pub fn tilt_power_controls() -> Vec<SamplerUnderTest> {
+    TILT_POWER_TECHNIQUES
+        .into_iter()
+        .flat_map(|t| {
+            TILT_POWER_EPSILONS.map(|e| control_tilted(t, e).rejected_by(Rejection::by_chi2(0.0)))
+        })
+        .collect()
+}
+
+/// The negative controls of the suite (docs/sampler-suite.md), each with what must reject it.
+pub fn negative_controls() -> Vec<SamplerUnderTest> {
     #[allow(unused_mut)]
     let mut v = vec![
         control_scaled_pdf(Technique::ClippedSolidAngle),
@@ -238,5 +452,81 @@ pub fn negative_controls() -> Vec<Subject> {
         v.push(control_li2018_two_iterations());
     }
     v.push(control_ltc_without_kappa());
+    v.push(control_one_halley_iteration_own_inverse().rejected_by(Rejection::by_chi2(0.0)));
+    v.push(tilt_control());
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::configs::paper_sanity;
+
+    fn prepared(t: Technique) -> Box<dyn LineSampler> {
+        let c = paper_sanity();
+        boxed(t.prepare(&c.segment(), c.x(), c.n()).unwrap())
+    }
+
+    /// The tilt is self-consistent: sample ∘ inverse is the identity on ξ, and the share of
+    /// samples below the inner sampler's median is G(½) = ½ − ε/4 (the tilt moves mass to the
+    /// end where 2u − 1 > 0).
+    #[test]
+    fn tilted_samples_are_self_consistent_and_tilted() {
+        let epsilon = 0.2;
+        let t = TiltedSamples {
+            inner: prepared(Technique::ClippedSolidAngle),
+            epsilon,
+        };
+        let inner = prepared(Technique::ClippedSolidAngle);
+        let median = inner.sample(0.5);
+        let frame = *inner.support();
+        let s_of = |d: Vec3| d.dot(frame.u);
+        let m = 4000;
+        let mut below = 0;
+        for i in 0..m {
+            let xi = (i as f32 + 0.5) / m as f32;
+            let (dir, p) = t.sample_with_pdf(xi);
+            assert_eq!(p, inner.pdf(dir));
+            let back = t.inverse(dir).unwrap();
+            assert!((back - xi).abs() < 1e-5, "ξ {xi} → {back}");
+            below += usize::from(s_of(dir) < s_of(median));
+        }
+        let share = below as f64 / m as f64;
+        assert!((share - (0.5 - epsilon / 4.0)).abs() < 1e-3, "{share}");
+    }
+
+    /// The own inverse undoes the (wrong) sample map, where the exact CDF's inverse does not.
+    #[test]
+    fn own_inverse_round_trips_a_wrong_sample_map() {
+        let subject = control_one_halley_iteration_own_inverse();
+        let c = crate::configs::edge_configs()
+            .into_iter()
+            .find(|c| c.name == "crossing-oblique")
+            .unwrap();
+        let s = (subject.prepare)(&c).unwrap();
+        let exact = ProjectedSolidAngleExact::of(&c);
+        let (mut worst_own, mut worst_exact) = (0.0f32, 0.0f32);
+        for i in 1..200 {
+            let xi = i as f32 / 200.0;
+            let dir = s.sample(xi);
+            worst_own = worst_own.max((s.inverse(dir).unwrap() - xi).abs());
+            worst_exact = worst_exact.max((exact.inverse(dir).unwrap() - xi).abs());
+        }
+        assert!(worst_own < 1e-5, "{worst_own}");
+        assert!(
+            worst_exact > 1e-4,
+            "the one-iteration map is not wrong here: {worst_exact}"
+        );
+    }
+
+    struct ProjectedSolidAngleExact;
+    impl ProjectedSolidAngleExact {
+        fn of(c: &Config) -> Box<dyn LineSampler> {
+            boxed(
+                Technique::ProjectedSolidAngle
+                    .prepare(&c.segment(), c.x(), c.n())
+                    .unwrap(),
+            )
+        }
+    }
 }

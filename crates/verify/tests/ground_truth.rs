@@ -1,6 +1,6 @@
 //! Closed-form ground truth: unshadowed Lambertian shading of a linear light,
 //! L_o = ρ/π · K · Ω⊥_R, against the Monte Carlo estimate K·(ρ/π)·(n·ω)⁺/p_R of every unbiased
-//! technique (docs/statistics.md §1, docs/measures.md "Linear light").
+//! technique (docs/sampler-suite.md; the closed form Ω⊥_R of the paper, section "Linear light").
 //!
 //! Per (technique, configuration): N = 100 000 samples from a fixed seed; pass iff
 //! |estimate − truth| ≤ 4 SE + 1e-5·truth (the f32 floor of the suite's normalisation bound).
@@ -9,54 +9,20 @@
 //! relative standard deviation must be < 1e-3.
 
 use glam::Vec3;
-use linlight_sampling::rng::Pcg32;
+use linlight_sampling::philox::CounterRng;
 use linlight_sampling::{LineFrame, LineSampler, Segment, Technique};
+use linlight_verify::configs::reference_configs;
 
 const RHO: f64 = 0.7;
 const K: f64 = 2.5;
 const N: usize = 100_000;
 
-fn configs() -> Vec<(&'static str, Segment, Vec3, Vec3)> {
-    let z = Vec3::Z;
-    let o = Vec3::ZERO;
-    vec![
-        (
-            "paper-sanity",
-            Segment::new(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0)),
-            o,
-            z,
-        ),
-        (
-            "horizon-crossing",
-            Segment::new(Vec3::new(0.3, -0.5, -2.0), Vec3::new(-0.4, 0.8, 0.6)),
-            o,
-            z,
-        ),
-        (
-            "tilted-normal",
-            Segment::new(Vec3::new(1.5, -1.5, -1.5), Vec3::new(-1.0, 2.0, 1.5)),
-            o,
-            Vec3::ONE.normalize(),
-        ),
-        (
-            "offset-point",
-            Segment::new(Vec3::new(2.0, 1.0, 3.0), Vec3::new(-1.0, 2.5, 2.2)),
-            Vec3::new(0.4, -0.3, 0.2),
-            Vec3::new(0.2, 0.3, 1.0).normalize(),
-        ),
-        (
-            "long",
-            Segment::new(Vec3::new(-30.0, 0.5, 1.0), Vec3::new(40.0, 0.5, 1.5)),
-            o,
-            z,
-        ),
-        (
-            "near-parallel",
-            Segment::new(Vec3::new(0.2, 0.1, 0.5), Vec3::new(0.25, 0.1, 3.0)),
-            o,
-            z,
-        ),
-    ]
+/// The shared fixture of the verify crate (`configs::reference_configs`).
+fn configs() -> Vec<(String, Segment, Vec3, Vec3)> {
+    reference_configs()
+        .into_iter()
+        .map(|c| (c.name.clone(), c.segment(), c.x(), c.n()))
+        .collect()
 }
 
 /// Returns (estimate, standard error, per-sample relative std) and the truth.
@@ -65,7 +31,7 @@ fn shade(
     seg: &Segment,
     x: Vec3,
     n: Vec3,
-    stream: u64,
+    stream: u32,
 ) -> Option<(f64, f64, f64, f64)> {
     let truth = LineFrame::new(seg, x)?
         .clip_to_horizon(n)?
@@ -76,7 +42,7 @@ fn shade(
     let s = t
         .prepare(seg, x, n)
         .expect("light above the horizon must be prepared");
-    let mut rng = Pcg32::new(2021, stream);
+    let mut rng = CounterRng::new(2021, [stream, 0, 0]);
     let (mut sum, mut sum_sq) = (0.0f64, 0.0f64);
     for _ in 0..N {
         let (dir, p) = s.sample_with_pdf(rng.next_f32());
@@ -97,7 +63,7 @@ fn shade(
 
 fn check(t: Technique) {
     for (i, (name, seg, x, n)) in configs().into_iter().enumerate() {
-        let (est, se, rel_std, truth) = shade(t, &seg, x, n, i as u64).expect(name);
+        let (est, se, rel_std, truth) = shade(t, &seg, x, n, i as u32).expect(&name);
         let tol = 4.0 * se + 1e-5 * truth;
         eprintln!("{t} {name}: {est:.7} ± {se:.2e} vs {truth:.7} (rel. std {rel_std:.2e})");
         assert!(
@@ -115,8 +81,8 @@ fn check(t: Technique) {
 
 #[test]
 fn paper_sanity_value_of_the_closed_form() {
-    // ρ/π·K·Ω⊥_R with Ω⊥_R = 1 + π/2 (docs/measures.md); the truth used by every test below.
-    let (_, seg, x, n) = configs()[0];
+    // ρ/π·K·Ω⊥_R with Ω⊥_R = 1 + π/2 (the paper); the truth used by every test below.
+    let (_, seg, x, n) = configs().swap_remove(0);
     let truth = LineFrame::new(&seg, x)
         .unwrap()
         .clip_to_horizon(n)
