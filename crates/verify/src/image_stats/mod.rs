@@ -38,6 +38,8 @@
 //! - unseen dark samples: n samples do not exclude an event of probability ≤ 3/n below the
 //!   bulk, at most |m| deep for non-negative radiance: every sampled variance is floored at
 //!   3·m²/n² (only relevant at low n).
+//! - the lower side's variance at the null mean: v·(m_high/m_low) (compound-Poisson-like
+//!   pixel means have a variance that grows with the mean).
 //! - heavy tails: the image's `tail` channel (share of the sum of squares from its largest
 //!   term) above the Grubbs critical value of a normal sample of the same size at level
 //!   `heavy_tail_alpha`: the variance rests on a few terms and is not trusted pixel by pixel.
