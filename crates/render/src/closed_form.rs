@@ -315,6 +315,8 @@ pub fn unshadowed_pixel_average_with(
             unconverged.load(Ordering::Relaxed).to_string(),
         );
     }
+    // Its zero variances are exact, not estimates (`compare` trusts them as such).
+    meta.extra.insert("variance".into(), "exact".into());
     image.meta = meta;
     Ok(image)
 }
