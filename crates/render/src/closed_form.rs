@@ -594,7 +594,8 @@ mod tests {
             spp: 16_384,
             passes: 1,
             seed: 7,
-            technique: linlight_sampling::Technique::ProjectedSolidAngle,
+            method: linlight_sampling::Technique::ProjectedSolidAngle.into(),
+            light_samples: 1,
         };
         let mc = crate::render(&sc, &opts, &|_, _| {}).unwrap();
         let (mut sum_d, mut sum_v, mut worst) = (0.0f64, 0.0f64, 0.0f64);

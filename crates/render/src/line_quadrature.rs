@@ -8,7 +8,9 @@
 //! r²); per radius, dΩ_R = 2 |u × ω| dt / r². With K = radiance × radius held fixed (the R → 0
 //! limit the renderer uses), the reflected radiance toward v is
 //!
-//!     L(x, v) = K · ∫₀ᴸ f(v, ω)·max(0, n·ω) · 2 |u × ω| / r² dt,
+//! ```text
+//! L(x, v) = K · ∫₀ᴸ f(v, ω)·max(0, n·ω) · 2 |u × ω| / r² dt,
+//! ```
 //!
 //! with f·cos exactly as the renderer evaluates it (`Bsdf::eval` in the shading frame of the side
 //! facing the viewer; the BSDF models are certified against Mitsuba's `BSDF.eval` on their own).
@@ -19,9 +21,8 @@
 //! crossing t_h = n·(x − p₀)/(n·u) (computed here in f64, not by the samplers' horizon clip) and
 //! only the part above is integrated. That part is split into [`PANELS`] pieces of equal angle
 //! as seen from x (t = t_⊥ + d·tan θ, t_⊥ the foot of the perpendicular, d the distance to the
-//! infinite line), so that a lobe as narrow as α = 0.05 (≳ 6° wide) is seen by many nodes of the panel it falls
-//! in,
-//! and then refined adaptively (`linlight_verify::quadrature::Adaptive`, Gauss–Legendre halves
+//! infinite line), so that a lobe as narrow as α = 0.05 (≳ 6° wide) is seen by many nodes of the
+//! panel it falls in, and then refined adaptively (`linlight_verify::quadrature::Adaptive`, Gauss–Legendre halves
 //! against a Gauss–Lobatto whole) until the sum of the three colour channels meets a relative
 //! error of [`RELATIVE_ERROR`]; each channel is then integrated with the same rule on the final
 //! panels (the channels are non-negative, so none is less accurate in absolute terms than the
