@@ -17,8 +17,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// The main job: sampler suite + every unbiased technique on every scene against Mitsuba
-    /// (exit 0 all consistent, 1 a check failed, 2 unusable input).
+    /// The main job: sampler suite + every unbiased technique (on glossy scenes also LTC and MIS
+    /// with every heuristic) on every scene against Mitsuba (exit 0 all consistent, 1 a check
+    /// failed, 2 unusable input, 3 inconclusive).
     Certify(cmd::certify::Args),
     /// Chi-square certification of every line-sampling technique (exit 0 only if all pass).
     Samplers(cmd::samplers::Args),
