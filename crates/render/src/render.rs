@@ -9,7 +9,7 @@
 use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::film::Welford;
-use crate::hooks::{BsdfModel, Hooks, LightSampling, SpecularSampling};
+use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
 use crate::integrator::{radiance, RenderScene};
 use crate::method::Method;
 use crate::scene::{Bsdf, Geometry, Scene};
@@ -278,6 +278,48 @@ pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
             "spp, passes and light samples must be at least 1".into(),
         ));
     }
+    let mut image = with_resolved!(hooks, opts.method, |r| render_tiles(
+        scene, opts, r, progress
+    ))?;
+    let dof = if opts.passes > 1 {
+        opts.passes - 1
+    } else {
+        opts.spp - 1
+    };
+    let mut meta = Metadata {
+        dof: dof as f64,
+        spp: opts.spp as u64 * opts.passes as u64,
+        passes: opts.passes as u64,
+        renderer: format!("linlight {}", env!("CARGO_PKG_VERSION")),
+        scene_sha256: scene.sha256.clone(),
+        extra: std::mem::take(&mut image.meta.extra),
+    };
+    for (key, value) in opts.method.header() {
+        meta.extra.insert(key.into(), value);
+    }
+    if let (Some(t), Method::Technique(_)) = (&hooks.technique, opts.method) {
+        meta.extra.insert("technique".into(), t.name());
+    }
+    for (key, value) in hooks.header() {
+        meta.extra.insert(key.into(), value);
+    }
+    meta.extra
+        .insert("light_samples".into(), opts.light_samples.to_string());
+    meta.extra.insert("seed".into(), opts.seed.to_string());
+    meta.extra
+        .insert("spp_per_pass".into(), opts.spp.to_string());
+    image.meta = meta;
+    Ok(image)
+}
+
+/// The image of [`render_with`] with the pieces resolved; its header holds only
+/// `nonfinite_dropped` (when non-zero).
+fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    pieces: Resolved<T, S, B>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
     let (x0, y0, w, h) = window(scene)?;
     let rs = RenderScene::new(scene)?;
     let full_width = scene.sensor.film.width;
@@ -302,7 +344,7 @@ pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
                 for (i, &(fx, fy)) in pixels.iter().enumerate() {
                     // < 2^32: checked by `window`.
                     let index = fy.wrapping_mul(full_width).wrapping_add(fx);
-                    let acc = render_pixel_pass(&rs, opts, hooks, fx, fy, index, pass, &seen[i]);
+                    let acc = render_pixel_pass(&rs, opts, pieces, fx, fy, index, pass, &seen[i]);
                     passes[i].push(acc.mean());
                     single[i] = acc;
                 }
@@ -328,49 +370,23 @@ pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
             }
         }
     }
-    let dof = if opts.passes > 1 {
-        opts.passes - 1
-    } else {
-        opts.spp - 1
-    };
-    let mut meta = Metadata {
-        dof: dof as f64,
-        spp: opts.spp as u64 * opts.passes as u64,
-        passes: opts.passes as u64,
-        renderer: format!("linlight {}", env!("CARGO_PKG_VERSION")),
-        scene_sha256: scene.sha256.clone(),
-        ..Default::default()
-    };
-    for (key, value) in opts.method.header() {
-        meta.extra.insert(key.into(), value);
-    }
-    if let Some(t) = &hooks.technique {
-        meta.extra.insert("technique".into(), t.name());
-    }
-    for (key, value) in hooks.header() {
-        meta.extra.insert(key.into(), value);
-    }
-    meta.extra
-        .insert("light_samples".into(), opts.light_samples.to_string());
-    meta.extra.insert("seed".into(), opts.seed.to_string());
-    meta.extra
-        .insert("spp_per_pass".into(), opts.spp.to_string());
     let dropped = rs.dropped.get();
     if dropped > 0 {
-        meta.extra
+        image
+            .meta
+            .extra
             .insert("nonfinite_dropped".into(), dropped.to_string());
     }
-    image.meta = meta;
     Ok(image)
 }
 
 /// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the
 /// camera sees in this pixel ([`VisibleLines::pixel`]).
 #[allow(clippy::too_many_arguments)]
-fn render_pixel_pass<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
+fn render_pixel_pass<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     rs: &RenderScene,
     opts: &RenderOptions,
-    hooks: &Hooks<D, S, B>,
+    pieces: Resolved<T, S, B>,
     fx: u32,
     fy: u32,
     index: u32,
@@ -383,7 +399,7 @@ fn render_pixel_pass<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
         let u = rng.next_f32();
         let v = rng.next_f32();
         let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
-        let l = radiance(rs, opts.method, opts.light_samples, hooks, &ray, &mut rng);
+        let l = radiance(rs, opts.method, opts.light_samples, pieces, &ray, &mut rng);
         let l = if seen.is_empty() {
             l
         } else {
