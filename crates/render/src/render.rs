@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Side of the square tiles distributed over threads.
-const TILE: u32 = 16;
+pub(crate) const TILE: u32 = 16;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
@@ -51,7 +51,7 @@ impl std::fmt::Display for RenderError {
 impl std::error::Error for RenderError {}
 
 /// Pixel window actually rendered: the crop, or the whole film.
-fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
+pub(crate) fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
     let film = &scene.sensor.film;
     if film.width == 0 || film.height == 0 {
         return Err(RenderError::Scene(format!(
@@ -233,12 +233,29 @@ pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> Counte
 /// Render `scene`. `progress(done, total)` is called (from worker threads) after each pass of
 /// each tile, in camera samples: `total` = pixels × spp × passes.
 /// Runs on the current rayon pool (use `ThreadPool::install` to choose the thread count).
+///
+/// Where it applies ([`crate::batched::applies`]) the batched renderer renders, whose images
+/// equal those of the scalar path [`render_with`]`(scene, opts, &opts.technique, …)` bit for
+/// bit; the scalar path renders everything else.
 pub fn render(
     scene: &Scene,
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
+    if crate::batched::applies(scene, opts) {
+        return crate::batched::render(scene, opts, progress);
+    }
     render_with(scene, opts, &opts.technique, progress)
+}
+
+/// Reject options no render can use.
+pub(crate) fn check_options(opts: &RenderOptions) -> Result<(), RenderError> {
+    if opts.spp == 0 || opts.passes == 0 {
+        return Err(RenderError::Options(
+            "spp and passes must be at least 1".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// [`render`] with any light sampling in place of `opts.technique` (which is then ignored):
@@ -249,11 +266,7 @@ pub fn render_with<S: LightSampling>(
     sampling: &S,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    if opts.spp == 0 || opts.passes == 0 {
-        return Err(RenderError::Options(
-            "spp and passes must be at least 1".into(),
-        ));
-    }
+    check_options(opts)?;
     let (x0, y0, w, h) = window(scene)?;
     let rs = RenderScene::new(scene)?;
     let full_width = scene.sensor.film.width;
@@ -304,6 +317,18 @@ pub fn render_with<S: LightSampling>(
             }
         }
     }
+    image.meta = metadata(scene, opts, sampling.name(), rs.dropped.get());
+    Ok(image)
+}
+
+/// The image header of a render: dof, spp, passes, renderer, scene hash, technique, seed, and
+/// the count of dropped non-finite contributions.
+pub(crate) fn metadata(
+    scene: &Scene,
+    opts: &RenderOptions,
+    technique: String,
+    dropped: u64,
+) -> Metadata {
     let dof = if opts.passes > 1 {
         opts.passes - 1
     } else {
@@ -317,17 +342,15 @@ pub fn render_with<S: LightSampling>(
         scene_sha256: scene.sha256.clone(),
         ..Default::default()
     };
-    meta.extra.insert("technique".into(), sampling.name());
+    meta.extra.insert("technique".into(), technique);
     meta.extra.insert("seed".into(), opts.seed.to_string());
     meta.extra
         .insert("spp_per_pass".into(), opts.spp.to_string());
-    let dropped = rs.dropped.get();
     if dropped > 0 {
         meta.extra
             .insert("nonfinite_dropped".into(), dropped.to_string());
     }
-    image.meta = meta;
-    Ok(image)
+    meta
 }
 
 /// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the
@@ -365,7 +388,11 @@ fn render_pixel_pass<S: LightSampling>(
 
 /// Mean and variance of the mean of a pixel from its pass means (P > 1) or, with one pass, from
 /// its samples.
-fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> ([f32; 3], [f32; 3]) {
+pub(crate) fn pixel_value(
+    opts: &RenderOptions,
+    passes: &Welford,
+    single: &Welford,
+) -> ([f32; 3], [f32; 3]) {
     let (mean, var) = if opts.passes > 1 {
         (passes.mean(), passes.variance_of_mean())
     } else {
