@@ -94,7 +94,11 @@ pub fn render_isa(
         .collect();
     let done = AtomicUsize::new(0);
     let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
-    let image = Mutex::new(Image::new(w as usize, h as usize));
+    let image = Mutex::new({
+        let mut image = Image::new(w as usize, h as usize);
+        image.tail = Some(vec![[0.0; 3]; image.mean.len()]);
+        image
+    });
     tiles.par_iter().for_each(|&(tx, ty)| {
         let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
             .flat_map(|y| (tx..(tx + TILE).min(w)).map(move |x| (x0 + x, y0 + y)))
@@ -121,11 +125,21 @@ pub fn render_isa(
                 ty + k as u32 / TILE.min(w - tx),
             );
             let i = y as usize * w as usize + x as usize;
-            (image.mean[i], image.var[i]) = pixel_value(opts, p, s);
+            let v = pixel_value(opts, p, s);
+            (image.mean[i], image.var[i]) = (v.mean, v.var);
+            if let Some(tail) = &mut image.tail {
+                tail[i] = v.tail;
+            }
         }
     });
     let mut image = image.into_inner().unwrap_or_else(|e| e.into_inner());
-    image.meta = metadata(scene, opts, opts.technique.name().into(), rs.dropped.get());
+    image.meta = metadata(
+        scene,
+        opts,
+        opts.technique.name().into(),
+        &rs,
+        (x0, y0, w, h),
+    );
     Ok(image)
 }
 
@@ -489,13 +503,15 @@ mod tests {
         img.mean
             .iter()
             .chain(&img.var)
+            .chain(img.tail.iter().flatten())
             .flat_map(|p| p.map(f32::to_bits))
             .collect()
     }
 
-    /// Every committed scene and every technique: the batched image equals the scalar
-    /// reference path's bit for bit (means, variances, header), with spp not a multiple of the
-    /// packet (packets span pixels) and with passes.
+    /// Every committed scene the batched renderer applies to, both batch techniques, every
+    /// kernel the CPU runs: the image equals the scalar path's bit for bit (means, variances,
+    /// tail shares, header), with spp not a multiple of the packet (packets span pixels) and
+    /// with passes.
     #[test]
     fn images_equal_the_scalar_path() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../references/scenes");
