@@ -32,7 +32,7 @@ use crate::render::{
     check_options, metadata, pixel_value, window, RenderError, RenderOptions, TILE,
 };
 use crate::scene::Scene;
-use crate::shapes::Ray;
+use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
@@ -370,28 +370,120 @@ fn shading_points(rs: &RenderScene, rays: &RayLanes, hits: &PacketHits) -> Shadi
         n: [[0.0; LANES]; 3],
         lambert: [[0.0; LANES]; 3],
     };
+    // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
+    // all lanes at once below, other primitives with their own `surface_point`.
+    let (mut p, mut ng, mut ns) = (
+        [[0.0f32; LANES]; 3],
+        [[0.0f32; LANES]; 3],
+        [[0.0f32; LANES]; 3],
+    );
+    let mut tri = Triangles::default();
+    let mut shape_of = [0usize; LANES];
     let mut m = hits.mask;
     while m != 0 {
         let k = m.trailing_zeros() as usize;
         m &= m - 1;
-        let Some(hit) = hits.get(k) else { continue };
-        let ray = rays.get(k);
-        let prim = rs.bvh.primitive(hit.prim);
+        let prim = rs.bvh.primitive(hits.prim[k]);
         let shape = prim.shape() as usize;
-        let (bsdf, flip) = &rs.surfaces[shape];
-        let sp = prim.surface_point(&ray, &hit, *flip);
-        let wi = -ray.d;
-        let Some(n) = reflecting_normal(bsdf, sp.ns, wi) else {
+        shape_of[k] = shape;
+        let flip = rs.surfaces[shape].1;
+        match prim {
+            Primitive::Triangle { v, n, .. } => tri.set(k, v, n.as_ref(), flip),
+            _ => {
+                let Some(hit) = hits.get(k) else { continue };
+                let sp = prim.surface_point(&rays.get(k), &hit, flip);
+                set3(&mut p, k, sp.p);
+                set3(&mut ng, k, sp.ng);
+                set3(&mut ns, k, sp.ns);
+            }
+        }
+    }
+    if tri.mask != 0 {
+        tri.surface_points(hits, &mut p, &mut ng, &mut ns);
+    }
+    let mut m = hits.mask;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let shape = shape_of[k];
+        let wi = -get3(&rays.d, k);
+        let Some(n) = reflecting_normal(&rs.surfaces[shape].0, get3(&ns, k), wi) else {
             continue;
         };
         out.active |= 1 << k;
-        set3(&mut out.p, k, sp.p);
-        set3(&mut out.ng, k, sp.ng);
+        set3(&mut out.p, k, get3(&p, k));
+        set3(&mut out.ng, k, get3(&ng, k));
         set3(&mut out.n, k, n);
         debug_assert!(rs.lambert[shape].is_some(), "only Lambertian surfaces");
         set3(&mut out.lambert, k, rs.lambert[shape].unwrap_or(Vec3::ZERO));
     }
     out
+}
+
+/// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
+/// (`normals`: lanes that have them), the sign of `flip_normals`.
+struct Triangles {
+    mask: u32,
+    v: [Lanes3; 3],
+    n: [Lanes3; 3],
+    normals: u32,
+    sign: [f32; LANES],
+}
+
+impl Default for Triangles {
+    fn default() -> Self {
+        Self {
+            mask: 0,
+            v: [[[0.0; LANES]; 3]; 3],
+            n: [[[0.0; LANES]; 3]; 3],
+            normals: 0,
+            sign: [1.0; LANES],
+        }
+    }
+}
+
+impl Triangles {
+    #[inline(always)]
+    fn set(&mut self, k: usize, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
+        self.mask |= 1 << k;
+        for (lanes, &vj) in self.v.iter_mut().zip(v) {
+            set3(lanes, k, vj);
+        }
+        if let Some(n) = n {
+            self.normals |= 1 << k;
+            for (lanes, &nj) in self.n.iter_mut().zip(n) {
+                set3(lanes, k, nj);
+            }
+        }
+        self.sign[k] = if flip { -1.0 } else { 1.0 };
+    }
+
+    /// `Primitive::surface_point` of the triangle lanes, the same operations lane by lane (so
+    /// the same bits), in one loop over all lanes that the compiler vectorises; other lanes
+    /// are left as they are.
+    #[inline(always)]
+    fn surface_points(&self, hits: &PacketHits, p: &mut Lanes3, ng: &mut Lanes3, ns: &mut Lanes3) {
+        for k in 0..LANES {
+            let (b1, b2) = (hits.b1[k], hits.b2[k]);
+            let b0 = 1.0 - b1 - b2;
+            let [v0, v1, v2] = self.v.each_ref().map(|v| get3(v, k));
+            let [n0, n1, n2] = self.n.each_ref().map(|n| get3(n, k));
+            let pk = b0 * v0 + b1 * v1 + b2 * v2;
+            let ngk = (v1 - v0).cross(v2 - v0).normalize_or_zero();
+            let nsk = (b0 * n0 + b1 * n1 + b2 * n2).normalize_or_zero();
+            let nsk = if (self.normals >> k & 1 == 1) & (nsk != Vec3::ZERO) {
+                nsk
+            } else {
+                ngk
+            };
+            if self.mask >> k & 1 == 1 {
+                let sign = self.sign[k];
+                set3(p, k, pk);
+                set3(ng, k, sign * ngk);
+                set3(ns, k, sign * nsk);
+            }
+        }
+    }
 }
 
 /// Shadow rays of the lanes whose sample can contribute (the scalar integrator's tests:
