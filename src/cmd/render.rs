@@ -440,8 +440,17 @@ pub fn run(args: Args) -> ExitCode {
              scene); Mitsuba warns \"Invalid sample value\" for such samples"
         ));
     }
+    if let Some(p) = &outs.preview {
+        if let Err(e) = image.write_preview_png_with_exposure(p, args.exposure) {
+            return usage_error(e);
+        }
+    }
+    // The EXR writer consumes the image (a lower memory peak); what the summary needs first.
+    let (width, height, spp, passes) =
+        (image.width, image.height, image.meta.spp, image.meta.passes);
+    let contacts = image.meta.extra.get("contacts").cloned();
     let written = match outs.format {
-        ImageFormat::Exr => image.write(&outs.out),
+        ImageFormat::Exr => image.into_exr_file(&outs.out),
         ImageFormat::Png => {
             warn(format!(
                 "{} is a tone-mapped preview: the variance is not saved (use .exr for compare, \
@@ -455,27 +464,22 @@ pub fn run(args: Args) -> ExitCode {
     if let Err(e) = written {
         return usage_error(e);
     }
-    if let Some(p) = &outs.preview {
-        if let Err(e) = image.write_preview_png_with_exposure(p, args.exposure) {
-            return usage_error(e);
-        }
-    }
     if !args.quiet {
         for n in &notes {
             eprintln!("{n}");
         }
-        if let Some(c) = image.meta.extra.get("contacts") {
+        if let Some(c) = contacts {
             eprintln!("light–surface contacts (tested apart by compare): {c}");
         }
-        let samples = (image.width * image.height) as f64 * image.meta.spp as f64;
+        let samples = (width * height) as f64 * spp as f64;
         eprintln!(
             "wrote {} ({}x{}, {} spp in {} pass(es), {}, {} light sample(s), {:.2} s, {:.2} M \
              samples/s)",
             outs.out.display(),
-            image.width,
-            image.height,
-            image.meta.spp,
-            image.meta.passes,
+            width,
+            height,
+            spp,
+            passes,
             method,
             opts.light_samples,
             seconds,

@@ -354,51 +354,52 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         .collect();
     let done = AtomicUsize::new(0);
     let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
-    let results: Vec<Vec<PixelResult>> = tiles
-        .par_iter()
-        .map(|&(tx, ty)| {
-            let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
-                .flat_map(|y| (tx..(tx + TILE).min(w)).map(move |x| (x0 + x, y0 + y)))
-                .collect();
-            let mut seen: Vec<Vec<PixelLine>> = vec![Vec::new(); pixels.len()];
-            for (&(fx, fy), s) in pixels.iter().zip(&mut seen) {
-                rs.visible.pixel(fx, fy, s);
+    // Each tile writes its pixels into the image when it is done: the image is the only
+    // full-size buffer (no second copy of every pixel's result to assemble afterwards).
+    let image = std::sync::Mutex::new({
+        let mut image = Image::new(w as usize, h as usize);
+        image.tail = Some(vec![[0.0f32; 3]; image.mean.len()]);
+        image
+    });
+    tiles.par_iter().for_each(|&(tx, ty)| {
+        let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
+            .flat_map(|y| (tx..(tx + TILE).min(w)).map(move |x| (x0 + x, y0 + y)))
+            .collect();
+        let mut seen: Vec<Vec<PixelLine>> = vec![Vec::new(); pixels.len()];
+        for (&(fx, fy), s) in pixels.iter().zip(&mut seen) {
+            rs.visible.pixel(fx, fy, s);
+        }
+        let mut passes = vec![Welford::default(); pixels.len()];
+        let mut single = vec![Welford::default(); pixels.len()];
+        for pass in 0..opts.passes {
+            for (i, &(fx, fy)) in pixels.iter().enumerate() {
+                // < 2^32: checked by `window`.
+                let index = fy.wrapping_mul(full_width).wrapping_add(fx);
+                let acc = render_pixel_pass(&rs, opts, pieces, fx, fy, index, pass, &seen[i]);
+                passes[i].push(acc.mean());
+                single[i] = acc;
             }
-            let mut passes = vec![Welford::default(); pixels.len()];
-            let mut single = vec![Welford::default(); pixels.len()];
-            for pass in 0..opts.passes {
-                for (i, &(fx, fy)) in pixels.iter().enumerate() {
-                    // < 2^32: checked by `window`.
-                    let index = fy.wrapping_mul(full_width).wrapping_add(fx);
-                    let acc = render_pixel_pass(&rs, opts, pieces, fx, fy, index, pass, &seen[i]);
-                    passes[i].push(acc.mean());
-                    single[i] = acc;
-                }
-                let step = pixels.len() * opts.spp as usize;
-                progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
-            }
-            passes
-                .iter()
-                .zip(&single)
-                .map(|(p, s)| pixel_value(opts, p, s))
-                .collect()
-        })
-        .collect();
-    let mut image = Image::new(w as usize, h as usize);
-    let mut tail = vec![[0.0f32; 3]; image.mean.len()];
-    for (&(tx, ty), tile) in tiles.iter().zip(&results) {
-        let mut it = tile.iter();
+            let step = pixels.len() * opts.spp as usize;
+            progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
+        }
+        let mut image = image.lock().unwrap_or_else(|e| e.into_inner());
+        let image = &mut *image;
+        let mut values = passes
+            .iter()
+            .zip(&single)
+            .map(|(p, s)| pixel_value(opts, p, s));
         for y in ty..(ty + TILE).min(h) {
             for x in tx..(tx + TILE).min(w) {
-                let p = it.next().copied().unwrap_or_default();
+                let p = values.next().unwrap_or_default();
                 let k = y as usize * w as usize + x as usize;
-                image.mean[k] = p.mean;
-                image.var[k] = p.var;
-                tail[k] = p.tail;
+                (image.mean[k], image.var[k]) = (p.mean, p.var);
+                if let Some(tail) = &mut image.tail {
+                    tail[k] = p.tail;
+                }
             }
         }
-    }
-    image.tail = Some(tail);
+    });
+    let mut image = image.into_inner().unwrap_or_else(|e| e.into_inner());
     image.meta = Metadata {
         extra: pixel_entries(scene, &rs, (x0, y0, w, h)),
         ..Default::default()
