@@ -418,7 +418,12 @@ pub fn run(
                 .render(&s.scene, &base, &|_, _| {})
                 .map_err(|e| render_error(&s.name, &name, e))?;
             let pilot_seconds = t.elapsed().as_secs_f64();
-            let budget = opts.budget.choose(&pilot, &reference);
+            let budget = opts.budget.choose(&pilot, &reference, &cfg).map_err(|e| {
+                Unusable(format!(
+                    "cannot choose the budget of {} / {name}: {e}",
+                    s.name
+                ))
+            })?;
             let t = Instant::now();
             let mut image = subject
                 .render(
