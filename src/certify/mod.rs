@@ -336,6 +336,19 @@ fn summarise(cmp: &Comparison) -> Summary {
     (rel, ci, tile)
 }
 
+/// m of the Šidák split and the configuration of every comparison of a certification.
+pub fn comparison_config(opts: &Options) -> Result<(usize, CompareConfig), Unusable> {
+    let m = family_size(opts)?;
+    Ok((
+        m,
+        CompareConfig {
+            alpha: sidak(opts.alpha, m),
+            tolerance: opts.tolerance,
+            ..CompareConfig::default()
+        },
+    ))
+}
+
 /// Run the certification with the given subjects (the command line passes the techniques).
 pub fn run(
     opts: &Options,
@@ -350,13 +363,8 @@ pub fn run(
     if opts.oracle == Oracle::Live {
         oracle::check_ready(&opts.root)?;
     }
-    let m = family_size(opts)?;
-    let alpha_c = sidak(opts.alpha, m);
-    let cfg = CompareConfig {
-        alpha: alpha_c,
-        tolerance: opts.tolerance,
-        ..CompareConfig::default()
-    };
+    let (m, cfg) = comparison_config(opts)?;
+    let alpha_c = cfg.alpha;
     if let Some(dir) = &opts.report_dir {
         std::fs::create_dir_all(dir).map_err(|e| {
             Unusable(format!(
