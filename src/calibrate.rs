@@ -221,7 +221,8 @@ fn options(spp: u32, passes: u32, seed: u64) -> RenderOptions {
         spp,
         passes,
         seed,
-        technique: Technique::ProjectedSolidAngle,
+        method: Technique::ProjectedSolidAngle.into(),
+        light_samples: 1,
     }
 }
 

@@ -27,7 +27,7 @@ pub mod shard;
 
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{record_inputs, render, RenderError, RenderOptions};
+use linlight_render::{record_inputs, render, Method, RenderError, RenderOptions};
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
 use linlight_verify::z_score::sidak;
@@ -66,7 +66,7 @@ pub enum Oracle {
 /// Something that renders a scene: a technique, or (in tests) a deliberately wrong variant.
 pub trait Subject: Sync {
     fn name(&self) -> String;
-    /// Render `scene` with `opts` (its `technique` field is the subject's business).
+    /// Render `scene` with `opts` (its `method` field is the subject's business).
     fn render(
         &self,
         scene: &Scene,
@@ -88,7 +88,30 @@ impl Subject for Technique {
         render(
             scene,
             &RenderOptions {
-                technique: *self,
+                method: (*self).into(),
+                ..*opts
+            },
+            progress,
+        )
+    }
+}
+
+/// A method (single technique, LTC, MIS with a heuristic) as a subject, named as in reports
+/// (`mis:clamped-optimal=0.5`).
+impl Subject for Method {
+    fn name(&self) -> String {
+        Method::name(*self)
+    }
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        render(
+            scene,
+            &RenderOptions {
+                method: *self,
                 ..*opts
             },
             progress,
@@ -439,7 +462,8 @@ pub fn run(
                 spp: opts.budget.pilot_spp.max(2),
                 passes: 1,
                 seed: pilot_seed(opts.seed),
-                technique: Technique::ProjectedSolidAngle, // replaced by the subject
+                method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
+                light_samples: 1,
             };
             let t = Instant::now();
             let pilot = subject

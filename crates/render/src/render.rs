@@ -10,19 +10,21 @@ use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::contacts::{contact_pixels, light_contacts};
 use crate::film::Welford;
-use crate::integrator::{radiance, LightSampling, RenderScene};
+use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
+use crate::integrator::{radiance, RenderScene};
+use crate::method::Method;
 use crate::scene::{Bsdf, Geometry, Scene};
 use crate::shapes::{transformed_normal, Primitive};
 use crate::visible_line::{PixelLine, VisibleLines};
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
 use linlight_sampling::philox::CounterRng;
-use linlight_sampling::{Segment, Technique};
+use linlight_sampling::Segment;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Side of the square tiles distributed over threads.
-const TILE: u32 = 16;
+pub(crate) const TILE: u32 = 16;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
@@ -31,14 +33,33 @@ pub struct RenderOptions {
     /// Independent passes (≥ 1).
     pub passes: u32,
     pub seed: u64,
-    pub technique: Technique,
+    /// How each light is sampled (a single technique, LTC, or MIS with a heuristic).
+    pub method: Method,
+    /// Iterations per light and camera sample (≥ 1): samples of the single technique, or
+    /// pairs of a diffuse and a specular sample; the light's estimate is their mean. The CLI's
+    /// default is the scene's `emitter_samples` (see `linlight render --help`).
+    pub light_samples: u32,
+}
+
+impl Default for RenderOptions {
+    /// 1 spp, 1 pass, seed 0, the default method (MIS, clamped optimal, v = 0.5), 1 light
+    /// sample.
+    fn default() -> Self {
+        Self {
+            spp: 1,
+            passes: 1,
+            seed: 0,
+            method: Method::default(),
+            light_samples: 1,
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum RenderError {
     /// The scene cannot be rendered as given (film size, crop, camera).
     Scene(String),
-    /// The options cannot be used (spp or passes zero).
+    /// The options cannot be used (spp, passes or light samples zero).
     Options(String),
 }
 
@@ -52,7 +73,7 @@ impl std::fmt::Display for RenderError {
 impl std::error::Error for RenderError {}
 
 /// Pixel window actually rendered: the crop, or the whole film.
-fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
+pub(crate) fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
     let film = &scene.sensor.film;
     if film.width == 0 || film.height == 0 {
         return Err(RenderError::Scene(format!(
@@ -226,7 +247,8 @@ fn nested_two_sided(bsdf: &Bsdf) -> bool {
 /// Random stream of one camera sample: Philox of (seed; sample, full-film pixel index, pass).
 /// Every pixel, pass and sample has its own counter-based stream (no state shared between
 /// pixels, so neighbouring pixels' errors are independent); its numbers are the sample's
-/// dimensions: film position (2), then one per light.
+/// dimensions: film position (2), then the lights' numbers (`crate::shading`), then those of
+/// the visible lines.
 pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> CounterRng {
     CounterRng::camera_sample(seed, pass, pixel_index, sample)
 }
@@ -234,27 +256,96 @@ pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> Counte
 /// Render `scene`. `progress(done, total)` is called (from worker threads) after each pass of
 /// each tile, in camera samples: `total` = pixels × spp × passes.
 /// Runs on the current rayon pool (use `ThreadPool::install` to choose the thread count).
+///
+/// Where it applies ([`crate::batched::applies`]) the batched renderer renders, whose images
+/// equal those of the scalar path [`render_with`]`(scene, opts, &opts.technique, …)` bit for
+/// bit; the scalar path renders everything else.
 pub fn render(
     scene: &Scene,
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    render_with(scene, opts, &opts.technique, progress)
+    if crate::batched::applies(scene, opts) {
+        return crate::batched::render(scene, opts, progress);
+    }
+    render_with(scene, opts, &Hooks::new(), progress)
 }
 
-/// [`render`] with any light sampling in place of `opts.technique` (which is then ignored):
-/// the hook through which tests render with deliberately wrong samplers.
-pub fn render_with<S: LightSampling>(
-    scene: &Scene,
-    opts: &RenderOptions,
-    sampling: &S,
-    progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<Image, RenderError> {
-    if opts.spp == 0 || opts.passes == 0 {
+/// Reject options no render can use.
+pub(crate) fn check_options(opts: &RenderOptions) -> Result<(), RenderError> {
+    if opts.spp == 0 || opts.passes == 0 || opts.light_samples == 0 {
         return Err(RenderError::Options(
-            "spp and passes must be at least 1".into(),
+            "spp, passes and light samples must be at least 1".into(),
         ));
     }
+    Ok(())
+}
+
+/// [`render`] with replaced pieces ([`Hooks`]): the hook through which tests render with
+/// deliberately wrong techniques, specular samplers or BSDF evaluations (power controls, see
+/// [`crate::power_controls`]). `opts.method` still chooses the estimator; the header records
+/// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`). Always the
+/// scalar path (the batched renderer's images equal it bit for bit where it applies).
+pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    hooks: &Hooks<D, S, B>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    check_options(opts)?;
+    let mut image = with_resolved!(hooks, opts.method, |r| render_tiles(
+        scene, opts, r, progress
+    ))?;
+    let mut entries = Vec::new();
+    if let (Some(t), Method::Technique(_)) = (&hooks.technique, opts.method) {
+        entries.push(("technique", t.name()));
+    }
+    entries.extend(hooks.header());
+    image.meta = metadata(opts, scene, std::mem::take(&mut image.meta.extra), entries);
+    Ok(image)
+}
+
+/// The header of a render: dof, spp, passes, renderer, scene hash; `extra` (the pixels'
+/// entries: `nonfinite_dropped`, the lights) with the method's entries, then `entries` (the
+/// hooks', which override), light samples, seed and spp per pass.
+pub(crate) fn metadata(
+    opts: &RenderOptions,
+    scene: &Scene,
+    extra: std::collections::BTreeMap<String, String>,
+    entries: Vec<(&'static str, String)>,
+) -> Metadata {
+    let dof = if opts.passes > 1 {
+        opts.passes - 1
+    } else {
+        opts.spp - 1
+    };
+    let mut meta = Metadata {
+        dof: dof as f64,
+        spp: opts.spp as u64 * opts.passes as u64,
+        passes: opts.passes as u64,
+        renderer: format!("linlight {}", env!("CARGO_PKG_VERSION")),
+        scene_sha256: scene.sha256.clone(),
+        extra,
+    };
+    for (key, value) in opts.method.header().into_iter().chain(entries) {
+        meta.extra.insert(key.into(), value);
+    }
+    meta.extra
+        .insert("light_samples".into(), opts.light_samples.to_string());
+    meta.extra.insert("seed".into(), opts.seed.to_string());
+    meta.extra
+        .insert("spp_per_pass".into(), opts.spp.to_string());
+    meta
+}
+
+/// The image of [`render_with`] with the pieces resolved; its header holds only the pixels'
+/// entries ([`pixel_entries`]).
+fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    pieces: Resolved<T, S, B>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
     let (x0, y0, w, h) = window(scene)?;
     let rs = RenderScene::new(scene)?;
     let full_width = scene.sensor.film.width;
@@ -279,7 +370,7 @@ pub fn render_with<S: LightSampling>(
                 for (i, &(fx, fy)) in pixels.iter().enumerate() {
                     // < 2^32: checked by `window`.
                     let index = fy.wrapping_mul(full_width).wrapping_add(fx);
-                    let acc = render_pixel_pass(&rs, opts, sampling, fx, fy, index, pass, &seen[i]);
+                    let acc = render_pixel_pass(&rs, opts, pieces, fx, fy, index, pass, &seen[i]);
                     passes[i].push(acc.mean());
                     single[i] = acc;
                 }
@@ -308,31 +399,28 @@ pub fn render_with<S: LightSampling>(
         }
     }
     image.tail = Some(tail);
-    let dof = if opts.passes > 1 {
-        opts.passes - 1
-    } else {
-        opts.spp - 1
-    };
-    let mut meta = Metadata {
-        dof: dof as f64,
-        spp: opts.spp as u64 * opts.passes as u64,
-        passes: opts.passes as u64,
-        renderer: format!("linlight {}", env!("CARGO_PKG_VERSION")),
-        scene_sha256: scene.sha256.clone(),
+    image.meta = Metadata {
+        extra: pixel_entries(scene, &rs, (x0, y0, w, h)),
         ..Default::default()
     };
-    meta.extra.insert("technique".into(), sampling.name());
-    meta.extra.insert("seed".into(), opts.seed.to_string());
-    meta.extra
-        .insert("spp_per_pass".into(), opts.spp.to_string());
+    Ok(image)
+}
+
+/// The header entries the pixels of a render determine: `nonfinite_dropped` (when non-zero)
+/// and the lights' entries ([`record_lights`]).
+pub(crate) fn pixel_entries(
+    scene: &Scene,
+    rs: &RenderScene,
+    window: (u32, u32, u32, u32),
+) -> std::collections::BTreeMap<String, String> {
+    let mut meta = Metadata::default();
     let dropped = rs.dropped.get();
     if dropped > 0 {
         meta.extra
             .insert("nonfinite_dropped".into(), dropped.to_string());
     }
-    record_lights(&mut meta, scene, &rs.camera, (x0, y0, w, h));
-    image.meta = meta;
-    Ok(image)
+    record_lights(&mut meta, scene, &rs.camera, window);
+    meta.extra
 }
 
 /// Distance (in pixels) from a contact's projection within which pixels are contact pixels.
@@ -395,19 +483,19 @@ pub fn record_inputs(
 
 /// What a pixel contributes to the image: mean, variance of the mean, heavy-tail share.
 #[derive(Clone, Copy, Debug, Default)]
-struct PixelResult {
-    mean: [f32; 3],
-    var: [f32; 3],
-    tail: [f32; 3],
+pub(crate) struct PixelResult {
+    pub mean: [f32; 3],
+    pub var: [f32; 3],
+    pub tail: [f32; 3],
 }
 
 /// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the
 /// camera sees in this pixel ([`VisibleLines::pixel`]).
 #[allow(clippy::too_many_arguments)]
-fn render_pixel_pass<S: LightSampling>(
+fn render_pixel_pass<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     rs: &RenderScene,
     opts: &RenderOptions,
-    sampling: &S,
+    pieces: Resolved<T, S, B>,
     fx: u32,
     fy: u32,
     index: u32,
@@ -420,7 +508,7 @@ fn render_pixel_pass<S: LightSampling>(
         let u = rng.next_f32();
         let v = rng.next_f32();
         let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
-        let l = radiance(rs, sampling, &ray, &mut rng);
+        let l = radiance(rs, opts.method, opts.light_samples, pieces, &ray, &mut rng);
         let l = if seen.is_empty() {
             l
         } else {
@@ -436,7 +524,7 @@ fn render_pixel_pass<S: LightSampling>(
 
 /// Mean, variance of the mean and heavy-tail share of a pixel from its pass means (P > 1) or,
 /// with one pass, from its samples.
-fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> PixelResult {
+pub(crate) fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> PixelResult {
     let terms = if opts.passes > 1 { passes } else { single };
     // Every sample is finite (the integrator drops non-finite contributions), so are these.
     PixelResult {
