@@ -259,7 +259,8 @@ fn rejects_a_five_percent_tile_bias_in_every_scene() {
                 spp: opts.budget.pilot_spp,
                 passes: 1,
                 seed: certify::pilot_seed(opts.seed),
-                technique: Technique::ProjectedSolidAngle,
+                method: Technique::ProjectedSolidAngle.into(),
+                light_samples: 1,
             },
             &|_, _| {},
         )
