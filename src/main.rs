@@ -18,7 +18,8 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// The main job: sampler suite + every unbiased technique on every scene against Mitsuba
-    /// (exit 0 all consistent, 1 a check failed, 2 unusable input).
+    /// (exit 0 all consistent, 1 a check failed, 2 unusable input, 3 inconclusive).
+    #[command(after_help = cmd::certify::AFTER_HELP)]
     Certify(cmd::certify::Args),
     /// Chi-square certification of every line-sampling technique (exit 0 only if all pass).
     Samplers(cmd::samplers::Args),

@@ -23,6 +23,7 @@ pub mod report;
 pub mod report_html;
 pub mod sampler_suite;
 pub mod scenes;
+pub mod shard;
 
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
@@ -30,7 +31,7 @@ use linlight_render::{record_inputs, render, Method, RenderError, RenderOptions}
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
 use linlight_verify::z_score::sidak;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -53,7 +54,7 @@ impl std::fmt::Display for Unusable {
 impl std::error::Error for Unusable {}
 
 /// Where the Mitsuba side comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Oracle {
     /// `references/mitsuba/<scene>.exr`, committed (no Mitsuba needed).
@@ -140,6 +141,8 @@ pub struct Options {
     pub seed: u64,
     /// Sub-samples per pixel side of the closed-form image.
     pub closed_form_subsamples: u32,
+    /// Run only this part of the scene × technique list (`--shard i/N`, [`shard`]).
+    pub shard: Option<shard::Shard>,
 }
 
 impl Options {
@@ -158,6 +161,7 @@ impl Options {
             budget: BudgetRule::default(),
             seed: 1,
             closed_form_subsamples: 16,
+            shard: None,
         }
     }
 }
@@ -182,7 +186,7 @@ pub enum Event<'a> {
 }
 
 /// The committed (or live) reference of a scene, as the report shows it.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ReferenceInfo {
     pub file: PathBuf,
     pub renderer: String,
@@ -196,7 +200,7 @@ pub struct ReferenceInfo {
 }
 
 /// One comparison: a subject's render of a scene against an oracle image.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Row {
     pub scene: String,
     pub subject: String,
@@ -225,7 +229,7 @@ impl Row {
     }
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SceneReport {
     pub name: String,
     pub scene_file: PathBuf,
@@ -235,7 +239,7 @@ pub struct SceneReport {
     pub rows: Vec<Row>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Report {
     /// Sampler suite passed and every comparison is consistent.
     pub passed: bool,
@@ -257,6 +261,10 @@ pub struct Report {
     pub elapsed_seconds: f64,
     /// The committed calibration of the comparison (docs/calibration.json), quoted by report.md.
     pub calibration: Option<serde_json::Value>,
+    /// The scene × technique list of the whole run, and the part of it this report holds
+    /// (None: all of it); `certify --merge` joins shards ([`shard`]).
+    pub plan: Vec<shard::PlanItem>,
+    pub shard: Option<shard::Shard>,
 }
 
 impl Report {
@@ -351,6 +359,19 @@ fn summarise(cmp: &Comparison) -> Summary {
     (rel, ci, tile)
 }
 
+/// m of the Šidák split and the configuration of every comparison of a certification.
+pub fn comparison_config(opts: &Options) -> Result<(usize, CompareConfig), Unusable> {
+    let m = family_size(opts)?;
+    Ok((
+        m,
+        CompareConfig {
+            alpha: sidak(opts.alpha, m),
+            tolerance: opts.tolerance,
+            ..CompareConfig::default()
+        },
+    ))
+}
+
 /// Run the certification with the given subjects (the command line passes the techniques).
 pub fn run(
     opts: &Options,
@@ -365,13 +386,8 @@ pub fn run(
     if opts.oracle == Oracle::Live {
         oracle::check_ready(&opts.root)?;
     }
-    let m = family_size(opts)?;
-    let alpha_c = sidak(opts.alpha, m);
-    let cfg = CompareConfig {
-        alpha: alpha_c,
-        tolerance: opts.tolerance,
-        ..CompareConfig::default()
-    };
+    let (m, cfg) = comparison_config(opts)?;
+    let alpha_c = cfg.alpha;
     if let Some(dir) = &opts.report_dir {
         std::fs::create_dir_all(dir).map_err(|e| {
             Unusable(format!(
@@ -380,13 +396,19 @@ pub fn run(
             ))
         })?;
     }
+    let plan = shard::plan(&chosen, subjects);
+    let mine = |j: usize| shard::runs(opts.shard, j);
+    // Scenes with at least one item of this shard.
+    let scene_runs = |si: usize| (0..subjects.len()).any(|k| mine(si * subjects.len() + k));
+    let run_suite = opts.sampler_suite && opts.shard.is_none_or(|s| s.runs_suite());
     events(Event::Plan {
-        steps: usize::from(opts.sampler_suite)
-            + chosen.len() * subjects.len()
-            + usize::from(opts.oracle == Oracle::Live) * chosen.len(),
+        steps: usize::from(run_suite)
+            + (0..plan.len()).filter(|&j| mine(j)).count()
+            + usize::from(opts.oracle == Oracle::Live)
+                * (0..chosen.len()).filter(|&si| scene_runs(si)).count(),
     });
 
-    let sampler_suite = if opts.sampler_suite {
+    let sampler_suite = if run_suite {
         events(Event::Step {
             label: "sampler chi-square suite".into(),
         });
@@ -399,7 +421,10 @@ pub fn run(
 
     let tiles = |done: usize, total: usize| events(Event::Tiles { done, total });
     let mut scene_reports = Vec::new();
-    for s in &chosen {
+    for (si, s) in chosen.iter().enumerate() {
+        if !scene_runs(si) {
+            continue;
+        }
         let mut live_oracle_seconds = None;
         let reference = match opts.oracle {
             Oracle::Committed => s.reference.clone(),
@@ -425,7 +450,10 @@ pub fn run(
             None
         };
         let mut rows = Vec::new();
-        for subject in subjects {
+        for (k, subject) in subjects.iter().enumerate() {
+            if !mine(si * subjects.len() + k) {
+                continue;
+            }
             let name = subject.name();
             events(Event::Step {
                 label: format!("{}: {name}", s.name),
@@ -442,7 +470,12 @@ pub fn run(
                 .render(&s.scene, &base, &|_, _| {})
                 .map_err(|e| render_error(&s.name, &name, e))?;
             let pilot_seconds = t.elapsed().as_secs_f64();
-            let budget = opts.budget.choose(&pilot, &reference);
+            let budget = opts.budget.choose(&pilot, &reference, &cfg).map_err(|e| {
+                Unusable(format!(
+                    "cannot choose the budget of {} / {name}: {e}",
+                    s.name
+                ))
+            })?;
             let t = Instant::now();
             let mut image = subject
                 .render(
@@ -528,6 +561,8 @@ pub fn run(
         calibration: std::fs::read_to_string(opts.root.join("docs/calibration.json"))
             .ok()
             .and_then(|t| serde_json::from_str(&t).ok()),
+        plan,
+        shard: opts.shard,
     };
     if let Some(dir) = &opts.report_dir {
         report::write_report(dir, &report)?;

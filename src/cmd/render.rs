@@ -14,6 +14,7 @@ use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::{record_inputs, render, Method, RenderOptions};
 use linlight_sampling::Technique;
+use linlight_verify::image_stats::CompareConfig;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -346,7 +347,7 @@ pub fn run(args: Args) -> ExitCode {
 
     let mut notes = Vec::new();
     if let Some(r) = &reference {
-        let rule = BudgetRule::default();
+        let rule = BudgetRule::parity();
         let pilot_opts = RenderOptions {
             spp: rule.pilot_spp,
             passes: 1,
@@ -358,7 +359,10 @@ pub fn run(args: Args) -> ExitCode {
             Ok(p) => p,
             Err(e) => return usage_error(e),
         };
-        let budget = rule.choose(&pilot, r);
+        let budget = match rule.choose(&pilot, r, &CompareConfig::default()) {
+            Ok(b) => b,
+            Err(e) => return usage_error(format!("--match-variance: {e}")),
+        };
         opts.spp = budget.spp.div_ceil(opts.passes).max(1);
         notes.push(format!(
             "--match-variance: {} spp in total (the rule asked for {}{})",
