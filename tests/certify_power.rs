@@ -200,6 +200,7 @@ fn renders_differing_only_in_seed_pass_compare() {
             passes: 1,
             seed,
             technique: Technique::ProjectedSolidAngle,
+            noise: Default::default(),
         };
         let a = linlight_render::render(&s.scene, &opts(11), &|_, _| {}).unwrap();
         let b = linlight_render::render(&s.scene, &opts(12), &|_, _| {}).unwrap();

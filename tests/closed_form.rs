@@ -36,6 +36,7 @@ fn render_with_seed(sc: &Scene, seed: u64) -> Image {
         passes: 1,
         seed,
         technique: Technique::ProjectedSolidAngle,
+        noise: Default::default(),
     };
     render(sc, &opts, &|_, _| {}).unwrap()
 }

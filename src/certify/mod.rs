@@ -406,6 +406,7 @@ pub fn run(
                 passes: 1,
                 seed: pilot_seed(opts.seed),
                 technique: Technique::ProjectedSolidAngle, // replaced by the subject
+                noise: Default::default(),
             };
             let t = Instant::now();
             let pilot = subject

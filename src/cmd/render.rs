@@ -13,6 +13,7 @@ use linlight::outputs::{self, ImageFormat};
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::{render, RenderOptions};
+use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -28,6 +29,7 @@ Examples:
   linlight render scene.xml -D res=64 -t 2 -q        # override a <default>, 2 threads, quiet
   linlight render scene.xml --match-variance references/mitsuba/scene.exr -o mine.exr
   linlight render scene.xml --spp 256 --time 60      # as many 256-spp passes as fit in 60 s
+  linlight render scene.xml --spp 3 --passes 16 --noise blue-jittered   # the paper's stratification
 
 The output format follows the extension: .exr holds mean and variance of the mean (for
 compare, merge, info); .png a tone-mapped preview only.";
@@ -46,6 +48,11 @@ pub struct Args {
     /// Line-sampling technique (names listed below).
     #[arg(long, default_value = "projected-solid-angle")]
     technique: String,
+    /// Primary samples: white (independent), blue (blue noise, a random toroidal shift per
+    /// pass) or blue-jittered (blue noise stratified over the spp of a pass; use --passes > 1
+    /// for a variance estimate). Every choice is unbiased across passes.
+    #[arg(long, default_value = "white", value_name = "white|blue|blue-jittered")]
+    noise: String,
     /// Independent passes; with P > 1 the variance comes from the P pass means (dof = P − 1).
     #[arg(long, default_value_t = 1)]
     passes: u32,
@@ -178,6 +185,10 @@ pub fn run(args: Args) -> ExitCode {
         Ok(t) => t,
         Err(e) => return usage_error(e),
     };
+    let noise: Noise = match args.noise.parse() {
+        Ok(n) => n,
+        Err(e) => return usage_error(e),
+    };
     let mut overrides = Vec::new();
     for d in &args.define {
         match parse_define(d) {
@@ -224,6 +235,7 @@ pub fn run(args: Args) -> ExitCode {
         passes: args.passes,
         seed: args.seed.unwrap_or(scene.sensor.seed),
         technique,
+        noise,
     };
     if opts.spp == 0 || opts.passes == 0 {
         return usage_error("--spp and --passes must be at least 1");
@@ -291,6 +303,9 @@ pub fn run(args: Args) -> ExitCode {
             passes: 1,
             seed: opts.seed ^ 0x5049_4c4f_5453_4545,
             technique,
+            // White: the budget rule needs the per-sample variance, which is the same for every
+            // noise (each sample is uniform), and independent samples to estimate it.
+            noise: Noise::White,
         };
         bar.set_message("pilot render");
         let pilot = match pool.install(|| render(&scene, &pilot_opts, &|_, _| {})) {
@@ -404,13 +419,14 @@ pub fn run(args: Args) -> ExitCode {
         }
         let samples = (image.width * image.height) as f64 * image.meta.spp as f64;
         eprintln!(
-            "wrote {} ({}x{}, {} spp in {} pass(es), {}, {:.2} s, {:.2} M samples/s)",
+            "wrote {} ({}x{}, {} spp in {} pass(es), {}, {} noise, {:.2} s, {:.2} M samples/s)",
             outs.out.display(),
             image.width,
             image.height,
             image.meta.spp,
             image.meta.passes,
             technique,
+            noise,
             seconds,
             samples / seconds.max(1e-9) / 1e6
         );

@@ -37,6 +37,7 @@ fn main() {
             passes: 1,
             seed: 1,
             technique,
+            noise: Default::default(),
         };
         let samples = 256.0 * 256.0 * opts.spp as f64;
         let mut rates = Vec::new();

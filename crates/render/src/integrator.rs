@@ -15,7 +15,7 @@ use crate::scene::{Bsdf, Rgb};
 use crate::shapes::{Ray, SurfacePoint};
 use crate::visible_line::VisibleLines;
 use glam::{DVec3, Vec3};
-use linlight_sampling::philox::CounterRng;
+use linlight_sampling::noise::SampleStream;
 use linlight_sampling::{LineSampler, Prepared, Segment, Technique};
 
 /// Mitsuba's ray epsilon for f32 variants: 1500 ulp(1) = 1500·2⁻²⁴.
@@ -177,14 +177,14 @@ fn finite_rgb(v: Vec3) -> bool {
 }
 
 /// One camera sample through film position (px, py) in pixels: direct lighting from every
-/// light with one sample of `technique` each. Consumes exactly `lights.len()` numbers of `rng`
-/// (the camera sample's own stream) after the caller's pixel-position numbers (0 for misses and
-/// black surfaces).
+/// light with one sample of `technique` each. Takes exactly `lights.len()` dimensions of `rng`
+/// (the camera sample's stream, [`SampleStream::next_f32`]: one light sample each) after the
+/// caller's film position (none for misses and black surfaces).
 pub fn radiance<S: LightSampling>(
     scene: &RenderScene,
     technique: &S,
     ray: &Ray,
-    rng: &mut CounterRng,
+    rng: &mut SampleStream,
 ) -> Rgb {
     let mut total = Vec3::ZERO;
     let Some(hit) = scene.bvh.intersect(ray) else {

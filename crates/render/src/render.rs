@@ -15,6 +15,7 @@ use crate::shapes::{transformed_normal, Primitive};
 use crate::visible_line::{PixelLine, VisibleLines};
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
+use linlight_sampling::noise::{Noise, NoiseSource};
 use linlight_sampling::philox::CounterRng;
 use linlight_sampling::{Segment, Technique};
 use rayon::prelude::*;
@@ -31,6 +32,8 @@ pub struct RenderOptions {
     pub passes: u32,
     pub seed: u64,
     pub technique: Technique,
+    /// Where the primary samples come from (white by default; see [`linlight_sampling::noise`]).
+    pub noise: Noise,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -222,10 +225,11 @@ fn nested_two_sided(bsdf: &Bsdf) -> bool {
     }
 }
 
-/// Random stream of one camera sample: Philox of (seed; sample, full-film pixel index, pass).
-/// Every pixel, pass and sample has its own counter-based stream (no state shared between
+/// White-noise stream of one camera sample: Philox of (seed; sample, full-film pixel index,
+/// pass). Every pixel, pass and sample has its own counter-based stream (no state shared between
 /// pixels, so neighbouring pixels' errors are independent); its numbers are the sample's
-/// dimensions: film position (2), then one per light.
+/// dimensions: film position (2), then one per light. The renderer draws them through
+/// [`NoiseSource::stream`], which returns exactly these numbers for [`Noise::White`].
 pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> CounterRng {
     CounterRng::camera_sample(seed, pass, pixel_index, sample)
 }
@@ -260,6 +264,7 @@ pub fn render_with<S: LightSampling>(
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
+    let noise = NoiseSource::new(opts.noise, opts.seed, opts.spp);
     let done = AtomicUsize::new(0);
     let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
     let results: Vec<Vec<([f32; 3], [f32; 3])>> = tiles
@@ -278,7 +283,9 @@ pub fn render_with<S: LightSampling>(
                 for (i, &(fx, fy)) in pixels.iter().enumerate() {
                     // < 2^32: checked by `window`.
                     let index = fy.wrapping_mul(full_width).wrapping_add(fx);
-                    let acc = render_pixel_pass(&rs, opts, sampling, fx, fy, index, pass, &seen[i]);
+                    let acc = render_pixel_pass(
+                        &rs, opts, &noise, sampling, fx, fy, index, pass, &seen[i],
+                    );
                     passes[i].push(acc.mean());
                     single[i] = acc;
                 }
@@ -321,6 +328,9 @@ pub fn render_with<S: LightSampling>(
     meta.extra.insert("seed".into(), opts.seed.to_string());
     meta.extra
         .insert("spp_per_pass".into(), opts.spp.to_string());
+    if opts.noise != Noise::White {
+        meta.extra.insert("noise".into(), opts.noise.name().into());
+    }
     let dropped = rs.dropped.get();
     if dropped > 0 {
         meta.extra
@@ -336,6 +346,7 @@ pub fn render_with<S: LightSampling>(
 fn render_pixel_pass<S: LightSampling>(
     rs: &RenderScene,
     opts: &RenderOptions,
+    noise: &NoiseSource,
     sampling: &S,
     fx: u32,
     fy: u32,
@@ -345,9 +356,8 @@ fn render_pixel_pass<S: LightSampling>(
 ) -> Welford {
     let mut acc = Welford::default();
     for sample in 0..opts.spp {
-        let mut rng = sample_rng(opts.seed, pass, index, sample);
-        let u = rng.next_f32();
-        let v = rng.next_f32();
+        let mut rng = noise.stream(fx, fy, index, pass, sample);
+        let (u, v) = rng.film_position();
         let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
         let l = radiance(rs, sampling, &ray, &mut rng);
         let l = if seen.is_empty() {

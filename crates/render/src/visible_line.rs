@@ -286,6 +286,7 @@ mod tests {
             passes: 1,
             seed: 3,
             technique: Technique::ProjectedSolidAngle,
+            noise: Default::default(),
         };
         let hidden = render(&sc, &opts, &|_, _| {}).unwrap();
         assert!(hidden.mean.iter().all(|m| *m == [0.0; 3]));

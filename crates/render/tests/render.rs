@@ -38,6 +38,7 @@ fn opts(spp: u32, passes: u32, seed: u64, technique: Technique) -> RenderOptions
         passes,
         seed,
         technique,
+        noise: Default::default(),
     }
 }
 

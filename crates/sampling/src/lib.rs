@@ -14,6 +14,7 @@ pub mod hart;
 pub mod li2018;
 pub mod ltc;
 pub mod mis;
+pub mod noise;
 pub mod philox;
 pub mod projected_solid_angle;
 pub mod rng;
