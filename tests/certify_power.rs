@@ -25,6 +25,8 @@ fn options(scenes: &str) -> Options {
     o.scenes = scenes.into();
     o.oracle = Oracle::Committed;
     o.sampler_suite = false;
+    // Only the subjects under test (no blue-noise renders of the production technique).
+    o.noise_renders.clear();
     o
 }
 

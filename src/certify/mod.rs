@@ -27,6 +27,7 @@ pub mod scenes;
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::{render, RenderError, RenderOptions};
+use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
 use linlight_verify::z_score::sidak;
@@ -40,6 +41,61 @@ use scenes::ReferencedScene;
 
 /// Scenes that are also compared with the closed-form R → 0 image (unoccluded diffuse plane).
 pub const CLOSED_FORM_SCENES: [&str; 1] = ["floor-tube"];
+
+/// A render with blue noise, certified besides the white-noise renders of the techniques, so
+/// that the noise's unbiasedness across passes is part of the main job.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NoiseRender {
+    pub scene: &'static str,
+    pub technique: Technique,
+    pub noise: Noise,
+}
+
+/// At least one blue-noise render per scene family: the occluded diffuse box with the paper's
+/// jittered blue noise, the diffuse floor with a horizon-crossing light with plain blue noise.
+pub const NOISE_RENDERS: [NoiseRender; 2] = [
+    NoiseRender {
+        scene: "cornell-tube",
+        technique: Technique::ProjectedSolidAngle,
+        noise: Noise::BlueJittered,
+    },
+    NoiseRender {
+        scene: "floor-crossing",
+        technique: Technique::ProjectedSolidAngle,
+        noise: Noise::Blue,
+    },
+];
+
+/// Passes of a noise render: its variance of the mean comes from the pass means (the samples
+/// of one jittered pass are stratified, not independent).
+pub const NOISE_PASSES: u32 = 16;
+
+impl Subject for NoiseRender {
+    fn name(&self) -> String {
+        format!("{} ({} noise)", self.technique.name(), self.noise.name())
+    }
+    /// `opts.spp` samples in total, split over [`NOISE_PASSES`] passes.
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        let total = opts.spp as u64 * opts.passes as u64;
+        let passes = NOISE_PASSES;
+        render(
+            scene,
+            &RenderOptions {
+                technique: self.technique,
+                noise: self.noise,
+                passes,
+                spp: total.div_ceil(passes as u64).clamp(1, u32::MAX as u64) as u32,
+                ..*opts
+            },
+            progress,
+        )
+    }
+}
 
 /// Unusable input: the certification cannot be carried out (exit 2).
 #[derive(Clone, Debug, PartialEq)]
@@ -117,6 +173,9 @@ pub struct Options {
     pub seed: u64,
     /// Sub-samples per pixel side of the closed-form image.
     pub closed_form_subsamples: u32,
+    /// The blue-noise renders of [`NOISE_RENDERS`] whose scene is selected (and whose technique
+    /// the command line selected).
+    pub noise_renders: Vec<NoiseRender>,
 }
 
 impl Options {
@@ -135,6 +194,7 @@ impl Options {
             budget: BudgetRule::default(),
             seed: 1,
             closed_form_subsamples: 16,
+            noise_renders: NOISE_RENDERS.to_vec(),
         }
     }
 }
@@ -239,19 +299,26 @@ impl Report {
 /// m: comparisons of the full default certification of the scenes in `scenes_dir` that have a
 /// reference.
 fn family_size(opts: &Options) -> Result<usize, Unusable> {
-    let with_reference = scenes::scene_files(&opts.scenes_dir)?
+    let per_render = |name: &str| {
+        if CLOSED_FORM_SCENES.contains(&name) {
+            2
+        } else {
+            1
+        }
+    };
+    let with_reference: Vec<String> = scenes::scene_files(&opts.scenes_dir)?
         .iter()
         .map(|p| scenes::scene_name(p))
         .filter(|n| scenes::reference_path(&opts.references_dir, n).is_file())
-        .map(|n| {
-            if CLOSED_FORM_SCENES.contains(&n.as_str()) {
-                2
-            } else {
-                1
-            }
-        })
-        .sum::<usize>();
-    Ok((with_reference * Technique::UNBIASED.len()).max(1))
+        .collect();
+    let techniques: usize =
+        with_reference.iter().map(|n| per_render(n)).sum::<usize>() * Technique::UNBIASED.len();
+    let noise: usize = NOISE_RENDERS
+        .iter()
+        .filter(|r| with_reference.iter().any(|n| n == r.scene))
+        .map(|r| per_render(r.scene))
+        .sum();
+    Ok((techniques + noise).max(1))
 }
 
 fn reference_info(s: &ReferencedScene) -> ReferenceInfo {
@@ -351,9 +418,19 @@ pub fn run(
             ))
         })?;
     }
+    let noise_renders = |scene: &str| -> Vec<&NoiseRender> {
+        opts.noise_renders
+            .iter()
+            .filter(|r| r.scene == scene)
+            .collect()
+    };
     events(Event::Plan {
         steps: usize::from(opts.sampler_suite)
             + chosen.len() * subjects.len()
+            + chosen
+                .iter()
+                .map(|s| noise_renders(&s.name).len())
+                .sum::<usize>()
             + usize::from(opts.oracle == Oracle::Live) * chosen.len(),
     });
 
@@ -396,7 +473,12 @@ pub fn run(
             None
         };
         let mut rows = Vec::new();
-        for subject in subjects {
+        let noisy = noise_renders(&s.name);
+        for subject in subjects
+            .iter()
+            .copied()
+            .chain(noisy.iter().map(|r| *r as &dyn Subject))
+        {
             let name = subject.name();
             events(Event::Step {
                 label: format!("{}: {name}", s.name),

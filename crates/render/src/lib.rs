@@ -12,6 +12,7 @@ pub mod film;
 pub mod integrator;
 pub mod render;
 pub mod scene;
+pub mod shading_cost;
 pub mod shapes;
 pub mod visible_line;
 pub mod xml;
