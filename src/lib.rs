@@ -5,5 +5,6 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod certify;
+pub mod figures;
 pub mod merge;
 pub mod outputs;

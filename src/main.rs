@@ -33,6 +33,10 @@ enum Command {
     Info(cmd::info::Args),
     /// Combine independent mean+variance images of one scene into one (runs, machines).
     Merge(cmd::merge::Args),
+    /// Regenerate every experiment of the paper: PNGs, plots, CSV/JSON and one index.html
+    /// (--quick: small sizes, a few minutes).
+    #[command(after_help = cmd::figures::AFTER_HELP)]
+    Figures(cmd::figures::Args),
     /// Fit the GGX LTC table (deterministic) and report its error; --check re-fits a sample
     /// and compares it with the committed table (exit 0 consistent, 1 mismatch, 2 bad input).
     #[command(after_help = cmd::fit_ltc::AFTER_HELP)]
@@ -71,5 +75,6 @@ fn main() -> ExitCode {
         Command::Info(a) => cmd::info::run(a),
         Command::Merge(a) => cmd::merge::run(a),
         Command::FitLtc(a) => cmd::fit_ltc::run(a),
+        Command::Figures(a) => cmd::figures::run(a),
     }
 }

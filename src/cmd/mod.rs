@@ -3,6 +3,7 @@
 pub mod backward_error;
 pub mod certify;
 pub mod compare;
+pub mod figures;
 pub mod fit_ltc;
 pub mod info;
 pub mod merge;
