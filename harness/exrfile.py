@@ -1,6 +1,7 @@
-"""The project's image format (shared/README.md): OpenEXR, float32 channels R, G, B (pixel mean)
-and var.R, var.G, var.B (variance of that mean), string header attributes (dof, spp, passes,
-renderer, scene_sha256, ...). Written with mi.Bitmap; the header is read back with a small
+"""The project's image format (docs/image-format.md): OpenEXR, float32 channels R, G, B (pixel
+mean), var.R, var.G, var.B (variance of that mean) and optionally tail.R, tail.G, tail.B (share of
+the sum of squares from the largest pass), string header attributes (dof, spp, passes, renderer,
+scene_sha256, scene, overrides, ...). Written with mi.Bitmap; the header is read back with a small
 stdlib parser so the file can be checked without trusting the writer."""
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Mapping
 import numpy as np
 
 CHANNELS = ("R", "G", "B", "var.R", "var.G", "var.B")
+TAIL_CHANNELS = ("tail.R", "tail.G", "tail.B")
 EXR_MAGIC = 20000630
 _PIXEL_TYPES = {0: "uint", 1: "half", 2: "float"}
 
@@ -27,16 +29,25 @@ class ExrHeader:
     height: int
 
 
-def write_image(path: Path, mean: np.ndarray, var: np.ndarray, meta: Mapping[str, str]) -> None:
-    """mean, var: (H, W, 3). Every metadata value is written as an EXR string attribute."""
+def write_image(
+    path: Path, mean: np.ndarray, var: np.ndarray, meta: Mapping[str, str], tail: np.ndarray | None = None
+) -> None:
+    """mean, var (and the optional tail share): (H, W, 3). Every metadata value is written as an
+    EXR string attribute."""
     import mitsuba as mi
 
     if mean.shape != var.shape or mean.ndim != 3 or mean.shape[2] != 3:
         raise ValueError(f"mean {mean.shape} and var {var.shape} must both be (H, W, 3)")
-    data = np.ascontiguousarray(np.concatenate([mean, var], axis=2), dtype=np.float32)
+    parts, names = [mean, var], list(CHANNELS)
+    if tail is not None:
+        if tail.shape != mean.shape or not ((tail >= 0) & (tail <= 1)).all():
+            raise ValueError(f"tail {tail.shape} must be (H, W, 3) with values in [0, 1]")
+        parts.append(tail)
+        names += list(TAIL_CHANNELS)
+    data = np.ascontiguousarray(np.concatenate(parts, axis=2), dtype=np.float32)
     if not np.isfinite(data).all():
         raise ValueError("refusing to write NaN/inf pixels")
-    bmp = mi.Bitmap(data, pixel_format=mi.Bitmap.PixelFormat.MultiChannel, channel_names=list(CHANNELS))
+    bmp = mi.Bitmap(data, pixel_format=mi.Bitmap.PixelFormat.MultiChannel, channel_names=names)
     md = bmp.metadata()
     for key, value in meta.items():
         if not isinstance(value, str):
@@ -108,11 +119,13 @@ def read_header(path: Path) -> ExrHeader:
 
 
 def check_written(path: Path, meta: Mapping[str, str], shape: tuple[int, int]) -> None:
-    """Raises if the file does not hold the six float32 channels and every metadata string."""
+    """Raises if the file does not hold the six float32 channels (plus, optionally, the three tail
+    channels) and every metadata string."""
     h = read_header(path)
-    bad = [c for c in CHANNELS if h.channels.get(c) != "float"]
-    if bad or set(h.channels) != set(CHANNELS):
-        raise ValueError(f"{path}: channels {h.channels}, expected float32 {CHANNELS}")
+    expected = set(CHANNELS) | (set(TAIL_CHANNELS) if TAIL_CHANNELS[0] in h.channels else set())
+    bad = [c for c in expected if h.channels.get(c) != "float"]
+    if bad or set(h.channels) != expected:
+        raise ValueError(f"{path}: channels {h.channels}, expected float32 {sorted(expected)}")
     wrong = {k: h.strings.get(k) for k, v in meta.items() if h.strings.get(k) != v}
     if wrong:
         raise ValueError(f"{path}: metadata not written as strings: {wrong}")

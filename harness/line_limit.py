@@ -2,7 +2,7 @@
 
 For a one-sided Lambertian surface with reflectance rho and a linear light with K = radiance x
 radius, the outgoing radiance at x in the limit R -> 0 is (rho/pi) K Omega_perp_R(x), with the
-projected solid angle per radius (PAPER.md)
+projected solid angle per radius (docs/measures.md)
     Omega_perp_R = (1/d) [C(s_end) - C(s_begin)],  C(s) = n_s s^2 + n_t (s sqrt(1-s^2) + asin s)
 after clipping the segment at the tangent plane. This holds exactly (no visibility term) only
 when the scene's sole non-emitting shape is a planar one-sided diffuse `rectangle`: a plane
@@ -70,7 +70,7 @@ class Camera:
     height: int
 
     def rays(self, sx: np.ndarray, sy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World ray origin and unit directions for film positions sx, sy in [0, 1] (MITSUBA.md)."""
+        """World ray origin and unit directions for film positions sx, sy in [0, 1] (docs/oracle.md)."""
         t = np.tan(np.radians(self.x_fov_deg) / 2.0)
         aspect = self.width / self.height
         local = np.stack([(1.0 - 2.0 * sx) * t, (1.0 - 2.0 * sy) * t / aspect, np.ones_like(sx)], axis=-1)

@@ -20,12 +20,17 @@ class PassStats:
     count: int = 0
     mean: np.ndarray | None = None
     m2: np.ndarray | None = None
+    lo: np.ndarray | None = None
+    hi: np.ndarray | None = None
 
     def add(self, img: np.ndarray) -> None:
         x = np.asarray(img, dtype=np.float64)
-        if self.mean is None or self.m2 is None:
+        if self.mean is None or self.m2 is None or self.lo is None or self.hi is None:
             self.count, self.mean, self.m2 = 1, x.copy(), np.zeros_like(x)
+            self.lo, self.hi = x.copy(), x.copy()
             return
+        self.lo = np.minimum(self.lo, x)
+        self.hi = np.maximum(self.hi, x)
         self.count += 1
         delta = x - self.mean
         self.mean += delta / self.count
@@ -37,11 +42,22 @@ class PassStats:
             raise ValueError("need at least 2 passes for a variance")
         return self.m2 / (self.count - 1) / self.count
 
+    def tail_share(self) -> np.ndarray:
+        """Heavy-tail share per pixel: max_p (x_p - mean)^2 / sum_p (x_p - mean)^2 over the passes
+        (the largest deviation is at the minimum or the maximum); 0 where the sum is 0."""
+        if self.mean is None or self.m2 is None or self.lo is None or self.hi is None:
+            raise ValueError("no passes")
+        dev = np.maximum(self.hi - self.mean, self.mean - self.lo)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.where(self.m2 > 0, dev * dev / np.where(self.m2 > 0, self.m2, 1.0), 0.0)
+        return np.clip(share, 0.0, 1.0)
+
 
 @dataclass
 class RenderResult:
     mean: np.ndarray  # (H, W, 3) float64
     var: np.ndarray  # (H, W, 3) float64, variance of the mean
+    tail: np.ndarray  # (H, W, 3) float64, heavy-tail share over the passes
     meta: dict[str, str]
     pass_means: np.ndarray  # (P, 3) image mean of each pass
 
@@ -70,7 +86,7 @@ def render_passes(
     t0 = time.perf_counter()
     for p in range(passes):
         t = time.perf_counter()
-        # seed=p: independent passes with the sampler's own seed left at 0 (MITSUBA.md)
+        # seed=p: independent passes with the sampler's own seed left at 0 (docs/oracle.md)
         img = np.array(mi.render(loaded.scene, spp=spp, seed=seed_offset + p), dtype=np.float64)
         if img.ndim != 3 or img.shape[2] < 3:
             raise RuntimeError(f"unexpected render output shape {img.shape}")
@@ -106,11 +122,11 @@ def render_passes(
         "overrides": ",".join(f"{k}={v}" for k, v in sorted(overrides.items())),
         "wall_time_s": f"{wall:.3f}",
     }
-    return RenderResult(stats.mean, stats.var_of_mean(), meta, np.array(pass_means))
+    return RenderResult(stats.mean, stats.var_of_mean(), stats.tail_share(), meta, np.array(pass_means))
 
 
 def write_result(result: RenderResult, out: Path) -> None:
-    exrfile.write_image(out, result.mean, result.var, result.meta)
+    exrfile.write_image(out, result.mean, result.var, result.meta, result.tail)
     h, w = result.mean.shape[:2]
     exrfile.check_written(out, result.meta, (h, w))
     m = result.mean.mean(axis=(0, 1))

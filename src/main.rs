@@ -1,7 +1,7 @@
 //! `linlight`: certify importance sampling of linear lights and renders against Mitsuba 3.
 //!
 //! Exit codes of every subcommand: 0 = success / consistent, 1 = a check failed,
-//! 2 = bad usage or unusable input.
+//! 2 = bad usage or unusable input, 3 = inconclusive (compare, certify). See docs/exit-codes.md.
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -26,7 +26,8 @@ enum Command {
     BackwardError(cmd::backward_error::Args),
     /// Render a Mitsuba-XML scene with linear lights to EXR (mean + variance of the mean).
     Render(cmd::render::Args),
-    /// Statistical comparison of two mean+variance EXRs (exit 0 consistent, 1 different).
+    /// Statistical comparison of two mean+variance EXRs (exit 0 consistent, 1 different,
+    /// 2 unusable input, 3 inconclusive).
     Compare(cmd::compare::Args),
     /// Header, per-channel mean ± standard error and NaN/inf/negative/zero-variance pixel counts
     /// of an image (exit 1 if it is not a valid image of the shared format).
@@ -37,6 +38,8 @@ enum Command {
     /// (--quick: small sizes, a few minutes).
     #[command(after_help = cmd::figures::AFTER_HELP)]
     Figures(cmd::figures::Args),
+    /// False-alarm rate and power of compare on real renders (seed pairs per scene family).
+    Calibrate(cmd::calibrate::Args),
     /// Fit the GGX LTC table (deterministic) and report its error; --check re-fits a sample
     /// and compares it with the committed table (exit 0 consistent, 1 mismatch, 2 bad input).
     #[command(after_help = cmd::fit_ltc::AFTER_HELP)]
@@ -74,6 +77,7 @@ fn main() -> ExitCode {
         Command::Compare(a) => cmd::compare::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Merge(a) => cmd::merge::run(a),
+        Command::Calibrate(a) => cmd::calibrate::run(a),
         Command::FitLtc(a) => cmd::fit_ltc::run(a),
         Command::Figures(a) => cmd::figures::run(a),
     }

@@ -99,6 +99,16 @@ pub fn check_writable(path: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// Refuses one path given for two different outputs (the same file spelled twice included).
+pub fn check_distinct(paths: &[&Path]) -> Result<(), String> {
+    for (i, a) in paths.iter().enumerate() {
+        if let Some(b) = paths[i + 1..].iter().find(|b| identity(a) == identity(b)) {
+            return Err(format!("{} is given as two different outputs", b.display()));
+        }
+    }
+    Ok(())
+}
+
 /// Checks that the directory `dir` exists or can be created (it is created).
 pub fn check_dir_writable(dir: &Path) -> Result<(), String> {
     std::fs::create_dir_all(dir)

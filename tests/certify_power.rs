@@ -1,4 +1,4 @@
-//! Power and false alarms of `linlight certify` on the real scenes (STATISTICS.md §2): the
+//! Power and false alarms of `linlight certify` on the real scenes (docs/statistics.md §2): the
 //! certification must reject deliberately wrong renders and must not reject renders that differ
 //! only in their seed. The wrong variants exist only here (test-only subjects through
 //! `linlight_render::render_with`), never as user-facing options.

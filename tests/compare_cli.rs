@@ -36,9 +36,9 @@ fn render(seed: u64, scale: f64) -> Image {
         for x in 0..W {
             let (u, v) = (x as f64 / W as f64, y as f64 / H as f64);
             let truth = [0.3 + 0.5 * u * v, 0.6 - 0.2 * v, 0.2 + 0.3 * u];
-            for c in 0..3 {
-                let sigma = 0.1 * truth[c] / PASSES.sqrt();
-                img.mean[y * W + x][c] = (scale * truth[c] + sigma * normal(&mut rng)) as f32;
+            for (c, t) in truth.iter().enumerate() {
+                let sigma = 0.1 * t / PASSES.sqrt();
+                img.mean[y * W + x][c] = (scale * t + sigma * normal(&mut rng)) as f32;
                 img.var[y * W + x][c] = (sigma * sigma) as f32;
             }
         }
@@ -165,5 +165,142 @@ fn unusable_inputs_exit_2_with_a_reason() {
     // A valid raw file with all channels compares fine (exit 0 or 1, not 2).
     let raw = write_raw("raw_ok.exr", &all, None);
     let (code, _, err) = run(&raw, &raw, &[]);
+    assert_eq!(code, 0, "{err}");
+}
+
+/// Like `render`, with the noise of each pixel multiplied by `noise` (variance by noise²).
+fn noisy(seed: u64, scale: f64, noise: f32) -> Image {
+    let mut img = render(seed, scale);
+    let base = render(seed + 1000, scale);
+    for (i, (m, v)) in img.mean.iter_mut().zip(&mut img.var).enumerate() {
+        for c in 0..3 {
+            m[c] = base.mean[i][c] + noise * (m[c] - base.mean[i][c]) / std::f32::consts::SQRT_2;
+            v[c] *= noise * noise;
+        }
+    }
+    img
+}
+
+#[test]
+fn too_noisy_to_tell_is_inconclusive_with_exit_3_and_the_samples_needed() {
+    let a = write(&noisy(7, 1.0, 40.0), "noisy_a.exr");
+    let b = write(&render(8, 1.0), "noisy_b.exr");
+    let json = dir().join("noisy.json");
+    let (code, out, err) = run(&a, &b, &["--json", json.to_str().unwrap()]);
+    assert_eq!(code, 3, "stdout:\n{out}\nstderr:\n{err}");
+    assert!(out.contains("verdict: INCONCLUSIVE"), "{out}");
+    assert!(out.contains("A limits the precision"), "{out}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["verdict"], "Inconclusive");
+    assert_eq!(report["precision"]["limiting"], "A");
+    assert!(report["precision"]["factor_a"].as_f64().unwrap() > 1.0);
+}
+
+#[test]
+fn difference_and_z_maps_are_written_as_exr() {
+    let a_img = render(9, 1.0);
+    let b_img = render(10, 1.0);
+    let (a, b) = (write(&a_img, "maps_a.exr"), write(&b_img, "maps_b.exr"));
+    let (diff, z) = (dir().join("diff.exr"), dir().join("z.exr"));
+    let (code, out, err) = run(
+        &a,
+        &b,
+        &[
+            "--diff-exr",
+            diff.to_str().unwrap(),
+            "--z-exr",
+            z.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("error metrics: MSE"), "{out}");
+    // Plain RGB EXRs (no variance channels): read them with the exr crate.
+    use exr::prelude::*;
+    let read = |p: &Path| {
+        read_all_flat_layers_from_file(p)
+            .unwrap()
+            .layer_data
+            .remove(0)
+            .channel_data
+            .list
+    };
+    let chans = read(&diff);
+    assert_eq!(chans.len(), 3);
+    let r = chans.iter().find(|c| c.name.eq("R")).unwrap();
+    let FlatSamples::F32(values) = &r.sample_data else {
+        panic!("float32 expected")
+    };
+    let i = 5 * W + 7;
+    assert_eq!(values[i], a_img.mean[i][0] - b_img.mean[i][0]);
+    assert_eq!(read(&z).len(), 3);
+}
+
+#[test]
+fn bad_outputs_and_inputs_exit_2_before_any_work() {
+    let good = write(&render(11, 1.0), "out_good.exr");
+    let other = write(&render(12, 1.0), "out_other.exr");
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "--json".into(),
+                dir().join("no/such/dir/r.json").display().to_string(),
+            ],
+            "cannot write",
+        ),
+        (
+            vec!["--heatmap".into(), dir().display().to_string()],
+            "is a directory",
+        ),
+        (
+            vec!["--diff-exr".into(), good.display().to_string()],
+            "refusing to overwrite it",
+        ),
+        (
+            vec![
+                "--json".into(),
+                dir().join("same").display().to_string(),
+                "--heatmap".into(),
+                dir().join("same").display().to_string(),
+            ],
+            "two different outputs",
+        ),
+    ];
+    for (extra, needle) in cases {
+        let extra: Vec<&str> = extra.iter().map(String::as_str).collect();
+        let (code, out, err) = run(&good, &other, &extra);
+        assert_eq!(code, 2, "{extra:?}: {out}{err}");
+        assert!(
+            out.is_empty(),
+            "nothing is compared before the outputs are checked: {out}"
+        );
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(needle), "{err:?} lacks {needle:?}");
+        assert_eq!(
+            err.matches("cannot write").count().min(1),
+            err.matches("cannot write").count(),
+            "no doubled message: {err}"
+        );
+    }
+    // An image without a variance estimate (one sample, one pass: dof 0).
+    let mut one = render(13, 1.0);
+    one.meta.dof = 0.0;
+    one.var.iter_mut().for_each(|v| *v = [0.0; 3]);
+    let (code, _, err) = run(&write(&one, "dof0.exr"), &other, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("has no variance estimate"), "{err}");
+    // Renders of different scene files.
+    let mut x = render(14, 1.0);
+    let mut y = render(15, 1.0);
+    x.meta.scene_sha256 = "1".repeat(64);
+    y.meta.scene_sha256 = "2".repeat(64);
+    let (x, y) = (write(&x, "scene_x.exr"), write(&y, "scene_y.exr"));
+    let (code, _, err) = run(&x, &y, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("different scene files") && err.contains("--allow-different-scenes"),
+        "{err}"
+    );
+    let (code, _, err) = run(&x, &y, &["--allow-different-scenes"]);
     assert_eq!(code, 0, "{err}");
 }

@@ -41,6 +41,15 @@ fn renders_a_scene_to_the_shared_format() {
     assert_eq!(img.meta.extra["technique"], "projected-solid-angle");
     assert_eq!(img.meta.extra["seed"], "5");
     assert_eq!(img.meta.scene_sha256.len(), 64);
+    // Traceable to its inputs: scene file name and the -D overrides.
+    assert_eq!(img.meta.extra["scene"], "floor.xml");
+    assert_eq!(img.meta.extra["overrides"], "spp=2");
+    // The heavy-tail share of the 3 passes, in [0, 2/3].
+    let tail = img.tail.as_ref().expect("tail channels");
+    assert!(tail
+        .iter()
+        .flatten()
+        .all(|&t| (0.0..=2.0 / 3.0 + 1e-6).contains(&t)));
     assert!(img.mean.iter().any(|m| m[0] > 0.0));
     assert!(img
         .mean
@@ -67,6 +76,36 @@ fn renders_a_scene_to_the_shared_format() {
     ];
     assert_eq!(linlight(&args2).code, 0);
     assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn one_sample_in_one_pass_warns_even_when_quiet_and_compare_refuses_it() {
+    let dir = scratch("spp1");
+    let scene = write(&dir, "floor.xml", FLOOR_SCENE);
+    let out = dir.join("one.exr");
+    let r = linlight(&[
+        "render",
+        &scene,
+        "--spp",
+        "1",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(
+        r.stderr.contains("no variance estimate (dof 0)"),
+        "{}",
+        r.stderr
+    );
+    let r = linlight(&["compare", out.to_str().unwrap(), out.to_str().unwrap()]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(
+        r.stderr.contains("image A has no variance estimate"),
+        "{}",
+        r.stderr
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

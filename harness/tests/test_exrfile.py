@@ -68,6 +68,14 @@ class VarianceOfMean(unittest.TestCase):
             s.add(p)
         np.testing.assert_allclose(s.mean, passes.mean(axis=0), rtol=1e-13)
         np.testing.assert_allclose(s.var_of_mean(), passes.var(axis=0, ddof=1) / 32, rtol=1e-11)
+        dev2 = (passes - passes.mean(axis=0)) ** 2
+        np.testing.assert_allclose(s.tail_share(), dev2.max(axis=0) / dev2.sum(axis=0), rtol=1e-9)
+
+    def test_tail_share_of_one_outlier(self):
+        s = PassStats()
+        for p in range(10):
+            s.add(np.full((1, 1, 3), 50.0 if p == 3 else 0.0))
+        np.testing.assert_allclose(s.tail_share(), 0.9, rtol=1e-12)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-//! `linlight certify`: the whole certification in one run (STATISTICS.md §1 and §2).
+//! `linlight certify`: the whole certification in one run (docs/statistics.md §1 and §2).
 //!
 //! 1. The sampler chi-square suite (`linlight samplers`).
 //! 2. For every selected scene: its committed Mitsuba reference (or a live Mitsuba render), and
@@ -26,7 +26,7 @@ pub mod scenes;
 
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{render, RenderError, RenderOptions};
+use linlight_render::{record_inputs, render, RenderError, RenderOptions};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
@@ -274,7 +274,11 @@ pub struct SceneReport {
 
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
+    /// Sampler suite passed and every comparison is consistent.
     pub passed: bool,
+    /// DIFFERENT if the sampler suite or a comparison failed, else INCONCLUSIVE if a comparison
+    /// is, else CONSISTENT.
+    pub verdict: Verdict,
     pub oracle: Oracle,
     pub scenes_pattern: String,
     pub alpha: f64,
@@ -288,6 +292,8 @@ pub struct Report {
     pub sampler_suite: Option<SuiteSummary>,
     pub scenes: Vec<SceneReport>,
     pub elapsed_seconds: f64,
+    /// The committed calibration of the comparison (docs/calibration.json), quoted by report.md.
+    pub calibration: Option<serde_json::Value>,
 }
 
 impl Report {
@@ -337,7 +343,7 @@ fn reference_info(s: &ReferencedScene) -> ReferenceInfo {
 
 /// Seed of the pilot renders: distinct from the render seed, so that the budget is chosen from
 /// samples the final render does not reuse.
-fn pilot_seed(seed: u64) -> u64 {
+pub fn pilot_seed(seed: u64) -> u64 {
     seed ^ 0x5049_4c4f_5453_4545 // "PILOTSEE"
 }
 
@@ -497,7 +503,7 @@ pub fn run(
             let pilot_seconds = t.elapsed().as_secs_f64();
             let budget = opts.budget.choose(&pilot, &reference);
             let t = Instant::now();
-            let image = subject
+            let mut image = subject
                 .render(
                     &s.scene,
                     &RenderOptions {
@@ -509,6 +515,7 @@ pub fn run(
                 )
                 .map_err(|e| render_error(&s.name, &name, e))?;
             let render_seconds = t.elapsed().as_secs_f64();
+            record_inputs(&mut image.meta, &s.scene_file, &s.overrides);
             let mut oracles = vec![("mitsuba", &reference)];
             if let Some(c) = &closed {
                 oracles.push(("closed-form", c));
@@ -553,10 +560,18 @@ pub fn run(
         });
     }
 
-    let passed = sampler_suite.as_ref().is_none_or(|s| s.passed)
-        && scene_reports.iter().flat_map(|s| &s.rows).all(Row::passed);
+    let suite_ok = sampler_suite.as_ref().is_none_or(|s| s.passed);
+    let rows = || scene_reports.iter().flat_map(|s| &s.rows);
+    let verdict = if !suite_ok || rows().any(|r| r.verdict == Verdict::Different) {
+        Verdict::Different
+    } else if rows().any(|r| r.verdict == Verdict::Inconclusive) {
+        Verdict::Inconclusive
+    } else {
+        Verdict::Consistent
+    };
     let report = Report {
-        passed,
+        passed: verdict == Verdict::Consistent,
+        verdict,
         oracle: opts.oracle,
         scenes_pattern: opts.scenes.clone(),
         alpha: opts.alpha,
@@ -569,6 +584,9 @@ pub fn run(
         sampler_suite,
         scenes: scene_reports,
         elapsed_seconds: started.elapsed().as_secs_f64(),
+        calibration: std::fs::read_to_string(opts.root.join("docs/calibration.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok()),
     };
     if let Some(dir) = &opts.report_dir {
         report::write_report(dir, &report)?;

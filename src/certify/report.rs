@@ -46,7 +46,7 @@ pub fn write_row_images(
         .map_err(written)?;
     files.push(heat);
     let side = format!("{}/{stem}-side-by-side.png", row.scene);
-    let (picture, _scale) = side_by_side(image, oracle, None).map_err(|e| io_err(&sub, e))?;
+    let (picture, _scale) = side_by_side(image, oracle, None).map_err(written)?;
     picture.write_png(&dir.join(&side)).map_err(written)?;
     files.push(side);
     Ok(files)
@@ -68,10 +68,7 @@ fn worst_channel(row: &Row) -> Option<(&'static str, f64, f64)> {
 }
 
 fn verdict(v: Verdict) -> &'static str {
-    match v {
-        Verdict::Consistent => "CONSISTENT",
-        Verdict::Different => "DIFFERENT",
-    }
+    v.label()
 }
 
 fn rel_cell(row: &Row) -> String {
@@ -156,18 +153,30 @@ pub fn summary(report: &Report) -> String {
     let failed: Vec<String> = report
         .rows()
         .filter(|r| !r.passed())
-        .map(|r| format!("{}/{} vs {}", r.scene, r.subject, r.oracle))
+        .map(|r| {
+            format!(
+                "{}/{} vs {} ({})",
+                r.scene,
+                r.subject,
+                r.oracle,
+                r.verdict.label()
+            )
+        })
         .collect();
     let _ = writeln!(
         s,
         "certify: {} in {:.1} s ({} comparisons{})",
-        if report.passed { "PASS" } else { "FAIL" },
+        match report.verdict {
+            Verdict::Consistent => "PASS",
+            Verdict::Different => "FAIL",
+            Verdict::Inconclusive => "INCONCLUSIVE",
+        },
         report.elapsed_seconds,
         report.rows().count(),
         if failed.is_empty() {
             String::new()
         } else {
-            format!("; different: {}", failed.join(", "))
+            format!("; not consistent: {}", failed.join(", "))
         }
     );
     s
@@ -189,7 +198,7 @@ pub fn markdown(report: &Report) -> String {
     );
     let _ = writeln!(
         s,
-        "Each comparison: Rust render (A) against the oracle (B), STATISTICS.md §2, at the Šidák \
+        "Each comparison: Rust render (A) against the oracle (B), docs/statistics.md §2, at the Šidák \
          level α_c = {:.2e} (family-wise α = {} over the m = {} comparisons of the full default \
          certification), equivalence margin ±{}%. Budget rule: a pilot of {} spp (own seed) \
          estimates the per-sample variance per pixel; the render gets the {}-quantile over pixels \
@@ -205,6 +214,7 @@ pub fn markdown(report: &Report) -> String {
         report.budget_rule.max_spp,
         report.seed
     );
+    s += &calibration_section(report.calibration.as_ref());
     if let Some(suite) = &report.sampler_suite {
         let _ = writeln!(
             s,
@@ -319,17 +329,96 @@ pub fn markdown(report: &Report) -> String {
         if !failures.is_empty() {
             s.push('\n');
             for row in failures {
-                for f in &row.comparison.failures {
+                let c = &row.comparison;
+                for f in c.failures.iter().chain(&c.not_equivalent) {
                     let _ = writeln!(
                         s,
                         "- {} vs {}: {:?} [{}]: {}",
                         row.subject, row.oracle, f.test, f.channel, f.detail
                     );
                 }
+                if let Some(h) = &c.precision {
+                    let _ = writeln!(s, "- {} vs {}: {}", row.subject, row.oracle, h.text);
+                }
             }
         }
         s.push('\n');
     }
+    s
+}
+
+/// The measured false-alarm rates and power of the comparison (`linlight calibrate`, committed
+/// as docs/calibration.json), quoted so that a reader can weigh a verdict.
+fn calibration_section(calibration: Option<&serde_json::Value>) -> String {
+    let Some(c) = calibration else {
+        return "Calibration: no docs/calibration.json found (run `linlight calibrate --json \
+                docs/calibration.json`).\n\n"
+            .into();
+    };
+    let mut s = String::from("## Calibration of the comparison on real renders\n\n");
+    let opts = &c["options"];
+    let _ = writeln!(
+        s,
+        "`linlight calibrate`: {} seed pairs per scene family, {}×{} films, α = {} per \
+         comparison (certify runs each at the smaller α_c above, so its rates are lower still). \
+         Rates with 95 % Clopper–Pearson intervals; power = share of pairs rejected after \
+         injecting a bias.\n",
+        opts["pairs"], opts["res"], opts["res"], opts["compare"]["alpha"]
+    );
+    let pct = |v: &serde_json::Value| format!("{:.1}%", 100.0 * v.as_f64().unwrap_or(f64::NAN));
+    let rate = |r: &serde_json::Value| {
+        format!(
+            "{}/{} [{}, {}]",
+            r["count"],
+            r["of"],
+            pct(&r["ci95"][0]),
+            pct(&r["ci95"][1])
+        )
+    };
+    let biases = |key: &str| -> Vec<String> {
+        c[key]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .map(|b| format!("{}%", 100.0 * b.as_f64().unwrap_or(0.0)))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let _ = writeln!(
+        s,
+        "| family | budget | false alarms (DIFFERENT) | INCONCLUSIVE | power, global {} | power, 16×16 {} |\n|---|---|---|---|---|---|",
+        biases("global_biases").join(" / "),
+        biases("local_biases").join(" / ")
+    );
+    for f in c["families"].as_array().into_iter().flatten() {
+        for r in f["rows"].as_array().into_iter().flatten() {
+            let power = |key: &str| {
+                r[key]
+                    .as_array()
+                    .map(|a| {
+                        a.iter()
+                            .map(|p| pct(&p["rate"]))
+                            .collect::<Vec<_>>()
+                            .join(" / ")
+                    })
+                    .unwrap_or_default()
+            };
+            let _ = writeln!(
+                s,
+                "| {} ({}) | {} (median {} spp) | {} | {} | {} | {} |",
+                f["family"]["name"].as_str().unwrap_or("?"),
+                f["family"]["scene"].as_str().unwrap_or("?"),
+                r["budget"].as_str().unwrap_or("?"),
+                r["median_spp"],
+                rate(&r["different"]),
+                rate(&r["inconclusive"]),
+                power("power_global"),
+                power("power_local")
+            );
+        }
+    }
+    s.push('\n');
     s
 }
 

@@ -1,5 +1,5 @@
 //! Step 1 of the certification: the sampler chi-square suite of `linlight samplers`
-//! (STATISTICS.md §1) at its default settings, reduced to the rows the report shows.
+//! (docs/statistics.md §1) at its default settings, reduced to the rows the report shows.
 
 use linlight_verify::subjects::{certified, negative_controls};
 use linlight_verify::suite::SubjectReport;

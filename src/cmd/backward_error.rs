@@ -24,7 +24,7 @@ pub struct Args {
     seed: u64,
 }
 
-/// Values quoted in PAPER.md, for the comparison column.
+/// Values quoted in docs/measures.md (technique 8), for the comparison column.
 fn paper_value(iterations: u32) -> &'static str {
     match iterations {
         1 => "1.5e-2 (f64 re-derivation)",

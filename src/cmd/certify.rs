@@ -1,6 +1,7 @@
 //! `linlight certify`: the sampler suite plus every unbiased technique on every scene against the
 //! Mitsuba references (see `linlight::certify`). Exit 0 = everything consistent, 1 = something
-//! failed, 2 = unusable input (missing or stale reference, glob matching nothing, bad scene).
+//! failed, 2 = unusable input (missing or stale reference, glob matching nothing, bad scene),
+//! 3 = nothing failed but a comparison is inconclusive (too noisy to show equivalence).
 
 use indicatif::{ProgressBar, ProgressStyle};
 use linlight::certify::{self, report, Event, Options, Oracle, Subject};
@@ -176,9 +177,5 @@ pub fn run(args: Args) -> ExitCode {
             return unusable(format!("cannot write {}: {e}", path.display()));
         }
     }
-    if report.passed {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
-    }
+    ExitCode::from(report.verdict.exit_code())
 }

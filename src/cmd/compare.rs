@@ -1,14 +1,26 @@
-//! `linlight compare A.exr B.exr`: is A statistically consistent with the reference B?
-//! (STATISTICS.md §2). Exit 0 = consistent, 1 = significantly different, 2 = unusable input.
+//! `linlight compare A.exr B.exr`: is A statistically consistent with the reference B? The
+//! method is documented in docs/statistics.md. Exit 0 = consistent, 1 = significantly
+//! different, 2 = unusable input, 3 = inconclusive (too noisy to show equivalence).
 
-use std::path::PathBuf;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use linlight_imagefile::Image;
+use linlight_imagefile::{write_rgb_exr, Image};
 use linlight_verify::heatmap::comparison_heatmap;
-use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
+use linlight_verify::image_stats::{check_inputs, compare, CompareConfig, Comparison};
+
+use linlight::outputs::{check_distinct, check_not_input, check_writable};
 
 #[derive(clap::Args)]
+#[command(after_help = "Examples:
+  linlight compare new.exr references/mitsuba/cornell-tube.exr
+  linlight compare new.exr ref.exr --json report.json --heatmap z.png --diff-exr diff.exr --z-exr z.exr
+
+Exit codes: 0 consistent (no difference test rejects and equivalence within ±δ is shown),
+1 different, 2 unusable input, 3 inconclusive (no difference found, but too noisy to show
+equivalence; the output says which image limits the precision and how many more samples help).
+The method: docs/statistics.md.")]
 pub struct Args {
     /// Image under test (EXR with R, G, B, var.R, var.G, var.B).
     pub a: PathBuf,
@@ -23,12 +35,21 @@ pub struct Args {
     /// Tile edge length in pixels.
     #[arg(long, default_value_t = 16)]
     pub tile: usize,
+    /// Compare images rendered from different scene files (their scene_sha256 differ).
+    #[arg(long)]
+    pub allow_different_scenes: bool,
     /// Write the full report as JSON.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
     /// Write a PNG heat map: per-pixel z (left) | tile Holm p-values (right).
     #[arg(long, value_name = "FILE.png")]
     pub heatmap: Option<PathBuf>,
+    /// Write the float difference A − B per pixel and channel as an RGB EXR.
+    #[arg(long, value_name = "FILE.exr")]
+    pub diff_exr: Option<PathBuf>,
+    /// Write the per-pixel normal scores z as an RGB EXR (0 where a pixel is not tested).
+    #[arg(long, value_name = "FILE.exr")]
+    pub z_exr: Option<PathBuf>,
 }
 
 fn unusable(msg: impl std::fmt::Display) -> ExitCode {
@@ -36,7 +57,28 @@ fn unusable(msg: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(2)
 }
 
+fn outputs(args: &Args) -> Vec<&Path> {
+    [&args.json, &args.heatmap, &args.diff_exr, &args.z_exr]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect()
+}
+
 pub fn run(args: Args) -> ExitCode {
+    let outs = outputs(&args);
+    if let Err(e) = check_distinct(&outs) {
+        return unusable(e);
+    }
+    for out in &outs {
+        let inputs = [
+            ("image A", args.a.as_path()),
+            ("reference B", args.b.as_path()),
+        ];
+        if let Err(e) = check_not_input(out, &inputs).and_then(|_| check_writable(out)) {
+            return unusable(e);
+        }
+    }
     let a = match Image::read(&args.a) {
         Ok(img) => img,
         Err(e) => return unusable(e),
@@ -49,34 +91,64 @@ pub fn run(args: Args) -> ExitCode {
         alpha: args.alpha,
         tolerance: args.tolerance,
         tile: args.tile,
+        allow_different_scenes: args.allow_different_scenes,
         ..CompareConfig::default()
     };
+    if let Err(e) = check_inputs(&a, &b, &cfg) {
+        return unusable(e);
+    }
     let cmp = match compare(&a, &b, &cfg) {
         Ok(c) => c,
         Err(e) => return unusable(e),
     };
     print!("{}", table(&cmp, &args));
+    // Outputs are written for every verdict (a difference is when they are most wanted).
+    if let Err(e) = write_outputs(&args, &cmp, &a, &b) {
+        return unusable(e);
+    }
+    ExitCode::from(cmp.verdict.exit_code())
+}
 
-    // Outputs are written even for "different" (that is when they are most wanted); failing
-    // to write them is an error of its own.
+fn write_outputs(args: &Args, cmp: &Comparison, a: &Image, b: &Image) -> Result<(), String> {
     if let Some(path) = &args.json {
-        let text = match serde_json::to_string_pretty(&cmp) {
-            Ok(t) => t,
-            Err(e) => return unusable(format!("cannot serialise report: {e}")),
-        };
-        if let Err(e) = std::fs::write(path, text + "\n") {
-            return unusable(format!("cannot write {}: {e}", path.display()));
-        }
+        let text = serde_json::to_string_pretty(cmp)
+            .map_err(|e| format!("cannot serialise the report: {e}"))?;
+        std::fs::write(path, text + "\n")
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     if let Some(path) = &args.heatmap {
-        if let Err(e) = comparison_heatmap(&cmp).write_png(path) {
-            return unusable(e);
-        }
+        comparison_heatmap(cmp)
+            .write_png(path)
+            .map_err(|e| e.to_string())?;
     }
-    match cmp.verdict {
-        Verdict::Consistent => ExitCode::SUCCESS,
-        Verdict::Different => ExitCode::from(1),
+    let attrs = |what: &str| {
+        BTreeMap::from([
+            ("content".to_string(), what.to_string()),
+            ("image_a".to_string(), args.a.display().to_string()),
+            ("image_b".to_string(), args.b.display().to_string()),
+        ])
+    };
+    if let Some(path) = &args.diff_exr {
+        let diff: Vec<[f32; 3]> = a
+            .mean
+            .iter()
+            .zip(&b.mean)
+            .map(|(x, y)| std::array::from_fn(|c| x[c] - y[c]))
+            .collect();
+        write_rgb_exr(path, a.width, a.height, &diff, &attrs("A - B (mean)"))
+            .map_err(|e| e.to_string())?;
     }
+    if let Some(path) = &args.z_exr {
+        write_rgb_exr(
+            path,
+            a.width,
+            a.height,
+            &cmp.maps.z,
+            &attrs("z = normal score of A - B (0 where v_A + v_B = 0)"),
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    Ok(())
 }
 
 fn pct(x: f64) -> String {
@@ -90,17 +162,20 @@ fn p_str(p: Option<f64>) -> String {
 /// The short human-readable verdict table.
 fn table(cmp: &Comparison, args: &Args) -> String {
     let mut s = format!(
-        "compare {} against reference {}: {}×{} px, dof {} / {}\n",
+        "compare {} against reference {}: {}×{} px, dof {} / {}, spp {} / {}\n",
         args.a.display(),
         args.b.display(),
         cmp.width,
         cmp.height,
         cmp.dof_a,
-        cmp.dof_b
+        cmp.dof_b,
+        cmp.spp_a,
+        cmp.spp_b
     );
     s += &format!(
-        "α = {} (each of 12 tests at {:.2e}), equivalence δ = ±{}% ({:.2}% CI per channel), tile {} px\n",
+        "α = {} (each of {} tests at {:.2e}, Bonferroni), equivalence δ = ±{}% ({:.2}% CI per channel), tile {} px\n",
         cmp.config.alpha,
+        cmp.tests,
         cmp.alpha_test,
         100.0 * cmp.config.tolerance,
         100.0 * (1.0 - cmp.alpha_equivalence),
@@ -142,16 +217,49 @@ fn table(cmp: &Comparison, args: &Args) -> String {
             at
         );
     }
+    let k = &cmp.pixel_classes;
     s += &format!(
-        "zero-variance pixel values: {} ({} disagree); zero variance in one image only: {}\n",
-        cmp.zero_variance.count, cmp.zero_variance.mismatched, cmp.zero_variance.one_sided
+        "pixel-channels: {} tested, {} of them undersampled (n < {}·CV², variance floored); \
+         left out of the pixel tests: {} zero sample variance (rule-of-three bound), \
+         {} heavy-tailed (A {}, B {}), {} near a light–surface contact; \
+         {} zero variance on both sides and equal\n",
+        k.tested + k.undersampled,
+        k.undersampled,
+        cmp.config.samples_per_cv2,
+        k.zero_sample_variance,
+        k.heavy_tail_a + k.heavy_tail_b,
+        k.heavy_tail_a,
+        k.heavy_tail_b,
+        k.contact,
+        k.zero_variance_agree
+    );
+    if !cmp.contact_pixels.is_empty() {
+        let worst = cmp
+            .channels
+            .iter()
+            .filter_map(|c| c.contacts.p)
+            .min_by(f64::total_cmp);
+        s += &format!(
+            "contact pixels: {} (allowance ±{:.3}% relative), worst p = {}\n",
+            cmp.contact_pixels.len(),
+            100.0 * cmp.contact_allowance,
+            p_str(worst)
+        );
+    }
+    let m = &cmp.metrics;
+    s += &format!(
+        "error metrics: MSE {:.4e} (noise alone {:.4e}), relMSE {:.4e}, MAPE {:.4e}\n",
+        m.mse, m.mse_noise, m.rel_mse, m.mape
     );
     for f in &cmp.failures {
         s += &format!("FAIL {:?} [{}]: {}\n", f.test, f.channel, f.detail);
     }
-    s += match cmp.verdict {
-        Verdict::Consistent => "verdict: CONSISTENT\n",
-        Verdict::Different => "verdict: DIFFERENT\n",
-    };
+    for f in &cmp.not_equivalent {
+        s += &format!("NOT SHOWN {:?} [{}]: {}\n", f.test, f.channel, f.detail);
+    }
+    if let Some(h) = &cmp.precision {
+        s += &format!("precision: {}\n", h.text);
+    }
+    s += &format!("verdict: {}\n", cmp.verdict.label());
     s
 }

@@ -1,6 +1,7 @@
 //! One module per subcommand; each exposes `Args` (clap) and `run(Args) -> ExitCode`.
 
 pub mod backward_error;
+pub mod calibrate;
 pub mod certify;
 pub mod compare;
 pub mod figures;

@@ -12,7 +12,7 @@ use linlight::merge::merge;
 use linlight::outputs::{self, ImageFormat};
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{render, RenderOptions};
+use linlight_render::{record_inputs, render, RenderOptions};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use std::io::IsTerminal;
@@ -240,6 +240,14 @@ pub fn run(args: Args) -> ExitCode {
     if opts.spp == 0 || opts.passes == 0 {
         return usage_error("--spp and --passes must be at least 1");
     }
+    if opts.spp == 1 && opts.passes == 1 {
+        // Shown even with --quiet: the output cannot be compared.
+        warn(
+            "one sample per pixel in one pass gives no variance estimate (dof 0): `linlight \
+             compare` refuses such an image; use --spp ≥ 2 or --passes ≥ 2"
+                .to_string(),
+        );
+    }
     let film = &scene.sensor.film;
     if film.width == 0 || film.height == 0 {
         return usage_error(format!(
@@ -369,10 +377,11 @@ pub fn run(args: Args) -> ExitCode {
             Ok(img)
         }),
     };
-    let image = match result {
+    let mut image = match result {
         Ok(img) => img,
         Err(e) => return usage_error(e),
     };
+    record_inputs(&mut image.meta, &args.scene, &overrides);
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
 
@@ -416,6 +425,9 @@ pub fn run(args: Args) -> ExitCode {
     if !args.quiet {
         for n in &notes {
             eprintln!("{n}");
+        }
+        if let Some(c) = image.meta.extra.get("contacts") {
+            eprintln!("light–surface contacts (tested apart by compare): {c}");
         }
         let samples = (image.width * image.height) as f64 * image.meta.spp as f64;
         eprintln!(

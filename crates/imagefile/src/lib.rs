@@ -1,4 +1,4 @@
-//! The project's image format (see `shared/README.md`): OpenEXR, float32, linear RGB. Channels
+//! The project's image format (see `docs/image-format.md`): OpenEXR, float32, linear RGB. Channels
 //! R, G, B hold the pixel mean; `var.R`, `var.G`, `var.B` the variance of that mean. Header
 //! attributes: `dof`, `spp`, `passes`, `renderer`, `scene_sha256` (+ free-form extras).
 //! Both the Rust renderer and the Mitsuba harness write this format.
@@ -39,6 +39,12 @@ pub struct Image {
     pub height: usize,
     pub mean: Vec<[f32; 3]>,
     pub var: Vec<[f32; 3]>,
+    /// Optional heavy-tail diagnostic (channels `tail.R`, `tail.G`, `tail.B`): per pixel and
+    /// channel, the share max_i (x_i − x̄)² / Σ_i (x_i − x̄)² of the largest of the n terms
+    /// (samples of a one-pass image, pass means otherwise) in the sum of squares behind the
+    /// variance; 0 where that sum is 0. In [0, (n − 1)/n]. Large values mean the variance
+    /// estimate rests on one term.
+    pub tail: Option<Vec<[f32; 3]>>,
     pub meta: Metadata,
 }
 
@@ -62,6 +68,8 @@ impl std::error::Error for ImageError {}
 pub const MEAN_CHANNELS: [&str; 3] = ["R", "G", "B"];
 /// Channel names of the variance of the mean, in RGB order.
 pub const VAR_CHANNELS: [&str; 3] = ["var.R", "var.G", "var.B"];
+/// Channel names of the optional heavy-tail share ([`Image::tail`]), in RGB order.
+pub const TAIL_CHANNELS: [&str; 3] = ["tail.R", "tail.G", "tail.B"];
 
 const KEY_DOF: &str = "dof";
 const KEY_SPP: &str = "spp";
@@ -131,6 +139,7 @@ impl Image {
             height,
             mean: vec![[0.0; 3]; width * height],
             var: vec![[0.0; 3]; width * height],
+            tail: None,
             meta: Metadata::default(),
         }
     }
@@ -178,6 +187,25 @@ impl Image {
                     return Err(ImageError::Format(format!(
                         "channel {} has a negative variance ({}) at pixel ({x}, {y})",
                         VAR_CHANNELS[c], v[c]
+                    )));
+                }
+            }
+        }
+        if let Some(tail) = &self.tail {
+            if tail.len() != n {
+                return Err(ImageError::Format(format!(
+                    "tail buffer length {} does not match {n} pixels",
+                    tail.len()
+                )));
+            }
+            for (i, t) in tail.iter().enumerate() {
+                if let Some(c) = (0..3).find(|&c| !(0.0..=1.0).contains(&t[c])) {
+                    return Err(ImageError::Format(format!(
+                        "channel {} must lie in [0, 1], is {} at pixel ({}, {})",
+                        TAIL_CHANNELS[c],
+                        t[c],
+                        i % self.width,
+                        i / self.width
                     )));
                 }
             }
@@ -284,6 +312,26 @@ impl Image {
                 img.var[i][c] = v[i];
             }
         }
+        let has = |name: &str| layer.channel_data.list.iter().any(|c| c.name.eq(name));
+        match TAIL_CHANNELS.iter().filter(|c| has(c)).count() {
+            0 => {}
+            3 => {
+                let mut tail = vec![[0.0f32; 3]; n];
+                for (c, name) in TAIL_CHANNELS.iter().enumerate() {
+                    for (t, x) in tail.iter_mut().zip(channel(name)?) {
+                        t[c] = x;
+                    }
+                }
+                img.tail = Some(tail);
+            }
+            _ => {
+                return Err(ctx(format!(
+                    "the tail channels come as a set of three ({}), found: {}",
+                    TAIL_CHANNELS.join(", "),
+                    found()
+                )))
+            }
+        }
 
         let attrs = &layer.attributes.other;
         let get = |key: &str| attrs.iter().find(|(k, _)| Text::eq(k, key)).map(|(_, v)| v);
@@ -334,6 +382,10 @@ impl Image {
             let v: Vec<f32> = (0..n).map(|i| self.var[i][c]).collect();
             channels.push(AnyChannel::new(MEAN_CHANNELS[c], FlatSamples::F32(m)));
             channels.push(AnyChannel::new(VAR_CHANNELS[c], FlatSamples::F32(v)));
+            if let Some(tail) = &self.tail {
+                let t: Vec<f32> = tail.iter().map(|t| t[c]).collect();
+                channels.push(AnyChannel::new(TAIL_CHANNELS[c], FlatSamples::F32(t)));
+            }
         }
 
         let mut attributes = LayerAttributes::default();
@@ -477,6 +529,114 @@ pub fn canonical_header_order(bytes: &mut [u8]) -> Result<(), ImageError> {
     let joined: Vec<u8> = sorted.concat();
     bytes[start..pos].copy_from_slice(&joined);
     Ok(())
+}
+
+/// Header key of the scene file's name (informational; `scene_sha256` identifies it).
+pub const KEY_SCENE_NAME: &str = "scene";
+/// Header key of the `-D` overrides the scene was loaded with: `name=value,name=value`, sorted.
+pub const KEY_OVERRIDES: &str = "overrides";
+/// Header key of the contact pixels: `x,y;x,y;…` in image pixel coordinates.
+pub const KEY_CONTACT_PIXELS: &str = "contact_pixels";
+/// Header key of the light radius of the scene file (one value per light, separated by `,`).
+pub const KEY_RADIUS: &str = "radius";
+
+/// Parses `x,y;x,y;…` (whitespace allowed), every pixel inside a `width`×`height` image.
+pub fn parse_pixel_list(
+    text: &str,
+    width: usize,
+    height: usize,
+) -> Result<Vec<[usize; 2]>, String> {
+    text.split(';')
+        .map(str::trim)
+        .filter(|p| !p.is_empty())
+        .map(|p| {
+            let (x, y) = p
+                .split_once(',')
+                .ok_or_else(|| format!("malformed pixel '{p}' (expected x,y)"))?;
+            let parse = |v: &str| {
+                v.trim()
+                    .parse::<usize>()
+                    .map_err(|_| format!("malformed pixel '{p}' (expected x,y)"))
+            };
+            let (x, y) = (parse(x)?, parse(y)?);
+            if x >= width || y >= height {
+                return Err(format!(
+                    "pixel ({x}, {y}) outside the {width}×{height} image"
+                ));
+            }
+            Ok([x, y])
+        })
+        .collect()
+}
+
+/// Formats pixels as `x,y;x,y;…` (the inverse of [`parse_pixel_list`]).
+pub fn format_pixel_list(pixels: &[[usize; 2]]) -> String {
+    pixels
+        .iter()
+        .map(|[x, y]| format!("{x},{y}"))
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// Writes a plain float32 RGB OpenEXR (channels R, G, B only, row 0 at the top), e.g. a map
+/// derived from images (difference, z). Extra header attributes are strings. Finite values only.
+pub fn write_rgb_exr(
+    path: &Path,
+    width: usize,
+    height: usize,
+    rgb: &[[f32; 3]],
+    attributes: &BTreeMap<String, String>,
+) -> Result<(), ImageError> {
+    if width == 0 || height == 0 || rgb.len() != width * height {
+        return Err(ImageError::Format(format!(
+            "EXR buffer of {} pixels does not match {width}×{height}",
+            rgb.len()
+        )));
+    }
+    if let Some(i) = rgb.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+        return Err(ImageError::Format(format!(
+            "refusing to write a non-finite value at pixel ({}, {})",
+            i % width,
+            i / width
+        )));
+    }
+    let channels = (0..3)
+        .map(|c| {
+            AnyChannel::new(
+                MEAN_CHANNELS[c],
+                FlatSamples::F32(rgb.iter().map(|p| p[c]).collect()),
+            )
+        })
+        .collect();
+    let mut attrs = LayerAttributes::default();
+    for (k, v) in attributes {
+        if k.is_empty() || EXR_STANDARD_KEYS.contains(&k.as_str()) {
+            return Err(ImageError::Format(format!(
+                "attribute name {k:?} is reserved"
+            )));
+        }
+        let text = |s: &str| {
+            Text::new_or_none(s).ok_or_else(|| {
+                ImageError::Format(format!("attribute {k} has characters outside Latin-1"))
+            })
+        };
+        attrs.other.insert(text(k)?, AttributeValue::Text(text(v)?));
+    }
+    let encoding = Encoding {
+        compression: exr::prelude::Compression::ZIP16,
+        blocks: exr::prelude::Blocks::ScanLines,
+        line_order: exr::prelude::LineOrder::Increasing,
+    };
+    let layer = Layer::new(
+        (width, height),
+        attrs,
+        encoding,
+        AnyChannels::sort(channels),
+    );
+    exr::prelude::Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| ImageError::Io(format!("cannot write {}: {e}", path.display())))
 }
 
 /// Linear radiance → 8-bit sRGB: clamp to [0, 1], sRGB OETF, round. NaN maps to 0.
@@ -753,6 +913,36 @@ mod tests {
             Err(ImageError::Format(m)) => assert!(m.contains(needle), "{m:?} lacks {needle:?}"),
             other => panic!("expected a format error mentioning {needle:?}, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn tail_channels_are_optional_and_round_trip() {
+        let mut img = sample_image(5, 3);
+        let path = tmp("tail.exr");
+        img.write(&path).unwrap();
+        assert_eq!(Image::read(&path).unwrap().tail, None);
+        img.tail = Some((0..15).map(|i| [i as f32 / 15.0, 0.0, 0.5]).collect());
+        img.write(&path).unwrap();
+        assert_eq!(Image::read(&path).unwrap().tail, img.tail);
+        let mut bad = img.clone();
+        bad.tail.as_mut().unwrap()[4][2] = 1.5;
+        let err = bad.write(&path).unwrap_err().to_string();
+        assert!(err.contains("tail.B must lie in [0, 1]"), "{err}");
+        // Two of three tail channels: an error naming the set.
+        let chans = MEAN_CHANNELS
+            .iter()
+            .chain(&VAR_CHANNELS)
+            .chain(&TAIL_CHANNELS[..2])
+            .map(|c| (*c, const_f32(4, 0.25)));
+        write_raw(
+            &path,
+            2,
+            2,
+            chans.collect(),
+            vec![("dof", AttributeValue::F64(3.0))],
+            Encoding::UNCOMPRESSED,
+        );
+        expect_format_error(&path, "set of three");
     }
 
     #[test]

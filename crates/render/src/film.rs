@@ -1,12 +1,27 @@
 //! Per-pixel accumulation: mean and variance of the mean from independent samples (Welford, in
 //! f64), and the combination of independent passes.
 
-/// Running mean and sum of squared deviations of independent RGB samples.
-#[derive(Clone, Copy, Debug, Default)]
+/// Running mean and sum of squared deviations of independent RGB samples, and their extremes
+/// (for the heavy-tail share).
+#[derive(Clone, Copy, Debug)]
 pub struct Welford {
     n: u64,
     mean: [f64; 3],
     m2: [f64; 3],
+    min: [f64; 3],
+    max: [f64; 3],
+}
+
+impl Default for Welford {
+    fn default() -> Self {
+        Self {
+            n: 0,
+            mean: [0.0; 3],
+            m2: [0.0; 3],
+            min: [f64::INFINITY; 3],
+            max: [f64::NEG_INFINITY; 3],
+        }
+    }
 }
 
 impl Welford {
@@ -18,6 +33,10 @@ impl Welford {
             let delta = xc - *mean;
             *mean += delta * inv;
             *m2 += delta * (xc - *mean);
+        }
+        for ((lo, hi), xc) in self.min.iter_mut().zip(&mut self.max).zip(x) {
+            *lo = lo.min(xc);
+            *hi = hi.max(xc);
         }
     }
 
@@ -37,6 +56,21 @@ impl Welford {
         }
         let k = 1.0 / ((self.n - 1) as f64 * self.n as f64);
         self.m2.map(|m| (m * k).max(0.0))
+    }
+
+    /// Heavy-tail share: max_i (x_i − x̄)² / Σ_i (x_i − x̄)², the part of the sum of squares
+    /// that the most extreme term contributes (the largest deviation is at the minimum or the
+    /// maximum). 0 when the sum is 0. For n normal terms it is about 2 ln n / n; near 1 it says
+    /// the variance estimate rests on one term.
+    pub fn tail_share(&self) -> [f64; 3] {
+        std::array::from_fn(|c| {
+            let dev = (self.max[c] - self.mean[c]).max(self.mean[c] - self.min[c]);
+            if self.m2[c] > 0.0 && dev.is_finite() {
+                (dev * dev / self.m2[c]).clamp(0.0, 1.0)
+            } else {
+                0.0
+            }
+        })
     }
 }
 
@@ -61,5 +95,17 @@ mod tests {
         let mut one = Welford::default();
         one.push([1.0; 3]);
         assert_eq!(one.variance_of_mean(), [0.0; 3]);
+        assert_eq!(one.tail_share(), [0.0; 3]);
+        // Tail share: the largest squared deviation over their sum.
+        let dev2: Vec<f64> = xs.iter().map(|x| (x - mean).powi(2)).collect();
+        let share = dev2.iter().cloned().fold(0.0, f64::max) / dev2.iter().sum::<f64>();
+        assert!((w.tail_share()[0] - share).abs() < 1e-12);
+        assert_eq!(w.tail_share()[2], 0.0);
+        // One outlier among zeros carries (n − 1)/n of the sum of squares.
+        let mut rare = Welford::default();
+        for i in 0..100 {
+            rare.push([if i == 37 { 50.0 } else { 0.0 }; 3]);
+        }
+        assert!((rare.tail_share()[1] - 0.99).abs() < 1e-12);
     }
 }

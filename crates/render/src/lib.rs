@@ -8,6 +8,7 @@ pub mod build;
 pub mod bvh;
 pub mod camera;
 pub mod closed_form;
+pub mod contacts;
 pub mod film;
 pub mod integrator;
 pub mod render;
@@ -18,4 +19,4 @@ pub mod visible_line;
 pub mod xml;
 
 pub use integrator::LightSampling;
-pub use render::{render, render_with, RenderError, RenderOptions};
+pub use render::{record_inputs, render, render_with, RenderError, RenderOptions};

@@ -8,6 +8,7 @@
 
 use crate::bvh::Bvh;
 use crate::camera::Camera;
+use crate::contacts::{contact_pixels, light_contacts};
 use crate::film::Welford;
 use crate::integrator::{radiance, LightSampling, RenderScene};
 use crate::scene::{Bsdf, Geometry, Scene};
@@ -267,7 +268,7 @@ pub fn render_with<S: LightSampling>(
     let noise = NoiseSource::new(opts.noise, opts.seed, opts.spp);
     let done = AtomicUsize::new(0);
     let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
-    let results: Vec<Vec<([f32; 3], [f32; 3])>> = tiles
+    let results: Vec<Vec<PixelResult>> = tiles
         .par_iter()
         .map(|&(tx, ty)| {
             let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
@@ -300,17 +301,20 @@ pub fn render_with<S: LightSampling>(
         })
         .collect();
     let mut image = Image::new(w as usize, h as usize);
+    let mut tail = vec![[0.0f32; 3]; image.mean.len()];
     for (&(tx, ty), tile) in tiles.iter().zip(&results) {
         let mut it = tile.iter();
         for y in ty..(ty + TILE).min(h) {
             for x in tx..(tx + TILE).min(w) {
-                let (m, v) = it.next().copied().unwrap_or_default();
+                let p = it.next().copied().unwrap_or_default();
                 let k = y as usize * w as usize + x as usize;
-                image.mean[k] = m;
-                image.var[k] = v;
+                image.mean[k] = p.mean;
+                image.var[k] = p.var;
+                tail[k] = p.tail;
             }
         }
     }
+    image.tail = Some(tail);
     let dof = if opts.passes > 1 {
         opts.passes - 1
     } else {
@@ -336,8 +340,75 @@ pub fn render_with<S: LightSampling>(
         meta.extra
             .insert("nonfinite_dropped".into(), dropped.to_string());
     }
+    record_lights(&mut meta, scene, &rs.camera, (x0, y0, w, h));
     image.meta = meta;
     Ok(image)
+}
+
+/// Distance (in pixels) from a contact's projection within which pixels are contact pixels.
+pub const CONTACT_PIXEL_RADIUS: f64 = 2.0;
+
+/// Header keys about the lights: `radius` (per light, as in the file) and, where a light
+/// touches a surface, `contacts` (readable) and `contact_pixels` (`x,y;…`, window coordinates).
+fn record_lights(
+    meta: &mut Metadata,
+    scene: &Scene,
+    camera: &Camera,
+    window: (u32, u32, u32, u32),
+) {
+    if !scene.lights.is_empty() {
+        let radii: Vec<String> = scene.lights.iter().map(|l| l.radius.to_string()).collect();
+        meta.extra
+            .insert(linlight_imagefile::KEY_RADIUS.into(), radii.join(","));
+    }
+    let contacts = light_contacts(scene);
+    if contacts.is_empty() {
+        return;
+    }
+    let text: Vec<String> = contacts
+        .iter()
+        .map(|c| {
+            format!(
+                "light {} x shape at {} at ({:.4}, {:.4}, {:.4})",
+                c.light, scene.shapes[c.shape].location, c.point.x, c.point.y, c.point.z
+            )
+        })
+        .collect();
+    meta.extra.insert("contacts".into(), text.join("; "));
+    let pixels = contact_pixels(camera, &contacts, window, CONTACT_PIXEL_RADIUS);
+    meta.extra.insert(
+        linlight_imagefile::KEY_CONTACT_PIXELS.into(),
+        linlight_imagefile::format_pixel_list(&pixels),
+    );
+}
+
+/// Records what an image was rendered from: the scene file's name (`scene`) and the `-D`
+/// overrides (`overrides`, `name=value,…` sorted by name), so that an image can be traced to
+/// its inputs (the file's hash is `scene_sha256`).
+pub fn record_inputs(
+    meta: &mut Metadata,
+    scene_file: &std::path::Path,
+    overrides: &[(String, String)],
+) {
+    let name = scene_file.file_name().map_or_else(
+        || scene_file.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    meta.extra
+        .insert(linlight_imagefile::KEY_SCENE_NAME.into(), name);
+    let mut sorted: Vec<&(String, String)> = overrides.iter().collect();
+    sorted.sort();
+    let text: Vec<String> = sorted.iter().map(|(k, v)| format!("{k}={v}")).collect();
+    meta.extra
+        .insert(linlight_imagefile::KEY_OVERRIDES.into(), text.join(","));
+}
+
+/// What a pixel contributes to the image: mean, variance of the mean, heavy-tail share.
+#[derive(Clone, Copy, Debug, Default)]
+struct PixelResult {
+    mean: [f32; 3],
+    var: [f32; 3],
+    tail: [f32; 3],
 }
 
 /// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the
@@ -373,14 +444,14 @@ fn render_pixel_pass<S: LightSampling>(
     acc
 }
 
-/// Mean and variance of the mean of a pixel from its pass means (P > 1) or, with one pass, from
-/// its samples.
-fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> ([f32; 3], [f32; 3]) {
-    let (mean, var) = if opts.passes > 1 {
-        (passes.mean(), passes.variance_of_mean())
-    } else {
-        (single.mean(), single.variance_of_mean())
-    };
+/// Mean, variance of the mean and heavy-tail share of a pixel from its pass means (P > 1) or,
+/// with one pass, from its samples.
+fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> PixelResult {
+    let terms = if opts.passes > 1 { passes } else { single };
     // Every sample is finite (the integrator drops non-finite contributions), so are these.
-    (mean.map(|m| m as f32), var.map(|v| v as f32))
+    PixelResult {
+        mean: terms.mean().map(|m| m as f32),
+        var: terms.variance_of_mean().map(|v| v as f32),
+        tail: terms.tail_share().map(|t| t as f32),
+    }
 }

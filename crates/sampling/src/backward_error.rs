@@ -337,7 +337,7 @@ mod tests {
         assert!(one.samples > 10_000);
         assert!(one.worst_outside_guard > 1e-3, "{one:?}");
         assert!(two.worst_outside_guard < 2e-5, "{two:?}");
-        // Not < 1e-9 as PAPER.md's re-derivation states: where an interval ends at (or, for
+        // Not < 1e-9 as the f64 re-derivation quoted in docs/measures.md states: where an interval ends at (or, for
         // n_s → 0, next to) φ = ±π/2 at the horizon, the CDF is (nearly) cubic at that end, the
         // solid-angle start is far off for ξ just outside the guard, and three steps leave up to
         // ~2e-7 (ψ = 0.001, width 0.3, ξ = 2.2e-5; reproduced independently in Python).

@@ -10,7 +10,7 @@
 //!
 //! (checked: dF/dl = 2d(n_t' + l n_s)/r⁴; the n_s term is −d n_s/r² + n_s/d, an antiderivative
 //! up to a constant), and F(l) = C(s(l))/d with C of [`crate::geometry`]: the constants of
-//! PAPER.md are right. F is evaluated as the difference F(l) − F(l_b) in the cancellation-free
+//! docs/measures.md are right. F is evaluated as the difference F(l) − F(l_b) in the cancellation-free
 //! form of technique 8 (mathematically identical; the textbook form cancels for short or distant
 //! segments and then cannot meet the stopping tolerance in f32).
 //!

@@ -1,4 +1,4 @@
-//! LTC line sampling: sample a linearly transformed cosine restricted to a line (PAPER.md "LTC").
+//! LTC line sampling: sample a linearly transformed cosine restricted to a line (docs/measures.md "LTC").
 //!
 //! A (3×3, invertible) maps shading space (columns of the shading frame: x̂, ŷ, n) to cosine space.
 //! Directions: ω_o = Aω/|Aω|. The line is clipped at the horizon of n (original space), then at

@@ -1,8 +1,8 @@
-//! Multiple importance sampling heuristics as plain functions (PAPER.md "MIS").
+//! Multiple importance sampling heuristics as plain functions (docs/measures.md "MIS").
 //!
 //! Every function returns the MIS *weight* w_s of a sample drawn from technique s (density p_s)
 //! when the other technique o has density p_o at that direction. The estimator contribution is
-//! f · w_s / p_s; PAPER.md writes the contributions directly, e.g. balance f/(p_s + p_o) =
+//! f · w_s / p_s; docs/measures.md writes the contributions directly, e.g. balance f/(p_s + p_o) =
 //! f · [p_s/(p_s + p_o)] / p_s. Densities must be in the same measure (per radius here).
 //!
 //! Zero-safety: no function returns NaN or ∞ for finite non-negative inputs. If both densities
@@ -37,7 +37,7 @@ pub fn power(p_s: f32, p_o: f32) -> f32 {
 }
 
 /// Weighted balance heuristic W_s p_s/(W_s p_s + W_o p_o) with non-negative technique weights
-/// (PAPER.md: W_d = max(ρ_diffuse, 0.01)·Ω⊥_R, W_s = ρ_LTC·Ω⊥_o/κ). Falls back to [`balance`]
+/// (docs/measures.md: W_d = max(ρ_diffuse, 0.01)·Ω⊥_R, W_s = ρ_LTC·Ω⊥_o/κ). Falls back to [`balance`]
 /// when W_s p_s + W_o p_o = 0 while p_s + p_o > 0.
 #[inline]
 pub fn weighted_balance(p_s: f32, p_o: f32, w_s: f32, w_o: f32) -> f32 {

@@ -96,11 +96,17 @@ pub fn sequential(s: f64) -> [u8; 3] {
 pub const ZERO_VAR_AGREE: [u8; 3] = [160, 160, 160];
 /// Colour of zero-variance pixels that disagree (a failure).
 pub const ZERO_VAR_MISMATCH: [u8; 3] = [0, 200, 0];
+/// Colour of pixels the pixel tests leave out (zero sample variance, heavy tail).
+pub const UNDECIDABLE: [u8; 3] = [190, 170, 225];
+/// Colour of pixels near a light–surface contact (tested apart).
+pub const CONTACT: [u8; 3] = [255, 200, 0];
 /// Colour of tiles that were not tested (no variance).
 pub const UNTESTED_TILE: [u8; 3] = [160, 160, 160];
 
 /// Per pixel the signed z of the channel with the largest |z| on a diverging map saturating at
-/// |z| = Z_RANGE; zero-variance pixels grey (agree) or green (mismatch, in any channel).
+/// |z| = Z_RANGE (for display only: the tests never merge channels); zero-variance pixels grey
+/// (agree) or green (exact values that disagree, in any channel), contact pixels amber, pixels
+/// the pixel tests leave out lavender.
 pub fn z_heatmap(cmp: &Comparison) -> Rgb8 {
     let (w, h) = (cmp.width, cmp.height);
     let mut out = Rgb8::filled(w, h, [255; 3]);
@@ -108,10 +114,17 @@ pub fn z_heatmap(cmp: &Comparison) -> Rgb8 {
         for x in 0..w {
             let i = y * w + x;
             let states = cmp.maps.state[i];
+            let left_out = |s: &PixelState| {
+                matches!(s, PixelState::ZeroSampleVariance | PixelState::HeavyTail)
+            };
             let colour = if states.contains(&PixelState::ZeroVarMismatch) {
                 ZERO_VAR_MISMATCH
+            } else if states.contains(&PixelState::Contact) {
+                CONTACT
             } else if states.iter().all(|s| *s == PixelState::ZeroVarAgree) {
                 ZERO_VAR_AGREE
+            } else if states.iter().any(left_out) {
+                UNDECIDABLE
             } else {
                 let z = cmp.maps.z[i]
                     .iter()
@@ -259,6 +272,10 @@ mod tests {
         a2.var[0] = [0.0; 3];
         b.var[0] = [0.0; 3];
         b.mean[0] = [2.0; 3];
+        // Zero variances are exact only in exact images.
+        for img in [&mut a2, &mut b] {
+            img.meta.extra.insert("variance".into(), "exact".into());
+        }
         let cmp = compare(&a2, &b, &CompareConfig::default()).unwrap();
         let z = z_heatmap(&cmp);
         assert_eq!((z.width, z.height), (40, 20));

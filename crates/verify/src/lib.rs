@@ -1,5 +1,5 @@
-//! Certification machinery: goodness of fit of line samplers (STATISTICS.md §1) and image
-//! difference statistics (STATISTICS.md §2).
+//! Certification machinery: goodness of fit of line samplers (docs/statistics.md §1) and image
+//! difference statistics (docs/statistics.md §2).
 
 pub mod chi2;
 pub mod configs;
