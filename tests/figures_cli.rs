@@ -81,6 +81,9 @@ fn quick_run_produces_every_figure_and_a_page_that_links_only_existing_files() {
             "index.html has no section {name}"
         );
     }
+    // The specular experiments need the MIS integrator: the page says they are not produced
+    // rather than drawing stand-ins.
+    assert!(html.contains("id=\"specular\"") && html.contains("not produced"));
     let links = attributes(&html, "href");
     assert!(links.len() > 20, "too few links: {}", links.len());
     for link in links.iter().filter(|l| !l.starts_with('#')) {
