@@ -195,3 +195,18 @@ fn unknown_figure_names_are_refused() {
     assert!(r.stderr.contains("teaser-of-doom"), "{}", r.stderr);
     assert!(!out.join("index.html").exists());
 }
+
+#[test]
+fn a_missing_project_root_is_a_usage_error() {
+    let out = scratch("noroot");
+    let r = linlight(&[
+        "figures",
+        "--quick",
+        "--root",
+        out.to_str().unwrap(),
+        "--out",
+        out.join("figs").to_str().unwrap(),
+    ]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("--root"), "{}", r.stderr);
+}

@@ -23,7 +23,8 @@ pub struct Args {
     /// Output directory.
     #[arg(long, default_value = "figures")]
     out: PathBuf,
-    /// Comma-separated figure names (default: all).
+    /// Comma-separated figure names, of: one-spp, cornell, backward-error, noise, newton,
+    /// convergence, timings [default: all].
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
     /// Small resolutions and sample counts (what the test suite runs).
@@ -38,7 +39,7 @@ pub struct Args {
     /// No progress bars.
     #[arg(short = 'q', long)]
     quiet: bool,
-    /// Project root holding references/ and scripts/ [default: the current directory].
+    /// Project root holding references/ and scripts/.
     #[arg(long, value_name = "DIR", default_value = ".")]
     root: PathBuf,
 }
@@ -56,6 +57,13 @@ pub fn run(args: Args) -> ExitCode {
         .collect();
     if let Err(e) = figures::select(&only) {
         return usage(e);
+    }
+    let scenes = args.root.join("references/scenes");
+    if !scenes.is_dir() {
+        return usage(format!(
+            "{} is not a directory: run from the project root or pass --root DIR",
+            scenes.display()
+        ));
     }
     if let Err(e) = std::fs::create_dir_all(&args.out) {
         return usage(format!("cannot create {}: {e}", args.out.display()));
