@@ -221,8 +221,9 @@ fn options(spp: u32, passes: u32, seed: u64) -> RenderOptions {
         spp,
         passes,
         seed,
-        technique: Technique::ProjectedSolidAngle,
-        noise: linlight_sampling::noise::Noise::White,
+        method: Technique::ProjectedSolidAngle.into(),
+        light_samples: 1,
+        noise: Default::default(),
     }
 }
 

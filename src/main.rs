@@ -46,19 +46,13 @@ enum Command {
     FitLtc(cmd::fit_ltc::Args),
 }
 
-/// The technique names for `--help` (from the sampling crate, so the list cannot go stale).
+/// The method names for `--help` (from the render crate, so the list cannot go stale).
 fn technique_help() -> String {
-    let names: Vec<String> = linlight_sampling::Technique::ALL
-        .iter()
-        .map(|t| {
-            if linlight_sampling::Technique::UNBIASED.contains(t) {
-                t.name().to_string()
-            } else {
-                format!("{} (biased by design)", t.name())
-            }
-        })
+    let names: Vec<String> = linlight_render::Method::technique_names()
+        .into_iter()
+        .map(|(name, what)| format!("{name} ({what})"))
         .collect();
-    format!("Line-sampling technique: {}", names.join(", "))
+    format!("Light sampling method: {}", names.join("; "))
 }
 
 fn main() -> ExitCode {

@@ -21,14 +21,24 @@
 //! for the whole image, as the format has).
 //!
 //! Images that cannot be combined are refused: different sizes, scenes (`scene_sha256`),
-//! renderers, techniques, overrides, Mitsuba variants, radii or K; and images that are not
+//! renderers, methods (technique, MIS heuristic and v, light samples), overrides, Mitsuba
+//! variants, radii or K; and images that are not
 //! independent (the same seed, or identical pixels).
 
 use linlight_imagefile::{Image, Metadata};
 use std::collections::BTreeMap;
 
 /// Header keys that must agree between merged images (when any image has them).
-pub const MUST_AGREE: [&str; 5] = ["technique", "overrides", "variant", "radius", "K"];
+pub const MUST_AGREE: [&str; 8] = [
+    "technique",
+    "mis",
+    "mis_v",
+    "light_samples",
+    "overrides",
+    "variant",
+    "radius",
+    "K",
+];
 
 /// Header keys that identify a random stream: equal values mean the images are not independent.
 const SEED_KEYS: [&str; 2] = ["seed", "seeds"];

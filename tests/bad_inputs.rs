@@ -111,6 +111,37 @@ fn cases() -> Vec<Case> {
             "unknown technique 'nope'",
         ),
         case(
+            "unknown MIS heuristic",
+            &["render", "{dir}/good.xml", "--mis", "optimal"],
+            2,
+            "unknown MIS heuristic 'optimal'",
+        ),
+        case(
+            "clamped optimal v outside [0, 1]",
+            &["render", "{dir}/good.xml", "--mis", "clamped-optimal=1.5"],
+            2,
+            "v must be a number in [0, 1]",
+        ),
+        case(
+            "--mis with a single technique",
+            &[
+                "render",
+                "{dir}/good.xml",
+                "--technique",
+                "ltc",
+                "--mis",
+                "power",
+            ],
+            2,
+            "does not apply to --technique ltc",
+        ),
+        case(
+            "zero light samples",
+            &["render", "{dir}/good.xml", "--light-samples", "0"],
+            2,
+            "--light-samples must be at least 1",
+        ),
+        case(
             "-D without =",
             &["render", "{dir}/good.xml", "-D", "novalue"],
             2,
@@ -499,6 +530,6 @@ fn accepted_like_mitsuba() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     let img = Image::read(&out).unwrap();
     assert!(img.mean.iter().any(|m| m[0] > 0.0));
-    assert_eq!(img.meta.extra["technique"], "projected-solid-angle");
+    assert_eq!(img.meta.extra["technique"], "mis");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -7,7 +7,7 @@ use glam::Vec3;
 use linlight::certify::{self, Options, Oracle, Report, Subject};
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{render_with, LightSampling, RenderError, RenderOptions};
+use linlight_render::{render_with, Hooks, LightSampling, RenderError, RenderOptions};
 use linlight_sampling::area::Area;
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::{LineFrame, LineSampler, Segment, Technique};
@@ -66,7 +66,7 @@ fn assert_rejected(report: &Report, what: &str) {
 /// A light sampling rendered through the generic hook.
 struct Sampled<S>(&'static str, S);
 
-impl<S: LightSampling> Subject for Sampled<S> {
+impl<S: LightSampling + Clone> Subject for Sampled<S> {
     fn name(&self) -> String {
         self.0.into()
     }
@@ -76,7 +76,15 @@ impl<S: LightSampling> Subject for Sampled<S> {
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        render_with(scene, opts, &self.1, progress)
+        render_with(
+            scene,
+            &RenderOptions {
+                method: Technique::ProjectedSolidAngle.into(),
+                ..*opts
+            },
+            &Hooks::new().with_technique(self.1.clone()),
+            progress,
+        )
     }
 }
 
@@ -103,6 +111,7 @@ impl Subject for Scaled {
 
 /// (b) Area sampling whose reported density is halved wherever the light crosses the horizon
 /// (the tangent-plane clip is active): the samples are right, the pdf is wrong there only.
+#[derive(Clone)]
 struct AreaHalvedAtHorizon;
 
 #[derive(Clone, Copy)]
@@ -146,6 +155,7 @@ impl LightSampling for AreaHalvedAtHorizon {
 }
 
 /// (c) Li et al. stopped after two iterations, density not corrected.
+#[derive(Clone)]
 struct LiTwoIterations;
 
 impl LightSampling for LiTwoIterations {
@@ -201,7 +211,8 @@ fn renders_differing_only_in_seed_pass_compare() {
             spp: 1024,
             passes: 1,
             seed,
-            technique: Technique::ProjectedSolidAngle,
+            method: Technique::ProjectedSolidAngle.into(),
+            light_samples: 1,
             noise: Default::default(),
         };
         let a = linlight_render::render(&s.scene, &opts(11), &|_, _| {}).unwrap();

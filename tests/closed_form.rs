@@ -35,7 +35,8 @@ fn render_with_seed(sc: &Scene, seed: u64) -> Image {
         spp: 64,
         passes: 1,
         seed,
-        technique: Technique::ProjectedSolidAngle,
+        method: Technique::ProjectedSolidAngle.into(),
+        light_samples: 1,
         noise: Default::default(),
     };
     render(sc, &opts, &|_, _| {}).unwrap()

@@ -38,7 +38,12 @@ fn renders_a_scene_to_the_shared_format() {
     let img = Image::read(&out).unwrap();
     assert_eq!((img.width, img.height), (24, 16));
     assert_eq!((img.meta.spp, img.meta.passes, img.meta.dof), (6, 3, 2.0));
-    assert_eq!(img.meta.extra["technique"], "projected-solid-angle");
+    // The default method: MIS with clamped optimal weights, v = 0.5; light samples from the
+    // scene's emitter_samples.
+    assert_eq!(img.meta.extra["technique"], "mis");
+    assert_eq!(img.meta.extra["mis"], "clamped-optimal");
+    assert_eq!(img.meta.extra["mis_v"], "0.5");
+    assert_eq!(img.meta.extra["light_samples"], "1");
     assert_eq!(img.meta.extra["seed"], "5");
     assert_eq!(img.meta.scene_sha256.len(), 64);
     // Traceable to its inputs: scene file name and the -D overrides.
@@ -269,4 +274,95 @@ fn noise_choices() {
     ]);
     assert_eq!(r.code, 2);
     assert!(r.stderr.contains("unknown noise 'pink'"), "{}", r.stderr);
+}
+
+/// The method flags reach the header: --technique, --mis (with v for clamped optimal) and
+/// --light-samples (default: the scene's emitter_samples); `--help` lists every method.
+#[test]
+fn method_flags_are_recorded_in_the_header() {
+    let dir = scratch("methods");
+    let scene = write(
+        &dir,
+        "floor.xml",
+        FLOOR_SCENE.replace(
+            r#"<integer name="emitter_samples" value="1"/>"#,
+            r#"<integer name="emitter_samples" value="3"/>"#,
+        ),
+    );
+    type Case<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)]);
+    let cases: [Case; 5] = [
+        (
+            &[],
+            &[
+                ("technique", "mis"),
+                ("mis", "clamped-optimal"),
+                ("mis_v", "0.5"),
+                ("light_samples", "3"),
+            ],
+        ),
+        (
+            &["--mis", "power", "--light-samples", "2"],
+            &[
+                ("technique", "mis"),
+                ("mis", "power"),
+                ("light_samples", "2"),
+            ],
+        ),
+        (
+            &["--mis", "clamped-optimal=0"],
+            &[("mis", "clamped-optimal"), ("mis_v", "0")],
+        ),
+        (
+            &["--technique", "ltc"],
+            &[("technique", "ltc"), ("light_samples", "3")],
+        ),
+        (
+            &["--technique", "area", "--light-samples", "1"],
+            &[("technique", "area"), ("light_samples", "1")],
+        ),
+    ];
+    for (k, (flags, want)) in cases.iter().enumerate() {
+        let out = dir.join(format!("m{k}.exr"));
+        let mut args = vec![
+            "render",
+            &scene,
+            "-q",
+            "-D",
+            "spp=2",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(flags);
+        let r = linlight(&args);
+        assert_eq!(r.code, 0, "{flags:?}: {}", r.stderr);
+        let img = Image::read(&out).unwrap();
+        for (key, value) in *want {
+            assert_eq!(
+                img.meta.extra.get(*key).map(String::as_str),
+                Some(*value),
+                "{flags:?}: {key}"
+            );
+        }
+        if !flags.is_empty() && flags[0] == "--technique" {
+            assert!(!img.meta.extra.contains_key("mis"), "{flags:?}");
+        }
+    }
+    let help = linlight(&["render", "--help"]);
+    for name in [
+        "mis",
+        "ltc",
+        "projected-solid-angle",
+        "area",
+        "balance",
+        "clamped-optimal",
+        "--light-samples",
+        "emitter_samples",
+    ] {
+        assert!(
+            help.stdout.contains(name),
+            "--help lacks {name}: {}",
+            help.stdout
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -27,7 +27,7 @@ impl Subject for Twin {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
         let opts = RenderOptions {
-            technique: Technique::ProjectedSolidAngle,
+            method: Technique::ProjectedSolidAngle.into(),
             ..*opts
         };
         render(scene, &opts, progress)

@@ -26,7 +26,7 @@ pub mod scenes;
 
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{record_inputs, render, RenderError, RenderOptions};
+use linlight_render::{record_inputs, render, Method, RenderError, RenderOptions};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
@@ -86,7 +86,7 @@ impl Subject for NoiseRender {
         render(
             scene,
             &RenderOptions {
-                technique: self.technique,
+                method: self.technique.into(),
                 noise: self.noise,
                 passes,
                 spp: total.div_ceil(passes as u64).clamp(1, u32::MAX as u64) as u32,
@@ -121,7 +121,7 @@ pub enum Oracle {
 /// Something that renders a scene: a technique, or (in tests) a deliberately wrong variant.
 pub trait Subject: Sync {
     fn name(&self) -> String;
-    /// Render `scene` with `opts` (its `technique` field is the subject's business).
+    /// Render `scene` with `opts` (its `method` field is the subject's business).
     fn render(
         &self,
         scene: &Scene,
@@ -143,7 +143,30 @@ impl Subject for Technique {
         render(
             scene,
             &RenderOptions {
-                technique: *self,
+                method: (*self).into(),
+                ..*opts
+            },
+            progress,
+        )
+    }
+}
+
+/// A method (single technique, LTC, MIS with a heuristic) as a subject, named as in reports
+/// (`mis:clamped-optimal=0.5`).
+impl Subject for Method {
+    fn name(&self) -> String {
+        Method::name(*self)
+    }
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        render(
+            scene,
+            &RenderOptions {
+                method: *self,
                 ..*opts
             },
             progress,
@@ -493,7 +516,8 @@ pub fn run(
                 spp: opts.budget.pilot_spp.max(2),
                 passes: 1,
                 seed: pilot_seed(opts.seed),
-                technique: Technique::ProjectedSolidAngle, // replaced by the subject
+                method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
+                light_samples: 1,
                 noise: Default::default(),
             };
             let t = Instant::now();

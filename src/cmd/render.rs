@@ -12,7 +12,7 @@ use linlight::merge::merge;
 use linlight::outputs::{self, ImageFormat};
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{record_inputs, render, RenderOptions};
+use linlight_render::{record_inputs, render, Method, RenderOptions};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use std::io::IsTerminal;
@@ -30,6 +30,24 @@ Examples:
   linlight render scene.xml --match-variance references/mitsuba/scene.exr -o mine.exr
   linlight render scene.xml --spp 256 --time 60      # as many 256-spp passes as fit in 60 s
   linlight render scene.xml --spp 3 --passes 16 --noise blue-jittered   # the paper's stratification
+  linlight render glossy.xml --mis balance --light-samples 3   # MIS, balance heuristic, N = 3
+  linlight render glossy.xml --mis clamped-optimal=0.25        # the paper's heuristic, v = 0.25
+  linlight render glossy.xml --technique ltc                   # LTC only (see below)
+  linlight render glossy.xml --technique projected-solid-angle # one technique, full BSDF
+
+Methods (--technique): `mis` (default) takes per light and iteration one projected-solid-angle
+(diffuse) and one LTC (specular) sample, both shadow-traced, combined by --mis; `ltc` takes an
+LTC sample and covers the directions the LTC cannot sample (below the cosine lobe's horizon)
+with the projected-solid-angle sample (weight 1 there, 0 elsewhere); every other name is one
+sample of that technique with the full BSDF. All but `baseline` are unbiased on every surface.
+Lambertian surfaces are sampled with the projected solid angle only (or the chosen technique).
+
+Light samples: --light-samples N takes N iterations per light and camera sample and averages
+them. Its default is the scene's emitter_samples (Mitsuba's direct integrator: emitter samples
+per camera sample, each picking ONE emitter uniformly); linlight samples EVERY light N times,
+so with several lights it takes more light samples than Mitsuba (same expectation, less noise).
+
+The header of the .exr records technique, mis, mis_v (clamped optimal) and light_samples.
 
 The output format follows the extension: .exr holds mean and variance of the mean (for
 compare, merge, info); .png a tone-mapped preview only.";
@@ -45,14 +63,21 @@ pub struct Args {
     /// Seed of the random streams [default: the scene's sampler seed].
     #[arg(long)]
     seed: Option<u64>,
-    /// Line-sampling technique (names listed below).
-    #[arg(long, default_value = "projected-solid-angle")]
+    /// Light sampling method (names listed below).
+    #[arg(long, default_value = "mis")]
     technique: String,
     /// Primary samples: white (independent), blue (blue noise, a random toroidal shift per
     /// pass) or blue-jittered (blue noise stratified over the spp of a pass; use --passes > 1
     /// for a variance estimate). Every choice is unbiased across passes.
     #[arg(long, default_value = "white", value_name = "white|blue|blue-jittered")]
     noise: String,
+    /// MIS heuristic of --technique mis: balance, power, weighted, clamped-optimal[=v] with the
+    /// visibility estimate v in [0, 1] [default: clamped-optimal=0.5].
+    #[arg(long, value_name = "HEURISTIC")]
+    mis: Option<String>,
+    /// Iterations per light and camera sample [default: the scene's emitter_samples].
+    #[arg(long, value_name = "N")]
+    light_samples: Option<u32>,
     /// Independent passes; with P > 1 the variance comes from the P pass means (dof = P − 1).
     #[arg(long, default_value_t = 1)]
     passes: u32,
@@ -180,15 +205,31 @@ fn check_memory(scene: &Scene, limit_gib: Option<f64>) -> Result<(), String> {
     Ok(())
 }
 
+/// The method of --technique and --mis.
+fn method(args: &Args) -> Result<Method, String> {
+    let method = Method::from_technique_name(&args.technique)?;
+    match (&args.mis, method) {
+        (None, m) => Ok(m),
+        (Some(h), Method::Mis(_)) => Ok(Method::Mis(h.parse()?)),
+        (Some(_), m) => Err(format!(
+            "--mis chooses the heuristic of --technique mis; it does not apply to --technique {}",
+            m.technique_name()
+        )),
+    }
+}
+
 pub fn run(args: Args) -> ExitCode {
-    let technique: Technique = match args.technique.parse() {
-        Ok(t) => t,
+    let method = match method(&args) {
+        Ok(m) => m,
         Err(e) => return usage_error(e),
     };
     let noise: Noise = match args.noise.parse() {
         Ok(n) => n,
         Err(e) => return usage_error(e),
     };
+    if args.light_samples == Some(0) {
+        return usage_error("--light-samples must be at least 1");
+    }
     let mut overrides = Vec::new();
     for d in &args.define {
         match parse_define(d) {
@@ -224,17 +265,29 @@ pub fn run(args: Args) -> ExitCode {
     for w in &scene.warnings {
         warn(w);
     }
-    if technique == Technique::Baseline {
+    if method == Method::Technique(Technique::Baseline) {
         warn(
             "the baseline technique is biased by design (its density is not exact); its images \
              are not expected to agree with Mitsuba",
         );
     }
+    let light_samples = match args.light_samples {
+        Some(n) => n,
+        None if scene.integrator.emitter_samples == 0 => {
+            warn(
+                "the scene's integrator has emitter_samples = 0 (BSDF samples only, which never \
+                 hit a linear light); rendering with 1 light sample (set --light-samples)",
+            );
+            1
+        }
+        None => scene.integrator.emitter_samples,
+    };
     let mut opts = RenderOptions {
         spp: args.spp.unwrap_or(scene.sensor.sample_count),
         passes: args.passes,
         seed: args.seed.unwrap_or(scene.sensor.seed),
-        technique,
+        method,
+        light_samples,
         noise,
     };
     if opts.spp == 0 || opts.passes == 0 {
@@ -310,10 +363,10 @@ pub fn run(args: Args) -> ExitCode {
             spp: rule.pilot_spp,
             passes: 1,
             seed: opts.seed ^ 0x5049_4c4f_5453_4545,
-            technique,
             // White: the budget rule needs the per-sample variance, which is the same for every
             // noise (each sample is uniform), and independent samples to estimate it.
             noise: Noise::White,
+            ..opts
         };
         bar.set_message("pilot render");
         let pilot = match pool.install(|| render(&scene, &pilot_opts, &|_, _| {})) {
@@ -431,14 +484,16 @@ pub fn run(args: Args) -> ExitCode {
         }
         let samples = (image.width * image.height) as f64 * image.meta.spp as f64;
         eprintln!(
-            "wrote {} ({}x{}, {} spp in {} pass(es), {}, {} noise, {:.2} s, {:.2} M samples/s)",
+            "wrote {} ({}x{}, {} spp in {} pass(es), {}, {} light sample(s), {} noise, {:.2} s, \
+             {:.2} M samples/s)",
             outs.out.display(),
             image.width,
             image.height,
             image.meta.spp,
             image.meta.passes,
-            technique,
-            noise,
+            method,
+            opts.light_samples,
+            opts.noise,
             seconds,
             samples / seconds.max(1e-9) / 1e6
         );

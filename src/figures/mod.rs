@@ -219,7 +219,9 @@ impl Ctx<'_> {
             spp,
             passes,
             seed,
-            technique,
+            // One sample of `technique` per light and camera sample (the figures' setting).
+            method: technique.into(),
+            light_samples: 1,
             noise,
         };
         let t = Instant::now();

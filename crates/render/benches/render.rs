@@ -36,7 +36,8 @@ fn main() {
             spp: 16,
             passes: 1,
             seed: 1,
-            technique,
+            method: technique.into(),
+            light_samples: 1,
             noise: Default::default(),
         };
         let samples = 256.0 * 256.0 * opts.spp as f64;

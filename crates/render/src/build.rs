@@ -118,6 +118,7 @@ pub fn scene(sensor: Sensor, shapes: Vec<Shape>, lights: Vec<LinearLight>) -> Sc
         sensor,
         integrator: Integrator {
             hide_emitters: true,
+            emitter_samples: 1,
         },
         shapes,
         lights,

@@ -1,49 +1,33 @@
 //! Direct lighting from linear lights in the R → 0 limit (Mitsuba's `direct` integrator with
-//! emitter sampling only, one sample per light and camera sample).
+//! emitter sampling only).
 //!
-//! Per light, the estimator of the reflected radiance is K·f(v, ω)·max(0, n·ω)·V(ω)/p(ω), where p
-//! is the technique's density per radius (dΩ_R), K = radiance × radius (the radius cancels
-//! between the tube's solid angle R·Ω_R and its radiance K/R) and f the surface's full BSDF
+//! Per light, the estimator of the reflected radiance is K·f(v, ω)·max(0, n·ω)·V(ω)·w(ω)/p(ω),
+//! where p is a technique's density per radius (dΩ_R), K = radiance × radius (the radius cancels
+//! between the tube's solid angle R·Ω_R and its radiance K/R), f the surface's full BSDF
 //! (`linlight_brdf::Bsdf::eval`, which includes the cosine) in the shading frame of the side
-//! facing the viewer. The techniques sample the line's part above that side's horizon, which is
-//! where f·cos is nonzero, so every technique is unbiased for every BSDF; only Lambertian surfaces
-//! take the fast path f = ρ/π.
+//! facing the viewer, and w the weight of the render's [`Method`] (1 for single techniques; see
+//! [`crate::method`] and [`crate::shading`]). Every light is sampled `light_samples` times per
+//! camera sample and the mean taken (Mitsuba's `emitter_samples`, but Mitsuba picks one emitter
+//! per emitter sample while this integrator samples every light). Lambertian surfaces take the
+//! fast path f = ρ/π with one diffuse technique (the single technique, or projected solid angle
+//! for the two-technique methods).
 
 use crate::bvh::Bvh;
 use crate::camera::Camera;
+use crate::hooks::{BsdfModel, LightSampling, Resolved, SpecularSampling};
+use crate::method::Method;
 use crate::scene::{Bsdf, Rgb};
+use crate::shading::{estimate_resolved, single_technique, ShadingPoint};
 use crate::shapes::{Ray, SurfacePoint};
 use crate::visible_line::VisibleLines;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use linlight_sampling::noise::SampleStream;
-use linlight_sampling::{LineSampler, Prepared, Segment, Technique};
+use linlight_sampling::Segment;
 
 /// Mitsuba's ray epsilon for f32 variants: 1500 ulp(1) = 1500·2⁻²⁴.
 pub const RAY_EPSILON: f32 = 1500.0 / 16_777_216.0;
 /// Shadow rays stop this fraction of their length short of the target.
 pub const SHADOW_EPSILON: f32 = 10.0 * RAY_EPSILON;
-
-/// How the integrator samples a light at a shading point. [`Technique`] is the production
-/// implementation; tests substitute deliberately wrong samplers (power controls) through
-/// [`crate::render::render_with`]. Generic, so the production path stays monomorphic.
-pub trait LightSampling: Sync {
-    type Sampler: LineSampler;
-    /// The sampler for `segment` seen from `x` with normal `n`; `None`: no contribution.
-    fn prepare(&self, segment: &Segment, x: Vec3, n: Vec3) -> Option<Self::Sampler>;
-    /// Name recorded in the image metadata (`technique`).
-    fn name(&self) -> String;
-}
-
-impl LightSampling for Technique {
-    type Sampler = Prepared;
-    #[inline]
-    fn prepare(&self, segment: &Segment, x: Vec3, n: Vec3) -> Option<Prepared> {
-        Technique::prepare(*self, segment, x, n)
-    }
-    fn name(&self) -> String {
-        Technique::name(*self).to_string()
-    }
-}
 
 /// Everything the integrator needs, prepared from a [`crate::scene::Scene`].
 #[derive(Clone, Debug)]
@@ -78,8 +62,9 @@ impl DroppedSamples {
         self.0.load(std::sync::atomic::Ordering::Relaxed)
     }
     #[cold]
-    fn add(&self) {
-        self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    fn add_many(&self, count: u64) {
+        self.0
+            .fetch_add(count, std::sync::atomic::Ordering::Relaxed);
     }
 }
 
@@ -132,61 +117,18 @@ pub fn diffuse_lobe(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
     Some((n, bsdf.lambertian()?.as_vec3()))
 }
 
-/// How the shading point reflects light arriving from ω.
-enum Reflection<'a> {
-    /// f = albedo/π (the fast path: `diffuse` and blends of it).
-    Lambert(Vec3),
-    /// The full BSDF.
-    Bsdf(Glossy<'a>),
-}
-
-/// A BSDF in the shading frame (t, b, n) of the side that faces the viewer (so a `twosided`
-/// BSDF sees v_z > 0), v = `wi` in it. Out of line, so that the Lambertian loop stays as tight
-/// as before.
-struct Glossy<'a> {
-    bsdf: &'a Bsdf,
-    t: Vec3,
-    b: Vec3,
-    n: Vec3,
-    v: DVec3,
-}
-
-impl<'a> Glossy<'a> {
-    #[inline(never)]
-    fn new(bsdf: &'a Bsdf, n: Vec3, wi: Vec3) -> Self {
-        let (t, b) = n.any_orthonormal_pair();
-        let v = DVec3::new(wi.dot(t) as f64, wi.dot(b) as f64, wi.dot(n) as f64);
-        Glossy { bsdf, t, b, n, v }
-    }
-
-    /// f(v, ω)·cos θ for the world direction ω (unit).
-    #[inline(never)]
-    fn eval(&self, w: Vec3) -> Vec3 {
-        let l = DVec3::new(
-            w.dot(self.t) as f64,
-            w.dot(self.b) as f64,
-            w.dot(self.n) as f64,
-        );
-        self.bsdf.eval(self.v, l).as_vec3()
-    }
-}
-
-#[inline]
-fn finite_rgb(v: Vec3) -> bool {
-    v.is_finite()
-}
-
 /// One camera sample through film position (px, py) in pixels: direct lighting from every
-/// light with one sample of `technique` each. Takes exactly `lights.len()` dimensions of `rng`
-/// (the camera sample's stream, [`SampleStream::next_f32`]: one light sample each) after the
-/// caller's film position (none for misses and black surfaces).
-pub fn radiance<S: LightSampling>(
+/// light by `method` with `light_samples` iterations each. Draws from `rng` (the camera
+/// sample's own stream, after the caller's pixel-position numbers) the numbers documented in
+/// [`crate::shading`], light by light (none for misses and black surfaces).
+pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &RenderScene,
-    technique: &S,
+    method: Method,
+    light_samples: u32,
+    pieces: Resolved<T, S, B>,
     ray: &Ray,
     rng: &mut SampleStream,
 ) -> Rgb {
-    let mut total = Vec3::ZERO;
     let Some(hit) = scene.bvh.intersect(ray) else {
         return [0.0; 3];
     };
@@ -198,43 +140,49 @@ pub fn radiance<S: LightSampling>(
     let Some(n) = reflecting_normal(bsdf, sp.ns, wi) else {
         return [0.0; 3];
     };
-    let reflection = match scene.lambert[shape] {
-        Some(f) => Reflection::Lambert(f),
-        None => Reflection::Bsdf(Glossy::new(bsdf, n, wi)),
+    let mut dropped = 0u32;
+    let mut total = Vec3::ZERO;
+    let mut visible = |w: Vec3, dist: f32| {
+        shadow_ray_to(&sp, sp.p + dist * w).is_some_and(|shadow| !scene.bvh.occluded(&shadow))
     };
-    for (segment, k) in &scene.lights {
-        let xi = rng.next_f32();
-        let Some(sampler) = technique.prepare(segment, sp.p, n) else {
-            continue;
-        };
-        let (w, pdf) = sampler.sample_with_pdf(xi);
-        let cos = n.dot(w);
-        if !(pdf > 0.0 && pdf.is_finite() && cos > 0.0) {
-            continue;
+    match scene.lambert[shape] {
+        Some(f) => {
+            // K·(ρ/π)·cos θ/p(ω), p per radius (dΩ_R).
+            for (segment, k) in &scene.lights {
+                let contribution = |_: Vec3, cos: f32, pdf: f32| *k * f * (cos / pdf);
+                total += single_technique(
+                    pieces.technique.prepare(segment, sp.p, n).as_ref(),
+                    n,
+                    light_samples,
+                    rng,
+                    &mut visible,
+                    contribution,
+                    &mut dropped,
+                );
+            }
+            if light_samples > 1 {
+                total /= light_samples as f32;
+            }
         }
-        // The line point seen along ω is at distance d/t, t = √(1 − s²) = ĉ·ω.
-        let frame = sampler.support();
-        let t = frame.c_hat.dot(w);
-        let dist = frame.d / t;
-        if !(t > 0.0 && dist.is_finite()) {
-            continue;
+        None => {
+            let point = ShadingPoint::new(pieces.bsdf, bsdf, sp.p, n, wi);
+            for (segment, k) in &scene.lights {
+                total += estimate_resolved(
+                    pieces,
+                    method,
+                    &point,
+                    segment,
+                    *k,
+                    light_samples,
+                    rng,
+                    &mut visible,
+                    &mut dropped,
+                );
+            }
         }
-        let Some(shadow) = shadow_ray_to(&sp, sp.p + dist * w) else {
-            continue;
-        };
-        if scene.bvh.occluded(&shadow) {
-            continue;
-        }
-        // K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R).
-        let c = match &reflection {
-            Reflection::Lambert(f) => *k * *f * (cos / pdf),
-            Reflection::Bsdf(g) => *k * g.eval(w) / pdf,
-        };
-        if finite_rgb(c) {
-            total += c;
-        } else {
-            scene.dropped.add();
-        }
+    }
+    if dropped > 0 {
+        scene.dropped.add_many(dropped as u64);
     }
     total.to_array()
 }

@@ -10,7 +10,9 @@ use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::contacts::{contact_pixels, light_contacts};
 use crate::film::Welford;
-use crate::integrator::{radiance, LightSampling, RenderScene};
+use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
+use crate::integrator::{radiance, RenderScene};
+use crate::method::Method;
 use crate::scene::{Bsdf, Geometry, Scene};
 use crate::shapes::{transformed_normal, Primitive};
 use crate::visible_line::{PixelLine, VisibleLines};
@@ -18,7 +20,7 @@ use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
 use linlight_sampling::noise::{Noise, NoiseSource};
 use linlight_sampling::philox::CounterRng;
-use linlight_sampling::{Segment, Technique};
+use linlight_sampling::Segment;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -32,16 +34,36 @@ pub struct RenderOptions {
     /// Independent passes (≥ 1).
     pub passes: u32,
     pub seed: u64,
-    pub technique: Technique,
+    /// How each light is sampled (a single technique, LTC, or MIS with a heuristic).
+    pub method: Method,
+    /// Iterations per light and camera sample (≥ 1): samples of the single technique, or
+    /// pairs of a diffuse and a specular sample; the light's estimate is their mean. The CLI's
+    /// default is the scene's `emitter_samples` (see `linlight render --help`).
+    pub light_samples: u32,
     /// Where the primary samples come from (white by default; see [`linlight_sampling::noise`]).
     pub noise: Noise,
+}
+
+impl Default for RenderOptions {
+    /// 1 spp, 1 pass, seed 0, the default method (MIS, clamped optimal, v = 0.5), 1 light
+    /// sample, white noise.
+    fn default() -> Self {
+        Self {
+            spp: 1,
+            passes: 1,
+            seed: 0,
+            method: Method::default(),
+            light_samples: 1,
+            noise: Noise::White,
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum RenderError {
     /// The scene cannot be rendered as given (film size, crop, camera).
     Scene(String),
-    /// The options cannot be used (spp or passes zero).
+    /// The options cannot be used (spp, passes or light samples zero).
     Options(String),
 }
 
@@ -229,8 +251,9 @@ fn nested_two_sided(bsdf: &Bsdf) -> bool {
 /// White-noise stream of one camera sample: Philox of (seed; sample, full-film pixel index,
 /// pass). Every pixel, pass and sample has its own counter-based stream (no state shared between
 /// pixels, so neighbouring pixels' errors are independent); its numbers are the sample's
-/// dimensions: film position (2), then one per light. The renderer draws them through
-/// [`NoiseSource::stream`], which returns exactly these numbers for [`Noise::White`].
+/// dimensions: film position (2), then the lights' numbers (`crate::shading`), then those of
+/// the visible lines. The renderer draws them through [`NoiseSource::stream`], which returns
+/// exactly these numbers for [`Noise::White`].
 pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> CounterRng {
     CounterRng::camera_sample(seed, pass, pixel_index, sample)
 }
@@ -243,22 +266,69 @@ pub fn render(
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    render_with(scene, opts, &opts.technique, progress)
+    render_with(scene, opts, &Hooks::new(), progress)
 }
 
-/// [`render`] with any light sampling in place of `opts.technique` (which is then ignored):
-/// the hook through which tests render with deliberately wrong samplers.
-pub fn render_with<S: LightSampling>(
+/// [`render`] with replaced pieces ([`Hooks`]): the hook through which tests render with
+/// deliberately wrong techniques, specular samplers or BSDF evaluations (power controls, see
+/// [`crate::power_controls`]). `opts.method` still chooses the estimator; the header records
+/// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`).
+pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &Scene,
     opts: &RenderOptions,
-    sampling: &S,
+    hooks: &Hooks<D, S, B>,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    if opts.spp == 0 || opts.passes == 0 {
+    if opts.spp == 0 || opts.passes == 0 || opts.light_samples == 0 {
         return Err(RenderError::Options(
-            "spp and passes must be at least 1".into(),
+            "spp, passes and light samples must be at least 1".into(),
         ));
     }
+    let mut image = with_resolved!(hooks, opts.method, |r| render_tiles(
+        scene, opts, r, progress
+    ))?;
+    let dof = if opts.passes > 1 {
+        opts.passes - 1
+    } else {
+        opts.spp - 1
+    };
+    let mut meta = Metadata {
+        dof: dof as f64,
+        spp: opts.spp as u64 * opts.passes as u64,
+        passes: opts.passes as u64,
+        renderer: format!("linlight {}", env!("CARGO_PKG_VERSION")),
+        scene_sha256: scene.sha256.clone(),
+        extra: std::mem::take(&mut image.meta.extra),
+    };
+    for (key, value) in opts.method.header() {
+        meta.extra.insert(key.into(), value);
+    }
+    if let (Some(t), Method::Technique(_)) = (&hooks.technique, opts.method) {
+        meta.extra.insert("technique".into(), t.name());
+    }
+    for (key, value) in hooks.header() {
+        meta.extra.insert(key.into(), value);
+    }
+    meta.extra
+        .insert("light_samples".into(), opts.light_samples.to_string());
+    meta.extra.insert("seed".into(), opts.seed.to_string());
+    meta.extra
+        .insert("spp_per_pass".into(), opts.spp.to_string());
+    if opts.noise != Noise::White {
+        meta.extra.insert("noise".into(), opts.noise.name().into());
+    }
+    image.meta = meta;
+    Ok(image)
+}
+
+/// The image of [`render_with`] with the pieces resolved; its header holds only
+/// `nonfinite_dropped` (when non-zero) and the lights' entries ([`record_lights`]).
+fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    pieces: Resolved<T, S, B>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
     let (x0, y0, w, h) = window(scene)?;
     let rs = RenderScene::new(scene)?;
     let full_width = scene.sensor.film.width;
@@ -284,9 +354,8 @@ pub fn render_with<S: LightSampling>(
                 for (i, &(fx, fy)) in pixels.iter().enumerate() {
                     // < 2^32: checked by `window`.
                     let index = fy.wrapping_mul(full_width).wrapping_add(fx);
-                    let acc = render_pixel_pass(
-                        &rs, opts, &noise, sampling, fx, fy, index, pass, &seen[i],
-                    );
+                    let acc =
+                        render_pixel_pass(&rs, opts, &noise, pieces, fx, fy, index, pass, &seen[i]);
                     passes[i].push(acc.mean());
                     single[i] = acc;
                 }
@@ -315,33 +384,14 @@ pub fn render_with<S: LightSampling>(
         }
     }
     image.tail = Some(tail);
-    let dof = if opts.passes > 1 {
-        opts.passes - 1
-    } else {
-        opts.spp - 1
-    };
-    let mut meta = Metadata {
-        dof: dof as f64,
-        spp: opts.spp as u64 * opts.passes as u64,
-        passes: opts.passes as u64,
-        renderer: format!("linlight {}", env!("CARGO_PKG_VERSION")),
-        scene_sha256: scene.sha256.clone(),
-        ..Default::default()
-    };
-    meta.extra.insert("technique".into(), sampling.name());
-    meta.extra.insert("seed".into(), opts.seed.to_string());
-    meta.extra
-        .insert("spp_per_pass".into(), opts.spp.to_string());
-    if opts.noise != Noise::White {
-        meta.extra.insert("noise".into(), opts.noise.name().into());
-    }
     let dropped = rs.dropped.get();
     if dropped > 0 {
-        meta.extra
+        image
+            .meta
+            .extra
             .insert("nonfinite_dropped".into(), dropped.to_string());
     }
-    record_lights(&mut meta, scene, &rs.camera, (x0, y0, w, h));
-    image.meta = meta;
+    record_lights(&mut image.meta, scene, &rs.camera, (x0, y0, w, h));
     Ok(image)
 }
 
@@ -414,11 +464,11 @@ struct PixelResult {
 /// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the
 /// camera sees in this pixel ([`VisibleLines::pixel`]).
 #[allow(clippy::too_many_arguments)]
-fn render_pixel_pass<S: LightSampling>(
+fn render_pixel_pass<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     rs: &RenderScene,
     opts: &RenderOptions,
     noise: &NoiseSource,
-    sampling: &S,
+    pieces: Resolved<T, S, B>,
     fx: u32,
     fy: u32,
     index: u32,
@@ -430,7 +480,7 @@ fn render_pixel_pass<S: LightSampling>(
         let mut rng = noise.stream(fx, fy, index, pass, sample);
         let (u, v) = rng.film_position();
         let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
-        let l = radiance(rs, sampling, &ray, &mut rng);
+        let l = radiance(rs, opts.method, opts.light_samples, pieces, &ray, &mut rng);
         let l = if seen.is_empty() {
             l
         } else {

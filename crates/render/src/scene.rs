@@ -76,6 +76,10 @@ pub struct CropWindow {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Integrator {
     pub hide_emitters: bool,
+    /// `emitter_samples` (default: `shading_samples`, default 1): Mitsuba's light samples per
+    /// camera sample, each of one emitter chosen uniformly. `linlight render` takes it as the
+    /// default of `--light-samples`, the samples of *every* light per camera sample.
+    pub emitter_samples: u32,
 }
 
 /// Linear RGB.

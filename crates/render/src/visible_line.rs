@@ -285,7 +285,8 @@ mod tests {
             spp: 8,
             passes: 1,
             seed: 3,
-            technique: Technique::ProjectedSolidAngle,
+            method: Technique::ProjectedSolidAngle.into(),
+            light_samples: 1,
             noise: Default::default(),
         };
         let hidden = render(&sc, &opts, &|_, _| {}).unwrap();

@@ -37,7 +37,8 @@ fn opts(spp: u32, passes: u32, seed: u64, technique: Technique) -> RenderOptions
         spp,
         passes,
         seed,
-        technique,
+        method: technique.into(),
+        light_samples: 1,
         noise: Default::default(),
     }
 }

@@ -14,12 +14,14 @@ pub mod hart;
 pub mod li2018;
 pub mod ltc;
 pub mod mis;
+pub mod mixture;
 pub mod noise;
 pub mod philox;
 pub mod projected_solid_angle;
 pub mod rng;
 pub mod sampler;
 pub mod solid_angle;
+pub mod specular;
 pub mod technique;
 pub mod trig;
 
@@ -27,4 +29,5 @@ pub use geometry::{
     antiderivative_at, projected_antiderivative, unit_normal, FrameArc, LineFrame, Segment,
 };
 pub use sampler::LineSampler;
+pub use specular::SpecularSampler;
 pub use technique::{Prepared, Technique};

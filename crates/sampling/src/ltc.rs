@@ -118,6 +118,26 @@ impl LtcLine {
     pub fn transformed_projected_solid_angle(&self) -> f32 {
         self.transformed.projected_solid_angle()
     }
+
+    /// p_s(ω) = κ/Ω⊥_o · max(0, (Aω)_z) · |det A| / |Aω|⁴ without the support test: the
+    /// density of any direction toward the line's part above the horizon of n (where the
+    /// diffuse technique's samples lie), 0 where the lobe is below its own horizon
+    /// ((Aω)_z ≤ 0), which is exactly where this sampler's support ends within that part. The
+    /// MIS cross density of a diffuse sample; [`LineSampler::pdf`] is this after the test.
+    #[inline]
+    pub fn density_on_clipped_line(&self, dir: Vec3) -> f32 {
+        let aw = self.a * (self.to_shading * dir);
+        let len2 = aw.length_squared();
+        if !(len2 > 0.0) {
+            return 0.0;
+        }
+        let p = self.scale * aw.z.max(0.0) / (len2 * len2);
+        if p.is_finite() {
+            p
+        } else {
+            0.0
+        }
+    }
 }
 
 /// Ω⊥ per radius, in f64, of the segment from `b` to `e` (relative to the shading point) for the
@@ -157,17 +177,7 @@ impl LineSampler for LtcLine {
         if self.arc.tau_in_support(&self.support, dir).is_none() {
             return 0.0;
         }
-        let aw = self.a * (self.to_shading * dir);
-        let len2 = aw.length_squared();
-        if !(len2 > 0.0) {
-            return 0.0;
-        }
-        let p = self.scale * aw.z.max(0.0) / (len2 * len2);
-        if p.is_finite() {
-            p
-        } else {
-            0.0
-        }
+        self.density_on_clipped_line(dir)
     }
 
     fn support(&self) -> &LineFrame {

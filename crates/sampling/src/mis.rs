@@ -62,6 +62,131 @@ pub fn clamped_optimal(p_s: f32, p_o: f32, w_s: f32, w_o: f32, v: f32) -> f32 {
     (1.0 - v) * balance(p_s, p_o) + v * weighted_balance(p_s, p_o, w_s, w_o)
 }
 
+/// A heuristic of the diffuse + specular estimator, chosen at run time (`--mis`).
+///
+/// [`Heuristic::weight`] is the weight w_s of a sample drawn from technique s; per RGB channel
+/// for the weighted heuristics (their technique weights W are per channel). For every heuristic
+/// and every v, `weight(p, q, W, W') + weight(q, p, W', W) = 1` whenever p + q > 0, which is what
+/// makes the combined estimator unbiased.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Heuristic {
+    /// [`balance`].
+    Balance,
+    /// [`power`] (β = 2).
+    Power,
+    /// [`weighted_balance`] with the technique weights W.
+    Weighted,
+    /// [`clamped_optimal`] with the visibility estimate v ∈ [0, 1] (the paper: 0.5).
+    ClampedOptimal(f32),
+}
+
+impl Default for Heuristic {
+    /// The paper's choice: clamped optimal with v = 0.5.
+    fn default() -> Self {
+        Heuristic::ClampedOptimal(0.5)
+    }
+}
+
+impl Heuristic {
+    /// Every heuristic with its default parameters, for listings (`--help`).
+    pub const ALL: [Heuristic; 4] = [
+        Heuristic::Balance,
+        Heuristic::Power,
+        Heuristic::Weighted,
+        Heuristic::ClampedOptimal(0.5),
+    ];
+
+    /// The weight of a sample of technique s: density p_s of its own technique, p_o of the
+    /// other, technique weights w_s, w_o (ignored by balance and power).
+    #[inline]
+    pub fn weight(self, p_s: f32, p_o: f32, w_s: f32, w_o: f32) -> f32 {
+        match self {
+            Heuristic::Balance => balance(p_s, p_o),
+            Heuristic::Power => power(p_s, p_o),
+            Heuristic::Weighted => weighted_balance(p_s, p_o, w_s, w_o),
+            Heuristic::ClampedOptimal(v) => clamped_optimal(p_s, p_o, w_s, w_o, v),
+        }
+    }
+
+    /// Whether the weight depends on the technique weights W (then it differs per channel).
+    #[inline]
+    pub fn uses_technique_weights(self) -> bool {
+        matches!(self, Heuristic::Weighted | Heuristic::ClampedOptimal(_))
+    }
+
+    /// Name without parameter: `balance`, `power`, `weighted`, `clamped-optimal`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Heuristic::Balance => "balance",
+            Heuristic::Power => "power",
+            Heuristic::Weighted => "weighted",
+            Heuristic::ClampedOptimal(_) => "clamped-optimal",
+        }
+    }
+
+    /// The visibility estimate v of clamped optimal.
+    pub fn v(self) -> Option<f32> {
+        match self {
+            Heuristic::ClampedOptimal(v) => Some(v),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for Heuristic {
+    /// `balance`, `power`, `weighted`, `clamped-optimal=<v>` (the form [`str::parse`] reads).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Heuristic::ClampedOptimal(v) => write!(f, "clamped-optimal={v}"),
+            h => f.write_str(h.name()),
+        }
+    }
+}
+
+impl std::str::FromStr for Heuristic {
+    type Err = String;
+    /// `balance`, `power`, `weighted`, `clamped-optimal` (v = 0.5) or `clamped-optimal=<v>`
+    /// with v ∈ [0, 1].
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (name, value) = match s.split_once('=') {
+            Some((n, v)) => (n, Some(v)),
+            None => (s, None),
+        };
+        let h = match name {
+            "balance" => Heuristic::Balance,
+            "power" => Heuristic::Power,
+            "weighted" => Heuristic::Weighted,
+            "clamped-optimal" => {
+                let v = match value {
+                    None => 0.5,
+                    Some(t) => match t.trim().parse::<f32>() {
+                        Ok(v) if (0.0..=1.0).contains(&v) => v,
+                        _ => {
+                            return Err(format!(
+                                "clamped-optimal={t}: v must be a number in [0, 1] (the \
+                                 visibility estimate; the paper uses 0.5)"
+                            ))
+                        }
+                    },
+                };
+                return Ok(Heuristic::ClampedOptimal(v));
+            }
+            _ => {
+                return Err(format!(
+                    "unknown MIS heuristic '{s}' (expected one of: balance, power, weighted, \
+                     clamped-optimal[=v] with v in [0, 1])"
+                ))
+            }
+        };
+        match value {
+            None => Ok(h),
+            Some(_) => Err(format!(
+                "MIS heuristic '{name}' takes no parameter (only clamped-optimal=v does)"
+            )),
+        }
+    }
+}
+
 /// num/den in [0, 1] for 0 ≤ num ≤ den; 0 when den is 0 or not finite.
 #[inline]
 fn ratio(num: f32, den: f32) -> f32 {
@@ -101,6 +226,36 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn heuristic_names_round_trip() {
+        for h in Heuristic::ALL {
+            assert_eq!(h.to_string().parse::<Heuristic>(), Ok(h));
+        }
+        assert_eq!(
+            "clamped-optimal".parse(),
+            Ok(Heuristic::ClampedOptimal(0.5))
+        );
+        assert_eq!(
+            "clamped-optimal=0".parse(),
+            Ok(Heuristic::ClampedOptimal(0.0))
+        );
+        assert_eq!(
+            "clamped-optimal=1".parse(),
+            Ok(Heuristic::ClampedOptimal(1.0))
+        );
+        for bad in [
+            "clamped-optimal=1.5",
+            "clamped-optimal=-0.1",
+            "clamped-optimal=x",
+            "balance=1",
+            "optimal",
+            "",
+        ] {
+            assert!(bad.parse::<Heuristic>().is_err(), "{bad}");
+        }
+        assert_eq!(Heuristic::default(), Heuristic::ClampedOptimal(0.5));
     }
 
     #[test]

@@ -652,9 +652,11 @@ impl ProjectedSolidAngle {
         (dir, n_dot_w.max(0.0) * self.inv_psa)
     }
 
-    /// Density of a direction known to lie in the support (no support test): (n·ω)/Ω⊥_R.
+    /// Density of a direction known to lie in the support (no support test): (n·ω)⁺/Ω⊥_R.
+    /// The MIS cross density of a specular (LTC) sample, which always lies on the
+    /// horizon-clipped line this sampler covers.
     #[inline]
-    pub(crate) fn density_in_support(&self, dir: Vec3) -> f32 {
+    pub fn density_in_support(&self, dir: Vec3) -> f32 {
         self.n.dot(dir).max(0.0) * self.inv_psa
     }
 

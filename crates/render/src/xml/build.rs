@@ -553,8 +553,9 @@ impl<'a> Builder<'a> {
         }
         let p = self.props(e)?;
         let hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
-        // Accepted for Mitsuba; the Rust renderer samples the lights only (see module docs), but
-        // what Mitsuba refuses is refused here too (direct.cpp).
+        // The Rust renderer samples the lights only (see module docs); `emitter_samples` is the
+        // default of `linlight render --light-samples`. What Mitsuba refuses is refused here too
+        // (direct.cpp).
         let count = |name: &str| p.integer_in(name, 0, u32::MAX as i64);
         let (emitter, bsdf, shading) = (
             count("emitter_samples")?,
@@ -577,7 +578,10 @@ impl<'a> Builder<'a> {
             );
         }
         p.finish()?;
-        Ok(Integrator { hide_emitters })
+        Ok(Integrator {
+            hide_emitters,
+            emitter_samples: emitter.unwrap_or(shading) as u32,
+        })
     }
 
     /// `radiance` of an `area` emitter (default 1, as in Mitsuba).

@@ -10,9 +10,11 @@
 //! difference from Mitsuba.
 //!
 //! `integrator direct` accepts `emitter_samples`, `bsdf_samples` and `shading_samples` so that
-//! the same file renders in Mitsuba, but they do not reach the IR: the Rust renderer samples the
-//! linear lights only (these options change Mitsuba's variance, not its expectation). What
-//! Mitsuba refuses is refused here too (no sample at all, `shading_samples` with either).
+//! the same file renders in Mitsuba. The Rust renderer samples the linear lights only (these
+//! options change Mitsuba's variance, not its expectation); `emitter_samples` (default
+//! `shading_samples`, default 1) reaches the IR as the default of `linlight render
+//! --light-samples`. What Mitsuba refuses is refused here too (no sample at all,
+//! `shading_samples` with either).
 //! `hide_emitters` (default false, as in Mitsuba) reaches the IR: the renderer then draws the
 //! lines the camera sees (`crate::visible_line`).
 //!

@@ -215,6 +215,28 @@ impl NoiseSource {
     }
 }
 
+/// A source of the uniform numbers of one camera sample, one light-sampling dimension per call:
+/// the white stream ([`CounterRng`]) or a noise-shaped one ([`SampleStream`]). The shading code
+/// draws through it, so every noise reaches every sampling method.
+pub trait Uniforms {
+    /// The next dimension, uniform in [0, 1).
+    fn next_f32(&mut self) -> f32;
+}
+
+impl Uniforms for CounterRng {
+    #[inline]
+    fn next_f32(&mut self) -> f32 {
+        CounterRng::next_f32(self)
+    }
+}
+
+impl Uniforms for SampleStream<'_> {
+    #[inline]
+    fn next_f32(&mut self) -> f32 {
+        SampleStream::next_f32(self)
+    }
+}
+
 /// The uniform numbers of one camera sample, dimension by dimension.
 pub struct SampleStream<'a> {
     white: CounterRng,

@@ -1,0 +1,367 @@
+//! Direct light of one linear light at one shading point: the estimators of every
+//! [`Method`], written once as scalar code that the integrator calls per light (and that a
+//! batched renderer can reproduce lane by lane: per light prepare both samplers, sample, eval,
+//! shadow rays).
+//!
+//! Measure: densities per radius (dΩ_R); a contribution is K·f(v, ω)·cos θ·V(ω)·w(ω)/p(ω) with
+//! K = radiance × radius and f·cos from the BSDF model, averaged over `samples` iterations.
+//!
+//! The two-technique estimator (methods `Ltc` and `Mis`), per light:
+//! 1. PSA (the diffuse technique) on the line clipped at the horizon of n; `None` → nothing.
+//! 2. LTC (the specular technique) with the table's A for (α, cos θ_v); `None` (no specular
+//!    lobe, lobe empty on the line in cosine space, A too ill-conditioned) → diffuse only.
+//! 3. Technique weights per channel: W_d = max(ρ_d, 0.01)·Ω⊥_R, W_s = k_s·ρ_s·Ω⊥_o/κ.
+//! 4. Per iteration one diffuse sample ω_d (ξ₀) and one specular sample ω_s (ξ₁), each
+//!    weighted with its own density and the other technique's cross density
+//!    (`ProjectedSolidAngle::density_in_support`, `SpecularSampler::density_on_clipped_line`:
+//!    both samples lie on the clipped line, so no support test), both shadow-traced.
+//!
+//! Random numbers: per light, `samples` numbers (one technique, or diffuse only on a
+//! Lambertian surface) or 2·`samples` (the two-technique estimators on other surfaces: ξ₀, ξ₁
+//! per iteration), drawn whether or not the light contributes.
+
+use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
+use crate::method::Method;
+use glam::{DVec3, Mat3, Vec3};
+use linlight_brdf::ltc::GgxLtcTable;
+use linlight_brdf::{Bsdf, Lobes};
+use linlight_sampling::mis::Heuristic;
+use linlight_sampling::noise::Uniforms;
+use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
+use linlight_sampling::{LineSampler, Segment, SpecularSampler, Technique};
+
+/// Smallest diffuse albedo in the diffuse technique weight W_d = max(ρ_d, 0.01)·Ω⊥_R.
+pub const MIN_DIFFUSE_WEIGHT: f32 = 0.01;
+
+/// The shading frame of the LTC tables: columns x̂, ŷ, n with x̂ = normalize(v − (n·v)n)
+/// (any unit x̂ ⊥ n when v ∥ n) and ŷ = n × x̂; and v in it. `n`, `wi` unit, n·wi > 0.
+pub fn shading_frame(n: Vec3, wi: Vec3) -> (Mat3, DVec3) {
+    let x = (wi - n.dot(wi) * n)
+        .try_normalize()
+        .unwrap_or_else(|| n.any_orthonormal_vector());
+    let frame = Mat3::from_cols(x, n.cross(x), n);
+    let v = DVec3::new(wi.dot(x) as f64, 0.0, wi.dot(n) as f64);
+    (frame, v)
+}
+
+/// A shading point of a non-Lambertian surface: position, frame, view and what the BSDF
+/// model says about its lobes there.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadingPoint<'a> {
+    pub x: Vec3,
+    /// Columns x̂, ŷ, n ([`shading_frame`]); n is the normal of the side facing the viewer.
+    pub frame: Mat3,
+    /// The view direction in shading coordinates (v_y = 0, v_z = cos θ_v > 0).
+    pub v: DVec3,
+    pub bsdf: &'a Bsdf,
+    pub lobes: Lobes,
+    /// A (shading → cosine space) and ρ_s of the specular lobe from the GGX LTC table.
+    pub ltc: Option<(Mat3, f32)>,
+}
+
+impl<'a> ShadingPoint<'a> {
+    /// `n`: unit normal of the reflecting side, `wi`: unit direction toward the viewer.
+    pub fn new<B: BsdfModel>(model: &B, bsdf: &'a Bsdf, x: Vec3, n: Vec3, wi: Vec3) -> Self {
+        let (frame, v) = shading_frame(n, wi);
+        let lobes = model.lobes(bsdf, v);
+        let ltc = lobes
+            .specular
+            .map(|s| GgxLtcTable::ggx().lookup(s.alpha as f32, v.z as f32));
+        Self {
+            x,
+            frame,
+            v,
+            bsdf,
+            lobes,
+            ltc,
+        }
+    }
+
+    #[inline]
+    pub fn n(&self) -> Vec3 {
+        self.frame.z_axis
+    }
+
+    /// f(v, ω)·cos θ for a unit world direction ω.
+    #[inline]
+    pub fn eval<B: BsdfModel>(&self, model: &B, w: Vec3) -> Vec3 {
+        let l = DVec3::new(
+            w.dot(self.frame.x_axis) as f64,
+            w.dot(self.frame.y_axis) as f64,
+            w.dot(self.frame.z_axis) as f64,
+        );
+        model.eval(self.bsdf, self.v, l).as_vec3()
+    }
+}
+
+/// How the two samples of the two-technique estimator are weighted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Combination {
+    /// A MIS heuristic (method `Mis`).
+    Heuristic(Heuristic),
+    /// w_s = 1[p_s > 0], w_d = 1[p_s = 0] (method `Ltc`).
+    SupportIndicator,
+}
+
+impl Combination {
+    /// The combination of a two-technique method; `None` for single techniques.
+    pub fn of(method: Method) -> Option<Self> {
+        match method {
+            Method::Technique(_) => None,
+            Method::Ltc => Some(Combination::SupportIndicator),
+            Method::Mis(h) => Some(Combination::Heuristic(h)),
+        }
+    }
+
+    /// Weight per channel of a sample of the diffuse (`specular` = false) or specular
+    /// technique: p_own its density, p_other the other technique's, w_* the technique weights.
+    #[inline]
+    pub fn weight(
+        self,
+        specular: bool,
+        p_own: f32,
+        p_other: f32,
+        w_own: Vec3,
+        w_other: Vec3,
+    ) -> Vec3 {
+        match self {
+            // 1[p_s > 0] for the specular technique, 1[p_s = 0] for the diffuse one.
+            Combination::SupportIndicator => {
+                let p_s = if specular { p_own } else { p_other };
+                if (p_s > 0.0) == specular {
+                    Vec3::ONE
+                } else {
+                    Vec3::ZERO
+                }
+            }
+            Combination::Heuristic(h) if h.uses_technique_weights() => Vec3::new(
+                h.weight(p_own, p_other, w_own.x, w_other.x),
+                h.weight(p_own, p_other, w_own.y, w_other.y),
+                h.weight(p_own, p_other, w_own.z, w_other.z),
+            ),
+            Combination::Heuristic(h) => Vec3::splat(h.weight(p_own, p_other, 0.0, 0.0)),
+        }
+    }
+}
+
+/// Distance along ω (toward the line of `sampler`) to the line; `None` if not finite.
+#[inline]
+fn distance_to_line<L: LineSampler>(sampler: &L, w: Vec3) -> Option<f32> {
+    // The line point seen along ω is at distance d/t, t = √(1 − s²) = ĉ·ω.
+    let frame = sampler.support();
+    let t = frame.c_hat.dot(w);
+    let dist = frame.d / t;
+    (t > 0.0 && dist.is_finite()).then_some(dist)
+}
+
+/// One technique, `samples` iterations: Σ contribution(ω, cos θ, p) over the visible samples
+/// with p > 0 and cos θ > 0 (not divided by `samples`). `contribution` returns
+/// K·f·cos/p; non-finite ones are counted in `dropped` and left out.
+#[inline(always)]
+pub fn single_technique<L: LineSampler>(
+    sampler: Option<&L>,
+    n: Vec3,
+    samples: u32,
+    rng: &mut impl Uniforms,
+    visible: &mut impl FnMut(Vec3, f32) -> bool,
+    contribution: impl Fn(Vec3, f32, f32) -> Vec3,
+    dropped: &mut u32,
+) -> Vec3 {
+    let mut total = Vec3::ZERO;
+    let Some(sampler) = sampler else {
+        for _ in 0..samples {
+            rng.next_f32();
+        }
+        return total;
+    };
+    for _ in 0..samples {
+        let (w, pdf) = sampler.sample_with_pdf(rng.next_f32());
+        let cos = n.dot(w);
+        if !(pdf > 0.0 && pdf.is_finite() && cos > 0.0) {
+            continue;
+        }
+        let Some(dist) = distance_to_line(sampler, w) else {
+            continue;
+        };
+        if !visible(w, dist) {
+            continue;
+        }
+        let c = contribution(w, cos, pdf);
+        if c.is_finite() {
+            total += c;
+        } else {
+            *dropped += 1;
+        }
+    }
+    total
+}
+
+/// The two-technique estimator (module documentation), `samples` iterations, not divided by
+/// `samples`. `specular`: the prepared specular sampler and its technique weight W_s, `None`
+/// for the diffuse-only fallback; `w_d`: the diffuse technique weight. `eval`: f·cos of a
+/// world direction.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn two_techniques<S: SpecularSampler>(
+    diffuse: &ProjectedSolidAngle,
+    specular: Option<(&S, Vec3)>,
+    w_d: Vec3,
+    combination: Combination,
+    k: Vec3,
+    samples: u32,
+    rng: &mut impl Uniforms,
+    visible: &mut impl FnMut(Vec3, f32) -> bool,
+    eval: impl Fn(Vec3) -> Vec3,
+    dropped: &mut u32,
+) -> Vec3 {
+    let mut total = Vec3::ZERO;
+    let mut add = |c: Vec3| {
+        if c.is_finite() {
+            total += c;
+        } else {
+            *dropped += 1;
+        }
+    };
+    for _ in 0..samples {
+        let (xi_d, xi_s) = (rng.next_f32(), rng.next_f32());
+        // The diffuse sample.
+        let (w, p_d) = diffuse.sample_with_pdf(xi_d);
+        if p_d > 0.0 && p_d.is_finite() {
+            let weight = match specular {
+                None => Vec3::ONE,
+                Some((s, w_s)) => {
+                    let p_s = s.density_on_clipped_line(w);
+                    combination.weight(false, p_d, p_s, w_d, w_s)
+                }
+            };
+            if weight != Vec3::ZERO {
+                if let Some(dist) = distance_to_line(diffuse, w) {
+                    let f = eval(w);
+                    if f != Vec3::ZERO && visible(w, dist) {
+                        add(k * f * weight / p_d);
+                    }
+                }
+            }
+        }
+        // The specular sample.
+        let Some((s, w_s)) = specular else {
+            continue;
+        };
+        let (w, p_s) = s.sample_with_pdf(xi_s);
+        if !(p_s > 0.0 && p_s.is_finite()) {
+            continue;
+        }
+        let p_d = diffuse.density_in_support(w);
+        let weight = combination.weight(true, p_s, p_d, w_s, w_d);
+        if weight == Vec3::ZERO {
+            continue;
+        }
+        let Some(dist) = distance_to_line(s, w) else {
+            continue;
+        };
+        let f = eval(w);
+        if f != Vec3::ZERO && visible(w, dist) {
+            add(k * f * weight / p_s);
+        }
+    }
+    total
+}
+
+/// The light of one linear light (`segment`, K = `k`) at a non-Lambertian shading point by
+/// `method` with `samples` iterations, divided by `samples` (0 when `samples` = 0), with the
+/// pieces of `hooks`. `rng` supplies the uniform numbers, `visible(ω, distance)` says whether the line
+/// point along ω is visible; non-finite contributions are counted in `dropped`.
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_light<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    hooks: &Hooks<D, S, B>,
+    method: Method,
+    sp: &ShadingPoint,
+    segment: &Segment,
+    k: Vec3,
+    samples: u32,
+    rng: &mut impl Uniforms,
+    visible: &mut impl FnMut(Vec3, f32) -> bool,
+    dropped: &mut u32,
+) -> Vec3 {
+    with_resolved!(hooks, method, |r| estimate_resolved(
+        r, method, sp, segment, k, samples, rng, visible, dropped
+    ))
+}
+
+/// [`estimate_light`] with the pieces resolved (what the integrator calls).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    pieces: Resolved<T, S, B>,
+    method: Method,
+    sp: &ShadingPoint,
+    segment: &Segment,
+    k: Vec3,
+    samples: u32,
+    rng: &mut impl Uniforms,
+    visible: &mut impl FnMut(Vec3, f32) -> bool,
+    dropped: &mut u32,
+) -> Vec3 {
+    if samples == 0 {
+        return Vec3::ZERO;
+    }
+    let n = sp.n();
+    let eval = |w: Vec3| sp.eval(pieces.bsdf, w);
+    let total = match Combination::of(method) {
+        None => single_technique(
+            pieces.technique.prepare(segment, sp.x, n).as_ref(),
+            n,
+            samples,
+            rng,
+            visible,
+            |w: Vec3, _cos: f32, pdf: f32| k * eval(w) / pdf,
+            dropped,
+        ),
+        Some(combination) => {
+            let Some(diffuse) = ProjectedSolidAngle::prepare(segment, sp.x, n) else {
+                for _ in 0..2 * samples {
+                    rng.next_f32();
+                }
+                return Vec3::ZERO;
+            };
+            let specular = sp.ltc.and_then(|(a, rho)| {
+                Some((pieces.specular.prepare(segment, sp.x, sp.frame, a)?, rho))
+            });
+            let w_d = sp
+                .lobes
+                .diffuse
+                .as_vec3()
+                .max(Vec3::splat(MIN_DIFFUSE_WEIGHT))
+                * diffuse.projected_solid_angle();
+            let k_s = sp
+                .lobes
+                .specular
+                .map_or(DVec3::ZERO, |l| l.weight)
+                .as_vec3();
+            two_techniques(
+                &diffuse,
+                specular
+                    .as_ref()
+                    .map(|(s, rho)| (s, k_s * (rho * s.weight_scale()))),
+                w_d,
+                combination,
+                k,
+                samples,
+                rng,
+                visible,
+                eval,
+                dropped,
+            )
+        }
+    };
+    total / samples as f32
+}
+
+/// The diffuse technique of a method on a Lambertian surface: the single technique, or the
+/// projected solid angle (two-technique methods sample Lambertian surfaces diffusely only).
+pub fn lambert_technique(method: Method) -> Technique {
+    match method {
+        Method::Technique(t) => t,
+        Method::Ltc | Method::Mis(_) => Technique::ProjectedSolidAngle,
+    }
+}
