@@ -23,7 +23,7 @@ pub struct Args {
     /// Output directory.
     #[arg(long, default_value = "figures")]
     out: PathBuf,
-    /// Comma-separated figure names, of: one-spp, cornell, backward-error, noise, newton,
+    /// Comma-separated figure names, of: one-spp, cornell, specular, backward-error, noise, newton,
     /// convergence, timings [default: all].
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,

@@ -22,13 +22,14 @@ mod cornell;
 mod newton;
 mod noise;
 mod one_spp;
+mod specular;
 mod timings;
 
 use crate::certify::scenes::load_referenced;
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::xml::load_scene;
-use linlight_render::{render, RenderOptions};
+use linlight_render::{render, Method, RenderOptions};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use linlight_verify::heatmap::Rgb8;
@@ -114,7 +115,7 @@ pub struct Figure {
 }
 
 /// Every figure, in page order.
-pub const FIGURES: [Figure; 7] = [
+pub const FIGURES: [Figure; 8] = [
     Figure {
         name: "one-spp",
         title: "One sample per pixel: area vs solid angle vs projected solid angle",
@@ -124,6 +125,11 @@ pub const FIGURES: [Figure; 7] = [
         name: "cornell",
         title: "Cornell box: every technique at 1 spp and at equal time",
         make: cornell::make,
+    },
+    Figure {
+        name: "specular",
+        title: "Diffuse + specular: PSA only, LTC only, MIS of both; roughness 0.3 vs 1.0",
+        make: specular::make,
     },
     Figure {
         name: "backward-error",
@@ -205,7 +211,8 @@ impl Ctx<'_> {
         load_scene(&path, &ov).map_err(|e| format!("{}: {e}", path.display()))
     }
 
-    /// Render `scene` (timed, on the current thread pool).
+    /// Render `scene` with one sample of `technique` per light and camera sample (timed, on
+    /// the current thread pool).
     pub fn render(
         &self,
         scene: &Scene,
@@ -215,12 +222,25 @@ impl Ctx<'_> {
         passes: u32,
         seed: u64,
     ) -> Result<Timed, String> {
+        self.render_method(scene, technique.into(), noise, spp, passes, seed)
+    }
+
+    /// Render `scene` with `method` (one iteration per light and camera sample: one sample of
+    /// a single technique, or one diffuse and one specular sample for MIS).
+    pub fn render_method(
+        &self,
+        scene: &Scene,
+        method: Method,
+        noise: Noise,
+        spp: u32,
+        passes: u32,
+        seed: u64,
+    ) -> Result<Timed, String> {
         let opts = RenderOptions {
             spp,
             passes,
             seed,
-            // One sample of `technique` per light and camera sample (the figures' setting).
-            method: technique.into(),
+            method,
             light_samples: 1,
             noise,
         };

@@ -147,7 +147,7 @@ pub fn html(sections: &[Section], settings: &Settings, quick: bool, seconds: f64
         );
     }
     s.push_str(
-        "<li><a href=\"#specular\">Diffuse + specular, roughness, MIS heuristics: not produced</a></li>\
+        "<li><a href=\"#mis-heuristics\">Convergence per MIS heuristic: not produced</a></li>\
          <li><a href=\"#summary\">Summary and differences from the paper</a></li></ul>",
     );
     for sec in sections {
@@ -172,20 +172,12 @@ pub fn html(sections: &[Section], settings: &Settings, quick: bool, seconds: f64
     s
 }
 
-/// The specular experiments, which need the MIS integrator (one projected-solid-angle and one
-/// LTC sample per light, combined by a heuristic) that this build does not have. No picture
-/// stands in for them.
-pub const NOT_PRODUCED: &str = "<section id=\"specular\"><h2>Diffuse + specular, roughness, MIS heuristics: \
-     not produced</h2><p class=\"caption\">The paper's specular experiments are <b>not produced by this build</b>: \
-     (1) projected solid angle only (1 spp), LTC only (1 spp) and their MIS (2 spp) on a glossy scene, as in the \
-     teaser's third image; (2) the same at roughness factor 0.3 vs 1.0 on a shadowed plane \
-     (<code>references/scenes/figures/shadowed-plane.xml</code> is ready for it); (3) one convergence curve per MIS \
-     heuristic (balance, power, weighted balance, clamped optimal). They need the renderer's MIS integrator (an LTC \
-     sample and a projected-solid-angle sample per light, <code>render --technique ltc</code>, \
-     <code>--mis</code>), which is being finished on its own branch and is not part of this build; pictures made \
-     without it would not show what the paper shows, so none are drawn. Every other figure above uses the full BRDF \
-     with projected-solid-angle sampling (glossy surfaces included) and is unbiased, but it is not the paper's \
-     specular sampling.</p></section>";
+/// The part of the paper's experiments this version does not make. No picture stands in for it.
+pub const NOT_PRODUCED: &str = "<section id=\"mis-heuristics\"><h2>Convergence per MIS heuristic: not \
+     produced</h2><p class=\"caption\">One convergence curve per MIS heuristic (balance, power, weighted balance, \
+     clamped optimal) is <b>not produced by this version</b>: the MIS integrator arrived late in this work, and only \
+     the paper's heuristic (clamped optimal, v = 0.5) is shown, in the diffuse + specular figure. \
+     <code>linlight render --mis balance|power|weighted|clamped-optimal=v</code> renders each of them.</p></section>";
 
 /// The closing note: headline numbers of the figures that ran, and the differences from the
 /// paper.
