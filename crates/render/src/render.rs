@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Side of the square tiles distributed over threads.
-const TILE: u32 = 16;
+pub(crate) const TILE: u32 = 16;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
@@ -77,7 +77,7 @@ impl std::fmt::Display for RenderError {
 impl std::error::Error for RenderError {}
 
 /// Pixel window actually rendered: the crop, or the whole film.
-fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
+pub(crate) fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
     let film = &scene.sensor.film;
     if film.width == 0 || film.height == 0 {
         return Err(RenderError::Scene(format!(
@@ -261,32 +261,64 @@ pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> Counte
 /// Render `scene`. `progress(done, total)` is called (from worker threads) after each pass of
 /// each tile, in camera samples: `total` = pixels × spp × passes.
 /// Runs on the current rayon pool (use `ThreadPool::install` to choose the thread count).
+///
+/// Where it applies ([`crate::batched::applies`]) the batched renderer renders, whose images
+/// equal those of the scalar path [`render_with`]`(scene, opts, &opts.technique, …)` bit for
+/// bit; the scalar path renders everything else.
 pub fn render(
     scene: &Scene,
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
+    if crate::batched::applies(scene, opts) {
+        return crate::batched::render(scene, opts, progress);
+    }
     render_with(scene, opts, &Hooks::new(), progress)
+}
+
+/// Reject options no render can use.
+pub(crate) fn check_options(opts: &RenderOptions) -> Result<(), RenderError> {
+    if opts.spp == 0 || opts.passes == 0 || opts.light_samples == 0 {
+        return Err(RenderError::Options(
+            "spp, passes and light samples must be at least 1".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// [`render`] with replaced pieces ([`Hooks`]): the hook through which tests render with
 /// deliberately wrong techniques, specular samplers or BSDF evaluations (power controls, see
 /// [`crate::power_controls`]). `opts.method` still chooses the estimator; the header records
-/// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`).
+/// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`). Always the
+/// scalar path (the batched renderer's images equal it bit for bit where it applies).
 pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &Scene,
     opts: &RenderOptions,
     hooks: &Hooks<D, S, B>,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    if opts.spp == 0 || opts.passes == 0 || opts.light_samples == 0 {
-        return Err(RenderError::Options(
-            "spp, passes and light samples must be at least 1".into(),
-        ));
-    }
+    check_options(opts)?;
     let mut image = with_resolved!(hooks, opts.method, |r| render_tiles(
         scene, opts, r, progress
     ))?;
+    let mut entries = Vec::new();
+    if let (Some(t), Method::Technique(_)) = (&hooks.technique, opts.method) {
+        entries.push(("technique", t.name()));
+    }
+    entries.extend(hooks.header());
+    image.meta = metadata(opts, scene, std::mem::take(&mut image.meta.extra), entries);
+    Ok(image)
+}
+
+/// The header of a render: dof, spp, passes, renderer, scene hash; `extra` (the pixels'
+/// entries: `nonfinite_dropped`, the lights) with the method's entries, then `entries` (the
+/// hooks', which override), light samples, seed and spp per pass.
+pub(crate) fn metadata(
+    opts: &RenderOptions,
+    scene: &Scene,
+    extra: std::collections::BTreeMap<String, String>,
+    entries: Vec<(&'static str, String)>,
+) -> Metadata {
     let dof = if opts.passes > 1 {
         opts.passes - 1
     } else {
@@ -298,15 +330,9 @@ pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
         passes: opts.passes as u64,
         renderer: format!("linlight {}", env!("CARGO_PKG_VERSION")),
         scene_sha256: scene.sha256.clone(),
-        extra: std::mem::take(&mut image.meta.extra),
+        extra,
     };
-    for (key, value) in opts.method.header() {
-        meta.extra.insert(key.into(), value);
-    }
-    if let (Some(t), Method::Technique(_)) = (&hooks.technique, opts.method) {
-        meta.extra.insert("technique".into(), t.name());
-    }
-    for (key, value) in hooks.header() {
+    for (key, value) in opts.method.header().into_iter().chain(entries) {
         meta.extra.insert(key.into(), value);
     }
     meta.extra
@@ -317,12 +343,11 @@ pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     if opts.noise != Noise::White {
         meta.extra.insert("noise".into(), opts.noise.name().into());
     }
-    image.meta = meta;
-    Ok(image)
+    meta
 }
 
-/// The image of [`render_with`] with the pieces resolved; its header holds only
-/// `nonfinite_dropped` (when non-zero) and the lights' entries ([`record_lights`]).
+/// The image of [`render_with`] with the pieces resolved; its header holds only the pixels'
+/// entries ([`pixel_entries`]).
 fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &Scene,
     opts: &RenderOptions,
@@ -384,15 +409,28 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         }
     }
     image.tail = Some(tail);
+    image.meta = Metadata {
+        extra: pixel_entries(scene, &rs, (x0, y0, w, h)),
+        ..Default::default()
+    };
+    Ok(image)
+}
+
+/// The header entries the pixels of a render determine: `nonfinite_dropped` (when non-zero)
+/// and the lights' entries ([`record_lights`]).
+pub(crate) fn pixel_entries(
+    scene: &Scene,
+    rs: &RenderScene,
+    window: (u32, u32, u32, u32),
+) -> std::collections::BTreeMap<String, String> {
+    let mut meta = Metadata::default();
     let dropped = rs.dropped.get();
     if dropped > 0 {
-        image
-            .meta
-            .extra
+        meta.extra
             .insert("nonfinite_dropped".into(), dropped.to_string());
     }
-    record_lights(&mut image.meta, scene, &rs.camera, (x0, y0, w, h));
-    Ok(image)
+    record_lights(&mut meta, scene, &rs.camera, window);
+    meta.extra
 }
 
 /// Distance (in pixels) from a contact's projection within which pixels are contact pixels.
@@ -455,10 +493,10 @@ pub fn record_inputs(
 
 /// What a pixel contributes to the image: mean, variance of the mean, heavy-tail share.
 #[derive(Clone, Copy, Debug, Default)]
-struct PixelResult {
-    mean: [f32; 3],
-    var: [f32; 3],
-    tail: [f32; 3],
+pub(crate) struct PixelResult {
+    pub mean: [f32; 3],
+    pub var: [f32; 3],
+    pub tail: [f32; 3],
 }
 
 /// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the
@@ -496,7 +534,7 @@ fn render_pixel_pass<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
 
 /// Mean, variance of the mean and heavy-tail share of a pixel from its pass means (P > 1) or,
 /// with one pass, from its samples.
-fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> PixelResult {
+pub(crate) fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> PixelResult {
     let terms = if opts.passes > 1 { passes } else { single };
     // Every sample is finite (the integrator drops non-finite contributions), so are these.
     PixelResult {
