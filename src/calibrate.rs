@@ -223,6 +223,7 @@ fn options(spp: u32, passes: u32, seed: u64) -> RenderOptions {
         seed,
         method: Technique::ProjectedSolidAngle.into(),
         light_samples: 1,
+        noise: Default::default(),
     }
 }
 

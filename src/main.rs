@@ -35,6 +35,10 @@ enum Command {
     Info(cmd::info::Args),
     /// Combine independent mean+variance images of one scene into one (runs, machines).
     Merge(cmd::merge::Args),
+    /// Regenerate every experiment of the paper: PNGs, plots, CSV/JSON and one index.html
+    /// (--quick: small sizes, a few minutes).
+    #[command(after_help = cmd::figures::AFTER_HELP)]
+    Figures(cmd::figures::Args),
     /// False-alarm rate and power of compare on real renders (seed pairs per scene family).
     Calibrate(cmd::calibrate::Args),
     /// Fit the GGX LTC table (deterministic) and report its error; --check re-fits a sample
@@ -70,5 +74,6 @@ fn main() -> ExitCode {
         Command::Merge(a) => cmd::merge::run(a),
         Command::Calibrate(a) => cmd::calibrate::run(a),
         Command::FitLtc(a) => cmd::fit_ltc::run(a),
+        Command::Figures(a) => cmd::figures::run(a),
     }
 }

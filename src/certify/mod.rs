@@ -28,6 +28,7 @@ pub mod shard;
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::{record_inputs, render, Method, RenderError, RenderOptions};
+use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
 use linlight_verify::z_score::sidak;
@@ -41,6 +42,61 @@ use scenes::ReferencedScene;
 
 /// Scenes that are also compared with the closed-form R → 0 image (unoccluded diffuse plane).
 pub const CLOSED_FORM_SCENES: [&str; 1] = ["floor-tube"];
+
+/// A render with blue noise, certified besides the white-noise renders of the techniques, so
+/// that the noise's unbiasedness across passes is part of the main job.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NoiseRender {
+    pub scene: &'static str,
+    pub technique: Technique,
+    pub noise: Noise,
+}
+
+/// At least one blue-noise render per scene family: the occluded diffuse box with the paper's
+/// jittered blue noise, the diffuse floor with a horizon-crossing light with plain blue noise.
+pub const NOISE_RENDERS: [NoiseRender; 2] = [
+    NoiseRender {
+        scene: "cornell-tube",
+        technique: Technique::ProjectedSolidAngle,
+        noise: Noise::BlueJittered,
+    },
+    NoiseRender {
+        scene: "floor-crossing",
+        technique: Technique::ProjectedSolidAngle,
+        noise: Noise::Blue,
+    },
+];
+
+/// Passes of a noise render: its variance of the mean comes from the pass means (the samples
+/// of one jittered pass are stratified, not independent).
+pub const NOISE_PASSES: u32 = 16;
+
+impl Subject for NoiseRender {
+    fn name(&self) -> String {
+        format!("{} ({} noise)", self.technique.name(), self.noise.name())
+    }
+    /// `opts.spp` samples in total, split over [`NOISE_PASSES`] passes.
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        let total = opts.spp as u64 * opts.passes as u64;
+        let passes = NOISE_PASSES;
+        render(
+            scene,
+            &RenderOptions {
+                method: self.technique.into(),
+                noise: self.noise,
+                passes,
+                spp: total.div_ceil(passes as u64).clamp(1, u32::MAX as u64) as u32,
+                ..*opts
+            },
+            progress,
+        )
+    }
+}
 
 /// Unusable input: the certification cannot be carried out (exit 2).
 #[derive(Clone, Debug, PartialEq)]
@@ -143,6 +199,9 @@ pub struct Options {
     pub closed_form_subsamples: u32,
     /// Run only this part of the scene × technique list (`--shard i/N`, [`shard`]).
     pub shard: Option<shard::Shard>,
+    /// The blue-noise renders of [`NOISE_RENDERS`] whose scene is selected (and whose technique
+    /// the command line selected).
+    pub noise_renders: Vec<NoiseRender>,
 }
 
 impl Options {
@@ -162,6 +221,7 @@ impl Options {
             seed: 1,
             closed_form_subsamples: 16,
             shard: None,
+            noise_renders: NOISE_RENDERS.to_vec(),
         }
     }
 }
@@ -276,19 +336,26 @@ impl Report {
 /// m: comparisons of the full default certification of the scenes in `scenes_dir` that have a
 /// reference.
 fn family_size(opts: &Options) -> Result<usize, Unusable> {
-    let with_reference = scenes::scene_files(&opts.scenes_dir)?
+    let per_render = |name: &str| {
+        if CLOSED_FORM_SCENES.contains(&name) {
+            2
+        } else {
+            1
+        }
+    };
+    let with_reference: Vec<String> = scenes::scene_files(&opts.scenes_dir)?
         .iter()
         .map(|p| scenes::scene_name(p))
         .filter(|n| scenes::reference_path(&opts.references_dir, n).is_file())
-        .map(|n| {
-            if CLOSED_FORM_SCENES.contains(&n.as_str()) {
-                2
-            } else {
-                1
-            }
-        })
-        .sum::<usize>();
-    Ok((with_reference * Technique::UNBIASED.len()).max(1))
+        .collect();
+    let techniques: usize =
+        with_reference.iter().map(|n| per_render(n)).sum::<usize>() * Technique::UNBIASED.len();
+    let noise: usize = NOISE_RENDERS
+        .iter()
+        .filter(|r| with_reference.iter().any(|n| n == r.scene))
+        .map(|r| per_render(r.scene))
+        .sum();
+    Ok((techniques + noise).max(1))
 }
 
 fn reference_info(s: &ReferencedScene) -> ReferenceInfo {
@@ -396,10 +463,35 @@ pub fn run(
             ))
         })?;
     }
-    let plan = shard::plan(&chosen, subjects);
+    // Per scene: the subjects, then the scene's blue-noise renders; the plan (and a shard's
+    // part of it) is over these, scene-major.
+    let scene_subjects: Vec<Vec<&dyn Subject>> = chosen
+        .iter()
+        .map(|s| {
+            subjects
+                .iter()
+                .copied()
+                .chain(
+                    opts.noise_renders
+                        .iter()
+                        .filter(|r| r.scene == s.name)
+                        .map(|r| r as &dyn Subject),
+                )
+                .collect()
+        })
+        .collect();
+    let plan = shard::plan(&chosen, &scene_subjects);
+    let first: Vec<usize> = scene_subjects
+        .iter()
+        .scan(0, |at, v| {
+            let first = *at;
+            *at += v.len();
+            Some(first)
+        })
+        .collect();
     let mine = |j: usize| shard::runs(opts.shard, j);
     // Scenes with at least one item of this shard.
-    let scene_runs = |si: usize| (0..subjects.len()).any(|k| mine(si * subjects.len() + k));
+    let scene_runs = |si: usize| (0..scene_subjects[si].len()).any(|k| mine(first[si] + k));
     let run_suite = opts.sampler_suite && opts.shard.is_none_or(|s| s.runs_suite());
     events(Event::Plan {
         steps: usize::from(run_suite)
@@ -450,8 +542,8 @@ pub fn run(
             None
         };
         let mut rows = Vec::new();
-        for (k, subject) in subjects.iter().enumerate() {
-            if !mine(si * subjects.len() + k) {
+        for (k, &subject) in scene_subjects[si].iter().enumerate() {
+            if !mine(first[si] + k) {
                 continue;
             }
             let name = subject.name();
@@ -464,6 +556,7 @@ pub fn run(
                 seed: pilot_seed(opts.seed),
                 method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
                 light_samples: 1,
+                noise: Default::default(),
             };
             let t = Instant::now();
             let pilot = subject

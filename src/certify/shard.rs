@@ -72,11 +72,13 @@ pub struct PlanItem {
     pub scene_sha256: String,
 }
 
-/// The plan of a run: every selected scene × every subject, scene-major.
-pub fn plan(scenes: &[ReferencedScene], subjects: &[&dyn Subject]) -> Vec<PlanItem> {
+/// The plan of a run: every selected scene × its subjects (`subjects[i]` for `scenes[i]`),
+/// scene-major.
+pub fn plan(scenes: &[ReferencedScene], subjects: &[Vec<&dyn Subject>]) -> Vec<PlanItem> {
     scenes
         .iter()
-        .flat_map(|s| {
+        .zip(subjects)
+        .flat_map(|(s, subjects)| {
             subjects.iter().map(move |t| PlanItem {
                 scene: s.name.clone(),
                 subject: t.name(),

@@ -105,6 +105,9 @@ pub fn run(args: Args) -> ExitCode {
     let subjects: Vec<&dyn Subject> = techniques.iter().map(|t| t as &dyn Subject).collect();
     let mut opts = Options::new(&args.root);
     opts.scenes = args.scenes.clone();
+    // The blue-noise renders of the selected techniques (all of them by default).
+    opts.noise_renders
+        .retain(|r| techniques.contains(&r.technique));
     opts.oracle = match args.oracle {
         OracleArg::Committed => Oracle::Committed,
         OracleArg::Live => Oracle::Live,

@@ -57,6 +57,8 @@ pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
         lambert_technique(opts.method),
         Technique::ProjectedSolidAngle | Technique::Li2018
     ) && opts.light_samples == 1
+        // Its lanes draw the white stream directly; blue noise takes the scalar path.
+        && opts.noise == linlight_sampling::noise::Noise::White
         && scene.shapes.iter().all(|s| s.bsdf.lambertian().is_some())
 }
 
@@ -640,6 +642,7 @@ mod tests {
                         seed: 3,
                         method: technique,
                         light_samples: 1,
+                        noise: Default::default(),
                     };
                     if !applies(&scene, &opts) {
                         continue;
@@ -671,11 +674,20 @@ mod tests {
             seed: 0,
             method: technique.into(),
             light_samples: 1,
+            noise: Default::default(),
         };
         let cornell = scene("cornell-tube", 8);
         assert!(applies(&cornell, &opts(Technique::ProjectedSolidAngle)));
         assert!(applies(&cornell, &opts(Technique::Li2018)));
         assert!(!applies(&cornell, &opts(Technique::Area)));
+        // Blue noise reaches the light samples through the scalar path only.
+        assert!(!applies(
+            &cornell,
+            &RenderOptions {
+                noise: linlight_sampling::noise::Noise::Blue,
+                ..opts(Technique::ProjectedSolidAngle)
+            }
+        ));
         assert!(applies(
             &cornell,
             &RenderOptions {

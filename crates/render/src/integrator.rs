@@ -21,7 +21,7 @@ use crate::shading::{estimate_resolved, single_technique, ShadingPoint};
 use crate::shapes::{Ray, SurfacePoint};
 use crate::visible_line::VisibleLines;
 use glam::Vec3;
-use linlight_sampling::philox::CounterRng;
+use linlight_sampling::noise::SampleStream;
 use linlight_sampling::Segment;
 
 /// Mitsuba's ray epsilon for f32 variants: 1500 ulp(1) = 1500·2⁻²⁴.
@@ -127,7 +127,7 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     light_samples: u32,
     pieces: Resolved<T, S, B>,
     ray: &Ray,
-    rng: &mut CounterRng,
+    rng: &mut SampleStream,
 ) -> Rgb {
     let Some(hit) = scene.bvh.intersect(ray) else {
         return [0.0; 3];

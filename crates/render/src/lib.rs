@@ -18,6 +18,7 @@ pub mod power_controls;
 pub mod render;
 pub mod scene;
 pub mod shading;
+pub mod shading_cost;
 pub mod shapes;
 pub mod visible_line;
 pub mod xml;

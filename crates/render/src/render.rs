@@ -18,6 +18,7 @@ use crate::shapes::{transformed_normal, Primitive};
 use crate::visible_line::{PixelLine, VisibleLines};
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
+use linlight_sampling::noise::{Noise, NoiseSource};
 use linlight_sampling::philox::CounterRng;
 use linlight_sampling::Segment;
 use rayon::prelude::*;
@@ -39,11 +40,13 @@ pub struct RenderOptions {
     /// pairs of a diffuse and a specular sample; the light's estimate is their mean. The CLI's
     /// default is the scene's `emitter_samples` (see `linlight render --help`).
     pub light_samples: u32,
+    /// Where the primary samples come from (white by default; see [`linlight_sampling::noise`]).
+    pub noise: Noise,
 }
 
 impl Default for RenderOptions {
     /// 1 spp, 1 pass, seed 0, the default method (MIS, clamped optimal, v = 0.5), 1 light
-    /// sample.
+    /// sample, white noise.
     fn default() -> Self {
         Self {
             spp: 1,
@@ -51,6 +54,7 @@ impl Default for RenderOptions {
             seed: 0,
             method: Method::default(),
             light_samples: 1,
+            noise: Noise::White,
         }
     }
 }
@@ -244,11 +248,12 @@ fn nested_two_sided(bsdf: &Bsdf) -> bool {
     }
 }
 
-/// Random stream of one camera sample: Philox of (seed; sample, full-film pixel index, pass).
-/// Every pixel, pass and sample has its own counter-based stream (no state shared between
+/// White-noise stream of one camera sample: Philox of (seed; sample, full-film pixel index,
+/// pass). Every pixel, pass and sample has its own counter-based stream (no state shared between
 /// pixels, so neighbouring pixels' errors are independent); its numbers are the sample's
 /// dimensions: film position (2), then the lights' numbers (`crate::shading`), then those of
-/// the visible lines.
+/// the visible lines. The renderer draws them through [`NoiseSource::stream`], which returns
+/// exactly these numbers for [`Noise::White`].
 pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> CounterRng {
     CounterRng::camera_sample(seed, pass, pixel_index, sample)
 }
@@ -335,6 +340,9 @@ pub(crate) fn metadata(
     meta.extra.insert("seed".into(), opts.seed.to_string());
     meta.extra
         .insert("spp_per_pass".into(), opts.spp.to_string());
+    if opts.noise != Noise::White {
+        meta.extra.insert("noise".into(), opts.noise.name().into());
+    }
     meta
 }
 
@@ -352,6 +360,7 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
+    let noise = NoiseSource::new(opts.noise, opts.seed, opts.spp);
     let done = AtomicUsize::new(0);
     let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
     // Each tile writes its pixels into the image when it is done: the image is the only
@@ -375,7 +384,8 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             for (i, &(fx, fy)) in pixels.iter().enumerate() {
                 // < 2^32: checked by `window`.
                 let index = fy.wrapping_mul(full_width).wrapping_add(fx);
-                let acc = render_pixel_pass(&rs, opts, pieces, fx, fy, index, pass, &seen[i]);
+                let acc =
+                    render_pixel_pass(&rs, opts, &noise, pieces, fx, fy, index, pass, &seen[i]);
                 passes[i].push(acc.mean());
                 single[i] = acc;
             }
@@ -496,6 +506,7 @@ pub(crate) struct PixelResult {
 fn render_pixel_pass<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     rs: &RenderScene,
     opts: &RenderOptions,
+    noise: &NoiseSource,
     pieces: Resolved<T, S, B>,
     fx: u32,
     fy: u32,
@@ -505,9 +516,8 @@ fn render_pixel_pass<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
 ) -> Welford {
     let mut acc = Welford::default();
     for sample in 0..opts.spp {
-        let mut rng = sample_rng(opts.seed, pass, index, sample);
-        let u = rng.next_f32();
-        let v = rng.next_f32();
+        let mut rng = noise.stream(fx, fy, index, pass, sample);
+        let (u, v) = rng.film_position();
         let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
         let l = radiance(rs, opts.method, opts.light_samples, pieces, &ray, &mut rng);
         let l = if seen.is_empty() {

@@ -26,7 +26,7 @@ use glam::{DVec3, Mat3, Vec3};
 use linlight_brdf::ltc::GgxLtcTable;
 use linlight_brdf::{Bsdf, Lobes};
 use linlight_sampling::mis::Heuristic;
-use linlight_sampling::philox::CounterRng;
+use linlight_sampling::noise::Uniforms;
 use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
 use linlight_sampling::{LineSampler, Segment, SpecularSampler, Technique};
 
@@ -162,7 +162,7 @@ pub fn single_technique<L: LineSampler>(
     sampler: Option<&L>,
     n: Vec3,
     samples: u32,
-    rng: &mut CounterRng,
+    rng: &mut impl Uniforms,
     visible: &mut impl FnMut(Vec3, f32) -> bool,
     contribution: impl Fn(Vec3, f32, f32) -> Vec3,
     dropped: &mut u32,
@@ -209,7 +209,7 @@ pub fn two_techniques<S: SpecularSampler>(
     combination: Combination,
     k: Vec3,
     samples: u32,
-    rng: &mut CounterRng,
+    rng: &mut impl Uniforms,
     visible: &mut impl FnMut(Vec3, f32) -> bool,
     eval: impl Fn(Vec3) -> Vec3,
     dropped: &mut u32,
@@ -279,7 +279,7 @@ pub fn estimate_light<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     segment: &Segment,
     k: Vec3,
     samples: u32,
-    rng: &mut CounterRng,
+    rng: &mut impl Uniforms,
     visible: &mut impl FnMut(Vec3, f32) -> bool,
     dropped: &mut u32,
 ) -> Vec3 {
@@ -298,7 +298,7 @@ pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     segment: &Segment,
     k: Vec3,
     samples: u32,
-    rng: &mut CounterRng,
+    rng: &mut impl Uniforms,
     visible: &mut impl FnMut(Vec3, f32) -> bool,
     dropped: &mut u32,
 ) -> Vec3 {
