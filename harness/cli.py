@@ -39,6 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--variant", help="Mitsuba variant (default: $LINLIGHT_ORACLE_VARIANT or scalar_rgb)")
     r.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
     r.add_argument("--out", type=Path, required=True)
+    r.add_argument("--seed-offset", type=int, default=0, help="pass p uses mi.render(seed=OFFSET + p)")
     r.add_argument("--quiet", action="store_true")
 
     s = sub.add_parser("radius-sweep", help="image mean vs. radius against the R -> 0 limit")
@@ -88,7 +89,7 @@ def cmd_render(a: argparse.Namespace) -> int:
         f"radius={'file' if a.radius is None else a.radius} lights={[l.id for l in loaded.lights]}",
         file=sys.stderr,
     )
-    result = render.render_passes(loaded, variant, a.passes, a.spp, defines, quiet=a.quiet)
+    result = render.render_passes(loaded, variant, a.passes, a.spp, defines, quiet=a.quiet, seed_offset=a.seed_offset)
     render.write_result(result, a.out)
     m = result.mean.mean(axis=(0, 1))
     print(f"harness: wrote {a.out} ({result.meta['wall_time_s']} s), image mean {m[0]:.6g} {m[1]:.6g} {m[2]:.6g}")

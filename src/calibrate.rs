@@ -223,6 +223,7 @@ fn options(spp: u32, passes: u32, seed: u64) -> RenderOptions {
         seed,
         method: Technique::ProjectedSolidAngle.into(),
         light_samples: 1,
+        noise: Default::default(),
     }
 }
 
@@ -251,7 +252,10 @@ fn calibrate_family(
             &quiet,
         )
         .map_err(|e| render_error("pilot", e))?;
-        let Budget { spp, .. } = opts.budget.choose(&pilot, &b);
+        let Budget { spp, .. } = opts
+            .budget
+            .choose(&pilot, &b, &opts.compare)
+            .map_err(|e| Unusable(format!("budget of {}: {e}", family.name)))?;
         let a = render(scene, &options(spp, 1, seed), &quiet)
             .map_err(|e| render_error("certify budget", e))?;
         at_budget.add(&a, &b, spp, &opts.compare)?;

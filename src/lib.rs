@@ -6,5 +6,6 @@
 
 pub mod calibrate;
 pub mod certify;
+pub mod figures;
 pub mod merge;
 pub mod outputs;

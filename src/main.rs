@@ -20,6 +20,7 @@ enum Command {
     /// The main job: sampler suite + every unbiased technique (on glossy scenes also LTC and MIS
     /// with every heuristic) on every scene against Mitsuba (exit 0 all consistent, 1 a check
     /// failed, 2 unusable input, 3 inconclusive).
+    #[command(after_help = cmd::certify::AFTER_HELP)]
     Certify(cmd::certify::Args),
     /// Chi-square certification of every line-sampling technique (exit 0 only if all pass).
     Samplers(cmd::samplers::Args),
@@ -35,6 +36,10 @@ enum Command {
     Info(cmd::info::Args),
     /// Combine independent mean+variance images of one scene into one (runs, machines).
     Merge(cmd::merge::Args),
+    /// Regenerate every experiment of the paper: PNGs, plots, CSV/JSON and one index.html
+    /// (--quick: small sizes, a few minutes).
+    #[command(after_help = cmd::figures::AFTER_HELP)]
+    Figures(cmd::figures::Args),
     /// False-alarm rate and power of compare on real renders (seed pairs per scene family).
     Calibrate(cmd::calibrate::Args),
     /// Fit the GGX LTC table (deterministic) and report its error; --check re-fits a sample
@@ -74,5 +79,6 @@ fn main() -> ExitCode {
         Command::Calibrate(a) => cmd::calibrate::run(a),
         Command::FitLtc(a) => cmd::fit_ltc::run(a),
         Command::Unshadowed(a) => cmd::unshadowed::run(a),
+        Command::Figures(a) => cmd::figures::run(a),
     }
 }

@@ -11,7 +11,7 @@ use linlight_render::{render_with, Hooks, LightSampling, RenderError, RenderOpti
 use linlight_sampling::area::Area;
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::{LineFrame, LineSampler, Segment, Technique};
-use linlight_verify::image_stats::{compare, CompareConfig, Verdict};
+use linlight_verify::image_stats::{compare, CompareConfig, Region, Verdict};
 use std::path::Path;
 
 fn root() -> &'static Path {
@@ -25,6 +25,8 @@ fn options(scenes: &str) -> Options {
     o.scenes = scenes.into();
     o.oracle = Oracle::Committed;
     o.sampler_suite = false;
+    // Only the subjects under test (no blue-noise renders of the production technique).
+    o.noise_renders.clear();
     o
 }
 
@@ -198,6 +200,97 @@ fn rejects_li2018_stopped_after_two_iterations() {
     assert_rejected(&r, "Li 2018, 2 iterations");
 }
 
+/// (d) A correct technique's render with one 16×16 region (mean and standard error) scaled.
+struct TileScaled {
+    technique: Technique,
+    region: Region,
+    factor: f32,
+}
+
+impl Subject for TileScaled {
+    fn name(&self) -> String {
+        format!(
+            "{} × {} on 16×16 at ({}, {})",
+            self.technique.name(),
+            self.factor,
+            self.region.x,
+            self.region.y
+        )
+    }
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        let mut img = self.technique.render(scene, opts, progress)?;
+        let (r, k) = (self.region, self.factor);
+        for y in r.y..r.y + r.height {
+            for x in r.x..r.x + r.width {
+                let i = y * img.width + x;
+                img.mean[i] = img.mean[i].map(|c| c * k);
+                img.var[i] = img.var[i].map(|c| c * k * k);
+            }
+        }
+        Ok(img)
+    }
+}
+
+/// The detection power certify promises in every scene (docs/budget.md), at its default budget:
+/// a 0.5 % global bias is rejected.
+#[test]
+fn rejects_a_half_percent_global_bias_in_every_scene() {
+    let r = certify_with("*", &Scaled(Technique::ProjectedSolidAngle, 1.005));
+    assert_eq!(
+        r.rows().count(),
+        r.comparisons_in_family / Technique::UNBIASED.len()
+    );
+    assert_rejected(&r, "PSA × 1.005");
+}
+
+/// ... and a 5 % bias of one 16×16 tile: in every scene the tile the budget found hardest to
+/// resolve (the largest need among the covered tiles, for the same pilot certify renders).
+#[test]
+fn rejects_a_five_percent_tile_bias_in_every_scene() {
+    let opts = options("*");
+    let (_, cfg) = certify::comparison_config(&opts).expect("usable input");
+    for s in certify::selected_scenes(&opts).expect("scenes with references") {
+        let pilot = linlight_render::render(
+            &s.scene,
+            &RenderOptions {
+                spp: opts.budget.pilot_spp,
+                passes: 1,
+                seed: certify::pilot_seed(opts.seed),
+                method: Technique::ProjectedSolidAngle.into(),
+                light_samples: 1,
+                noise: Default::default(),
+            },
+            &|_, _| {},
+        )
+        .unwrap();
+        let budget = opts.budget.choose(&pilot, &s.reference, &cfg).unwrap();
+        let tests = budget.tests.expect("test-power budget");
+        let region = tests.hardest_tile.expect("a covered tile");
+        assert!(
+            tests.detectable_tile_bias.unwrap() <= 0.05,
+            "{}: {tests:?}",
+            s.name
+        );
+        let r = certify_with(
+            &s.name,
+            &TileScaled {
+                technique: Technique::ProjectedSolidAngle,
+                region,
+                factor: 1.05,
+            },
+        );
+        assert_rejected(
+            &r,
+            &format!("{}: PSA × 1.05 on the tile at {region:?}", s.name),
+        );
+    }
+}
+
 /// False alarms: two Rust renders of every scene that differ only in the seed are consistent
 /// under `compare` at its default α = 0.01 (one comparison per scene, fixed seeds).
 #[test]
@@ -215,6 +308,7 @@ fn renders_differing_only_in_seed_pass_compare() {
             seed,
             method: Technique::ProjectedSolidAngle.into(),
             light_samples: 1,
+            noise: Default::default(),
         };
         let a = linlight_render::render(&s.scene, &opts(11), &|_, _| {}).unwrap();
         let b = linlight_render::render(&s.scene, &opts(12), &|_, _| {}).unwrap();

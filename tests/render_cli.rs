@@ -211,6 +211,71 @@ fn time_limit_and_match_variance() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--noise`: every choice renders, is recorded in the header and is deterministic; blue noise
+/// gives other numbers than white; an unknown noise is unusable input.
+#[test]
+fn noise_choices() {
+    let dir = scratch("noise");
+    let scene = write(&dir, "floor.xml", FLOOR_SCENE);
+    let mut means = Vec::new();
+    for noise in ["white", "blue", "blue-jittered"] {
+        let out = dir.join(format!("{noise}.exr"));
+        let o = out.to_str().unwrap();
+        let args = [
+            "render", &scene, "-o", o, "--noise", noise, "--spp", "3", "--passes", "4", "-q",
+        ];
+        let r = linlight(&args);
+        assert_eq!(r.code, 0, "{noise}: {}", r.stderr);
+        let img = Image::read(&out).unwrap();
+        assert_eq!(
+            img.meta.extra.get("noise").map(String::as_str),
+            (noise != "white").then_some(noise),
+            "{noise}"
+        );
+        assert!(img
+            .mean
+            .iter()
+            .chain(&img.var)
+            .flatten()
+            .all(|c| c.is_finite()));
+        let again = dir.join(format!("{noise}-again.exr"));
+        let args = [
+            "render",
+            &scene,
+            "-o",
+            again.to_str().unwrap(),
+            "--noise",
+            noise,
+            "--spp",
+            "3",
+            "--passes",
+            "4",
+            "-q",
+            "-t",
+            "1",
+        ];
+        assert_eq!(linlight(&args).code, 0);
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            std::fs::read(&again).unwrap(),
+            "{noise}"
+        );
+        means.push(img.mean);
+    }
+    assert_ne!(means[0], means[1]);
+    assert_ne!(means[1], means[2]);
+    let r = linlight(&[
+        "render",
+        &scene,
+        "--noise",
+        "pink",
+        "-o",
+        dir.join("x.exr").to_str().unwrap(),
+    ]);
+    assert_eq!(r.code, 2);
+    assert!(r.stderr.contains("unknown noise 'pink'"), "{}", r.stderr);
+}
+
 /// The method flags reach the header: --technique, --mis (with v for clamped optimal) and
 /// --light-samples (default: the scene's emitter_samples); `--help` lists every method.
 #[test]

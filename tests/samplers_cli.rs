@@ -1,6 +1,6 @@
 //! End-to-end: `linlight samplers` at its defaults (what `linlight certify` runs) certifies every
 //! technique and rejects every negative control: exit 0, a table, a JSON report that agrees
-//! (2 on bad usage). Runtime: about a minute on two idle cores (N = 10⁶ samples per
+//! (2 on bad usage). Runtime: about two minutes on two idle cores (N = 10⁶ samples per
 //! configuration).
 
 mod common;
@@ -61,6 +61,29 @@ fn samplers_writes_a_report_consistent_with_its_exit_code() {
         assert!(t["classes"].as_array().unwrap().len() >= 8, "{name}");
         assert!(stdout.contains(name), "{name} missing from the table");
     }
+    // LTC driven by the fitted table (its own grid), the one-sample MIS mixture (the suite's
+    // configurations and the grid), the cross densities at the samples of the projected solid
+    // angle and of LTC: all pass.
+    let grid = report["extra_configurations"].as_array().unwrap().len();
+    assert_eq!(grid, 48);
+    for (name, count) in [
+        ("ltc-fitted-table", grid),
+        ("mis-mixture-c0.5", configs.len() + grid),
+    ] {
+        let t = techniques.iter().find(|t| t["name"] == name).unwrap();
+        assert_eq!(t["configs"].as_array().unwrap().len(), count, "{name}");
+        assert_eq!(t["verdict"], "pass", "{name}: {}", t["failures_by_check"]);
+    }
+    for name in ["projected-solid-angle", "ltc", "ltc-fitted-table"] {
+        let t = techniques.iter().find(|t| t["name"] == name).unwrap();
+        let crossed = t["configs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|c| c.get("cross").is_some())
+            .count();
+        assert!(crossed > 20, "{name}: cross densities checked on {crossed}");
+    }
     // The implemented reference techniques pass.
     for name in ["solid-angle", "clipped-solid-angle"] {
         let t = techniques.iter().find(|t| t["name"] == name).unwrap();
@@ -82,6 +105,7 @@ fn samplers_writes_a_report_consistent_with_its_exit_code() {
         "ltc-without-kappa",
         "projected-solid-angle-1-iteration-own-inverse",
         "projected-solid-angle-tilt-1%",
+        "cross-density-without-kappa",
     ] {
         assert!(
             control_names.contains(&name),

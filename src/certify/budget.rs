@@ -1,65 +1,166 @@
-//! How many samples per pixel the Rust render of a technique gets: enough that it is at least as
-//! precise as the reference in (nearly) every pixel, within a cap.
+//! How many samples per pixel the Rust render of a subject gets (derivation: docs/budget.md).
 //!
-//! Rule. A pilot render of `pilot_spp` samples (own seed, never reused) estimates the variance of
-//! one sample per pixel and channel, σ̂²_i = pilot_spp · v̂_pilot,i. A render of N samples has a
-//! variance of the mean σ²_i/N, which is ≤ the reference's v_B,i when N ≥ σ²_i/v_B,i. N is the
-//! `quantile` (default 0.99) of these ratios over the pixels and channels where both are
-//! positive, rounded up to a multiple of `granularity`, and clamped to [min_spp, max_spp].
-//! The quantile instead of the maximum: single pixels with rare large samples (near a crossing
-//! or an occluder's edge) would otherwise set the budget of the whole image, while the
-//! comparison's per-pixel z-scores already account for each pixel's own variance.
-//! The cap keeps the run time bounded for techniques far noisier than the oracle (area
-//! sampling of lights that cross the horizon); the report states the precision achieved
-//! (share of pixels with v_A ≤ v_B), so a capped render is visible as such.
+//! A pilot render of `pilot_spp` samples (own seed, never reused) estimates the variance of one
+//! sample per pixel and channel, σ̂²_i = pilot_spp · v̂_pilot,i; a render of N samples then has
+//! the variance of the mean σ²_i/N. Two targets:
+//!
+//! - [`Target::Tests`] (certify's default): the smallest N at which the comparison's own tests
+//!   have the stated power (1 − β, default 0.99) against the biases certify promises to catch,
+//!   and at which ±δ equivalence of an unbiased render is shown with that probability. Per
+//!   channel, with the relative variance of a set P of pixels V_A = Σ_P σ̂²/(Σ_P m_B)² (one
+//!   sample) and V_B = Σ_P v_B/(Σ_P m_B)²:
+//!
+//!   N_P = V_A / (T − V_B),  T = (b/k)²,
+//!
+//!   for the whole image (b = δ, k = max(z_{1−α_t/2} + z_{1−β}, z_{1−α_e/2} + z_{1−β/2}): the
+//!   global difference test at its level α_t and the equivalence interval at α_e) and for every
+//!   full t×t tile of the comparison's two grids (b = `tile_bias`, k = z_{1−α_t/(2M)} + z_{1−β},
+//!   M tiles per channel: Holm's first step). The budget is the largest N_P, rounded up to the
+//!   granularity and clamped to [min_spp, max_spp]. A set whose reference alone uses more than
+//!   80 % of T (V_B > 0.8·T) is *reference-limited*: more Rust samples cannot buy the power
+//!   there; such a tile is not covered (and counted), the whole image then gets 4·V_A/V_B (A
+//!   contributes a fifth of the variance). Pixels near a light–surface contact are left out,
+//!   as the comparison leaves them out of the global and tile tests.
+//! - [`Target::Parity`] (`certify --full`, `render --match-variance`): N is the `quantile`
+//!   (0.99) over pixels and channels of σ̂²_i/v_B,i — the render is at least as precise as the
+//!   reference in 99 % of the pixels. Exhaustive: it spends samples where the reference is far
+//!   more precise than any test needs.
 
 use linlight_imagefile::Image;
-use serde::Serialize;
+use linlight_verify::image_stats::{compare, CompareConfig, CompareError, Region};
+use linlight_verify::z_score::normal_two_sided_quantile;
+use serde::{Deserialize, Serialize};
 
-#[derive(Clone, Copy, Debug, Serialize)]
+/// Share of the variance target T the reference may use before a constraint is reference-limited.
+pub const REFERENCE_SHARE_LIMIT: f64 = 0.8;
+
+/// What the budget aims at.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "rule", rename_all = "kebab-case")]
+pub enum Target {
+    /// The power of the comparison's tests (docs/budget.md).
+    Tests {
+        /// Probability 1 − β with which each targeted bias is rejected (and equivalence of an
+        /// unbiased render shown).
+        power: f64,
+        /// Relative bias of one full tile that must be rejected.
+        tile_bias: f64,
+    },
+    /// At least as precise as the reference in the `quantile` of the pixels.
+    Parity { quantile: f64 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BudgetRule {
     pub pilot_spp: u32,
-    /// Quantile of the per-pixel required spp that the budget meets.
-    pub quantile: f64,
     pub min_spp: u32,
     pub max_spp: u32,
     /// The budget is a multiple of this.
     pub granularity: u32,
+    pub target: Target,
 }
 
 impl Default for BudgetRule {
+    /// Certify's rule: the tests' power.
     fn default() -> Self {
         Self {
             pilot_spp: 256,
-            quantile: 0.99,
             min_spp: 256,
             max_spp: 65_536,
             granularity: 64,
+            target: Target::Tests {
+                power: 0.99,
+                tile_bias: 0.01,
+            },
         }
     }
 }
 
+impl BudgetRule {
+    /// The exhaustive per-pixel rule (`certify --full`, `render --match-variance`).
+    pub fn parity() -> Self {
+        Self {
+            target: Target::Parity { quantile: 0.99 },
+            ..Self::default()
+        }
+    }
+
+    /// One sentence for reports.
+    pub fn describe(&self) -> String {
+        let common = format!(
+            "a pilot of {} spp (own seed) estimates the per-sample variance of every pixel",
+            self.pilot_spp
+        );
+        let clamp = format!(
+            "rounded up to {}, within [{}, {}]",
+            self.granularity, self.min_spp, self.max_spp
+        );
+        match self.target {
+            Target::Tests { power, tile_bias } => format!(
+                "{common}; the render gets the smallest spp at which the global test rejects a \
+                 bias of ±δ, ±δ equivalence of an unbiased render is shown, and the tile test \
+                 rejects a {}% bias of any full tile, each with probability {} \
+                 (docs/budget.md), {clamp}",
+                100.0 * tile_bias,
+                power
+            ),
+            Target::Parity { quantile } => format!(
+                "{common}; the render gets the {quantile}-quantile over pixels of σ̂²/v_B spp \
+                 (as precise as the reference in that share of the pixels), {clamp}"
+            ),
+        }
+    }
+}
+
+/// What set the budget.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Bound {
+    /// Power of the global test / the equivalence interval.
+    Global,
+    /// Power of the tile test on this tile.
+    Tile(Region),
+    /// The per-pixel parity quantile.
+    Parity,
+    /// Nothing asked for more than `min_spp`.
+    Minimum,
+}
+
+/// The test-power part of a budget: what each constraint asked for, and what the chosen spp
+/// delivers (all relative to the reference's means; worst channel).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+pub struct TestBudget {
+    /// k of the global constraint and of the tile constraint (z quantile + power quantile).
+    pub k_global: f64,
+    pub k_tile: f64,
+    /// spp asked for by the global test and equivalence (N_g).
+    pub global_spp: f64,
+    /// The reference alone uses more than 80 % of the global variance target.
+    pub global_reference_limited: bool,
+    /// Largest spp asked for by a covered tile (0 without covered tiles) and that tile.
+    pub tile_spp: f64,
+    pub hardest_tile: Option<Region>,
+    /// Full tiles of both grids, and those covered (not reference-limited in every channel).
+    pub tiles: usize,
+    pub tiles_covered: usize,
+    /// At the chosen spp: relative standard error of the global difference, the global bias and
+    /// the tile bias (worst covered tile) rejected with the target power.
+    pub predicted_rel_se: f64,
+    pub detectable_global_bias: f64,
+    pub detectable_tile_bias: Option<f64>,
+}
+
 /// Why a budget came out as it did.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct Budget {
     pub spp: u32,
-    /// The spp the rule asked for before clamping (None: no pixel with positive variances).
+    /// The spp the rule asked for before rounding and clamping (None: nothing to match).
     pub required_spp: Option<f64>,
     /// The rule asked for more than `max_spp`.
     pub capped: bool,
-}
-
-/// Ratios σ̂²_i / v_B,i over pixels and channels where both are positive (σ̂² from an image of
-/// `spp` samples per pixel in one pass: σ̂² = spp · v).
-fn required_samples(pilot: &Image, spp: u32, reference: &Image) -> Vec<f64> {
-    pilot
-        .var
-        .iter()
-        .zip(&reference.var)
-        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] as f64 * spp as f64, b[c] as f64)))
-        .filter(|&(s2, vb)| s2 > 0.0 && vb > 0.0)
-        .map(|(s2, vb)| s2 / vb)
-        .collect()
+    pub bound: Bound,
+    /// The constraints of [`Target::Tests`] (None for parity).
+    pub tests: Option<TestBudget>,
 }
 
 /// The q-quantile (nearest rank) of unsorted values; None for an empty slice.
@@ -72,30 +173,287 @@ pub fn quantile(mut values: Vec<f64>, q: f64) -> Option<f64> {
     Some(values[k])
 }
 
-impl BudgetRule {
-    /// Budget from a pilot render of `self.pilot_spp` samples in one pass.
-    pub fn choose(&self, pilot: &Image, reference: &Image) -> Budget {
-        let required = quantile(
-            required_samples(pilot, self.pilot_spp, reference),
-            self.quantile,
-        );
-        let g = self.granularity.max(1) as f64;
-        let spp = match required {
-            Some(r) if r.is_finite() => (r / g).ceil() * g,
-            Some(_) => f64::INFINITY,
-            None => self.min_spp as f64,
+/// Ratios σ̂²_i / v_B,i over pixels and channels where both are positive (σ̂² from an image of
+/// `spp` samples per pixel in one pass: σ̂² = spp · v).
+fn parity_ratios(pilot: &Image, spp: u32, reference: &Image) -> Vec<f64> {
+    pilot
+        .var
+        .iter()
+        .zip(&reference.var)
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] as f64 * spp as f64, b[c] as f64)))
+        .filter(|&(s2, vb)| s2 > 0.0 && vb > 0.0)
+        .map(|(s2, vb)| s2 / vb)
+        .collect()
+}
+
+/// Sums of one channel over a set of pixels: per-sample variance of A (from the pilot), the
+/// reference's variance of the mean and its signal.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SetSums {
+    pub sigma2_a: f64,
+    pub var_b: f64,
+    pub mean_b: f64,
+}
+
+impl SetSums {
+    /// The relative variances (V_A of one sample, V_B); None without positive signal.
+    fn relative(&self) -> Option<(f64, f64)> {
+        let s2 = self.mean_b * self.mean_b;
+        (self.mean_b > 0.0 && s2.is_finite()).then(|| (self.sigma2_a / s2, self.var_b / s2))
+    }
+}
+
+/// One power constraint: rejecting a relative bias `bias` of a set of pixels with the factor k
+/// (quantile of the test's level + quantile of the power) on its standard error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Need {
+    /// The set has no signal in this channel (or no variance at all): nothing to ask.
+    Nothing,
+    /// spp needed: V_A/(T − V_B), T = (bias/k)².
+    Spp(f64),
+    /// The reference alone uses more than 80 % of T: what A would need to contribute a fifth
+    /// of the variance (4·V_A/V_B).
+    ReferenceLimited(f64),
+}
+
+/// The constraint of one channel of one set (docs/budget.md, "one constraint").
+pub fn need(sums: &SetSums, bias: f64, k: f64) -> Need {
+    let Some((va, vb)) = sums.relative() else {
+        return Need::Nothing;
+    };
+    if !(va > 0.0) || !va.is_finite() {
+        return Need::Nothing;
+    }
+    let target = (bias / k) * (bias / k);
+    if vb > REFERENCE_SHARE_LIMIT * target {
+        Need::ReferenceLimited(4.0 * va / vb)
+    } else {
+        Need::Spp(va / (target - vb))
+    }
+}
+
+/// The bias rejected with the target power at `spp` (k·√(V_A/N + V_B)); None without signal.
+fn detectable(sums: &SetSums, spp: f64, k: f64) -> Option<f64> {
+    let (va, vb) = sums.relative()?;
+    Some(k * (va / spp + vb).sqrt())
+}
+
+/// Per channel sums of the pixels of `region` (all pixels if None) that are not excluded.
+fn sums(
+    pilot: &Image,
+    pilot_spp: f64,
+    reference: &Image,
+    region: Option<Region>,
+    excluded: &[bool],
+) -> [SetSums; 3] {
+    let w = reference.width;
+    let r = region.unwrap_or(Region {
+        x: 0,
+        y: 0,
+        width: w,
+        height: reference.height,
+    });
+    let mut s = [SetSums::default(); 3];
+    for y in r.y..r.y + r.height {
+        for x in r.x..r.x + r.width {
+            let i = y * w + x;
+            if excluded[i] {
+                continue;
+            }
+            for (c, sc) in s.iter_mut().enumerate() {
+                sc.sigma2_a += pilot.var[i][c] as f64 * pilot_spp;
+                sc.var_b += reference.var[i][c] as f64;
+                sc.mean_b += reference.mean[i][c] as f64;
+            }
+        }
+    }
+    s
+}
+
+/// The constraints of [`Target::Tests`] measured on a pilot.
+struct Constraints {
+    /// Largest spp asked for (before rounding and clamping) and what asked for it.
+    required: f64,
+    bound: Bound,
+    plan: TestBudget,
+    /// Per channel sums of the whole image (contacts left out) and of every covered tile.
+    global: [SetSums; 3],
+    covered: Vec<[SetSums; 3]>,
+    tile_bias: f64,
+}
+
+impl Constraints {
+    fn measure(
+        pilot: &Image,
+        pilot_spp: u32,
+        reference: &Image,
+        cfg: &CompareConfig,
+        power: f64,
+        tile_bias: f64,
+    ) -> Result<Self, CompareError> {
+        // The comparison itself tells its levels, its tile grids and the pixels it leaves out
+        // of the global and tile sums (contacts); a pilot is a valid A for it.
+        let probe = compare(pilot, reference, cfg)?;
+        let beta = 1.0 - power;
+        // One-sided z_{1−β} (power of a two-sided test against a bias of known sign) and
+        // two-sided z_{1−β/2} (|r̂| of the equivalence interval).
+        let z_power = normal_two_sided_quantile(2.0 * beta);
+        let z_power_two_sided = normal_two_sided_quantile(beta);
+        let k_global = (normal_two_sided_quantile(probe.alpha_test) + z_power)
+            .max(normal_two_sided_quantile(probe.alpha_equivalence) + z_power_two_sided);
+        // Holm over the tiles of a channel: the first step tests the smallest p at α_t/M.
+        let tiles_per_channel = probe.maps.tiles.len().max(1);
+        let k_tile =
+            normal_two_sided_quantile(probe.alpha_test / tiles_per_channel as f64) + z_power;
+        let mut excluded = vec![false; reference.width * reference.height];
+        for &[x, y] in &probe.contact_pixels {
+            if let Some(e) = excluded.get_mut(y * reference.width + x) {
+                *e = true;
+            }
+        }
+        let spp0 = pilot_spp as f64;
+        let global = sums(pilot, spp0, reference, None, &excluded);
+        let mut global_spp = 0.0f64;
+        let mut global_reference_limited = false;
+        for s in &global {
+            match need(s, cfg.tolerance, k_global) {
+                Need::Nothing => {}
+                Need::Spp(n) => global_spp = global_spp.max(n),
+                Need::ReferenceLimited(n) => {
+                    global_reference_limited = true;
+                    global_spp = global_spp.max(n);
+                }
+            }
+        }
+        let full: Vec<Region> = probe
+            .maps
+            .tiles
+            .iter()
+            .map(|(r, _)| *r)
+            .filter(|r| r.width == cfg.tile && r.height == cfg.tile)
+            .collect();
+        let mut tile_spp = 0.0f64;
+        let mut hardest_tile = None;
+        let mut covered = Vec::new();
+        for r in &full {
+            let s = sums(pilot, spp0, reference, Some(*r), &excluded);
+            // The tile's constraint: every channel in which it is resolvable.
+            let n = s
+                .iter()
+                .filter_map(|c| match need(c, tile_bias, k_tile) {
+                    Need::Spp(n) => Some(n),
+                    _ => None,
+                })
+                .reduce(f64::max);
+            let Some(n) = n else { continue };
+            if hardest_tile.is_none() || n > tile_spp {
+                tile_spp = n;
+                hardest_tile = Some(*r);
+            }
+            covered.push(s);
+        }
+        let (required, bound) = match hardest_tile {
+            Some(r) if tile_spp > global_spp => (tile_spp, Bound::Tile(r)),
+            _ => (global_spp, Bound::Global),
         };
-        Budget {
-            spp: spp.clamp(self.min_spp as f64, self.max_spp as f64) as u32,
-            required_spp: required,
-            capped: spp > self.max_spp as f64,
+        Ok(Self {
+            required,
+            bound,
+            plan: TestBudget {
+                k_global,
+                k_tile,
+                global_spp,
+                global_reference_limited,
+                tile_spp,
+                hardest_tile,
+                tiles: full.len(),
+                tiles_covered: covered.len(),
+                predicted_rel_se: 0.0,
+                detectable_global_bias: 0.0,
+                detectable_tile_bias: None,
+            },
+            global,
+            covered,
+            tile_bias,
+        })
+    }
+
+    /// The plan with what `spp` delivers filled in.
+    fn delivered(&self, spp: u32) -> TestBudget {
+        let n = spp as f64;
+        let worst = |sets: &[SetSums; 3], k: f64, only_resolvable: bool| {
+            sets.iter()
+                .filter(|c| !only_resolvable || matches!(need(c, self.tile_bias, k), Need::Spp(_)))
+                .filter_map(|c| detectable(c, n, k))
+                .fold(0.0, f64::max)
+        };
+        TestBudget {
+            predicted_rel_se: worst(&self.global, 1.0, false),
+            detectable_global_bias: worst(&self.global, self.plan.k_global, false),
+            detectable_tile_bias: self
+                .covered
+                .iter()
+                .map(|s| worst(s, self.plan.k_tile, true))
+                .reduce(f64::max),
+            ..self.plan
+        }
+    }
+}
+
+impl BudgetRule {
+    /// Budget from a pilot render of `self.pilot_spp` samples in one pass, for a comparison
+    /// with `cfg` against `reference`. Errors when the two images cannot be compared (the
+    /// comparison would refuse them too).
+    pub fn choose(
+        &self,
+        pilot: &Image,
+        reference: &Image,
+        cfg: &CompareConfig,
+    ) -> Result<Budget, CompareError> {
+        let g = self.granularity.max(1) as f64;
+        let clamp = |required: Option<f64>| {
+            let spp = match required {
+                Some(r) if r.is_finite() => (r / g).ceil() * g,
+                Some(_) => f64::INFINITY,
+                None => self.min_spp as f64,
+            };
+            (
+                spp.clamp(self.min_spp as f64, self.max_spp as f64) as u32,
+                spp > self.max_spp as f64,
+            )
+        };
+        match self.target {
+            Target::Parity { quantile: q } => {
+                let required = quantile(parity_ratios(pilot, self.pilot_spp, reference), q);
+                let (spp, capped) = clamp(required);
+                Ok(Budget {
+                    spp,
+                    required_spp: required,
+                    capped,
+                    bound: Bound::Parity,
+                    tests: None,
+                })
+            }
+            Target::Tests { power, tile_bias } => {
+                let c =
+                    Constraints::measure(pilot, self.pilot_spp, reference, cfg, power, tile_bias)?;
+                let (spp, capped) = clamp(Some(c.required));
+                let at_minimum = spp == self.min_spp && (self.min_spp as f64) >= c.required;
+                Ok(Budget {
+                    spp,
+                    required_spp: Some(c.required),
+                    capped,
+                    bound: if at_minimum { Bound::Minimum } else { c.bound },
+                    tests: Some(c.delivered(spp)),
+                })
+            }
         }
     }
 }
 
 /// How precise the render A is relative to the reference B, over pixels and channels where
 /// both variances are positive.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct Precision {
     /// Share of pixel channels with v_A ≤ v_B.
     pub at_least_as_precise: f64,
@@ -121,45 +479,4 @@ pub fn precision(a: &Image, b: &Image) -> Precision {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn flat(var: f32) -> Image {
-        let mut img = Image::new(4, 4);
-        img.var.iter_mut().for_each(|v| *v = [var; 3]);
-        img
-    }
-
-    #[test]
-    fn budget_matches_the_reference_variance() {
-        // σ² = 256 · 1e-4 = 0.0256 per sample, reference 1e-6 → 25 600 spp.
-        let rule = BudgetRule::default();
-        let b = rule.choose(&flat(1e-4), &flat(1e-6));
-        assert_eq!(b.spp, 25_600);
-        assert!(!b.capped);
-        let capped = BudgetRule {
-            max_spp: 1024,
-            ..rule
-        }
-        .choose(&flat(1e-4), &flat(1e-6));
-        assert_eq!((capped.spp, capped.capped), (1024, true));
-        // Nothing to match (all black): the minimum.
-        assert_eq!(rule.choose(&flat(0.0), &flat(1e-6)).spp, rule.min_spp);
-    }
-
-    #[test]
-    fn quantile_ignores_rare_outliers() {
-        let mut v = vec![1.0; 999];
-        v.push(1e9);
-        assert_eq!(quantile(v.clone(), 0.99), Some(1.0));
-        assert_eq!(quantile(v, 1.0), Some(1e9));
-        assert_eq!(quantile(vec![], 0.5), None);
-    }
-
-    #[test]
-    fn precision_counts_pixels() {
-        let p = precision(&flat(1e-6), &flat(2e-6));
-        assert_eq!(p.at_least_as_precise, 1.0);
-        assert_eq!(p.median_variance_ratio, Some(0.5));
-    }
-}
+mod tests;

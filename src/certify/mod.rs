@@ -26,20 +26,77 @@ pub mod report;
 pub mod report_html;
 pub mod sampler_suite;
 pub mod scenes;
+pub mod shard;
 
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::{record_inputs, render, Method, RenderError, RenderOptions};
+use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
 use linlight_verify::z_score::sidak;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use budget::{Budget, BudgetRule, Precision};
 use sampler_suite::SuiteSummary;
 use scenes::ReferencedScene;
+
+/// A render with blue noise, certified besides the white-noise renders of the techniques, so
+/// that the noise's unbiasedness across passes is part of the main job.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NoiseRender {
+    pub scene: &'static str,
+    pub technique: Technique,
+    pub noise: Noise,
+}
+
+/// At least one blue-noise render per scene family: the occluded diffuse box with the paper's
+/// jittered blue noise, the diffuse floor with a horizon-crossing light with plain blue noise.
+pub const NOISE_RENDERS: [NoiseRender; 2] = [
+    NoiseRender {
+        scene: "cornell-tube",
+        technique: Technique::ProjectedSolidAngle,
+        noise: Noise::BlueJittered,
+    },
+    NoiseRender {
+        scene: "floor-crossing",
+        technique: Technique::ProjectedSolidAngle,
+        noise: Noise::Blue,
+    },
+];
+
+/// Passes of a noise render: its variance of the mean comes from the pass means (the samples
+/// of one jittered pass are stratified, not independent).
+pub const NOISE_PASSES: u32 = 16;
+
+impl Subject for NoiseRender {
+    fn name(&self) -> String {
+        format!("{} ({} noise)", self.technique.name(), self.noise.name())
+    }
+    /// `opts.spp` samples in total, split over [`NOISE_PASSES`] passes.
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        let total = opts.spp as u64 * opts.passes as u64;
+        let passes = NOISE_PASSES;
+        render(
+            scene,
+            &RenderOptions {
+                method: self.technique.into(),
+                noise: self.noise,
+                passes,
+                spp: total.div_ceil(passes as u64).clamp(1, u32::MAX as u64) as u32,
+                ..*opts
+            },
+            progress,
+        )
+    }
+}
 
 /// Unusable input: the certification cannot be carried out (exit 2).
 #[derive(Clone, Debug, PartialEq)]
@@ -53,7 +110,7 @@ impl std::fmt::Display for Unusable {
 impl std::error::Error for Unusable {}
 
 /// Where the Mitsuba side comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Oracle {
     /// `references/mitsuba/<scene>.exr`, committed (no Mitsuba needed).
@@ -144,6 +201,11 @@ pub struct Options {
     /// rule is accurate to ~4e-4 per pixel at 8 on glossy-conductor-sharp (α = 0.1), far below
     /// any render's per-pixel standard error, and the quadrature costs ~100 times the closed form.
     pub quadrature_subsamples: u32,
+    /// Run only this part of the scene × technique list (`--shard i/N`, [`shard`]).
+    pub shard: Option<shard::Shard>,
+    /// The blue-noise renders of [`NOISE_RENDERS`] whose scene is selected (and whose technique
+    /// the command line selected).
+    pub noise_renders: Vec<NoiseRender>,
 }
 
 impl Options {
@@ -163,6 +225,8 @@ impl Options {
             seed: 1,
             closed_form_subsamples: 16,
             quadrature_subsamples: 8,
+            shard: None,
+            noise_renders: NOISE_RENDERS.to_vec(),
         }
     }
 }
@@ -187,7 +251,7 @@ pub enum Event<'a> {
 }
 
 /// The committed (or live) reference of a scene, as the report shows it.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ReferenceInfo {
     pub file: PathBuf,
     pub renderer: String,
@@ -201,7 +265,7 @@ pub struct ReferenceInfo {
 }
 
 /// One comparison: a subject's render of a scene against an oracle image.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Row {
     pub scene: String,
     pub subject: String,
@@ -230,7 +294,7 @@ impl Row {
     }
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SceneReport {
     pub name: String,
     pub scene_file: PathBuf,
@@ -240,7 +304,7 @@ pub struct SceneReport {
     pub rows: Vec<Row>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Report {
     /// Sampler suite passed and every comparison is consistent.
     pub passed: bool,
@@ -262,6 +326,10 @@ pub struct Report {
     pub elapsed_seconds: f64,
     /// The committed calibration of the comparison (docs/calibration.json), quoted by report.md.
     pub calibration: Option<serde_json::Value>,
+    /// The scene × technique list of the whole run, and the part of it this report holds
+    /// (None: all of it); `certify --merge` joins shards ([`shard`]).
+    pub plan: Vec<shard::PlanItem>,
+    pub shard: Option<shard::Shard>,
 }
 
 impl Report {
@@ -281,6 +349,13 @@ fn family_size(opts: &Options) -> Result<usize, Unusable> {
         }
         let s = scenes::load_referenced(&path, &opts.references_dir, false)?;
         m += matrix::default_comparisons(&name, &s.scene);
+        // The scene's blue-noise renders, against each of its oracles.
+        let oracles = if matrix::has_exact_oracle(&name) {
+            2
+        } else {
+            1
+        };
+        m += NOISE_RENDERS.iter().filter(|r| r.scene == name).count() * oracles;
     }
     Ok(m.max(1))
 }
@@ -353,6 +428,19 @@ fn summarise(cmp: &Comparison) -> Summary {
     (rel, ci, tile)
 }
 
+/// m of the Šidák split and the configuration of every comparison of a certification.
+pub fn comparison_config(opts: &Options) -> Result<(usize, CompareConfig), Unusable> {
+    let m = family_size(opts)?;
+    Ok((
+        m,
+        CompareConfig {
+            alpha: sidak(opts.alpha, m),
+            tolerance: opts.tolerance,
+            ..CompareConfig::default()
+        },
+    ))
+}
+
 /// Which subjects render each scene.
 #[derive(Clone, Copy)]
 enum Plan<'a> {
@@ -390,13 +478,8 @@ fn run_plan(
     if opts.oracle == Oracle::Live {
         oracle::check_ready(&opts.root)?;
     }
-    let m = family_size(opts)?;
-    let alpha_c = sidak(opts.alpha, m);
-    let cfg = CompareConfig {
-        alpha: alpha_c,
-        tolerance: opts.tolerance,
-        ..CompareConfig::default()
-    };
+    let (m, cfg) = comparison_config(opts)?;
+    let alpha_c = cfg.alpha;
     if let Some(dir) = &opts.report_dir {
         std::fs::create_dir_all(dir).map_err(|e| {
             Unusable(format!(
@@ -412,21 +495,47 @@ fn run_plan(
             Plan::Only(_) => Vec::new(),
         })
         .collect();
-    let subjects_of = |i: usize| -> Vec<&dyn Subject> {
-        match plan {
-            Plan::Default => per_scene[i].iter().map(|b| b.as_ref()).collect(),
-            Plan::Only(list) => list.to_vec(),
-        }
-    };
+    // Per scene: its subjects, then its blue-noise renders; the plan (and a shard's part of
+    // it) is over these, scene-major.
+    let scene_subjects: Vec<Vec<&dyn Subject>> = chosen
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let own: Vec<&dyn Subject> = match plan {
+                Plan::Default => per_scene[i].iter().map(|b| b.as_ref()).collect(),
+                Plan::Only(list) => list.to_vec(),
+            };
+            own.into_iter()
+                .chain(
+                    opts.noise_renders
+                        .iter()
+                        .filter(|r| r.scene == s.name)
+                        .map(|r| r as &dyn Subject),
+                )
+                .collect()
+        })
+        .collect();
+    let plan = shard::plan(&chosen, &scene_subjects);
+    let first: Vec<usize> = scene_subjects
+        .iter()
+        .scan(0, |at, v| {
+            let first = *at;
+            *at += v.len();
+            Some(first)
+        })
+        .collect();
+    let mine = |j: usize| shard::runs(opts.shard, j);
+    // Scenes with at least one item of this shard.
+    let scene_runs = |si: usize| (0..scene_subjects[si].len()).any(|k| mine(first[si] + k));
+    let run_suite = opts.sampler_suite && opts.shard.is_none_or(|s| s.runs_suite());
     events(Event::Plan {
-        steps: usize::from(opts.sampler_suite)
-            + (0..chosen.len())
-                .map(|i| subjects_of(i).len())
-                .sum::<usize>()
-            + usize::from(opts.oracle == Oracle::Live) * chosen.len(),
+        steps: usize::from(run_suite)
+            + (0..plan.len()).filter(|&j| mine(j)).count()
+            + usize::from(opts.oracle == Oracle::Live)
+                * (0..chosen.len()).filter(|&si| scene_runs(si)).count(),
     });
 
-    let sampler_suite = if opts.sampler_suite {
+    let sampler_suite = if run_suite {
         events(Event::Step {
             label: "sampler chi-square suite".into(),
         });
@@ -439,8 +548,10 @@ fn run_plan(
 
     let tiles = |done: usize, total: usize| events(Event::Tiles { done, total });
     let mut scene_reports = Vec::new();
-    for (scene_index, s) in chosen.iter().enumerate() {
-        let subjects = subjects_of(scene_index);
+    for (si, s) in chosen.iter().enumerate() {
+        if !scene_runs(si) {
+            continue;
+        }
         let mut live_oracle_seconds = None;
         let reference = match opts.oracle {
             Oracle::Committed => s.reference.clone(),
@@ -471,7 +582,10 @@ fn run_plan(
             None
         };
         let mut rows = Vec::new();
-        for subject in subjects {
+        for (k, &subject) in scene_subjects[si].iter().enumerate() {
+            if !mine(first[si] + k) {
+                continue;
+            }
             let name = subject.name();
             events(Event::Step {
                 label: format!("{}: {name}", s.name),
@@ -482,13 +596,19 @@ fn run_plan(
                 seed: pilot_seed(opts.seed),
                 method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
                 light_samples: 1,
+                noise: Default::default(),
             };
             let t = Instant::now();
             let pilot = subject
                 .render(&s.scene, &base, &|_, _| {})
                 .map_err(|e| render_error(&s.name, &name, e))?;
             let pilot_seconds = t.elapsed().as_secs_f64();
-            let budget = opts.budget.choose(&pilot, &reference);
+            let budget = opts.budget.choose(&pilot, &reference, &cfg).map_err(|e| {
+                Unusable(format!(
+                    "cannot choose the budget of {} / {name}: {e}",
+                    s.name
+                ))
+            })?;
             let t = Instant::now();
             let mut image = subject
                 .render(
@@ -574,6 +694,8 @@ fn run_plan(
         calibration: std::fs::read_to_string(opts.root.join("docs/calibration.json"))
             .ok()
             .and_then(|t| serde_json::from_str(&t).ok()),
+        plan,
+        shard: opts.shard,
     };
     if let Some(dir) = &opts.report_dir {
         report::write_report(dir, &report)?;

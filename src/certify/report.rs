@@ -200,18 +200,12 @@ pub fn markdown(report: &Report) -> String {
         s,
         "Each comparison: Rust render (A) against the oracle (B), docs/statistics.md §2, at the Šidák \
          level α_c = {:.2e} (family-wise α = {} over the m = {} comparisons of the full default \
-         certification), equivalence margin ±{}%. Budget rule: a pilot of {} spp (own seed) \
-         estimates the per-sample variance per pixel; the render gets the {}-quantile over pixels \
-         of σ̂²/v_B spp (rounded up to {}), clamped to [{}, {}]. Render seed {}.\n",
+         certification), equivalence margin ±{}%. Budget rule: {}. Render seed {}.\n",
         report.alpha_per_comparison,
         report.alpha,
         report.comparisons_in_family,
         100.0 * report.tolerance,
-        report.budget_rule.pilot_spp,
-        report.budget_rule.quantile,
-        report.budget_rule.granularity,
-        report.budget_rule.min_spp,
-        report.budget_rule.max_spp,
+        report.budget_rule.describe(),
         report.seed
     );
     s += &calibration_section(report.calibration.as_ref());

@@ -145,6 +145,11 @@ fn oracle_label(oracle: &str) -> String {
 }
 
 fn maps(row: &Row) -> String {
+    // A merged report (`certify --merge`) holds no full-resolution maps (they are not
+    // serialised); its rows point to the shards' heat-map files instead.
+    if row.comparison.maps.z.is_empty() {
+        return String::new();
+    }
     let z_bar = colour_bar(
         |t| diverging(2.0 * t - 1.0),
         &format!("z ≤ −{Z_RANGE}"),

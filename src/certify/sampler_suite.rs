@@ -4,10 +4,10 @@
 use linlight_verify::subjects::{certified, negative_controls};
 use linlight_verify::suite::SubjectReport;
 use linlight_verify::{run_suite, Settings};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// One technique or negative control of the suite.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SuiteRow {
     pub name: String,
     /// Technique: every configuration passed. Negative control: rejected.
@@ -18,7 +18,7 @@ pub struct SuiteRow {
     pub seconds: f64,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SuiteSummary {
     pub passed: bool,
     pub configurations: usize,

@@ -13,7 +13,9 @@ use linlight::outputs::{self, ImageFormat};
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::{record_inputs, render, Method, RenderOptions};
+use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
+use linlight_verify::image_stats::CompareConfig;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -28,6 +30,7 @@ Examples:
   linlight render scene.xml -D res=64 -t 2 -q        # override a <default>, 2 threads, quiet
   linlight render scene.xml --match-variance references/mitsuba/scene.exr -o mine.exr
   linlight render scene.xml --spp 256 --time 60      # as many 256-spp passes as fit in 60 s
+  linlight render scene.xml --spp 3 --passes 16 --noise blue-jittered   # the paper's stratification
   linlight render glossy.xml --mis balance --light-samples 3   # MIS, balance heuristic, N = 3
   linlight render glossy.xml --mis clamped-optimal=0.25        # the paper's heuristic, v = 0.25
   linlight render glossy.xml --technique ltc                   # LTC only (see below)
@@ -64,6 +67,11 @@ pub struct Args {
     /// Light sampling method (names listed below).
     #[arg(long, default_value = "mis")]
     technique: String,
+    /// Primary samples: white (independent), blue (blue noise, a random toroidal shift per
+    /// pass) or blue-jittered (blue noise stratified over the spp of a pass; use --passes > 1
+    /// for a variance estimate). Every choice is unbiased across passes.
+    #[arg(long, default_value = "white", value_name = "white|blue|blue-jittered")]
+    noise: String,
     /// MIS heuristic of --technique mis: balance, power, weighted, clamped-optimal[=v] with the
     /// visibility estimate v in [0, 1] [default: clamped-optimal=0.5].
     #[arg(long, value_name = "HEURISTIC")]
@@ -216,6 +224,10 @@ pub fn run(args: Args) -> ExitCode {
         Ok(m) => m,
         Err(e) => return usage_error(e),
     };
+    let noise: Noise = match args.noise.parse() {
+        Ok(n) => n,
+        Err(e) => return usage_error(e),
+    };
     if args.light_samples == Some(0) {
         return usage_error("--light-samples must be at least 1");
     }
@@ -277,6 +289,7 @@ pub fn run(args: Args) -> ExitCode {
         seed: args.seed.unwrap_or(scene.sensor.seed),
         method,
         light_samples,
+        noise,
     };
     if opts.spp == 0 || opts.passes == 0 {
         return usage_error("--spp and --passes must be at least 1");
@@ -346,11 +359,14 @@ pub fn run(args: Args) -> ExitCode {
 
     let mut notes = Vec::new();
     if let Some(r) = &reference {
-        let rule = BudgetRule::default();
+        let rule = BudgetRule::parity();
         let pilot_opts = RenderOptions {
             spp: rule.pilot_spp,
             passes: 1,
             seed: opts.seed ^ 0x5049_4c4f_5453_4545,
+            // White: the budget rule needs the per-sample variance, which is the same for every
+            // noise (each sample is uniform), and independent samples to estimate it.
+            noise: Noise::White,
             ..opts
         };
         bar.set_message("pilot render");
@@ -358,7 +374,10 @@ pub fn run(args: Args) -> ExitCode {
             Ok(p) => p,
             Err(e) => return usage_error(e),
         };
-        let budget = rule.choose(&pilot, r);
+        let budget = match rule.choose(&pilot, r, &CompareConfig::default()) {
+            Ok(b) => b,
+            Err(e) => return usage_error(format!("--match-variance: {e}")),
+        };
         opts.spp = budget.spp.div_ceil(opts.passes).max(1);
         notes.push(format!(
             "--match-variance: {} spp in total (the rule asked for {}{})",
@@ -440,8 +459,17 @@ pub fn run(args: Args) -> ExitCode {
              scene); Mitsuba warns \"Invalid sample value\" for such samples"
         ));
     }
+    if let Some(p) = &outs.preview {
+        if let Err(e) = image.write_preview_png_with_exposure(p, args.exposure) {
+            return usage_error(e);
+        }
+    }
+    // The EXR writer consumes the image (a lower memory peak); what the summary needs first.
+    let (width, height, spp, passes) =
+        (image.width, image.height, image.meta.spp, image.meta.passes);
+    let contacts = image.meta.extra.get("contacts").cloned();
     let written = match outs.format {
-        ImageFormat::Exr => image.write(&outs.out),
+        ImageFormat::Exr => image.into_exr_file(&outs.out),
         ImageFormat::Png => {
             warn(format!(
                 "{} is a tone-mapped preview: the variance is not saved (use .exr for compare, \
@@ -455,29 +483,25 @@ pub fn run(args: Args) -> ExitCode {
     if let Err(e) = written {
         return usage_error(e);
     }
-    if let Some(p) = &outs.preview {
-        if let Err(e) = image.write_preview_png_with_exposure(p, args.exposure) {
-            return usage_error(e);
-        }
-    }
     if !args.quiet {
         for n in &notes {
             eprintln!("{n}");
         }
-        if let Some(c) = image.meta.extra.get("contacts") {
+        if let Some(c) = contacts {
             eprintln!("light–surface contacts (tested apart by compare): {c}");
         }
-        let samples = (image.width * image.height) as f64 * image.meta.spp as f64;
+        let samples = (width * height) as f64 * spp as f64;
         eprintln!(
-            "wrote {} ({}x{}, {} spp in {} pass(es), {}, {} light sample(s), {:.2} s, {:.2} M \
-             samples/s)",
+            "wrote {} ({}x{}, {} spp in {} pass(es), {}, {} light sample(s), {} noise, {:.2} s, \
+             {:.2} M samples/s)",
             outs.out.display(),
-            image.width,
-            image.height,
-            image.meta.spp,
-            image.meta.passes,
+            width,
+            height,
+            spp,
+            passes,
             method,
             opts.light_samples,
+            opts.noise,
             seconds,
             samples / seconds.max(1e-9) / 1e6
         );

@@ -365,29 +365,59 @@ impl Image {
     }
 
     /// Writes the image; the bytes depend only on the pixels and the metadata (the header
-    /// attributes are in name order, see [`canonical_header_order`]).
+    /// attributes are in name order, see [`canonical_header_order`]); streamed to disk.
     pub fn write(&self, path: &Path) -> Result<(), ImageError> {
-        let bytes = self.to_exr_bytes()?;
-        std::fs::write(path, bytes)
-            .map_err(|io| ImageError::Io(format!("cannot write {}: {io}", path.display())))
+        write_layer(self.exr_layer()?, path)
     }
 
-    /// The EXR file of this image, in memory.
-    pub fn to_exr_bytes(&self) -> Result<Vec<u8>, ImageError> {
+    /// [`Image::write`] for an image that is no longer needed: each of mean, variance and
+    /// tail is freed as soon as its channels are copied, so the peak is the image plus one
+    /// third of it rather than twice the image (same bytes as [`Image::write`]).
+    pub fn into_exr_file(mut self, path: &Path) -> Result<(), ImageError> {
         self.validate()?;
-        let n = self.width * self.height;
-        let mut channels = exr::prelude::SmallVec::<[AnyChannel<FlatSamples>; 4]>::new();
-        for c in 0..3 {
-            let m: Vec<f32> = (0..n).map(|i| self.mean[i][c]).collect();
-            let v: Vec<f32> = (0..n).map(|i| self.var[i][c]).collect();
-            channels.push(AnyChannel::new(MEAN_CHANNELS[c], FlatSamples::F32(m)));
-            channels.push(AnyChannel::new(VAR_CHANNELS[c], FlatSamples::F32(v)));
-            if let Some(tail) = &self.tail {
-                let t: Vec<f32> = tail.iter().map(|t| t[c]).collect();
-                channels.push(AnyChannel::new(TAIL_CHANNELS[c], FlatSamples::F32(t)));
-            }
+        let mut channels = Channels::new();
+        push_planes(
+            &mut channels,
+            &MEAN_CHANNELS,
+            &std::mem::take(&mut self.mean),
+        );
+        push_planes(&mut channels, &VAR_CHANNELS, &std::mem::take(&mut self.var));
+        if let Some(tail) = self.tail.take() {
+            push_planes(&mut channels, &TAIL_CHANNELS, &tail);
         }
+        write_layer(self.layer_with(channels)?, path)
+    }
 
+    /// The EXR file of this image, in memory (the bytes [`Image::write`] writes).
+    pub fn to_exr_bytes(&self) -> Result<Vec<u8>, ImageError> {
+        let layer = self.exr_layer()?;
+        let mut out = std::io::Cursor::new(Vec::new());
+        exr::prelude::Image::from_layer(layer)
+            .write()
+            .to_buffered(&mut out)
+            .map_err(|e| ImageError::Format(format!("cannot encode OpenEXR: {e}")))?;
+        let mut bytes = out.into_inner();
+        canonical_header_order(&mut bytes)?;
+        Ok(bytes)
+    }
+
+    /// The image as one EXR layer: its channels (copies) and header attributes.
+    fn exr_layer(&self) -> Result<Layer<AnyChannels<FlatSamples>>, ImageError> {
+        self.validate()?;
+        let mut channels = Channels::new();
+        push_planes(&mut channels, &MEAN_CHANNELS, &self.mean);
+        push_planes(&mut channels, &VAR_CHANNELS, &self.var);
+        if let Some(tail) = &self.tail {
+            push_planes(&mut channels, &TAIL_CHANNELS, tail);
+        }
+        self.layer_with(channels)
+    }
+
+    /// The layer of `channels` with this image's size and header attributes.
+    fn layer_with(
+        &self,
+        channels: Channels,
+    ) -> Result<Layer<AnyChannels<FlatSamples>>, ImageError> {
         let mut attributes = LayerAttributes::default();
         let text = |key: &str, value: &str| {
             Text::new_or_none(value).ok_or_else(|| {
@@ -429,20 +459,12 @@ impl Image {
             blocks: exr::prelude::Blocks::ScanLines,
             line_order: exr::prelude::LineOrder::Increasing,
         };
-        let layer = Layer::new(
+        Ok(Layer::new(
             (self.width, self.height),
             attributes,
             encoding,
             AnyChannels::sort(channels),
-        );
-        let mut out = std::io::Cursor::new(Vec::new());
-        exr::prelude::Image::from_layer(layer)
-            .write()
-            .to_buffered(&mut out)
-            .map_err(|e| ImageError::Format(format!("cannot encode OpenEXR: {e}")))?;
-        let mut bytes = out.into_inner();
-        canonical_header_order(&mut bytes)?;
-        Ok(bytes)
+        ))
     }
 
     /// Tone-mapped sRGB preview (exposure 1, clamp) as PNG.
@@ -475,6 +497,54 @@ impl Image {
             })
             .collect();
         write_rgb8_png(path, self.width, self.height, &buf)
+    }
+}
+
+/// The channel list of an EXR layer.
+type Channels = exr::prelude::SmallVec<[AnyChannel<FlatSamples>; 4]>;
+
+/// Appends the three planes (R, G, B) of `pixels` as f32 channels named `names`.
+fn push_planes(channels: &mut Channels, names: &[&str; 3], pixels: &[[f32; 3]]) {
+    for (c, name) in names.iter().enumerate() {
+        let plane: Vec<f32> = pixels.iter().map(|p| p[c]).collect();
+        channels.push(AnyChannel::new(*name, FlatSamples::F32(plane)));
+    }
+}
+
+/// Streams `layer` to `path` as an EXR file (a 1080p image is ~70 MB of EXR that need not be
+/// held in memory next to the image and its channel copies), then puts the header, which
+/// comes first and keeps its length, in canonical order in place ([`canonical_header_order`]).
+fn write_layer(layer: Layer<AnyChannels<FlatSamples>>, path: &Path) -> Result<(), ImageError> {
+    use std::io::{Read, Seek, SeekFrom, Write};
+    let io = |e: std::io::Error| ImageError::Io(format!("cannot write {}: {e}", path.display()));
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .open(path)
+        .map_err(io)?;
+    let mut out = std::io::BufWriter::new(file);
+    exr::prelude::Image::from_layer(layer)
+        .write()
+        .to_buffered(&mut out)
+        .map_err(|e| ImageError::Format(format!("cannot encode OpenEXR: {e}")))?;
+    let mut file = out.into_inner().map_err(|e| io(e.into_error()))?;
+    let len = file.metadata().map_err(io)?.len();
+    // The header is a few kB; read more only if it is not within the first MiB.
+    let mut n = len.min(1 << 20);
+    loop {
+        let mut head = vec![0u8; n as usize];
+        file.seek(SeekFrom::Start(0)).map_err(io)?;
+        file.read_exact(&mut head).map_err(io)?;
+        match canonical_header_order(&mut head) {
+            Ok(()) => {
+                file.seek(SeekFrom::Start(0)).map_err(io)?;
+                return file.write_all(&head).map_err(io);
+            }
+            Err(_) if n < len => n = len,
+            Err(e) => return Err(e),
+        }
     }
 }
 
@@ -1067,6 +1137,9 @@ mod tests {
         img.write(&path).unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), first);
         assert_eq!(Image::read(&path).unwrap(), img);
+        let consumed = tmp("canonical-consumed.exr");
+        img.clone().into_exr_file(&consumed).unwrap();
+        assert_eq!(std::fs::read(&consumed).unwrap(), first);
     }
 
     #[test]

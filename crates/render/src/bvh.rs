@@ -11,7 +11,7 @@
 //! 62 066 cornell-tube shadow rays differently (its box test is not made conservative), and it
 //! needs glam 0.33–0.34 besides the workspace's 0.30.
 
-use crate::shapes::{intersect_triangle_edges, Aabb, Hit, Primitive, Ray};
+use crate::shapes::{intersect_triangle_edges, intersect_triangle_lane, Aabb, Hit, Primitive, Ray};
 use glam::Vec3;
 
 const BINS: usize = 16;
@@ -179,39 +179,169 @@ impl RayBoxes {
     }
 }
 
-/// Most rays in one [`Bvh::occluded_packet`].
+/// Most rays in one packet ([`Bvh::intersect_lanes`], [`Bvh::occluded_lanes`]).
 pub const PACKET: usize = 16;
 
-/// A packet of rays as structure of arrays, for box tests of all rays at once. Lanes beyond the
-/// packet have an empty interval and never hit.
+/// Up to [`PACKET`] rays as structure of arrays (the rays of a batched renderer); which lanes
+/// hold rays is a separate bit mask.
+#[derive(Clone, Copy, Debug)]
+pub struct RayLanes {
+    pub o: [[f32; PACKET]; 3],
+    pub d: [[f32; PACKET]; 3],
+    pub t_min: [f32; PACKET],
+    pub t_max: [f32; PACKET],
+}
+
+impl Default for RayLanes {
+    fn default() -> Self {
+        Self {
+            o: [[0.0; PACKET]; 3],
+            d: [[0.0; PACKET]; 3],
+            t_min: [0.0; PACKET],
+            t_max: [0.0; PACKET],
+        }
+    }
+}
+
+impl RayLanes {
+    /// Lanes 0..rays.len() from `rays` (at most [`PACKET`]).
+    pub fn from_rays(rays: &[Ray]) -> Self {
+        assert!(rays.len() <= PACKET, "at most {PACKET} rays per packet");
+        let mut lanes = Self::default();
+        for (i, r) in rays.iter().enumerate() {
+            lanes.set(i, r);
+        }
+        lanes
+    }
+
+    #[inline(always)]
+    pub fn get(&self, i: usize) -> Ray {
+        Ray {
+            o: Vec3::new(self.o[0][i], self.o[1][i], self.o[2][i]),
+            d: Vec3::new(self.d[0][i], self.d[1][i], self.d[2][i]),
+            t_min: self.t_min[i],
+            t_max: self.t_max[i],
+        }
+    }
+
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, r: &Ray) {
+        for a in 0..3 {
+            self.o[a][i] = r.o[a];
+            self.d[a][i] = r.d[a];
+        }
+        self.t_min[i] = r.t_min;
+        self.t_max[i] = r.t_max;
+    }
+}
+
+/// A packet of rays prepared for box tests. Lanes outside the packet's mask have an empty
+/// interval and never hit.
+///
+/// When every ray has the same direction sign on each axis (the camera rays of a pixel or a
+/// row of pixels, shadow rays from a pixel's points toward a light that does not straddle
+/// them), the packet is also kept as intervals: per axis, the bounds of the origins and of the
+/// reciprocal directions. A node's four boxes are then tested against the whole packet at once
+/// by interval arithmetic — the slab distance (plane − o)·inv is bilinear in (o, inv), so its
+/// extremes over the packet are at corners of the bounds — which gives an entry distance no ray
+/// undercuts and an exit no ray exceeds (the exit scaled by the same 1 + 2γ₃ as the ray-by-ray
+/// test; a NaN corner, 0·∞, leaves the axis unconstrained). Conservative like that test, it
+/// only decides which subtrees the packet enters: every ray still meets the primitives with its
+/// own exact test. Other packets are tested ray by ray.
 struct RayPacket<const N: usize> {
     o: [[f32; N]; 3],
+    d: [[f32; N]; 3],
     inv: [[f32; N]; 3],
     /// Direction component negative (its near plane is the box's max).
     neg: [[bool; N]; 3],
     t_min: [f32; N],
     t_max: [f32; N],
+    /// Every ray has the same direction signs: box tests by intervals.
+    coherent: bool,
+    /// 1 where the common direction sign is negative.
+    sign: [usize; 3],
+    /// Origin bound giving the smallest entry (the upper bound for positive directions, the
+    /// lower for negative ones) and the one giving the largest exit distance.
+    o_near: [f32; 3],
+    o_far: [f32; 3],
+    /// Bounds of the reciprocal directions.
+    inv_lo: [f32; 3],
+    inv_hi: [f32; 3],
+    /// Smallest t_min and largest t_max of the rays (kept up to date by the closest-hit walk).
+    t_lo: f32,
+    t_hi: f32,
+}
+
+/// Smallest (`MAX` = false) or largest element of a, by halving (elementwise operations the
+/// compiler vectorises; a reduction loop would stay scalar). NaN-free inputs.
+#[inline(always)]
+fn reduce<const N: usize, const MAX: bool>(mut a: [f32; N]) -> f32 {
+    let mut w = N;
+    while w > 1 {
+        w /= 2;
+        for i in 0..w {
+            let (x, y) = (a[i], a[i + w]);
+            a[i] = if (x < y) ^ MAX { x } else { y };
+        }
+    }
+    a[0]
 }
 
 impl<const N: usize> RayPacket<N> {
+    /// The rays of `lanes` whose bit is set in `active` (lanes ≥ N are ignored; N a power of 2).
     #[inline(always)]
-    fn new(rays: &[Ray]) -> Self {
+    fn new(lanes: &RayLanes, active: u32) -> Self {
         let mut p = RayPacket {
             o: [[0.0; N]; 3],
+            d: [[0.0; N]; 3],
             inv: [[0.0; N]; 3],
             neg: [[false; N]; 3],
             t_min: [f32::INFINITY; N],
             t_max: [f32::NEG_INFINITY; N],
+            coherent: true,
+            sign: [0; 3],
+            o_near: [0.0; 3],
+            o_far: [0.0; 3],
+            inv_lo: [0.0; 3],
+            inv_hi: [0.0; 3],
+            t_lo: 0.0,
+            t_hi: 0.0,
         };
-        for (i, ray) in rays.iter().enumerate() {
-            let inv = ray.d.recip();
-            for a in 0..3 {
-                p.o[a][i] = ray.o[a];
-                p.inv[a][i] = inv[a];
-                p.neg[a][i] = inv[a].is_sign_negative();
+        let on: [bool; N] = std::array::from_fn(|i| active >> i & 1 == 1);
+        let (inf, ninf) = (f32::INFINITY, f32::NEG_INFINITY);
+        for a in 0..3 {
+            let mut neg_bits = 0u32;
+            let (mut o_lo, mut o_hi) = ([inf; N], [ninf; N]);
+            let (mut i_lo, mut i_hi) = ([inf; N], [ninf; N]);
+            for i in 0..N {
+                let (o, d) = (lanes.o[a][i], lanes.d[a][i]);
+                let inv = 1.0 / d;
+                let neg = inv.is_sign_negative();
+                (p.o[a][i], p.d[a][i], p.inv[a][i], p.neg[a][i]) = (o, d, inv, neg);
+                neg_bits |= ((on[i] & neg) as u32) << i;
+                // NaN (a NaN direction or origin) makes the packet incoherent below.
+                o_lo[i] = if on[i] { o } else { inf };
+                o_hi[i] = if on[i] { o } else { ninf };
+                i_lo[i] = if on[i] { inv } else { inf };
+                i_hi[i] = if on[i] { inv } else { ninf };
             }
-            (p.t_min[i], p.t_max[i]) = (ray.t_min, ray.t_max);
+            let (o_lo, o_hi) = (reduce::<N, false>(o_lo), reduce::<N, true>(o_hi));
+            let (inv_lo, inv_hi) = (reduce::<N, false>(i_lo), reduce::<N, true>(i_hi));
+            let negative = neg_bits == active;
+            p.coherent &= (neg_bits == 0 || negative) && o_lo <= o_hi && inv_lo <= inv_hi;
+            p.sign[a] = negative as usize;
+            (p.o_near[a], p.o_far[a]) = if negative { (o_lo, o_hi) } else { (o_hi, o_lo) };
+            (p.inv_lo[a], p.inv_hi[a]) = (inv_lo, inv_hi);
         }
+        #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+        for i in 0..N {
+            p.t_min[i] = if on[i] { lanes.t_min[i] } else { inf };
+            p.t_max[i] = if on[i] { lanes.t_max[i] } else { ninf };
+        }
+        p.t_lo = reduce::<N, false>(p.t_min);
+        p.t_hi = reduce::<N, true>(p.t_max);
+        // NaN interval ends: test ray by ray (NaN compares false there, as in `occluded`).
+        p.coherent &= p.t_lo <= p.t_hi;
         p
     }
 
@@ -219,6 +349,12 @@ impl<const N: usize> RayPacket<N> {
     /// slab test as [`RayBoxes::hits`] (a NaN slab distance leaves the interval unchanged).
     #[inline(always)]
     fn hits(&self, node: &Node, lane: usize) -> u32 {
+        self.hits_and_entry(node, lane).0
+    }
+
+    /// [`Self::hits`] and the smallest entry distance of the rays that hit (+∞ if none).
+    #[inline(always)]
+    fn hits_and_entry(&self, node: &Node, lane: usize) -> (u32, f32) {
         let mut t0 = self.t_min;
         let mut t1 = self.t_max;
         for a in 0..3 {
@@ -232,13 +368,163 @@ impl<const N: usize> RayPacket<N> {
             }
         }
         let mut mask = 0u32;
+        let mut entry = f32::INFINITY;
         for i in 0..N {
-            mask |= ((t0[i] <= t1[i]) as u32) << i;
+            let hit = t0[i] <= t1[i];
+            mask |= (hit as u32) << i;
+            entry = entry.min(if hit { t0[i] } else { f32::INFINITY });
         }
-        mask
+        (mask, entry)
+    }
+
+    /// The four boxes of `node` against the packet as intervals (valid when `coherent`), with
+    /// the rays' distances limited to [t_lo, t_hi]: whether some ray may meet each box, and a
+    /// lower bound of the rays' entry distances.
+    #[inline(always)]
+    fn interval_hits(&self, node: &Node) -> ([f32; WIDTH], [bool; WIDTH]) {
+        let mut t0 = [self.t_lo; WIDTH];
+        let mut t1 = [self.t_hi; WIDTH];
+        for a in 0..3 {
+            let s = self.sign[a] & 1;
+            let (nb, fb) = (&node.b[s][a], &node.b[s ^ 1][a]);
+            let (on, of) = (self.o_near[a], self.o_far[a]);
+            let (lo, hi) = (self.inv_lo[a], self.inv_hi[a]);
+            for i in 0..WIDTH {
+                // Smallest (nb − o)·inv and largest (fb − o)·inv over the packet's bounds (a
+                // NaN, 0·∞, compares false below: no constraint).
+                let g = nb[i] - on;
+                let near = g * if g >= 0.0 { lo } else { hi };
+                let h = fb[i] - of;
+                let far = h * if h >= 0.0 { hi } else { lo } * FAR_SCALE;
+                t0[i] = if near > t0[i] { near } else { t0[i] };
+                t1[i] = if far < t1[i] { far } else { t1[i] };
+            }
+        }
+        let mut hit = [false; WIDTH];
+        for i in 0..WIDTH {
+            hit[i] = t0[i] <= t1[i];
+        }
+        (t0, hit)
+    }
+
+    /// Per child of `node`: the rays of `mask` that may meet its box and their smallest entry
+    /// distance (for the whole packet by intervals, or ray by ray).
+    #[inline(always)]
+    fn children(&self, node: &Node, mask: u32) -> [(u32, f32); WIDTH] {
+        let mut out = [(0u32, f32::INFINITY); WIDTH];
+        if self.coherent {
+            let (t0, hit) = self.interval_hits(node);
+            for lane in 0..WIDTH {
+                out[lane] = (if hit[lane] { mask } else { 0 }, t0[lane]);
+            }
+        } else {
+            for (lane, o) in out.iter_mut().enumerate() {
+                let (hits, entry) = self.hits_and_entry(node, lane);
+                *o = (hits & mask, entry);
+            }
+        }
+        out
+    }
+
+    /// The rays of `mask` that may still meet the box of `node`'s child `lane`, entered at
+    /// `entry` (from [`Self::children`]), now that some have found closer hits.
+    #[inline(always)]
+    fn still_hit(&self, node: &Node, lane: usize, mask: u32, entry: f32) -> u32 {
+        if self.coherent {
+            if entry > self.t_hi {
+                0
+            } else {
+                mask
+            }
+        } else {
+            mask & self.hits(node, lane)
+        }
+    }
+
+    /// Bit i: ray i (in `mask`) meets the triangle (v0, e1, e2) within its interval, at
+    /// `t[i]` with barycentrics `b1[i]`, `b2[i]` (the scalar test's values, lane by lane).
+    #[inline(always)]
+    fn triangle(
+        &self,
+        mask: u32,
+        v0: Vec3,
+        e1: Vec3,
+        e2: Vec3,
+    ) -> ([f32; N], [f32; N], [f32; N], u32) {
+        let (mut t, mut b1, mut b2) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
+        let mut hits = 0u32;
+        for k in 0..N {
+            let o = Vec3::new(self.o[0][k], self.o[1][k], self.o[2][k]);
+            let d = Vec3::new(self.d[0][k], self.d[1][k], self.d[2][k]);
+            let (tk, u, v, hit) =
+                intersect_triangle_lane(o, d, self.t_min[k], self.t_max[k], v0, e1, e2);
+            (t[k], b1[k], b2[k]) = (tk, u, v);
+            hits |= ((hit & (mask >> k & 1 == 1)) as u32) << k;
+        }
+        (t, b1, b2, hits)
     }
 }
 
+/// Closest hits of a packet of up to [`PACKET`] rays ([`Bvh::intersect_lanes`]); lanes of
+/// rays that hit nothing (or outside the packet) hold meaningless values.
+#[derive(Clone, Copy, Debug)]
+pub struct PacketHits {
+    pub t: [f32; PACKET],
+    /// BVH primitive index ([`Bvh::primitive`]).
+    pub prim: [u32; PACKET],
+    pub b1: [f32; PACKET],
+    pub b2: [f32; PACKET],
+    /// Bit i: ray i hits something.
+    pub mask: u32,
+}
+
+impl PacketHits {
+    /// What [`Bvh::intersect`] returns for ray i.
+    #[inline]
+    pub fn get(&self, i: usize) -> Option<Hit> {
+        (self.mask >> i & 1 == 1).then(|| Hit {
+            t: self.t[i],
+            prim: self.prim[i],
+            b1: self.b1[i],
+            b2: self.b2[i],
+        })
+    }
+}
+
+/// Whether a hit at t of primitive i replaces the best hit so far (`best_prim` = u32::MAX:
+/// none): the closest hit, and among hits at the same t the smallest primitive index, so that
+/// the answer does not depend on the order in which the tree is walked. The caller has already
+/// checked t < t_max, where t_max = next_up(best t) once a hit is known.
+#[inline(always)]
+fn replaces(t: f32, i: u32, best_t: f32, best_prim: u32) -> bool {
+    (best_prim == u32::MAX) | (t < best_t) | (i < best_prim)
+}
+
+/// A pending subtree of a packet walk: parent node, slot, rays, entry distance.
+type PacketEntry = (u32, u32, u32, f32);
+
+/// Push onto a fixed stack, spilling into a Vec when it is full (exact, only slower).
+#[inline(always)]
+fn push<T: Copy, const S: usize>(stack: &mut [T; S], sp: &mut usize, spill: &mut Vec<T>, e: T) {
+    if *sp < S && spill.is_empty() {
+        stack[*sp] = e;
+        *sp += 1;
+    } else {
+        spill.push(e);
+    }
+}
+
+#[inline(always)]
+fn pop<T: Copy, const S: usize>(stack: &[T; S], sp: &mut usize, spill: &mut Vec<T>) -> Option<T> {
+    if let Some(e) = spill.pop() {
+        Some(e)
+    } else if *sp > 0 {
+        *sp -= 1;
+        Some(stack[*sp])
+    } else {
+        None
+    }
+}
 /// A pending subtree: (child, count, entry distance) as in [`Node`].
 type Entry = (u32, u32, f32);
 /// Entries of the traversal stack held on the call stack (zeroing it is a per-ray cost, so it
@@ -328,8 +614,12 @@ impl Bvh {
         let mut best: Option<Hit> = None;
         self.traverse::<N>(&mut ray, |bvh, i, ray| {
             if let Some((t, b1, b2)) = bvh.intersect_prim(i as usize, ray) {
-                ray.t_max = t;
-                best = Some(Hit { t, prim: i, b1, b2 });
+                let (best_t, best_prim) = best.map_or((0.0, u32::MAX), |b| (b.t, b.prim));
+                if replaces(t, i, best_t, best_prim) {
+                    // Later hits at the same t still pass `t < t_max` (ties: smallest index).
+                    ray.t_max = t.next_up();
+                    best = Some(Hit { t, prim: i, b1, b2 });
+                }
             }
             false
         });
@@ -347,110 +637,273 @@ impl Bvh {
         hit
     }
 
-    /// [`Self::occluded`] for a packet of up to [`PACKET`] rays (shadow rays of a batched
-    /// renderer: 8–16 rays from nearby shading points or toward one light). Bit i of the result
-    /// is set iff `rays[i]` is occluded, exactly as `occluded(&rays[i])` says.
-    ///
-    /// The packet walks the tree once: each node's four boxes are tested against every ray
-    /// still unresolved (one loop over the rays per box, which the compiler vectorises), and a
-    /// subtree is entered with the mask of the rays that hit its box; a leaf tests its
-    /// primitives for those rays only; the walk ends when every ray is occluded. Coherent rays
-    /// share their node visits; incoherent ones cost about what they cost one by one.
+    /// [`Self::occluded`] for a packet of up to [`PACKET`] rays: bit i of the result is set
+    /// iff `rays[i]` is occluded, exactly as `occluded(&rays[i])` says.
     pub fn occluded_packet(&self, rays: &[Ray]) -> u32 {
-        assert!(rays.len() <= PACKET, "at most {PACKET} rays per packet");
-        if self.nodes.is_empty() || rays.is_empty() {
-            0
-        } else if rays.len() <= 8 {
-            self.occluded_packet_isa::<8>(rays)
-        } else {
-            self.occluded_packet_isa::<PACKET>(rays)
-        }
+        let all = ((1u64 << rays.len()) - 1) as u32;
+        self.occluded_lanes(&RayLanes::from_rays(rays), all)
     }
 
-    /// The packet walk compiled for the best vector extension this CPU has (chosen at run
-    /// time, as `linlight_sampling::batch` does): the box tests of 8–16 rays are one or two
-    /// AVX-512/AVX2 instructions per operation instead of four SSE2 ones.
-    #[inline(always)]
-    fn occluded_packet_isa<const N: usize>(&self, rays: &[Ray]) -> u32 {
+    /// [`Self::intersect`] for a packet of up to [`PACKET`] rays: lane i of the result is
+    /// exactly what `intersect(&rays[i])` returns.
+    pub fn intersect_packet(&self, rays: &[Ray]) -> PacketHits {
+        let all = ((1u64 << rays.len()) - 1) as u32;
+        self.intersect_lanes(&RayLanes::from_rays(rays), all)
+    }
+
+    /// Any-hit for the rays of `lanes` in `active` (shadow rays of a batched renderer): bit i of
+    /// the result is set iff ray i is occluded, exactly as [`Self::occluded`] says.
+    ///
+    /// The packet walks the tree once: each node's four boxes are tested against the rays still
+    /// unresolved (as intervals when the packet is coherent, else ray by ray, see
+    /// [`RayPacket`]), a subtree is entered with the rays that may meet its box, a leaf tests
+    /// its triangles against all of them at once (vectorised) and other primitives ray by ray,
+    /// and the walk ends when every ray is occluded. Compiled for the best vector extension of
+    /// the CPU (chosen at run time, as `linlight_sampling::batch` does).
+    pub fn occluded_lanes(&self, lanes: &RayLanes, active: u32) -> u32 {
+        let active = active & ((1u64 << PACKET) - 1) as u32;
+        if self.nodes.is_empty() || active == 0 {
+            return 0;
+        }
         #[cfg(target_arch = "x86_64")]
         {
             use linlight_sampling::batch::Isa;
             #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-            unsafe fn avx512<const N: usize>(bvh: &Bvh, rays: &[Ray]) -> u32 {
-                bvh.occluded_packet_n::<N>(rays)
+            unsafe fn avx512(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
+                bvh.occluded_lanes_n::<PACKET>(lanes, active)
             }
             #[target_feature(enable = "avx2,fma")]
-            unsafe fn avx2<const N: usize>(bvh: &Bvh, rays: &[Ray]) -> u32 {
-                bvh.occluded_packet_n::<N>(rays)
+            unsafe fn avx2(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
+                bvh.occluded_lanes_n::<PACKET>(lanes, active)
             }
             match Isa::detect() {
                 // SAFETY: the features the functions are compiled for were detected.
                 Isa::Avx512 if std::arch::is_x86_feature_detected!("avx512bw") => unsafe {
-                    return avx512::<N>(self, rays);
+                    return avx512(self, lanes, active);
                 },
-                Isa::Avx512 | Isa::Avx2 => unsafe { return avx2::<N>(self, rays) },
+                Isa::Avx512 | Isa::Avx2 => unsafe { return avx2(self, lanes, active) },
                 Isa::Baseline => {}
             }
         }
-        self.occluded_packet_n::<N>(rays)
+        self.occluded_lanes_n::<PACKET>(lanes, active)
     }
 
-    /// [`Self::occluded_packet`] with N lanes (N ≥ `rays.len()`).
     #[inline(always)]
-    fn occluded_packet_n<const N: usize>(&self, rays: &[Ray]) -> u32 {
-        let packet = RayPacket::<N>::new(rays);
-        let all = (1u32 << rays.len()) - 1;
+    fn occluded_lanes_n<const N: usize>(&self, lanes: &RayLanes, active: u32) -> u32 {
+        let packet = RayPacket::<N>::new(lanes, active);
         let mut occluded = 0u32;
-        // (child, count, ray mask) as in `Node`; on the call stack, spilling into a Vec.
-        let mut stack = [(0u32, 0u32, 0u32); 64];
-        let mut spill: Vec<(u32, u32, u32)> = Vec::new();
-        let mut sp = 1;
-        stack[0] = (0, 0, all);
+        let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
+        let mut spill: Vec<PacketEntry> = Vec::new();
+        let mut sp = 0;
+        let mut expand = Some((0u32, active));
         loop {
-            let (child, count, mask) = if let Some(e) = spill.pop() {
-                e
-            } else if sp > 0 {
-                sp -= 1;
-                stack[sp]
-            } else {
+            if let Some((index, mask)) = expand.take() {
+                let node = &self.nodes[index as usize];
+                for (lane, (hits, entry)) in packet.children(node, mask).into_iter().enumerate() {
+                    if hits != 0 {
+                        push(
+                            &mut stack,
+                            &mut sp,
+                            &mut spill,
+                            (index, lane as u32, hits, entry),
+                        );
+                    }
+                }
+            }
+            let Some((parent, lane, mask, _)) = pop(&stack, &mut sp, &mut spill) else {
                 return occluded;
             };
             let mask = mask & !occluded;
             if mask == 0 {
                 continue;
             }
-            if count > 0 {
-                for i in child..child + count {
-                    let mut m = mask & !occluded;
-                    while m != 0 {
-                        let r = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        if self.intersect_prim(i as usize, &rays[r]).is_some() {
-                            occluded |= 1 << r;
+            let node = &self.nodes[parent as usize];
+            let (child, count) = (node.child[lane as usize], node.count[lane as usize]);
+            if count == 0 {
+                expand = Some((child, mask));
+                continue;
+            }
+            let mut mask = mask;
+            for i in child..child + count {
+                match self.isect[i as usize] {
+                    Isect::Triangle { v0, e1, e2 } => {
+                        occluded |= packet.triangle(mask, v0, e1, e2).3;
+                    }
+                    Isect::Other => {
+                        let mut m = mask;
+                        while m != 0 {
+                            let k = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            if self.prims[i as usize].intersect(&lanes.get(k)).is_some() {
+                                occluded |= 1 << k;
+                            }
                         }
                     }
                 }
-                if occluded == all {
-                    return occluded;
+                mask &= !occluded;
+                if mask == 0 {
+                    break;
                 }
-                continue;
             }
-            let node = &self.nodes[child as usize];
-            for lane in 0..WIDTH {
-                let hits = packet.hits(node, lane) & mask;
-                if hits != 0 {
-                    let e = (node.child[lane], node.count[lane], hits);
-                    if sp < stack.len() && spill.is_empty() {
-                        stack[sp] = e;
-                        sp += 1;
-                    } else {
-                        spill.push(e);
-                    }
-                }
+            if occluded == active {
+                return occluded;
             }
         }
     }
 
+    /// Closest hits for the rays of `lanes` in `active` (camera rays of a batched renderer):
+    /// lane i of the result is exactly what [`Self::intersect`] returns for ray i, ties
+    /// included (see [`Self::intersect`]).
+    ///
+    /// The packet walks the tree once, nearest box first (by the smallest entry distance of its
+    /// rays), boxes tested as in [`Self::occluded_lanes`]; a pending subtree is checked again
+    /// against the rays' current closest distances when it is popped; a leaf's triangles are
+    /// tested against all its rays at once (vectorised), other primitives ray by ray.
+    pub fn intersect_lanes(&self, lanes: &RayLanes, active: u32) -> PacketHits {
+        let active = active & ((1u64 << PACKET) - 1) as u32;
+        let mut out = PacketHits {
+            t: [0.0; PACKET],
+            prim: [u32::MAX; PACKET],
+            b1: [0.0; PACKET],
+            b2: [0.0; PACKET],
+            mask: 0,
+        };
+        if self.nodes.is_empty() || active == 0 {
+            return out;
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            use linlight_sampling::batch::Isa;
+            #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+            unsafe fn avx512(bvh: &Bvh, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
+                bvh.intersect_lanes_n::<PACKET>(lanes, active, out)
+            }
+            #[target_feature(enable = "avx2,fma")]
+            unsafe fn avx2(bvh: &Bvh, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
+                bvh.intersect_lanes_n::<PACKET>(lanes, active, out)
+            }
+            match Isa::detect() {
+                // SAFETY: the features the functions are compiled for were detected.
+                Isa::Avx512 if std::arch::is_x86_feature_detected!("avx512bw") => unsafe {
+                    avx512(self, lanes, active, &mut out);
+                    return out;
+                },
+                Isa::Avx512 | Isa::Avx2 => unsafe {
+                    avx2(self, lanes, active, &mut out);
+                    return out;
+                },
+                Isa::Baseline => {}
+            }
+        }
+        self.intersect_lanes_n::<PACKET>(lanes, active, &mut out);
+        out
+    }
+
+    #[inline(always)]
+    fn intersect_lanes_n<const N: usize>(
+        &self,
+        lanes: &RayLanes,
+        active: u32,
+        out: &mut PacketHits,
+    ) {
+        let mut packet = RayPacket::<N>::new(lanes, active);
+        let (mut best_t, mut best_prim) = ([0.0f32; N], [u32::MAX; N]);
+        let (mut best_b1, mut best_b2) = ([0.0f32; N], [0.0f32; N]);
+        let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
+        let mut spill: Vec<PacketEntry> = Vec::new();
+        let mut sp = 0;
+        let mut expand = Some((0u32, active));
+        loop {
+            if let Some((index, mask)) = expand.take() {
+                let node = &self.nodes[index as usize];
+                // Hit slots sorted by entry distance, farthest first (pushed first, popped last).
+                let mut order = [(0u32, 0u32, 0u32, 0.0f32); WIDTH];
+                let mut n = 0;
+                for (lane, (hits, entry)) in packet.children(node, mask).into_iter().enumerate() {
+                    if hits != 0 {
+                        let mut j = n;
+                        while j > 0 && order[j - 1].3 < entry {
+                            order[j] = order[j - 1];
+                            j -= 1;
+                        }
+                        order[j] = (index, lane as u32, hits, entry);
+                        n += 1;
+                    }
+                }
+                for &e in &order[..n] {
+                    push(&mut stack, &mut sp, &mut spill, e);
+                }
+            }
+            let Some((parent, lane, mask, entry)) = pop(&stack, &mut sp, &mut spill) else {
+                break;
+            };
+            let node = &self.nodes[parent as usize];
+            let lane = lane as usize;
+            // Rays that found a closer hit since the push may no longer reach the box.
+            let mask = packet.still_hit(node, lane, mask, entry);
+            if mask == 0 {
+                continue;
+            }
+            let (child, count) = (node.child[lane], node.count[lane]);
+            if count == 0 {
+                expand = Some((child, mask));
+                continue;
+            }
+            let mut took = 0u32;
+            for i in child..child + count {
+                match self.isect[i as usize] {
+                    Isect::Triangle { v0, e1, e2 } => {
+                        let (t, b1, b2, hits) = packet.triangle(mask, v0, e1, e2);
+                        for k in 0..N {
+                            let take =
+                                (hits >> k & 1 == 1) & replaces(t[k], i, best_t[k], best_prim[k]);
+                            best_t[k] = if take { t[k] } else { best_t[k] };
+                            best_prim[k] = if take { i } else { best_prim[k] };
+                            best_b1[k] = if take { b1[k] } else { best_b1[k] };
+                            best_b2[k] = if take { b2[k] } else { best_b2[k] };
+                            packet.t_max[k] = if take {
+                                t[k].next_up()
+                            } else {
+                                packet.t_max[k]
+                            };
+                        }
+                        took |= hits;
+                    }
+                    Isect::Other => {
+                        let mut m = mask;
+                        while m != 0 {
+                            let k = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            let ray = Ray {
+                                t_max: packet.t_max[k],
+                                ..lanes.get(k)
+                            };
+                            if let Some((t, b1, b2)) = self.prims[i as usize].intersect(&ray) {
+                                if replaces(t, i, best_t[k], best_prim[k]) {
+                                    (best_t[k], best_prim[k]) = (t, i);
+                                    (best_b1[k], best_b2[k]) = (b1, b2);
+                                    packet.t_max[k] = t.next_up();
+                                    took |= 1 << k;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            if took != 0 {
+                // The rays' intervals shrank: so does the packet's.
+                packet.t_hi = reduce::<N, true>(packet.t_max);
+            }
+        }
+        let n = N.min(PACKET);
+        out.t[..n].copy_from_slice(&best_t[..n]);
+        out.prim[..n].copy_from_slice(&best_prim[..n]);
+        out.b1[..n].copy_from_slice(&best_b1[..n]);
+        out.b2[..n].copy_from_slice(&best_b2[..n]);
+        for (k, &prim) in best_prim[..n].iter().enumerate() {
+            out.mask |= ((prim != u32::MAX) as u32) << k;
+        }
+    }
     /// Visit leaves front to back (nearest box entry first, subtrees entered beyond the
     /// current t_max skipped); `visit` returns true to stop.
     #[inline(always)]
@@ -746,17 +1199,17 @@ mod tests {
         });
         let bvh = Bvh::build(prims);
         let (mut occluded, mut total) = (0, 0);
-        for k in 0..600 {
+        for k in 0..900 {
             let size = 1 + k % PACKET;
             let origin = r3() * 12.0 - 1.0;
+            let aim = r3() * 12.0 - 1.0;
             let rays: Vec<Ray> = (0..size)
                 .map(|_| {
-                    let o = if k % 2 == 0 {
-                        origin
-                    } else {
-                        r3() * 12.0 - 1.0
+                    let (o, target) = match k % 3 {
+                        0 => (origin, r3() * 12.0 - 1.0),
+                        1 => (origin + 0.3 * (r3() - 0.5), aim + 2.0 * (r3() - 0.5)),
+                        _ => (r3() * 12.0 - 1.0, r3() * 12.0 - 1.0),
                     };
-                    let target = r3() * 12.0 - 1.0;
                     Ray {
                         o,
                         d: (target - o).normalize_or(Vec3::X),
@@ -778,6 +1231,107 @@ mod tests {
             "{occluded}/{total}"
         );
         assert_eq!(Bvh::build(Vec::new()).occluded_packet(&[]), 0);
+    }
+
+    /// Packets of 1–16 rays (coherent: one origin, nearby directions; and incoherent) find
+    /// exactly the closest hit `intersect` finds, ties included: the scene has coincident
+    /// duplicate triangles (every hit on them is a tie) and spheres and disks.
+    #[test]
+    fn closest_hit_packets_match_single_rays() {
+        let mut rng = Pcg32::new(5, 2);
+        let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let mut prims = Vec::new();
+        for i in 0..300 {
+            let c = r3() * 10.0;
+            let v = [c, c + 2.0 * (r3() - 0.5), c + 2.0 * (r3() - 0.5)];
+            prims.push(Primitive::Triangle {
+                v,
+                n: None,
+                shape: i,
+            });
+            if i % 3 == 0 {
+                prims.push(Primitive::Triangle {
+                    v,
+                    n: None,
+                    shape: 1000 + i,
+                });
+            }
+        }
+        for i in 0..10 {
+            prims.push(Primitive::Sphere {
+                center: r3() * 10.0,
+                radius: 0.5,
+                shape: 2000 + i,
+            });
+            let to_world = glam::Mat4::from_translation(r3() * 10.0);
+            let to_local = to_world.inverse();
+            prims.push(Primitive::Disk {
+                to_local,
+                normal: crate::shapes::transformed_normal(&to_local),
+                shape: 3000 + i,
+            });
+        }
+        let bvh = Bvh::build(prims);
+        let (mut hits, mut total, mut coherent) = (0, 0, 0);
+        for k in 0..1200 {
+            let size = 1 + k % PACKET;
+            let origin = r3() * 12.0 - 1.0;
+            let aim = r3() * 12.0 - 1.0;
+            let rays: Vec<Ray> = (0..size)
+                .map(|_| {
+                    // One origin (camera rays), nearby origins and targets (shadow rays of a
+                    // pixel toward a light), or anything.
+                    let (o, target) = match k % 3 {
+                        0 => (origin, aim + 0.5 * (r3() - 0.5)),
+                        1 => (origin + 0.3 * (r3() - 0.5), aim + 2.0 * (r3() - 0.5)),
+                        _ => (r3() * 12.0 - 1.0, r3() * 12.0 - 1.0),
+                    };
+                    Ray {
+                        o,
+                        d: (target - o).normalize_or(Vec3::X),
+                        t_min: 0.01,
+                        t_max: 20.0,
+                    }
+                })
+                .collect();
+            let packet = bvh.intersect_packet(&rays);
+            let all = (1u32 << size) - 1;
+            coherent += RayPacket::<PACKET>::new(&RayLanes::from_rays(&rays), all).coherent as u32;
+            for (i, ray) in rays.iter().enumerate() {
+                let single = bvh.intersect(ray).map(|h| (h.t, h.prim, h.b1, h.b2));
+                let got = packet.get(i).map(|h| (h.t, h.prim, h.b1, h.b2));
+                assert_eq!(got, single, "packet {k}, ray {i}");
+                hits += single.is_some() as usize;
+                total += 1;
+            }
+            assert_eq!(packet.mask >> size, 0);
+        }
+        assert!(hits > total / 5 && hits < total * 9 / 10, "{hits}/{total}");
+        // Both box tests ran: intervals (coherent packets) and ray by ray.
+        assert!(
+            coherent > 400 && coherent < 1000,
+            "{coherent} coherent packets"
+        );
+        assert_eq!(Bvh::build(Vec::new()).intersect_packet(&[]).mask, 0);
+    }
+
+    /// Coincident triangles: the closest hit is the one with the smallest primitive index,
+    /// whatever the order of the walk.
+    #[test]
+    fn ties_go_to_the_smallest_index() {
+        let v = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let prims: Vec<Primitive> = (0..9)
+            .map(|shape| Primitive::Triangle { v, n: None, shape })
+            .collect();
+        let bvh = Bvh::build(prims);
+        let ray = Ray {
+            o: Vec3::new(0.2, 0.2, 1.0),
+            d: Vec3::NEG_Z,
+            t_min: 0.0,
+            t_max: 2.0,
+        };
+        assert_eq!(bvh.intersect(&ray).unwrap().prim, 0);
+        assert_eq!(bvh.intersect_packet(&[ray; 3]).get(2).unwrap().prim, 0);
     }
 
     /// Trees whose root is a leaf, or that are empty, collapse and traverse like any other.

@@ -174,3 +174,49 @@ impl<D: LightSampling, S: SpecularSampling, B: BsdfModel> Hooks<D, S, B> {
         v
     }
 }
+
+/// The pieces of one render with the line technique resolved: what the integrator is generic
+/// over. `technique` is the hook's technique for single-technique renders if one is given,
+/// else the method's technique; the two-technique methods use the projected solid angle on
+/// Lambertian surfaces (their diffuse-only path).
+#[derive(Debug)]
+pub struct Resolved<'a, T, S, B> {
+    pub technique: &'a T,
+    pub specular: &'a S,
+    pub bsdf: &'a B,
+}
+
+impl<T, S, B> Clone for Resolved<'_, T, S, B> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T, S, B> Copy for Resolved<'_, T, S, B> {}
+
+/// Calls `$body` with `$r` bound to the [`Resolved`] pieces of `$hooks` for `$method` (two
+/// monomorphic instances: the hook's technique, or a `Technique`).
+macro_rules! with_resolved {
+    ($hooks:expr, $method:expr, |$r:ident| $body:expr) => {{
+        let hooks = $hooks;
+        match (&hooks.technique, $method) {
+            (Some(d), $crate::method::Method::Technique(_)) => {
+                let $r = $crate::hooks::Resolved {
+                    technique: d,
+                    specular: &hooks.specular,
+                    bsdf: &hooks.bsdf,
+                };
+                $body
+            }
+            (_, m) => {
+                let t = $crate::shading::lambert_technique(m);
+                let $r = $crate::hooks::Resolved {
+                    technique: &t,
+                    specular: &hooks.specular,
+                    bsdf: &hooks.bsdf,
+                };
+                $body
+            }
+        }
+    }};
+}
+pub(crate) use with_resolved;

@@ -14,14 +14,14 @@
 
 use crate::bvh::Bvh;
 use crate::camera::Camera;
-use crate::hooks::{BsdfModel, Hooks, LightSampling, SpecularSampling};
+use crate::hooks::{BsdfModel, LightSampling, Resolved, SpecularSampling};
 use crate::method::Method;
 use crate::scene::{Bsdf, Rgb};
-use crate::shading::{estimate_light, lambert_technique, single_technique, ShadingPoint};
+use crate::shading::{estimate_resolved, single_technique, ShadingPoint};
 use crate::shapes::{Ray, SurfacePoint};
 use crate::visible_line::VisibleLines;
 use glam::Vec3;
-use linlight_sampling::philox::CounterRng;
+use linlight_sampling::noise::SampleStream;
 use linlight_sampling::Segment;
 
 /// Mitsuba's ray epsilon for f32 variants: 1500 ulp(1) = 1500·2⁻²⁴.
@@ -121,13 +121,13 @@ pub fn diffuse_lobe(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
 /// light by `method` with `light_samples` iterations each. Draws from `rng` (the camera
 /// sample's own stream, after the caller's pixel-position numbers) the numbers documented in
 /// [`crate::shading`], light by light (none for misses and black surfaces).
-pub fn radiance<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
+pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &RenderScene,
     method: Method,
     light_samples: u32,
-    hooks: &Hooks<D, S, B>,
+    pieces: Resolved<T, S, B>,
     ray: &Ray,
-    rng: &mut CounterRng,
+    rng: &mut SampleStream,
 ) -> Rgb {
     let Some(hit) = scene.bvh.intersect(ray) else {
         return [0.0; 3];
@@ -142,7 +142,6 @@ pub fn radiance<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     };
     let mut dropped = 0u32;
     let mut total = Vec3::ZERO;
-    let mut xi = || rng.next_f32();
     let mut visible = |w: Vec3, dist: f32| {
         shadow_ray_to(&sp, sp.p + dist * w).is_some_and(|shadow| !scene.bvh.occluded(&shadow))
     };
@@ -151,42 +150,31 @@ pub fn radiance<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
             // K·(ρ/π)·cos θ/p(ω), p per radius (dΩ_R).
             for (segment, k) in &scene.lights {
                 let contribution = |_: Vec3, cos: f32, pdf: f32| *k * f * (cos / pdf);
-                total += match (&hooks.technique, method) {
-                    (Some(d), Method::Technique(_)) => single_technique(
-                        d.prepare(segment, sp.p, n).as_ref(),
-                        n,
-                        light_samples,
-                        &mut xi,
-                        &mut visible,
-                        contribution,
-                        &mut dropped,
-                    ),
-                    _ => single_technique(
-                        lambert_technique(method).prepare(segment, sp.p, n).as_ref(),
-                        n,
-                        light_samples,
-                        &mut xi,
-                        &mut visible,
-                        contribution,
-                        &mut dropped,
-                    ),
-                };
+                total += single_technique(
+                    pieces.technique.prepare(segment, sp.p, n).as_ref(),
+                    n,
+                    light_samples,
+                    rng,
+                    &mut visible,
+                    contribution,
+                    &mut dropped,
+                );
             }
             if light_samples > 1 {
                 total /= light_samples as f32;
             }
         }
         None => {
-            let point = ShadingPoint::new(&hooks.bsdf, bsdf, sp.p, n, wi);
+            let point = ShadingPoint::new(pieces.bsdf, bsdf, sp.p, n, wi);
             for (segment, k) in &scene.lights {
-                total += estimate_light(
-                    hooks,
+                total += estimate_resolved(
+                    pieces,
                     method,
                     &point,
                     segment,
                     *k,
                     light_samples,
-                    &mut xi,
+                    rng,
                     &mut visible,
                     &mut dropped,
                 );

@@ -4,6 +4,7 @@
 // `!(x > 0.0)` is deliberate throughout: it rejects NaN together with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod batched;
 pub mod build;
 pub mod bvh;
 pub mod camera;
@@ -18,6 +19,7 @@ pub mod power_controls;
 pub mod render;
 pub mod scene;
 pub mod shading;
+pub mod shading_cost;
 pub mod shapes;
 pub mod visible_line;
 pub mod xml;

@@ -10,7 +10,7 @@ use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::contacts::{contact_pixels, light_contacts};
 use crate::film::Welford;
-use crate::hooks::{BsdfModel, Hooks, LightSampling, SpecularSampling};
+use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
 use crate::integrator::{radiance, RenderScene};
 use crate::method::Method;
 use crate::scene::{Bsdf, Geometry, Scene};
@@ -18,13 +18,14 @@ use crate::shapes::{transformed_normal, Primitive};
 use crate::visible_line::{PixelLine, VisibleLines};
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
+use linlight_sampling::noise::{Noise, NoiseSource};
 use linlight_sampling::philox::CounterRng;
 use linlight_sampling::Segment;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Side of the square tiles distributed over threads.
-const TILE: u32 = 16;
+pub(crate) const TILE: u32 = 16;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
@@ -39,11 +40,13 @@ pub struct RenderOptions {
     /// pairs of a diffuse and a specular sample; the light's estimate is their mean. The CLI's
     /// default is the scene's `emitter_samples` (see `linlight render --help`).
     pub light_samples: u32,
+    /// Where the primary samples come from (white by default; see [`linlight_sampling::noise`]).
+    pub noise: Noise,
 }
 
 impl Default for RenderOptions {
     /// 1 spp, 1 pass, seed 0, the default method (MIS, clamped optimal, v = 0.5), 1 light
-    /// sample.
+    /// sample, white noise.
     fn default() -> Self {
         Self {
             spp: 1,
@@ -51,6 +54,7 @@ impl Default for RenderOptions {
             seed: 0,
             method: Method::default(),
             light_samples: 1,
+            noise: Noise::White,
         }
     }
 }
@@ -73,7 +77,7 @@ impl std::fmt::Display for RenderError {
 impl std::error::Error for RenderError {}
 
 /// Pixel window actually rendered: the crop, or the whole film.
-fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
+pub(crate) fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
     let film = &scene.sensor.film;
     if film.width == 0 || film.height == 0 {
         return Err(RenderError::Scene(format!(
@@ -244,11 +248,12 @@ fn nested_two_sided(bsdf: &Bsdf) -> bool {
     }
 }
 
-/// Random stream of one camera sample: Philox of (seed; sample, full-film pixel index, pass).
-/// Every pixel, pass and sample has its own counter-based stream (no state shared between
+/// White-noise stream of one camera sample: Philox of (seed; sample, full-film pixel index,
+/// pass). Every pixel, pass and sample has its own counter-based stream (no state shared between
 /// pixels, so neighbouring pixels' errors are independent); its numbers are the sample's
 /// dimensions: film position (2), then the lights' numbers (`crate::shading`), then those of
-/// the visible lines.
+/// the visible lines. The renderer draws them through [`NoiseSource::stream`], which returns
+/// exactly these numbers for [`Noise::White`].
 pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> CounterRng {
     CounterRng::camera_sample(seed, pass, pixel_index, sample)
 }
@@ -256,82 +261,64 @@ pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> Counte
 /// Render `scene`. `progress(done, total)` is called (from worker threads) after each pass of
 /// each tile, in camera samples: `total` = pixels × spp × passes.
 /// Runs on the current rayon pool (use `ThreadPool::install` to choose the thread count).
+///
+/// Where it applies ([`crate::batched::applies`]) the batched renderer renders, whose images
+/// equal those of the scalar path [`render_with`]`(scene, opts, &opts.technique, …)` bit for
+/// bit; the scalar path renders everything else.
 pub fn render(
     scene: &Scene,
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
+    if crate::batched::applies(scene, opts) {
+        return crate::batched::render(scene, opts, progress);
+    }
     render_with(scene, opts, &Hooks::new(), progress)
+}
+
+/// Reject options no render can use.
+pub(crate) fn check_options(opts: &RenderOptions) -> Result<(), RenderError> {
+    if opts.spp == 0 || opts.passes == 0 || opts.light_samples == 0 {
+        return Err(RenderError::Options(
+            "spp, passes and light samples must be at least 1".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// [`render`] with replaced pieces ([`Hooks`]): the hook through which tests render with
 /// deliberately wrong techniques, specular samplers or BSDF evaluations (power controls, see
 /// [`crate::power_controls`]). `opts.method` still chooses the estimator; the header records
-/// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`).
+/// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`). Always the
+/// scalar path (the batched renderer's images equal it bit for bit where it applies).
 pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &Scene,
     opts: &RenderOptions,
     hooks: &Hooks<D, S, B>,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    if opts.spp == 0 || opts.passes == 0 || opts.light_samples == 0 {
-        return Err(RenderError::Options(
-            "spp, passes and light samples must be at least 1".into(),
-        ));
+    check_options(opts)?;
+    let mut image = with_resolved!(hooks, opts.method, |r| render_tiles(
+        scene, opts, r, progress
+    ))?;
+    let mut entries = Vec::new();
+    if let (Some(t), Method::Technique(_)) = (&hooks.technique, opts.method) {
+        entries.push(("technique", t.name()));
     }
-    let (x0, y0, w, h) = window(scene)?;
-    let rs = RenderScene::new(scene)?;
-    let full_width = scene.sensor.film.width;
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    let done = AtomicUsize::new(0);
-    let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
-    let results: Vec<Vec<PixelResult>> = tiles
-        .par_iter()
-        .map(|&(tx, ty)| {
-            let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
-                .flat_map(|y| (tx..(tx + TILE).min(w)).map(move |x| (x0 + x, y0 + y)))
-                .collect();
-            let mut seen: Vec<Vec<PixelLine>> = vec![Vec::new(); pixels.len()];
-            for (&(fx, fy), s) in pixels.iter().zip(&mut seen) {
-                rs.visible.pixel(fx, fy, s);
-            }
-            let mut passes = vec![Welford::default(); pixels.len()];
-            let mut single = vec![Welford::default(); pixels.len()];
-            for pass in 0..opts.passes {
-                for (i, &(fx, fy)) in pixels.iter().enumerate() {
-                    // < 2^32: checked by `window`.
-                    let index = fy.wrapping_mul(full_width).wrapping_add(fx);
-                    let acc = render_pixel_pass(&rs, opts, hooks, fx, fy, index, pass, &seen[i]);
-                    passes[i].push(acc.mean());
-                    single[i] = acc;
-                }
-                let step = pixels.len() * opts.spp as usize;
-                progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
-            }
-            passes
-                .iter()
-                .zip(&single)
-                .map(|(p, s)| pixel_value(opts, p, s))
-                .collect()
-        })
-        .collect();
-    let mut image = Image::new(w as usize, h as usize);
-    let mut tail = vec![[0.0f32; 3]; image.mean.len()];
-    for (&(tx, ty), tile) in tiles.iter().zip(&results) {
-        let mut it = tile.iter();
-        for y in ty..(ty + TILE).min(h) {
-            for x in tx..(tx + TILE).min(w) {
-                let p = it.next().copied().unwrap_or_default();
-                let k = y as usize * w as usize + x as usize;
-                image.mean[k] = p.mean;
-                image.var[k] = p.var;
-                tail[k] = p.tail;
-            }
-        }
-    }
-    image.tail = Some(tail);
+    entries.extend(hooks.header());
+    image.meta = metadata(opts, scene, std::mem::take(&mut image.meta.extra), entries);
+    Ok(image)
+}
+
+/// The header of a render: dof, spp, passes, renderer, scene hash; `extra` (the pixels'
+/// entries: `nonfinite_dropped`, the lights) with the method's entries, then `entries` (the
+/// hooks', which override), light samples, seed and spp per pass.
+pub(crate) fn metadata(
+    opts: &RenderOptions,
+    scene: &Scene,
+    extra: std::collections::BTreeMap<String, String>,
+    entries: Vec<(&'static str, String)>,
+) -> Metadata {
     let dof = if opts.passes > 1 {
         opts.passes - 1
     } else {
@@ -343,15 +330,9 @@ pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
         passes: opts.passes as u64,
         renderer: format!("linlight {}", env!("CARGO_PKG_VERSION")),
         scene_sha256: scene.sha256.clone(),
-        ..Default::default()
+        extra,
     };
-    for (key, value) in opts.method.header() {
-        meta.extra.insert(key.into(), value);
-    }
-    if let Some(t) = &hooks.technique {
-        meta.extra.insert("technique".into(), t.name());
-    }
-    for (key, value) in hooks.header() {
+    for (key, value) in opts.method.header().into_iter().chain(entries) {
         meta.extra.insert(key.into(), value);
     }
     meta.extra
@@ -359,14 +340,98 @@ pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     meta.extra.insert("seed".into(), opts.seed.to_string());
     meta.extra
         .insert("spp_per_pass".into(), opts.spp.to_string());
+    if opts.noise != Noise::White {
+        meta.extra.insert("noise".into(), opts.noise.name().into());
+    }
+    meta
+}
+
+/// The image of [`render_with`] with the pieces resolved; its header holds only the pixels'
+/// entries ([`pixel_entries`]).
+fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    pieces: Resolved<T, S, B>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    let (x0, y0, w, h) = window(scene)?;
+    let rs = RenderScene::new(scene)?;
+    let full_width = scene.sensor.film.width;
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let noise = NoiseSource::new(opts.noise, opts.seed, opts.spp);
+    let done = AtomicUsize::new(0);
+    let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
+    // Each tile writes its pixels into the image when it is done: the image is the only
+    // full-size buffer (no second copy of every pixel's result to assemble afterwards).
+    let image = std::sync::Mutex::new({
+        let mut image = Image::new(w as usize, h as usize);
+        image.tail = Some(vec![[0.0f32; 3]; image.mean.len()]);
+        image
+    });
+    tiles.par_iter().for_each(|&(tx, ty)| {
+        let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
+            .flat_map(|y| (tx..(tx + TILE).min(w)).map(move |x| (x0 + x, y0 + y)))
+            .collect();
+        let mut seen: Vec<Vec<PixelLine>> = vec![Vec::new(); pixels.len()];
+        for (&(fx, fy), s) in pixels.iter().zip(&mut seen) {
+            rs.visible.pixel(fx, fy, s);
+        }
+        let mut passes = vec![Welford::default(); pixels.len()];
+        let mut single = vec![Welford::default(); pixels.len()];
+        for pass in 0..opts.passes {
+            for (i, &(fx, fy)) in pixels.iter().enumerate() {
+                // < 2^32: checked by `window`.
+                let index = fy.wrapping_mul(full_width).wrapping_add(fx);
+                let acc =
+                    render_pixel_pass(&rs, opts, &noise, pieces, fx, fy, index, pass, &seen[i]);
+                passes[i].push(acc.mean());
+                single[i] = acc;
+            }
+            let step = pixels.len() * opts.spp as usize;
+            progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
+        }
+        let mut image = image.lock().unwrap_or_else(|e| e.into_inner());
+        let image = &mut *image;
+        let mut values = passes
+            .iter()
+            .zip(&single)
+            .map(|(p, s)| pixel_value(opts, p, s));
+        for y in ty..(ty + TILE).min(h) {
+            for x in tx..(tx + TILE).min(w) {
+                let p = values.next().unwrap_or_default();
+                let k = y as usize * w as usize + x as usize;
+                (image.mean[k], image.var[k]) = (p.mean, p.var);
+                if let Some(tail) = &mut image.tail {
+                    tail[k] = p.tail;
+                }
+            }
+        }
+    });
+    let mut image = image.into_inner().unwrap_or_else(|e| e.into_inner());
+    image.meta = Metadata {
+        extra: pixel_entries(scene, &rs, (x0, y0, w, h)),
+        ..Default::default()
+    };
+    Ok(image)
+}
+
+/// The header entries the pixels of a render determine: `nonfinite_dropped` (when non-zero)
+/// and the lights' entries ([`record_lights`]).
+pub(crate) fn pixel_entries(
+    scene: &Scene,
+    rs: &RenderScene,
+    window: (u32, u32, u32, u32),
+) -> std::collections::BTreeMap<String, String> {
+    let mut meta = Metadata::default();
     let dropped = rs.dropped.get();
     if dropped > 0 {
         meta.extra
             .insert("nonfinite_dropped".into(), dropped.to_string());
     }
-    record_lights(&mut meta, scene, &rs.camera, (x0, y0, w, h));
-    image.meta = meta;
-    Ok(image)
+    record_lights(&mut meta, scene, &rs.camera, window);
+    meta.extra
 }
 
 /// Distance (in pixels) from a contact's projection within which pixels are contact pixels.
@@ -429,19 +494,20 @@ pub fn record_inputs(
 
 /// What a pixel contributes to the image: mean, variance of the mean, heavy-tail share.
 #[derive(Clone, Copy, Debug, Default)]
-struct PixelResult {
-    mean: [f32; 3],
-    var: [f32; 3],
-    tail: [f32; 3],
+pub(crate) struct PixelResult {
+    pub mean: [f32; 3],
+    pub var: [f32; 3],
+    pub tail: [f32; 3],
 }
 
 /// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the
 /// camera sees in this pixel ([`VisibleLines::pixel`]).
 #[allow(clippy::too_many_arguments)]
-fn render_pixel_pass<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
+fn render_pixel_pass<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     rs: &RenderScene,
     opts: &RenderOptions,
-    hooks: &Hooks<D, S, B>,
+    noise: &NoiseSource,
+    pieces: Resolved<T, S, B>,
     fx: u32,
     fy: u32,
     index: u32,
@@ -450,11 +516,10 @@ fn render_pixel_pass<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
 ) -> Welford {
     let mut acc = Welford::default();
     for sample in 0..opts.spp {
-        let mut rng = sample_rng(opts.seed, pass, index, sample);
-        let u = rng.next_f32();
-        let v = rng.next_f32();
+        let mut rng = noise.stream(fx, fy, index, pass, sample);
+        let (u, v) = rng.film_position();
         let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
-        let l = radiance(rs, opts.method, opts.light_samples, hooks, &ray, &mut rng);
+        let l = radiance(rs, opts.method, opts.light_samples, pieces, &ray, &mut rng);
         let l = if seen.is_empty() {
             l
         } else {
@@ -470,7 +535,7 @@ fn render_pixel_pass<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
 
 /// Mean, variance of the mean and heavy-tail share of a pixel from its pass means (P > 1) or,
 /// with one pass, from its samples.
-fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> PixelResult {
+pub(crate) fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welford) -> PixelResult {
     let terms = if opts.passes > 1 { passes } else { single };
     // Every sample is finite (the integrator drops non-finite contributions), so are these.
     PixelResult {

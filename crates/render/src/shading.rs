@@ -20,12 +20,13 @@
 //! Lambertian surface) or 2·`samples` (the two-technique estimators on other surfaces: ξ₀, ξ₁
 //! per iteration), drawn whether or not the light contributes.
 
-use crate::hooks::{BsdfModel, Hooks, LightSampling, SpecularSampling};
+use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
 use crate::method::Method;
 use glam::{DVec3, Mat3, Vec3};
 use linlight_brdf::ltc::GgxLtcTable;
 use linlight_brdf::{Bsdf, Lobes};
 use linlight_sampling::mis::Heuristic;
+use linlight_sampling::noise::Uniforms;
 use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
 use linlight_sampling::{LineSampler, Segment, SpecularSampler, Technique};
 
@@ -161,7 +162,7 @@ pub fn single_technique<L: LineSampler>(
     sampler: Option<&L>,
     n: Vec3,
     samples: u32,
-    xi: &mut impl FnMut() -> f32,
+    rng: &mut impl Uniforms,
     visible: &mut impl FnMut(Vec3, f32) -> bool,
     contribution: impl Fn(Vec3, f32, f32) -> Vec3,
     dropped: &mut u32,
@@ -169,12 +170,12 @@ pub fn single_technique<L: LineSampler>(
     let mut total = Vec3::ZERO;
     let Some(sampler) = sampler else {
         for _ in 0..samples {
-            xi();
+            rng.next_f32();
         }
         return total;
     };
     for _ in 0..samples {
-        let (w, pdf) = sampler.sample_with_pdf(xi());
+        let (w, pdf) = sampler.sample_with_pdf(rng.next_f32());
         let cos = n.dot(w);
         if !(pdf > 0.0 && pdf.is_finite() && cos > 0.0) {
             continue;
@@ -208,7 +209,7 @@ pub fn two_techniques<S: SpecularSampler>(
     combination: Combination,
     k: Vec3,
     samples: u32,
-    xi: &mut impl FnMut() -> f32,
+    rng: &mut impl Uniforms,
     visible: &mut impl FnMut(Vec3, f32) -> bool,
     eval: impl Fn(Vec3) -> Vec3,
     dropped: &mut u32,
@@ -222,7 +223,7 @@ pub fn two_techniques<S: SpecularSampler>(
         }
     };
     for _ in 0..samples {
-        let (xi_d, xi_s) = (xi(), xi());
+        let (xi_d, xi_s) = (rng.next_f32(), rng.next_f32());
         // The diffuse sample.
         let (w, p_d) = diffuse.sample_with_pdf(xi_d);
         if p_d > 0.0 && p_d.is_finite() {
@@ -267,9 +268,9 @@ pub fn two_techniques<S: SpecularSampler>(
 }
 
 /// The light of one linear light (`segment`, K = `k`) at a non-Lambertian shading point by
-/// `method` with `samples` iterations, divided by `samples` (0 when `samples` = 0). `xi`
-/// draws uniform numbers, `visible(ω, distance)` says whether the line point along ω is
-/// visible; non-finite contributions are counted in `dropped`.
+/// `method` with `samples` iterations, divided by `samples` (0 when `samples` = 0), with the
+/// pieces of `hooks`. `rng` supplies the uniform numbers, `visible(ω, distance)` says whether the line
+/// point along ω is visible; non-finite contributions are counted in `dropped`.
 #[allow(clippy::too_many_arguments)]
 pub fn estimate_light<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     hooks: &Hooks<D, S, B>,
@@ -278,7 +279,26 @@ pub fn estimate_light<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     segment: &Segment,
     k: Vec3,
     samples: u32,
-    xi: &mut impl FnMut() -> f32,
+    rng: &mut impl Uniforms,
+    visible: &mut impl FnMut(Vec3, f32) -> bool,
+    dropped: &mut u32,
+) -> Vec3 {
+    with_resolved!(hooks, method, |r| estimate_resolved(
+        r, method, sp, segment, k, samples, rng, visible, dropped
+    ))
+}
+
+/// [`estimate_light`] with the pieces resolved (what the integrator calls).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    pieces: Resolved<T, S, B>,
+    method: Method,
+    sp: &ShadingPoint,
+    segment: &Segment,
+    k: Vec3,
+    samples: u32,
+    rng: &mut impl Uniforms,
     visible: &mut impl FnMut(Vec3, f32) -> bool,
     dropped: &mut u32,
 ) -> Vec3 {
@@ -286,41 +306,26 @@ pub fn estimate_light<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
         return Vec3::ZERO;
     }
     let n = sp.n();
-    let eval = |w: Vec3| sp.eval(&hooks.bsdf, w);
+    let eval = |w: Vec3| sp.eval(pieces.bsdf, w);
     let total = match Combination::of(method) {
-        None => {
-            let contribution = |w: Vec3, _cos: f32, pdf: f32| k * eval(w) / pdf;
-            match (&hooks.technique, method) {
-                (Some(d), _) => single_technique(
-                    d.prepare(segment, sp.x, n).as_ref(),
-                    n,
-                    samples,
-                    xi,
-                    visible,
-                    contribution,
-                    dropped,
-                ),
-                (None, Method::Technique(t)) => single_technique(
-                    t.prepare(segment, sp.x, n).as_ref(),
-                    n,
-                    samples,
-                    xi,
-                    visible,
-                    contribution,
-                    dropped,
-                ),
-                (None, _) => unreachable!("a two-technique method has a combination"),
-            }
-        }
+        None => single_technique(
+            pieces.technique.prepare(segment, sp.x, n).as_ref(),
+            n,
+            samples,
+            rng,
+            visible,
+            |w: Vec3, _cos: f32, pdf: f32| k * eval(w) / pdf,
+            dropped,
+        ),
         Some(combination) => {
             let Some(diffuse) = ProjectedSolidAngle::prepare(segment, sp.x, n) else {
                 for _ in 0..2 * samples {
-                    xi();
+                    rng.next_f32();
                 }
                 return Vec3::ZERO;
             };
             let specular = sp.ltc.and_then(|(a, rho)| {
-                Some((hooks.specular.prepare(segment, sp.x, sp.frame, a)?, rho))
+                Some((pieces.specular.prepare(segment, sp.x, sp.frame, a)?, rho))
             });
             let w_d = sp
                 .lobes
@@ -328,22 +333,21 @@ pub fn estimate_light<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
                 .as_vec3()
                 .max(Vec3::splat(MIN_DIFFUSE_WEIGHT))
                 * diffuse.projected_solid_angle();
-            let w_s = |s: &S::Sampler, rho: f32| {
-                let k_s = sp
-                    .lobes
-                    .specular
-                    .map_or(DVec3::ZERO, |l| l.weight)
-                    .as_vec3();
-                k_s * (rho * s.weight_scale())
-            };
+            let k_s = sp
+                .lobes
+                .specular
+                .map_or(DVec3::ZERO, |l| l.weight)
+                .as_vec3();
             two_techniques(
                 &diffuse,
-                specular.as_ref().map(|(s, rho)| (s, w_s(s, *rho))),
+                specular
+                    .as_ref()
+                    .map(|(s, rho)| (s, k_s * (rho * s.weight_scale()))),
                 w_d,
                 combination,
                 k,
                 samples,
-                xi,
+                rng,
                 visible,
                 eval,
                 dropped,

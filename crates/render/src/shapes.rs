@@ -264,6 +264,41 @@ fn intersect_triangle(ray: &Ray, v: [Vec3; 3]) -> Option<(f32, f32, f32)> {
     intersect_triangle_edges(ray, v[0], v[1] - v[0], v[2] - v[0])
 }
 
+/// [`intersect_triangle_edges`] without branches, for the lanes of a ray packet: the same
+/// arithmetic (so bitwise the same (t, b1, b2) where it hits), every value computed, and whether
+/// it hits within (t_min, t_max).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn intersect_triangle_lane(
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    t_max: f32,
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+) -> (f32, f32, f32, bool) {
+    let pvec = d.cross(e2);
+    let det = e1.dot(pvec);
+    let inv = 1.0 / det;
+    let tvec = o - v0;
+    let b1 = tvec.dot(pvec) * inv;
+    let qvec = tvec.cross(e1);
+    let b2 = d.dot(qvec) * inv;
+    let t = e2.dot(qvec) * inv;
+    // `&`, not `&&`: no branch per condition.
+    #[allow(clippy::manual_range_contains)]
+    let hit = (det != 0.0)
+        & det.is_finite()
+        & (b1 >= 0.0)
+        & (b1 <= 1.0)
+        & (b2 >= 0.0)
+        & (b1 + b2 <= 1.0)
+        & (t > t_min)
+        & (t < t_max);
+    (t, b1, b2, hit)
+}
+
 /// Möller–Trumbore with the edges e1 = v1 − v0, e2 = v2 − v0 given (the BVH stores them).
 #[inline(always)]
 pub fn intersect_triangle_edges(

@@ -287,6 +287,7 @@ mod tests {
             seed: 3,
             method: Technique::ProjectedSolidAngle.into(),
             light_samples: 1,
+            noise: Default::default(),
         };
         let hidden = render(&sc, &opts, &|_, _| {}).unwrap();
         assert!(hidden.mean.iter().all(|m| *m == [0.0; 3]));

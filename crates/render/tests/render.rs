@@ -39,6 +39,7 @@ fn opts(spp: u32, passes: u32, seed: u64, technique: Technique) -> RenderOptions
         seed,
         method: technique.into(),
         light_samples: 1,
+        noise: Default::default(),
     }
 }
 

@@ -224,7 +224,6 @@ fn estimate<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
 ) -> Estimate {
     let sp = ShadingPoint::new(&hooks.bsdf, &case.bsdf, Vec3::ZERO, N, case.wi);
     let mut rng = CounterRng::new(seed, stream);
-    let mut xi = || rng.next_f32();
     let (mut sum, mut sum_sq) = (DVec3::ZERO, DVec3::ZERO);
     let mut dropped = 0;
     for _ in 0..SAMPLES {
@@ -235,7 +234,7 @@ fn estimate<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
             &case.segment,
             case.k,
             1,
-            &mut xi,
+            &mut rng,
             &mut |_, _| true,
             &mut dropped,
         )

@@ -30,12 +30,17 @@ pub const LANES: usize = 8;
 
 /// `fn $name(isa, args…)`: `$kernel(args…)` compiled for the chosen ISA — inlined into a
 /// function with that ISA's target features — or for the baseline when the CPU lacks it.
+/// Exported for the batched renderer (`linlight_render::batched`), whose kernels are chosen the
+/// same way; `$kernel` should be `#[inline(always)]` down to its vectorised loops.
+#[macro_export]
 macro_rules! isa_variants {
-    ($(fn $name:ident($($a:ident: $t:ty),*) -> $r:ty = $kernel:ident;)*) => {$(
-        fn $name(isa: Isa, $($a: $t),*) -> $r {
+    ($(fn $name:ident($($a:ident: $t:ty),*) -> $r:ty = $kernel:path;)*) => {$(
+        fn $name(isa: $crate::batch::Isa, $($a: $t),*) -> $r {
+            #[allow(unused_imports)]
+            use $crate::batch::Isa;
             #[cfg(target_arch = "x86_64")]
             {
-                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx2,fma")]
+                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
                 unsafe fn avx512($($a: $t),*) -> $r {
                     $kernel($($a),*)
                 }
@@ -58,7 +63,7 @@ macro_rules! isa_variants {
     )*};
 }
 
-isa_variants! {
+crate::isa_variants! {
     fn run_kernel(input: &PsaBatchInput) -> PsaBatchOutput = kernel;
     fn run_slice(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) -> () = slice;
     fn run_prepare(input: &PsaBatchInput) -> PreparedBatch = prepare_kernel;
@@ -139,7 +144,7 @@ pub enum Isa {
     Baseline,
     /// x86-64 with AVX2 and FMA.
     Avx2,
-    /// x86-64 with AVX-512 (F, VL, DQ).
+    /// x86-64 with AVX-512 (F, VL, DQ, BW).
     Avx512,
 }
 
@@ -169,6 +174,7 @@ impl Isa {
                 std::arch::is_x86_feature_detected!("avx512f")
                     && std::arch::is_x86_feature_detected!("avx512vl")
                     && std::arch::is_x86_feature_detected!("avx512dq")
+                    && std::arch::is_x86_feature_detected!("avx512bw")
                     && Isa::Avx2.supported()
             }
             #[cfg(not(target_arch = "x86_64"))]

@@ -15,6 +15,7 @@ pub mod li2018;
 pub mod ltc;
 pub mod mis;
 pub mod mixture;
+pub mod noise;
 pub mod philox;
 pub mod projected_solid_angle;
 pub mod rng;

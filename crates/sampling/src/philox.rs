@@ -43,6 +43,29 @@ pub fn philox4x32_10(counter: [u32; 4], key: [u32; 2]) -> [u32; 4] {
     [x0, x1, x2, x3]
 }
 
+/// [`philox4x32_10`] of N counters at once: lane i's counter is `counter[·][i]`, its result
+/// `out[·][i]`. The rounds run over all lanes in turn, a loop the compiler vectorises (32×32 →
+/// 64-bit products in vector registers).
+#[inline(always)]
+pub fn philox4x32_10_lanes<const N: usize>(counter: [[u32; N]; 4], key: [u32; 2]) -> [[u32; N]; 4] {
+    let [mut x0, mut x1, mut x2, mut x3] = counter;
+    let [mut k0, mut k1] = key;
+    for round in 0..10 {
+        if round > 0 {
+            k0 = k0.wrapping_add(W0);
+            k1 = k1.wrapping_add(W1);
+        }
+        for i in 0..N {
+            let p0 = M0 * x0[i] as u64;
+            let p1 = M1 * x2[i] as u64;
+            let (hi0, lo0) = ((p0 >> 32) as u32, p0 as u32);
+            let (hi1, lo1) = ((p1 >> 32) as u32, p1 as u32);
+            (x0[i], x1[i], x2[i], x3[i]) = (hi1 ^ x1[i] ^ k0, lo1, hi0 ^ x3[i] ^ k1, lo0);
+        }
+    }
+    [x0, x1, x2, x3]
+}
+
 /// The key of a 64-bit seed: its low and high words.
 #[inline]
 fn key_of(seed: u64) -> [u32; 2] {
@@ -86,6 +109,21 @@ impl CounterRng {
         debug_assert!(index < 1 << 34, "a stream has 2^34 numbers");
         let block = (index >> 2) as u32;
         philox4x32_10([block, id[0], id[1], id[2]], key_of(seed))[(index & 3) as usize]
+    }
+
+    /// Words 4·`block` … 4·`block` + 3 of the camera-sample streams
+    /// [`Self::camera_sample`]`(seed, pass, pixel[i], sample[i])` for N lanes at once: word j of
+    /// lane i is `out[j][i]`, what the lane's stream returns as its (4·block + j + 1)-th draw.
+    /// One loop over the lanes per round (vectorised where the caller is compiled for SIMD).
+    #[inline(always)]
+    pub fn camera_sample_block<const N: usize>(
+        seed: u64,
+        pass: u32,
+        pixel: &[u32; N],
+        sample: &[u32; N],
+        block: u32,
+    ) -> [[u32; N]; 4] {
+        philox4x32_10_lanes([[block; N], *sample, *pixel, [pass; N]], key_of(seed))
     }
 
     #[inline]
@@ -186,6 +224,27 @@ mod tests {
             ),
             [0xd16c_fe09, 0x94fd_cceb, 0x5001_e420, 0x2412_6ea1]
         );
+    }
+
+    /// The lane form is the scalar function on every lane; camera-sample blocks are the
+    /// streams' draws.
+    #[test]
+    fn lanes_equal_the_scalar_generator() {
+        let pixel: [u32; 16] = std::array::from_fn(|i| 1000 + 7 * i as u32);
+        let sample: [u32; 16] = std::array::from_fn(|i| (i as u32 * 5) % 3);
+        for block in 0..3 {
+            let words =
+                CounterRng::camera_sample_block(0xDEAD_BEEF_0123, 4, &pixel, &sample, block);
+            for i in 0..16 {
+                let mut rng = CounterRng::camera_sample(0xDEAD_BEEF_0123, 4, pixel[i], sample[i]);
+                for _ in 0..4 * block {
+                    rng.next_u32();
+                }
+                for w in &words {
+                    assert_eq!(w[i], rng.next_u32(), "block {block}, lane {i}");
+                }
+            }
+        }
     }
 
     #[test]

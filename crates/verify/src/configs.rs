@@ -23,10 +23,12 @@ pub enum ConfigClass {
     CloseToLine,
     FullyClipped,
     LtcAnisotropic,
+    /// A of the fitted GGX table (`linlight_brdf`) on a grid of (α, θ_o): [`ltc_table_configs`].
+    LtcTable,
 }
 
 impl ConfigClass {
-    pub const ALL: [ConfigClass; 9] = [
+    pub const ALL: [ConfigClass; 10] = [
         ConfigClass::Random,
         ConfigClass::HorizonCrossing,
         ConfigClass::Grazing,
@@ -36,6 +38,7 @@ impl ConfigClass {
         ConfigClass::CloseToLine,
         ConfigClass::FullyClipped,
         ConfigClass::LtcAnisotropic,
+        ConfigClass::LtcTable,
     ];
 
     pub fn name(self) -> &'static str {
@@ -49,6 +52,7 @@ impl ConfigClass {
             ConfigClass::CloseToLine => "close-to-line",
             ConfigClass::FullyClipped => "fully-clipped",
             ConfigClass::LtcAnisotropic => "ltc-anisotropic",
+            ConfigClass::LtcTable => "ltc-table",
         }
     }
 }
@@ -296,6 +300,54 @@ fn ltc_anisotropic_configs() -> Vec<Config> {
     ]
 }
 
+/// GGX roughness α of the fitted-table grid ([`ltc_table_configs`]).
+pub const LTC_TABLE_ALPHAS: [f32; 6] = [0.05, 0.1, 0.2, 0.4, 0.7, 1.0];
+
+/// View angles θ_o (degrees from the normal) of the fitted-table grid.
+pub const LTC_TABLE_THETAS: [f32; 4] = [0.0, 30.0, 60.0, 80.0];
+
+/// The LTC of the fitted GGX table (`linlight_brdf::ltc::GgxLtcTable::ggx().lookup`, the
+/// renderer's lookup) on the grid [`LTC_TABLE_ALPHAS`] × [`LTC_TABLE_THETAS`], each with two
+/// lines, normal +z, view (sin θ_o, 0, cos θ_o) (so x̂ = +x, the renderer's frame):
+/// `across` — a segment along ŷ through the mirror direction at distance 1.5 (the lobe's peak on
+/// the line, above the horizon); `crossing` — a segment in the plane y = 0.3 from below the
+/// horizon, behind the viewer, over the normal to the mirror side (clipped at the horizon and,
+/// for the sheared lobes of grazing views, at the cosine-space horizon).
+pub fn ltc_table_configs() -> Vec<Config> {
+    let table = linlight_brdf::ltc::GgxLtcTable::ggx();
+    let mut out = Vec::new();
+    for alpha in LTC_TABLE_ALPHAS {
+        for theta_deg in LTC_TABLE_THETAS {
+            let theta = theta_deg.to_radians();
+            let view = Vec3::new(theta.sin(), 0.0, theta.cos());
+            let (a, _rho) = table.lookup(alpha, view.z);
+            let a_rows = a.transpose().to_cols_array_2d();
+            let mirror = 1.5 * Vec3::new(-view.x, 0.0, view.z);
+            let lines = [
+                ("across", mirror - Vec3::Y, mirror + Vec3::Y),
+                (
+                    "crossing",
+                    Vec3::new(1.5, 0.3, -0.5),
+                    Vec3::new(-2.0, 0.3, 1.2),
+                ),
+            ];
+            for (line, begin, end) in lines {
+                out.push(Config {
+                    name: format!("ggx-a{alpha:.2}-t{theta_deg:02.0}-{line}"),
+                    class: ConfigClass::LtcTable,
+                    begin: v3(begin),
+                    end: v3(end),
+                    x: [0.0; 3],
+                    n: Z,
+                    view: v3(view),
+                    a_rows,
+                });
+            }
+        }
+    }
+    out
+}
+
 /// The paper's sanity configuration: the segment (−1, 0, 1)–(1, 0, 1) above the origin, normal
 /// +z, whose projected solid angle per radius is Ω⊥_R = 1 + π/2.
 pub fn paper_sanity() -> Config {
@@ -386,6 +438,38 @@ mod tests {
         }
     }
 
+    /// The grid carries the table's A (in the renderer's frame: x̂ toward the viewer) and every
+    /// line sees the lobe: the LTC sampler prepares on each configuration.
+    #[test]
+    fn ltc_table_grid_uses_the_fitted_table() {
+        let grid = ltc_table_configs();
+        assert_eq!(
+            grid.len(),
+            2 * LTC_TABLE_ALPHAS.len() * LTC_TABLE_THETAS.len()
+        );
+        let table = linlight_brdf::ltc::GgxLtcTable::ggx();
+        for c in &grid {
+            let v = Vec3::from(c.view);
+            assert_eq!(c.a(), table.lookup(alpha_of(&c.name), v.z).0);
+            let f = c.shading_frame();
+            assert!(f.x_axis.dot(v) >= 0.0 && (f.z_axis - Vec3::Z).length() < 1e-6);
+            assert!(
+                linlight_sampling::ltc::LtcLine::prepare(&c.segment(), c.x(), f, c.a()).is_some(),
+                "{}",
+                c.name
+            );
+        }
+    }
+
+    fn alpha_of(name: &str) -> f32 {
+        name["ggx-a".len()..]
+            .split('-')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    }
+
     #[test]
     fn edge_cases_are_what_their_class_says() {
         for c in edge_configs() {
@@ -418,7 +502,7 @@ mod tests {
                     assert!(frame.l_end - frame.l_begin > 100.0 * frame.d, "{}", c.name)
                 }
                 ConfigClass::CloseToLine => assert!(frame.d <= 1e-3 * 1.0001, "{}", c.name),
-                ConfigClass::LtcAnisotropic | ConfigClass::Random => {}
+                ConfigClass::LtcAnisotropic | ConfigClass::Random | ConfigClass::LtcTable => {}
             }
         }
     }

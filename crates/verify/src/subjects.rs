@@ -13,12 +13,29 @@
 use crate::configs::Config;
 use crate::suite::Check;
 use glam::Vec3;
+use linlight_sampling::ltc::LtcLine;
+use linlight_sampling::mixture::Mixture;
+use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
 use linlight_sampling::solid_angle::SolidAngle;
 use linlight_sampling::{LineFrame, LineSampler, Technique};
 use serde::Serialize;
 
 /// A sampler prepared for one configuration (`None`: the light contributes nothing).
 pub type Prepare = dyn Fn(&Config) -> Option<Box<dyn LineSampler>> + Send + Sync;
+
+/// The other technique of the two-technique estimator, prepared for the same configuration:
+/// its certified density (`sampler.pdf`, with support test) and its *cross density* — the
+/// function the estimator evaluates at the subject's samples without support test
+/// (`ProjectedSolidAngle::density_in_support`, `SpecularSampler::density_on_clipped_line`).
+pub struct Partner {
+    pub name: &'static str,
+    pub sampler: Box<dyn LineSampler>,
+    pub cross: Box<dyn Fn(Vec3) -> f32>,
+}
+
+/// A partner prepared for one configuration (`None`: the estimator has no second technique
+/// there, e.g. an empty lobe in cosine space).
+pub type PreparePartner = dyn Fn(&Config) -> Option<Partner> + Send + Sync;
 
 /// Which integral the Monte Carlo agreement check estimates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -86,6 +103,13 @@ pub struct SamplerUnderTest {
     /// For negative controls: what must reject them (ignored for certified samplers).
     pub rejection: Rejection,
     pub prepare: Box<Prepare>,
+    /// Whether it runs on the suite's configurations (seeded random + edge cases).
+    pub suite_configs: bool,
+    /// Configurations of its own, after the suite's (e.g. the fitted-table grid).
+    pub extra_configs: Vec<Config>,
+    /// The other technique whose cross density is checked at this subject's samples
+    /// (`cross-density`, `cross-balance`; docs/sampler-suite.md).
+    pub partner: Option<Box<PreparePartner>>,
 }
 
 impl SamplerUnderTest {
@@ -103,7 +127,62 @@ impl SamplerUnderTest {
             coverage,
             rejection: Rejection::any(),
             prepare: Box::new(prepare),
+            suite_configs: true,
+            extra_configs: Vec::new(),
+            partner: None,
         }
+    }
+
+    /// The same subject on `configs` only.
+    pub fn on_configs(mut self, configs: Vec<Config>) -> Self {
+        self.suite_configs = false;
+        self.extra_configs = configs;
+        self
+    }
+
+    /// The same subject on the suite's configurations and `configs`.
+    pub fn plus_configs(mut self, configs: Vec<Config>) -> Self {
+        self.extra_configs.extend(configs);
+        self
+    }
+
+    /// Its configurations when the suite's are `suite`.
+    pub fn configs(&self, suite: &[Config]) -> Vec<Config> {
+        let mut v = if self.suite_configs {
+            suite.to_vec()
+        } else {
+            Vec::new()
+        };
+        v.extend(self.extra_configs.iter().cloned());
+        v
+    }
+
+    /// The same subject with the cross density of `partner` checked at its samples.
+    pub fn with_partner(
+        mut self,
+        partner: impl Fn(&Config) -> Option<Partner> + Send + Sync + 'static,
+    ) -> Self {
+        self.partner = Some(Box::new(partner));
+        self
+    }
+
+    /// The statistical tests it contributes per configuration: fine χ², coarse χ², integral,
+    /// and cross-balance with a partner.
+    pub fn statistical_tests_per_config(&self) -> usize {
+        3 + usize::from(self.partner.is_some())
+    }
+
+    /// The same subject under another name and role.
+    pub fn renamed(
+        mut self,
+        name: impl Into<String>,
+        description: impl Into<String>,
+        role: Role,
+    ) -> Self {
+        self.name = name.into();
+        self.description = description.into();
+        self.role = role;
+        self
     }
 
     /// The same control, rejected only as `rejection` says.
@@ -140,11 +219,89 @@ pub fn ltc() -> SamplerUnderTest {
     )
 }
 
-/// Every subject the suite certifies: each entry of `Technique::UNBIASED`, then LTC.
+/// LTC line sampling with A from the fitted GGX table on the (α, θ_o) grid of
+/// [`crate::configs::ltc_table_configs`] (the renderer's lookup and frame).
+pub fn ltc_fitted_table() -> SamplerUnderTest {
+    let mut s = ltc();
+    s.name = "ltc-fitted-table".into();
+    s.description =
+        "LtcLine::prepare with A = GgxLtcTable::ggx().lookup(α, cos θ_o), (α, θ_o) grid".into();
+    s.on_configs(crate::configs::ltc_table_configs())
+}
+
+/// The projected solid angle (the estimator's diffuse technique) on the horizon-clipped line.
+fn prepare_diffuse(c: &Config) -> Option<ProjectedSolidAngle> {
+    ProjectedSolidAngle::prepare(&c.segment(), c.x(), c.n())
+}
+
+/// LTC (the estimator's specular technique) with the configuration's frame and A.
+fn prepare_specular(c: &Config) -> Option<LtcLine> {
+    LtcLine::prepare(&c.segment(), c.x(), c.shading_frame(), c.a())
+}
+
+/// The diffuse technique as the partner of LTC samples: p_d at a specular sample.
+pub fn diffuse_partner(c: &Config) -> Option<Partner> {
+    let d = prepare_diffuse(c)?;
+    Some(Partner {
+        name: "projected-solid-angle",
+        sampler: boxed(d),
+        cross: Box::new(move |w| d.density_in_support(w)),
+    })
+}
+
+/// LTC as the partner of diffuse samples: p_s at a diffuse sample.
+pub fn specular_partner(c: &Config) -> Option<Partner> {
+    let s = prepare_specular(c)?;
+    Some(Partner {
+        name: "ltc",
+        sampler: boxed(s),
+        cross: Box::new(move |w| s.density_on_clipped_line(w)),
+    })
+}
+
+/// Probability of the diffuse technique in the mixture subject.
+pub const MIXTURE_DIFFUSE_PROBABILITY: f32 = 0.5;
+
+/// The one-sample MIS mixture of the estimator's two techniques
+/// ([`linlight_sampling::mixture::Mixture`], c = [`MIXTURE_DIFFUSE_PROBABILITY`]): density
+/// c·p_d + (1 − c)·p_s from the cross densities; the diffuse technique alone where the lobe is
+/// empty (the estimator's diffuse-only fallback). On the suite's configurations and the
+/// fitted-table grid.
+pub fn mixture() -> SamplerUnderTest {
+    let c = MIXTURE_DIFFUSE_PROBABILITY;
+    SamplerUnderTest::new(
+        format!("mis-mixture-c{c}"),
+        format!(
+            "Mixture::new(projected solid angle, LTC, {c}): one-sample MIS, mixture pdf from the \
+             cross densities"
+        ),
+        Role::Certify,
+        Coverage::Lambert,
+        move |cfg| {
+            let d = prepare_diffuse(cfg)?;
+            Some(match prepare_specular(cfg) {
+                Some(s) => boxed(Mixture::new(d, s, c)),
+                None => boxed(d),
+            })
+        },
+    )
+    .plus_configs(crate::configs::ltc_table_configs())
+}
+
+/// Every subject the suite certifies: each entry of `Technique::UNBIASED` (the projected solid
+/// angle with the LTC cross density checked at its samples), LTC with random A and with the
+/// fitted table (both with the diffuse cross density checked), and the one-sample mixture.
 pub fn certified() -> Vec<SamplerUnderTest> {
-    #[allow(unused_mut)]
-    let mut v: Vec<SamplerUnderTest> = Technique::UNBIASED.into_iter().map(technique).collect();
-    v.push(ltc());
+    let mut v: Vec<SamplerUnderTest> = Technique::UNBIASED
+        .into_iter()
+        .map(|t| match t {
+            Technique::ProjectedSolidAngle => technique(t).with_partner(specular_partner),
+            t => technique(t),
+        })
+        .collect();
+    v.push(ltc().with_partner(diffuse_partner));
+    v.push(ltc_fitted_table().with_partner(diffuse_partner));
+    v.push(mixture());
     v
 }
 
@@ -279,6 +436,30 @@ pub fn control_ltc_without_kappa() -> SamplerUnderTest {
             }))
         },
     )
+}
+
+/// The projected solid angle with the LTC cross density divided by κ (the κ := 1 power control
+/// of the renderer, in the cross density only: `pdf` and samples are correct).
+pub fn control_cross_density_without_kappa() -> SamplerUnderTest {
+    technique(Technique::ProjectedSolidAngle)
+        .with_partner(|c| {
+            let s = prepare_specular(c)?;
+            let k = s.kappa();
+            Some(Partner {
+                name: "ltc",
+                sampler: boxed(s),
+                cross: Box::new(move |w| s.density_on_clipped_line(w) / k),
+            })
+        })
+        .renamed(
+            "cross-density-without-kappa",
+            "ProjectedSolidAngle samples; LTC cross density density_on_clipped_line / κ",
+            Role::NegativeControl,
+        )
+        .rejected_by(Rejection {
+            by: vec![Check::CrossDensity, Check::CrossBalance],
+            min_share: 0.0,
+        })
 }
 
 /// Samples whose density is the claimed one tilted by 1 + ε·(2u − 1), u = F(ω) the claimed CDF
@@ -454,6 +635,7 @@ pub fn negative_controls() -> Vec<SamplerUnderTest> {
     v.push(control_ltc_without_kappa());
     v.push(control_one_halley_iteration_own_inverse().rejected_by(Rejection::by_chi2(0.0)));
     v.push(tilt_control());
+    v.push(control_cross_density_without_kappa());
     v
 }
 

@@ -31,7 +31,7 @@ use crate::chi2::{
 };
 use crate::configs::{suite_configs, Config, ConfigClass};
 use crate::quadrature::Adaptive;
-use crate::subjects::{Coverage, Rejection, Role, SamplerUnderTest};
+use crate::subjects::{Coverage, Partner, Rejection, Role, SamplerUnderTest};
 use linlight_sampling::philox::CounterRng;
 use linlight_sampling::{unit_normal, LineFrame, LineSampler};
 use rayon::prelude::*;
@@ -135,6 +135,8 @@ pub enum Check {
     RoundTrip,
     Integral,
     ZeroContribution,
+    CrossDensity,
+    CrossBalance,
     Panic,
 }
 
@@ -150,6 +152,8 @@ impl Check {
             Check::RoundTrip => "round-trip",
             Check::Integral => "integral",
             Check::ZeroContribution => "zero-contribution",
+            Check::CrossDensity => "cross-density",
+            Check::CrossBalance => "cross-balance",
             Check::Panic => "panic",
         }
     }
@@ -185,6 +189,21 @@ pub struct IntegralCheck {
     pub relative_std: f64,
 }
 
+/// The partner technique's cross density at this subject's samples (docs/sampler-suite.md).
+#[derive(Clone, Debug, Serialize)]
+pub struct CrossCheck {
+    pub partner: String,
+    /// Worst |cross density − partner pdf| over the samples in units of the tolerance (≤ 1
+    /// passes).
+    pub worst_deviation: f64,
+    /// Mean of the balance weight q/(p + q) over the samples (q: the cross density).
+    pub balance_estimate: f64,
+    /// ∫ p·q/(p + q) dΩ_R by quadrature with both certified pdfs.
+    pub balance_reference: f64,
+    pub std_error: f64,
+    pub tolerance: f64,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct RoundTripCheck {
     pub checked: usize,
@@ -209,6 +228,8 @@ pub struct ConfigResult {
     pub integral: Option<IntegralCheck>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub round_trip: Option<RoundTripCheck>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cross: Option<CrossCheck>,
     pub failures: Vec<Failure>,
 }
 
@@ -223,6 +244,7 @@ impl ConfigResult {
             normalisation_error: None,
             integral: None,
             round_trip: None,
+            cross: None,
             failures: Vec::new(),
         }
     }
@@ -309,6 +331,9 @@ pub struct SuiteReport {
     pub alpha_per_test: f64,
     pub z_threshold: f64,
     pub configurations: Vec<Config>,
+    /// Configurations some subjects run on besides the suite's (the fitted-table grid), once
+    /// each.
+    pub extra_configurations: Vec<Config>,
     pub techniques: Vec<SubjectReport>,
     pub negative_controls: Vec<SubjectReport>,
     /// Every technique passed and every negative control was rejected.
@@ -345,9 +370,17 @@ pub fn lambert_reference(config: &Config) -> (f64, f64) {
     (psa.max(0.0), omega)
 }
 
+/// Ω_R of a sampler's support (2/d)(sin φ_end − sin φ_begin), in f64.
+fn support_solid_angle(frame: &LineFrame) -> f64 {
+    let (phi_b, phi_e) = PhiBinning::new(frame, 1).phi_range();
+    2.0 / frame.d as f64 * (phi_e.sin() - phi_b.sin())
+}
+
 /// Run one prepared sampler through every check.
+#[allow(clippy::too_many_arguments)]
 fn check_sampler(
     sampler: &dyn LineSampler,
+    partner: Option<&Partner>,
     subject: &SamplerUnderTest,
     config: &Config,
     settings: &Settings,
@@ -430,6 +463,13 @@ fn check_sampler(
         max_error: 0.0,
     };
     let mut round_trip_fail: Option<String> = None;
+    // Cross density of the partner at the samples: agreement with its certified pdf, and the
+    // balance weight q/(p + q) (bounded: its mean has finite variance for the z-test).
+    let partner_floor = partner.map_or(0.0, |pt| {
+        PDF_CONSISTENCY_FLOOR / support_solid_angle(pt.sampler.support())
+    });
+    let (mut worst_cross, mut worst_cross_at) = (0.0f64, (0.0f32, 0.0f32));
+    let (mut sum_b, mut sum_b_sq) = (0.0f64, 0.0f64);
     for i in 0..settings.samples {
         let xi = rng.next_f32();
         let (dir, p) = sampler.sample_with_pdf(xi);
@@ -451,6 +491,27 @@ fn check_sampler(
         if !(dev <= worst_consistency) {
             worst_consistency = if dev.is_nan() { f64::INFINITY } else { dev };
             worst_consistency_at = (p, p_eval);
+        }
+        if let Some(pt) = partner {
+            let q = (pt.cross)(dir);
+            let q_pdf = pt.sampler.pdf(dir);
+            let scale = PDF_CONSISTENCY_RELATIVE * (q as f64).abs().max((q_pdf as f64).abs())
+                + partner_floor;
+            let mut dev = (q as f64 - q_pdf as f64).abs() / scale;
+            if dev > 1.0 {
+                let (lo, hi) = on_line_range(pt.sampler.as_ref(), &binning, dir);
+                dev = (lo - q as f64).max(q as f64 - hi).max(0.0) / scale;
+            }
+            if !(dev <= worst_cross) {
+                worst_cross = if dev.is_nan() { f64::INFINITY } else { dev };
+                worst_cross_at = (q, q_pdf);
+            }
+            if p > 0.0 && p.is_finite() {
+                let w = (q as f64 / (p as f64 + q as f64)).max(0.0);
+                let w = if w.is_finite() { w } else { 1.0 };
+                sum_b += w;
+                sum_b_sq += w * w;
+            }
         }
         let f = n.dot(dir.as_dvec3()).max(0.0);
         if p > 0.0 && p.is_finite() {
@@ -601,6 +662,54 @@ fn check_sampler(
         tolerance,
         relative_std,
     });
+
+    // Cross density: E_p[q/(p + q)] = ∫ p·q/(p + q) dΩ_R (both pdfs certified on their own).
+    if let Some(pt) = partner {
+        if worst_cross > 1.0 {
+            let (q, q_pdf) = worst_cross_at;
+            out.fail(
+                Check::CrossDensity,
+                format!(
+                    "{} cross density {q:e} vs its pdf {q_pdf:e} at a sample",
+                    pt.name
+                ),
+            );
+        }
+        let mut g = |phi: f64| {
+            let dir = binning.direction(phi);
+            let (p, q) = (sampler.pdf(dir) as f64, pt.sampler.pdf(dir) as f64);
+            if p + q > 0.0 {
+                p * q / (p + q) * binning.jacobian(phi)
+            } else {
+                0.0
+            }
+        };
+        let reference = quad.integrate_partition(&binning.edges(), &mut g).value;
+        let mean = sum_b / big_n;
+        let var = (sum_b_sq / big_n - mean * mean).max(0.0) * big_n / (big_n - 1.0).max(1.0);
+        let std_error = (var / big_n).sqrt();
+        let tolerance = z_c * std_error
+            + INTEGRAL_RELATIVE_FLOOR * reference.abs()
+            + INTEGRAL_SOLID_ANGLE_FLOOR;
+        if !((mean - reference).abs() <= tolerance) {
+            out.fail(
+                Check::CrossBalance,
+                format!(
+                    "E[q/(p+q)] estimate {mean:.7e} ± {std_error:.2e} vs reference \
+                     {reference:.7e} (tolerance {tolerance:.2e}; q: {})",
+                    pt.name
+                ),
+            );
+        }
+        out.cross = Some(CrossCheck {
+            partner: pt.name.to_string(),
+            worst_deviation: worst_cross,
+            balance_estimate: mean,
+            balance_reference: reference,
+            std_error,
+            tolerance,
+        });
+    }
 }
 
 fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
@@ -639,8 +748,10 @@ pub fn certify_config(
             }
             Some(s) => {
                 let mut r = ConfigResult::new(config, Outcome::Tested);
+                let partner = subject.partner.as_ref().and_then(|p| p(config));
                 check_sampler(
                     s.as_ref(),
+                    partner.as_ref(),
                     subject,
                     config,
                     settings,
@@ -796,8 +907,18 @@ fn run_subject_inner(
     summarise(subject, results, None)
 }
 
-/// Statistical tests per (certified sampler, configuration): fine χ², coarse χ², integral.
+/// Statistical tests per (certified sampler, configuration) without a partner: fine χ², coarse
+/// χ², integral (a partner adds the cross-balance test).
 pub const STATISTICAL_TESTS_PER_CONFIG: usize = 3;
+
+/// m of the Šidák correction: the statistical tests of `certified` over their configurations
+/// (`suite`: the suite's).
+pub fn statistical_tests(certified: &[SamplerUnderTest], suite: &[Config]) -> usize {
+    certified
+        .iter()
+        .map(|s| s.statistical_tests_per_config() * s.configs(suite).len())
+        .sum()
+}
 
 /// Run certified subjects and negative controls over the suite's configurations.
 pub fn run_suite(
@@ -805,41 +926,50 @@ pub fn run_suite(
     controls: &[SamplerUnderTest],
     settings: &Settings,
 ) -> SuiteReport {
-    run_suite_at(certified, controls, settings, certified.len())
+    run_suite_at(certified, controls, settings, certified)
 }
 
-/// [`run_suite`] with the Šidák correction taken over `levels_of` certified samplers (e.g. to
-/// run extra controls alone at the level the full suite would judge them: the tilt power table).
+/// [`run_suite`] with the Šidák correction taken over the subjects `levels_of` (e.g. to run
+/// extra controls alone at the level the full suite would judge them: the tilt power table).
 pub fn run_suite_at(
     certified: &[SamplerUnderTest],
     controls: &[SamplerUnderTest],
     settings: &Settings,
-    levels_of: usize,
+    levels_of: &[SamplerUnderTest],
 ) -> SuiteReport {
     let started = std::time::Instant::now();
     let configs = suite_configs(settings.seed, settings.random_configs);
-    let m = STATISTICAL_TESTS_PER_CONFIG * levels_of.max(1) * configs.len();
+    let m = statistical_tests(levels_of, &configs).max(1);
     let (alpha_c, z) = corrected_levels(settings.alpha, m);
     let techniques: Vec<SubjectReport> = certified
         .iter()
         .enumerate()
-        .map(|(i, s)| run_subject(s, i, &configs, settings, (alpha_c, z)))
+        .map(|(i, s)| run_subject(s, i, &s.configs(&configs), settings, (alpha_c, z)))
         .collect();
     let negative_controls: Vec<SubjectReport> = controls
         .iter()
         .enumerate()
-        .map(|(i, s)| run_subject(s, 1000 + i, &configs, settings, (alpha_c, z)))
+        .map(|(i, s)| run_subject(s, 1000 + i, &s.configs(&configs), settings, (alpha_c, z)))
         .collect();
     let passed = techniques
         .iter()
         .chain(&negative_controls)
         .all(|r| r.passed);
+    let mut extra_configurations: Vec<Config> = Vec::new();
+    for s in certified.iter().chain(controls) {
+        for c in &s.extra_configs {
+            if !extra_configurations.iter().any(|e| e.name == c.name) {
+                extra_configurations.push(c.clone());
+            }
+        }
+    }
     SuiteReport {
         settings: settings.clone(),
         statistical_tests: m,
         alpha_per_test: alpha_c,
         z_threshold: z,
         configurations: configs,
+        extra_configurations,
         techniques,
         negative_controls,
         passed,
@@ -914,6 +1044,46 @@ mod tests {
                 c.name
             );
         }
+    }
+
+    /// The LTC of the fitted table, the one-sample mixture and the cross densities pass at a
+    /// small N; the cross density without κ is rejected by the cross checks (and only by them:
+    /// its samples and pdf are the projected solid angle's).
+    #[test]
+    fn mixture_table_and_cross_densities() {
+        let settings = Settings {
+            samples: 20_000,
+            random_configs: 5,
+            ..Settings::default()
+        };
+        let certified = [
+            subjects::ltc_fitted_table().with_partner(subjects::diffuse_partner),
+            technique(Technique::ProjectedSolidAngle).with_partner(subjects::specular_partner),
+            subjects::mixture(),
+        ];
+        let controls = [subjects::control_cross_density_without_kappa()];
+        let r = run_suite(&certified, &controls, &settings);
+        let grid = crate::configs::ltc_table_configs().len();
+        assert_eq!(r.techniques[0].configs.len(), grid);
+        assert_eq!(r.techniques[2].configs.len(), r.configurations.len() + grid);
+        assert_eq!(r.extra_configurations.len(), grid);
+        // m counts the cross-balance test of the subjects with a partner.
+        assert_eq!(
+            r.statistical_tests,
+            4 * grid + 4 * r.configurations.len() + 3 * (r.configurations.len() + grid)
+        );
+        for t in &r.techniques {
+            let bad: Vec<_> = t.configs.iter().filter(|c| !c.passed()).collect();
+            assert!(t.passed, "{}: {:#?}", t.name, bad);
+        }
+        let with_cross = r.techniques[0].configs.iter().filter(|c| c.cross.is_some());
+        assert_eq!(with_cross.count(), grid);
+        let c = &r.negative_controls[0];
+        assert!(c.passed, "{}: {:?}", c.verdict, c.failures_by_check);
+        assert!(c
+            .failures_by_check
+            .keys()
+            .all(|k| matches!(k, Check::CrossDensity | Check::CrossBalance)));
     }
 
     /// A control counts as rejected only by the checks its `Rejection` names, on the required

@@ -10,7 +10,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use linlight_imagefile::{parse_pixel_list, Image, KEY_CONTACT_PIXELS, KEY_RADIUS};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::{Failure, Region, TestKind};
 use crate::z_score::{t_two_sided_p, welch_dof};
@@ -81,7 +81,7 @@ impl ContactTally {
     }
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ContactReport {
     /// Contact pixels of this channel.
     pub pixels: usize,

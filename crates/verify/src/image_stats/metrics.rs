@@ -5,12 +5,12 @@
 //! alongside (MSE − mse_noise estimates the squared bias).
 
 use linlight_imagefile::Image;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// ε of relMSE and MAPE.
 pub const METRIC_EPSILON: f64 = 0.01;
 
-#[derive(Clone, Copy, Debug, Default, Serialize)]
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub struct ErrorMetrics {
     pub mse: f64,
     /// E[MSE] for two unbiased images: mean of v_A + v_B.

@@ -60,7 +60,7 @@ mod sums;
 mod tiles;
 
 use linlight_imagefile::Image;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use contacts::{contact_allowance, contact_pixels, contact_tests, ContactTally};
 use global::{global_tests, GlobalLevels};
@@ -83,7 +83,7 @@ pub const TESTS_PER_CHANNEL: usize = 4;
 pub const KEY_VARIANCE: &str = "variance";
 
 /// Parameters of [`compare`].
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CompareConfig {
     /// Family-wise significance level of the whole comparison.
     pub alpha: f64,
@@ -140,7 +140,7 @@ impl std::fmt::Display for CompareError {
 }
 impl std::error::Error for CompareError {}
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Verdict {
     /// No difference test rejects and equivalence within ±δ is shown.
     Consistent,
@@ -171,7 +171,7 @@ impl Verdict {
 }
 
 /// Which test rejected (or, for `Equivalence`, was not shown).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum TestKind {
     /// Two exact zero-variance values disagree beyond ε.
     ZeroVariance,
@@ -190,7 +190,7 @@ pub enum TestKind {
 }
 
 /// A pixel (width = height = 1) or a tile rectangle; x to the right, y down, (0, 0) top left.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Region {
     pub x: usize,
     pub y: usize,
@@ -209,15 +209,16 @@ impl Region {
     }
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Failure {
     pub test: TestKind,
-    pub channel: &'static str,
+    #[serde(deserialize_with = "static_name")]
+    pub channel: StaticName,
     pub region: Option<Region>,
     pub detail: String,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct GlobalReport {
     pub mean_a: f64,
     pub mean_b: f64,
@@ -239,7 +240,7 @@ pub struct GlobalReport {
     pub rel_var_b: f64,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct TileResult {
     pub region: Region,
     pub mean_diff: f64,
@@ -250,7 +251,7 @@ pub struct TileResult {
     pub p_holm: f64,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct TileReport {
     pub tiles_total: usize,
     /// Tiles with positive variance (the others hold only zero-variance pixels).
@@ -260,7 +261,7 @@ pub struct TileReport {
     pub worst: Option<TileResult>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PixelReport {
     /// Pixels of this channel in the pixel tests (state `Tested`).
     pub tested: usize,
@@ -275,9 +276,10 @@ pub struct PixelReport {
     pub max_p: Option<f64>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ChannelReport {
-    pub channel: &'static str,
+    #[serde(deserialize_with = "static_name")]
+    pub channel: StaticName,
     pub global: GlobalReport,
     pub tiles: TileReport,
     pub pixels: PixelReport,
@@ -285,7 +287,7 @@ pub struct ChannelReport {
 }
 
 /// Pixel-channels by what was done with them (they add up to 3 × pixels).
-#[derive(Clone, Copy, Debug, Default, Serialize)]
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub struct PixelClasses {
     /// In every test.
     pub tested: usize,
@@ -306,7 +308,7 @@ pub struct PixelClasses {
     pub contact: usize,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ZeroVarianceReport {
     /// Pixel-channels with v_A + v_B = 0.
     pub count: usize,
@@ -315,6 +317,7 @@ pub struct ZeroVarianceReport {
     /// Pixel-channels where exactly one sampled image has zero variance.
     pub one_sided: usize,
     /// The worst mismatch: region, channel, both means.
+    #[serde(deserialize_with = "static_name_in_mismatch")]
     pub worst: Option<(Region, &'static str, f64, f64)>,
 }
 
@@ -345,7 +348,7 @@ pub struct Maps {
     pub tiles: Vec<(Region, [Option<f64>; 3])>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Comparison {
     pub verdict: Verdict,
     /// Difference tests that rejected (the verdict is DIFFERENT iff there is one).
@@ -377,6 +380,37 @@ pub struct Comparison {
     pub metrics: ErrorMetrics,
     #[serde(skip)]
     pub maps: Maps,
+}
+
+/// A channel or image name (`&'static str`; the alias keeps serde from borrowing it from the
+/// input when a comparison is read back).
+pub type StaticName = &'static str;
+
+/// The names a comparison writes as `&'static str` (channels, the limiting image).
+const STATIC_NAMES: [&str; 4] = ["R", "G", "B", "A"];
+
+fn static_str<E: serde::de::Error>(s: &str) -> Result<&'static str, E> {
+    STATIC_NAMES
+        .iter()
+        .find(|n| **n == s)
+        .copied()
+        .ok_or_else(|| E::custom(format!("unknown channel or image name '{s}'")))
+}
+
+/// Reads back a channel or image name of a serialised comparison (`linlight certify --merge`).
+pub(crate) fn static_name<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<&'static str, D::Error> {
+    static_str(&String::deserialize(d)?)
+}
+
+#[allow(clippy::type_complexity)]
+fn static_name_in_mismatch<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<Option<(Region, &'static str, f64, f64)>, D::Error> {
+    Option::<(Region, String, f64, f64)>::deserialize(d)?
+        .map(|(r, c, a, b)| Ok((r, static_str(&c)?, a, b)))
+        .transpose()
 }
 
 fn unusable(msg: impl Into<String>) -> CompareError {

@@ -8,16 +8,18 @@
 //! of A alone suffice if T > V_B (otherwise no number of A samples does), likewise f_B, and
 //! f = (V_A + V_B)/T of both.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::ChannelReport;
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PrecisionHint {
     /// The channel that needs the most samples.
-    pub channel: &'static str,
+    #[serde(deserialize_with = "super::static_name")]
+    pub channel: super::StaticName,
     /// "A" or "B": the image with the larger share of the variance.
-    pub limiting: &'static str,
+    #[serde(deserialize_with = "super::static_name")]
+    pub limiting: super::StaticName,
     /// A's share of the variance of the relative difference.
     pub share_a: f64,
     /// Factor of more samples of A alone (None: A alone cannot make it decidable).

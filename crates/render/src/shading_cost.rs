@@ -11,12 +11,11 @@
 //! Shading per sample: f = ρ/π + F·D·G1(v)G1(l)/(4 n·v n·l) (Schlick F, F0 = 0.04; D and G1 of
 //! `linlight_brdf::microfacet`), L += K·f·(n·ω)/p(ω).
 //!
-//! Timing: by default every 8th pixel of every 8th row (32 400 pixels, 4.1 M samples per row
-//! of the table; `LINLIGHT_SHADING_STRIDE=1` shades the whole frame), 5 repeats interleaved
-//! across the rows; reported per sample and per (extrapolated) full frame, median and minimum,
-//! and as a ratio to clipped solid angle.
-//!
-//! Run: `cargo bench -p linlight-sampling --bench shading`.
+//! [`measure`] times every row on every `stride`-th pixel of every `stride`-th row, `repeats`
+//! times interleaved across the rows (timings on a shared machine are noisy: only rows of one
+//! run are compared), and reports per sample, per extrapolated full frame, and as ratios to
+//! clipped solid angle. Both the shading benchmark (`cargo bench -p linlight-render --bench
+//! shading`) and `linlight figures` (the timings table) call it.
 
 use glam::Vec3;
 use linlight_brdf::microfacet;
@@ -25,21 +24,25 @@ use linlight_sampling::{LineSampler, Segment, Technique};
 use std::hint::black_box;
 use std::time::Instant;
 
-const WIDTH: usize = 1920;
-const HEIGHT: usize = 1080;
-const LIGHTS: usize = 128;
-const SPP: usize = 128;
+/// Frame of the cached hit points.
+pub const WIDTH: usize = 1920;
+pub const HEIGHT: usize = 1080;
+/// Lights of the 128 × 1 configuration.
+pub const LIGHTS: usize = 128;
+/// Samples per pixel of the 1 × 128 configuration.
+pub const SPP: usize = 128;
 
 /// Cached hit points (structure of arrays).
-struct HitPoints {
-    p: Vec<Vec3>,
-    n: Vec<Vec3>,
+pub struct HitPoints {
+    pub p: Vec<Vec3>,
+    pub n: Vec<Vec3>,
     /// Unit direction to the camera.
-    v: Vec<Vec3>,
-    alpha: Vec<f32>,
+    pub v: Vec<Vec3>,
+    pub alpha: Vec<f32>,
 }
 
-fn hit_points(stride: usize) -> HitPoints {
+/// Every `stride`-th pixel of every `stride`-th row of the 1920×1080 frame.
+pub fn hit_points(stride: usize) -> HitPoints {
     let eye = Vec3::new(0.0, -4.0, 2.5);
     let forward = (Vec3::new(0.0, 2.0, 0.3) - eye).normalize();
     let right = forward.cross(Vec3::Z).normalize();
@@ -81,7 +84,7 @@ fn hit_points(stride: usize) -> HitPoints {
 }
 
 /// 128 lights above the floor, with K = radiance × radius.
-fn lights() -> Vec<(Segment, Vec3)> {
+pub fn lights() -> Vec<(Segment, Vec3)> {
     let mut rng = linlight_sampling::rng::Pcg32::new(128, 1);
     let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
     (0..LIGHTS)
@@ -132,7 +135,7 @@ fn brdf_cos(n: Vec3, v: Vec3, l: Vec3, alpha: f32) -> f32 {
 
 /// Scalar shading of every hit point: `lights` lights × `spp` samples each.
 #[inline(never)]
-fn shade_scalar(t: Technique, h: &HitPoints, lights: &[(Segment, Vec3)], spp: usize) -> f32 {
+pub fn shade_scalar(t: Technique, h: &HitPoints, lights: &[(Segment, Vec3)], spp: usize) -> f32 {
     let mut sum = 0.0f32;
     for i in 0..h.p.len() {
         let (p, n, v, a) = (h.p[i], h.n[i], h.v[i], h.alpha[i]);
@@ -170,8 +173,9 @@ fn shade_lanes(out: &PsaBatchOutput, n: Vec3, v: Vec3, alpha: f32, k: &[f32; LAN
     c.iter().sum()
 }
 
-#[derive(Clone, Copy, PartialEq)]
-enum Batched {
+/// The 8-wide batched samplers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Batched {
     ProjectedSolidAngle,
     Li2018,
 }
@@ -180,7 +184,7 @@ enum Batched {
 /// once. 1 light × 128 spp: lanes = 8 samples of the one light, prepared once per hit point
 /// (every lane the same), sampled 16 times. Returns the sum and Li's iteration count.
 #[inline(never)]
-fn shade_batched(
+pub fn shade_batched(
     which: Batched,
     isa: Isa,
     h: &HitPoints,
@@ -239,163 +243,167 @@ fn shade_batched(
     (sum, iterations)
 }
 
-/// A row of the table: name, technique it stands for (ratios), one timed pass.
-struct Row<'a> {
-    name: String,
-    pass: Box<dyn FnMut() -> f32 + 'a>,
+/// What a row of the table times.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RowKind {
+    Scalar(Technique),
+    Batched(Batched),
 }
 
-/// Instruction-count mode for callgrind (`--toggle-collect='*shade_*'`):
-/// `LINLIGHT_SHADING_ONLY=<row>:<config>` with row a technique name, `psa-x8` or `li-x8`, config
-/// `128x1` or `1x128`, shades once and prints the number of samples (instructions per sample
-/// = Ir / samples). Batches run the kernel the CPU supports (under valgrind: AVX2).
-fn count_mode(spec: &str, stride: usize) {
-    let (row, config) = spec
-        .split_once(':')
-        .expect("LINLIGHT_SHADING_ONLY=<row>:<128x1|1x128>");
-    let h = hit_points(stride);
-    let all = lights();
-    let (lights, spp) = match config {
-        "128x1" => (&all[..], 1),
-        "1x128" => (&all[..1], SPP),
-        _ => panic!("config must be 128x1 or 1x128"),
-    };
-    let isa = Isa::detect();
-    let sum = match row {
-        "psa-x8" => shade_batched(Batched::ProjectedSolidAngle, isa, &h, lights, spp).0,
-        "li-x8" => shade_batched(Batched::Li2018, isa, &h, lights, spp).0,
-        t => shade_scalar(t.parse().expect("technique"), &h, lights, spp),
-    };
-    println!(
-        "{spec}: {} samples, checksum {sum}",
-        h.p.len() * lights.len() * spp
-    );
+/// Timings of one row: seconds per timed pass (all hit points), median and minimum.
+#[derive(Clone, Debug)]
+pub struct RowTiming {
+    pub name: String,
+    pub kind: RowKind,
+    pub median_s: f64,
+    pub min_s: f64,
 }
 
-fn main() {
-    let stride_of = |default: usize| {
-        std::env::var("LINLIGHT_SHADING_STRIDE")
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .filter(|&s| s >= 1)
-            .unwrap_or(default)
-    };
-    if let Ok(spec) = std::env::var("LINLIGHT_SHADING_ONLY") {
-        count_mode(&spec, stride_of(32));
-        return;
+/// One configuration (128 lights × 1 spp, or 1 light × 128 spp).
+#[derive(Clone, Debug)]
+pub struct ConfigTiming {
+    pub name: &'static str,
+    pub lights: usize,
+    pub spp: usize,
+    /// Samples of one timed pass.
+    pub samples: f64,
+    /// Full-frame pixels / timed pixels.
+    pub frame_scale: f64,
+    pub rows: Vec<RowTiming>,
+    /// Newton–bisection iterations per batch of the x8 Li et al. row.
+    pub li_iterations_per_batch: f64,
+    /// The 1-minute load average when the configuration finished.
+    pub load: String,
+}
+
+impl ConfigTiming {
+    /// ns per sample (median, minimum).
+    pub fn ns_per_sample(&self, row: &RowTiming) -> (f64, f64) {
+        (
+            row.median_s * 1e9 / self.samples,
+            row.min_s * 1e9 / self.samples,
+        )
     }
-    if !std::env::args().any(|a| a == "--bench") {
-        return; // `cargo test --benches`: nothing to check here
+    /// ms per 1920×1080 frame (median, minimum).
+    pub fn ms_per_frame(&self, row: &RowTiming) -> (f64, f64) {
+        (
+            row.median_s * 1e3 * self.frame_scale,
+            row.min_s * 1e3 * self.frame_scale,
+        )
     }
-    let stride = stride_of(8);
-    let repeats: usize = std::env::var("LINLIGHT_SHADING_REPEATS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .filter(|&s| s >= 1)
-        .unwrap_or(5);
-    let h = hit_points(stride);
-    let all_lights = lights();
-    let isa = Isa::detect();
-    let frame_scale = (WIDTH * HEIGHT) as f64 / h.p.len() as f64;
-    println!(
-        "shading benchmark: {} of {}x{} hit points (stride {stride}), Lambert + GGX, no shadow rays, \
-         {repeats} interleaved repeats; batch kernel {}",
-        h.p.len(),
-        WIDTH,
-        HEIGHT,
-        isa.name()
-    );
-    for (config, lights, spp) in [
-        ("128 lights x 1 spp", &all_lights[..], 1usize),
-        ("1 light x 128 spp", &all_lights[..1], SPP),
-    ] {
-        let samples = (h.p.len() * lights.len() * spp) as f64;
-        let li_iterations = std::cell::Cell::new(0u64);
-        let mut rows: Vec<Row> = Technique::ALL
-            .into_iter()
-            .map(|t| Row {
-                name: t.name().to_string(),
-                pass: Box::new({
-                    let h = &h;
-                    move || shade_scalar(t, h, lights, spp)
-                }),
-            })
-            .collect();
-        for (which, name) in [
-            (Batched::ProjectedSolidAngle, "projected-solid-angle x8"),
-            (Batched::Li2018, "li2018 x8"),
-        ] {
-            let (h, li_iterations) = (&h, &li_iterations);
-            rows.push(Row {
-                name: format!("{name} ({})", isa.name()),
-                pass: Box::new(move || {
-                    let (sum, k) = shade_batched(which, isa, h, lights, spp);
-                    if which == Batched::Li2018 {
-                        li_iterations.set(k);
-                    }
-                    sum
-                }),
-            });
-        }
-        let mut times = vec![Vec::new(); rows.len()];
-        for _ in 0..repeats {
-            for (k, row) in rows.iter_mut().enumerate() {
-                let start = Instant::now();
-                black_box((row.pass)());
-                times[k].push(start.elapsed().as_secs_f64());
-            }
-        }
-        let stats: Vec<(f64, f64)> = times
-            .iter_mut()
-            .map(|t| {
-                t.sort_by(f64::total_cmp);
-                (t[t.len() / 2], t[0])
-            })
-            .collect();
-        let index = |name: &str| rows.iter().position(|r| r.name.starts_with(name)).unwrap();
-        let clipped = stats[index("clipped-solid-angle")];
-        println!(
-            "\n{config} ({:.1} M samples timed; uptime load: {})",
-            samples / 1e6,
-            load()
-        );
-        println!(
-            "  {:<28} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}",
-            "technique", "ns/sample", "(min)", "ms/frame", "(min)", "/clipped", "(min)"
-        );
-        for (row, &(median, min)) in rows.iter().zip(&stats) {
-            println!(
-                "  {:<28} {:>10.2} {:>10.2} {:>12.1} {:>12.1} {:>8.3} {:>8.3}",
-                row.name,
-                median * 1e9 / samples,
-                min * 1e9 / samples,
-                median * 1e3 * frame_scale,
-                min * 1e3 * frame_scale,
-                median / clipped.0,
-                min / clipped.1
-            );
-        }
-        let ratio = |a: usize, b: usize| (stats[a].0 / stats[b].0, stats[a].1 / stats[b].1);
-        let (psa, li) = (index("projected-solid-angle"), index("li2018"));
-        let (psa8, li8) = (index("projected-solid-angle x8"), index("li2018 x8"));
-        let scalar = ratio(li, psa);
-        let simd = ratio(li8, psa8);
-        println!(
-            "  li2018 / projected-solid-angle: scalar {:.3} (min {:.3}), x8 {:.3} (min {:.3}); \
-             x8 li2018 ran {:.2} iterations per batch",
-            scalar.0,
-            scalar.1,
-            simd.0,
-            simd.1,
-            li_iterations.get() as f64 / (samples / LANES as f64)
-        );
+    /// The row of a kind.
+    pub fn row(&self, kind: RowKind) -> Option<&RowTiming> {
+        self.rows.iter().find(|r| r.kind == kind)
     }
+    /// Time relative to clipped solid angle (median/median, minimum/minimum).
+    pub fn ratio_to_clipped(&self, row: &RowTiming) -> (f64, f64) {
+        match self.row(RowKind::Scalar(Technique::ClippedSolidAngle)) {
+            Some(c) => (row.median_s / c.median_s, row.min_s / c.min_s),
+            None => (f64::NAN, f64::NAN),
+        }
+    }
+}
+
+/// A whole run of the table.
+#[derive(Clone, Debug)]
+pub struct Measurement {
+    pub stride: usize,
+    pub repeats: usize,
+    pub hit_points: usize,
+    /// The batch kernel the CPU runs.
+    pub isa: &'static str,
+    pub configs: Vec<ConfigTiming>,
 }
 
 /// The 1-minute load average (shared machine: timings depend on it).
-fn load() -> String {
+pub fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .ok()
         .and_then(|s| s.split_whitespace().next().map(str::to_string))
         .unwrap_or_else(|| "n/a".into())
+}
+
+/// Time every row of both configurations (see the module documentation). `progress(done,
+/// total)` after each timed pass.
+pub fn measure(stride: usize, repeats: usize, progress: &dyn Fn(usize, usize)) -> Measurement {
+    let (stride, repeats) = (stride.max(1), repeats.max(1));
+    let h = hit_points(stride);
+    let all_lights = lights();
+    let isa = Isa::detect();
+    let frame_scale = (WIDTH * HEIGHT) as f64 / h.p.len() as f64;
+    let kinds: Vec<(String, RowKind)> = Technique::ALL
+        .into_iter()
+        .map(|t| (t.name().to_string(), RowKind::Scalar(t)))
+        .chain([
+            (
+                format!("projected-solid-angle x8 ({})", isa.name()),
+                RowKind::Batched(Batched::ProjectedSolidAngle),
+            ),
+            (
+                format!("li2018 x8 ({})", isa.name()),
+                RowKind::Batched(Batched::Li2018),
+            ),
+        ])
+        .collect();
+    let total = 2 * repeats * kinds.len();
+    let mut done = 0;
+    let mut configs = Vec::new();
+    for (name, lights, spp) in [
+        ("128 lights x 1 spp", &all_lights[..], 1usize),
+        ("1 light x 128 spp", &all_lights[..1], SPP),
+    ] {
+        let samples = (h.p.len() * lights.len() * spp) as f64;
+        let mut li_iterations = 0u64;
+        let mut times = vec![Vec::new(); kinds.len()];
+        for _ in 0..repeats {
+            for (k, (_, kind)) in kinds.iter().enumerate() {
+                let start = Instant::now();
+                match *kind {
+                    RowKind::Scalar(t) => {
+                        black_box(shade_scalar(t, &h, lights, spp));
+                    }
+                    RowKind::Batched(b) => {
+                        let (sum, it) = shade_batched(b, isa, &h, lights, spp);
+                        black_box(sum);
+                        if b == Batched::Li2018 {
+                            li_iterations = it;
+                        }
+                    }
+                }
+                times[k].push(start.elapsed().as_secs_f64());
+                done += 1;
+                progress(done, total);
+            }
+        }
+        let rows = kinds
+            .iter()
+            .zip(&mut times)
+            .map(|((name, kind), t)| {
+                t.sort_by(f64::total_cmp);
+                RowTiming {
+                    name: name.clone(),
+                    kind: *kind,
+                    median_s: t[t.len() / 2],
+                    min_s: t[0],
+                }
+            })
+            .collect();
+        configs.push(ConfigTiming {
+            name,
+            lights: lights.len(),
+            spp,
+            samples,
+            frame_scale,
+            rows,
+            li_iterations_per_batch: li_iterations as f64 / (samples / LANES as f64),
+            load: load_average(),
+        });
+    }
+    Measurement {
+        stride,
+        repeats,
+        hit_points: h.p.len(),
+        isa: isa.name(),
+        configs,
+    }
 }

@@ -1,0 +1,110 @@
+//! The paper's timing table: `linlight_render::shading_cost` (every technique shading the cached
+//! hit points of a 1920×1080 frame, Lambert + GGX, no shadow rays, 128 lights × 1 spp and
+//! 1 light × 128 spp), printed as ns per sample, ms per frame and ratios to clipped solid angle.
+//! `linlight figures --only timings` draws the same measurement as a table.
+//!
+//! Timing: by default every 8th pixel of every 8th row (32 400 pixels, 4.1 M samples per row
+//! of the table; `LINLIGHT_SHADING_STRIDE=1` shades the whole frame), 5 repeats interleaved
+//! across the rows (`LINLIGHT_SHADING_REPEATS`).
+//!
+//! Instruction-count mode for callgrind (`--toggle-collect='*shade_*'`):
+//! `LINLIGHT_SHADING_ONLY=<row>:<config>` with row a technique name, `psa-x8` or `li-x8`, config
+//! `128x1` or `1x128`, shades once and prints the number of samples (instructions per sample
+//! = Ir / samples). Batches run the kernel the CPU supports (under valgrind: AVX2).
+//!
+//! Run: `cargo bench -p linlight-render --bench shading`.
+
+use linlight_render::shading_cost::{
+    hit_points, lights, measure, shade_batched, shade_scalar, Batched, RowKind, SPP,
+};
+use linlight_sampling::batch::Isa;
+use linlight_sampling::Technique;
+
+fn count_mode(spec: &str, stride: usize) {
+    let (row, config) = spec
+        .split_once(':')
+        .expect("LINLIGHT_SHADING_ONLY=<row>:<128x1|1x128>");
+    let h = hit_points(stride);
+    let all = lights();
+    let (lights, spp) = match config {
+        "128x1" => (&all[..], 1),
+        "1x128" => (&all[..1], SPP),
+        _ => panic!("config must be 128x1 or 1x128"),
+    };
+    let isa = Isa::detect();
+    let sum = match row {
+        "psa-x8" => shade_batched(Batched::ProjectedSolidAngle, isa, &h, lights, spp).0,
+        "li-x8" => shade_batched(Batched::Li2018, isa, &h, lights, spp).0,
+        t => shade_scalar(t.parse().expect("technique"), &h, lights, spp),
+    };
+    println!(
+        "{spec}: {} samples, checksum {sum}",
+        h.p.len() * lights.len() * spp
+    );
+}
+
+fn main() {
+    let stride_of = |default: usize| {
+        std::env::var("LINLIGHT_SHADING_STRIDE")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .filter(|&s| s >= 1)
+            .unwrap_or(default)
+    };
+    if let Ok(spec) = std::env::var("LINLIGHT_SHADING_ONLY") {
+        count_mode(&spec, stride_of(32));
+        return;
+    }
+    if !std::env::args().any(|a| a == "--bench") {
+        return; // `cargo test --benches`: nothing to check here
+    }
+    let repeats: usize = std::env::var("LINLIGHT_SHADING_REPEATS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .filter(|&s| s >= 1)
+        .unwrap_or(5);
+    let m = measure(stride_of(8), repeats, &|_, _| {});
+    println!(
+        "shading benchmark: {} of 1920x1080 hit points (stride {}), Lambert + GGX, no shadow rays, \
+         {} interleaved repeats; batch kernel {}",
+        m.hit_points, m.stride, m.repeats, m.isa
+    );
+    for c in &m.configs {
+        println!(
+            "\n{} ({:.1} M samples timed; uptime load: {})",
+            c.name,
+            c.samples / 1e6,
+            c.load
+        );
+        println!(
+            "  {:<28} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}",
+            "technique", "ns/sample", "(min)", "ms/frame", "(min)", "/clipped", "(min)"
+        );
+        for row in &c.rows {
+            let (ns, ns_min) = c.ns_per_sample(row);
+            let (ms, ms_min) = c.ms_per_frame(row);
+            let (r, r_min) = c.ratio_to_clipped(row);
+            println!(
+                "  {:<28} {ns:>10.2} {ns_min:>10.2} {ms:>12.1} {ms_min:>12.1} {r:>8.3} {r_min:>8.3}",
+                row.name
+            );
+        }
+        let ratio = |a: RowKind, b: RowKind| {
+            let (a, b) = (c.row(a).unwrap(), c.row(b).unwrap());
+            (a.median_s / b.median_s, a.min_s / b.min_s)
+        };
+        let scalar = ratio(
+            RowKind::Scalar(Technique::Li2018),
+            RowKind::Scalar(Technique::ProjectedSolidAngle),
+        );
+        let simd = ratio(
+            RowKind::Batched(Batched::Li2018),
+            RowKind::Batched(Batched::ProjectedSolidAngle),
+        );
+        println!(
+            "  li2018 / projected-solid-angle: scalar {:.3} (min {:.3}), x8 {:.3} (min {:.3}); \
+             x8 li2018 ran {:.2} iterations per batch",
+            scalar.0, scalar.1, simd.0, simd.1, c.li_iterations_per_batch
+        );
+    }
+}

@@ -1,0 +1,714 @@
+//! The batched renderer: the camera samples of a tile are rendered [`LANES`] at a time, as
+//! Mitsuba's LLVM variants do with their wavefronts — random numbers and camera rays of all
+//! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
+//! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
+//! rays, then Lambertian shading.
+//!
+//! It applies ([`applies`]) to the projected-solid-angle and Li et al. techniques (the ones
+//! with batch kernels) on scenes whose every surface is Lambertian (`diffuse` and blends of
+//! it); [`crate::render::render`] renders everything else (glossy BSDFs, other techniques) with
+//! the scalar path. Visible lines (`hide_emitters=false`) are added lane by lane with the
+//! scalar code.
+//!
+//! Same estimator, same numbers, same image: lane k is camera sample (pixel, sample) of the
+//! tile in the scalar path's order, draws the numbers of its own Philox stream in the scalar
+//! order (film position, then one per light, then the visible lines'), and every step is the
+//! scalar step's arithmetic (the batch kernels and packet walks equal their scalar forms bit
+//! for bit, ties of the closest hit included), so an image equals the one of the scalar
+//! reference path ([`crate::render::render_with`] with the same technique) bit for bit — tests
+//! below check it on every committed scene and technique. Pixels accumulate their samples in
+//! the same order (Welford in f64).
+//!
+//! Cost: `scripts/bench-render` (M samples/s against Mitsuba 3 on every committed scene);
+//! instruction counts per sample with `valgrind --tool=callgrind` (see docs/performance.md).
+//!
+//! Memory: each tile writes its pixels into the image when it is done; no second full-size
+//! buffer of tile results is held.
+
+use crate::bvh::{PacketHits, RayLanes, PACKET};
+use crate::film::Welford;
+use crate::integrator::{offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON};
+use crate::render::{
+    check_options, metadata, pixel_entries, pixel_value, window, RenderError, RenderOptions, TILE,
+};
+use crate::scene::Scene;
+use crate::shading::lambert_technique;
+use crate::shapes::{Primitive, Ray};
+use crate::visible_line::PixelLine;
+use glam::Vec3;
+use linlight_imagefile::Image;
+use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
+use linlight_sampling::philox::{unit_f32, CounterRng};
+use linlight_sampling::{Segment, Technique};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+/// Camera samples rendered together: one ray packet.
+pub const LANES: usize = PACKET;
+const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet");
+
+/// Whether the batched renderer can render `scene` with `opts`: only Lambertian surfaces, one
+/// light sample per camera sample, and a diffuse technique with a batch kernel — the method's
+/// own, or the projected solid angle that LTC and MIS use on Lambertian surfaces
+/// ([`lambert_technique`]).
+pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
+    matches!(
+        lambert_technique(opts.method),
+        Technique::ProjectedSolidAngle | Technique::Li2018
+    ) && opts.light_samples == 1
+        // Its lanes draw the white stream directly; blue noise takes the scalar path.
+        && opts.noise == linlight_sampling::noise::Noise::White
+        && scene.shapes.iter().all(|s| s.bsdf.lambertian().is_some())
+}
+
+/// Render `scene` with the batched renderer (see the module documentation); the same
+/// contract as [`crate::render::render`]. An error when it does not [`apply`](applies).
+pub fn render(
+    scene: &Scene,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    render_isa(scene, opts, Isa::detect(), progress)
+}
+
+/// [`render`] with the kernels of `isa` (the baseline where the CPU does not run it).
+pub fn render_isa(
+    scene: &Scene,
+    opts: &RenderOptions,
+    isa: Isa,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    check_options(opts)?;
+    if !applies(scene, opts) {
+        return Err(RenderError::Options(format!(
+            "the batched renderer needs the projected solid angle or Li et al. technique, one \
+             light sample and Lambertian surfaces (method {}, {} light samples)",
+            opts.method, opts.light_samples
+        )));
+    }
+    let (x0, y0, w, h) = window(scene)?;
+    let rs = RenderScene::new(scene)?;
+    let ctx = Context {
+        rs: &rs,
+        opts,
+        isa: if isa.supported() { isa } else { Isa::Baseline },
+        full_width: scene.sensor.film.width,
+    };
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let done = AtomicUsize::new(0);
+    let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
+    let image = Mutex::new({
+        let mut image = Image::new(w as usize, h as usize);
+        image.tail = Some(vec![[0.0; 3]; image.mean.len()]);
+        image
+    });
+    tiles.par_iter().for_each(|&(tx, ty)| {
+        let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
+            .flat_map(|y| (tx..(tx + TILE).min(w)).map(move |x| (x0 + x, y0 + y)))
+            .collect();
+        let mut seen: Vec<Vec<PixelLine>> = vec![Vec::new(); pixels.len()];
+        for (&(fx, fy), s) in pixels.iter().zip(&mut seen) {
+            rs.visible.pixel(fx, fy, s);
+        }
+        let mut passes = vec![Welford::default(); pixels.len()];
+        let mut single = vec![Welford::default(); pixels.len()];
+        for pass in 0..opts.passes {
+            single.fill(Welford::default());
+            ctx.tile_pass(&pixels, &seen, pass, &mut single);
+            for (p, s) in passes.iter_mut().zip(&single) {
+                p.push(s.mean());
+            }
+            let step = pixels.len() * opts.spp as usize;
+            progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
+        }
+        let mut image = image.lock().unwrap_or_else(|e| e.into_inner());
+        for (k, (p, s)) in passes.iter().zip(&single).enumerate() {
+            let (x, y) = (
+                tx + k as u32 % TILE.min(w - tx),
+                ty + k as u32 / TILE.min(w - tx),
+            );
+            let i = y as usize * w as usize + x as usize;
+            let v = pixel_value(opts, p, s);
+            (image.mean[i], image.var[i]) = (v.mean, v.var);
+            if let Some(tail) = &mut image.tail {
+                tail[i] = v.tail;
+            }
+        }
+    });
+    let mut image = image.into_inner().unwrap_or_else(|e| e.into_inner());
+    image.meta = metadata(
+        opts,
+        scene,
+        pixel_entries(scene, &rs, (x0, y0, w, h)),
+        Vec::new(),
+    );
+    Ok(image)
+}
+
+/// What every packet of a render shares.
+struct Context<'a> {
+    rs: &'a RenderScene,
+    opts: &'a RenderOptions,
+    isa: Isa,
+    full_width: u32,
+}
+
+/// Eight-lane ([`BATCH`]) halves of sixteen-lane arrays.
+type Lanes3 = [[f32; LANES]; 3];
+
+#[inline(always)]
+fn get3(v: &Lanes3, k: usize) -> Vec3 {
+    Vec3::new(v[0][k], v[1][k], v[2][k])
+}
+
+#[inline(always)]
+fn set3(v: &mut Lanes3, k: usize, x: Vec3) {
+    (v[0][k], v[1][k], v[2][k]) = (x.x, x.y, x.z);
+}
+
+/// The shading points of a packet, lane k from camera sample k (structure of arrays). Lanes
+/// outside `active` (no hit, or a surface that does not reflect toward the camera) hold zeros.
+struct ShadingLanes {
+    active: u32,
+    p: Lanes3,
+    /// Geometric normal (offsets shadow-ray origins).
+    ng: Lanes3,
+    /// Normal of the side that reflects ([`reflecting_normal`]).
+    n: Lanes3,
+    /// f = ρ/π (zero outside `active`).
+    lambert: Lanes3,
+}
+
+/// The light samples of a packet for one light: direction, density, distance to the line
+/// along the direction; `mask`: lanes with a sample.
+#[derive(Default)]
+struct SampleLanes {
+    mask: u32,
+    dir: Lanes3,
+    pdf: [f32; LANES],
+    distance: [f32; LANES],
+}
+
+impl<'a> Context<'a> {
+    /// One pass over the pixels of a tile (full-film coordinates): their camera samples in the
+    /// scalar order (pixel by pixel, sample by sample), `LANES` at a time, pushed into `acc`.
+    fn tile_pass(
+        &self,
+        pixels: &[(u32, u32)],
+        seen: &[Vec<PixelLine>],
+        pass: u32,
+        acc: &mut [Welford],
+    ) {
+        let spp = self.opts.spp as usize;
+        let total = pixels.len() * spp;
+        let mut start = 0;
+        let mut packet = Packet::default();
+        while start < total {
+            let len = LANES.min(total - start);
+            packet.len = len;
+            for k in 0..LANES {
+                let j = (start + k.min(len - 1)) as u64;
+                let (pixel, sample) = ((j / spp as u64) as usize, (j % spp as u64) as u32);
+                let (fx, fy) = pixels[pixel];
+                packet.pixel[k] = pixel;
+                packet.fx[k] = fx;
+                packet.fy[k] = fy;
+                // < 2^32: checked by `window`.
+                packet.index[k] = fy.wrapping_mul(self.full_width).wrapping_add(fx);
+                packet.sample[k] = sample;
+            }
+            let mut radiance = run_packet(self.isa, self, &packet, pass);
+            self.visible_lines(&packet, seen, pass, &mut radiance);
+            for k in 0..len {
+                acc[packet.pixel[k]].push(get3(&radiance.total, k).to_array().map(|c| c as f64));
+            }
+            start += len;
+        }
+    }
+
+    /// The lines the camera sees in a lane's pixel: drawn after the numbers the lane has used
+    /// (film position, and the lights' when its ray reached a reflecting surface), lane by lane.
+    fn visible_lines(
+        &self,
+        packet: &Packet,
+        seen: &[Vec<PixelLine>],
+        pass: u32,
+        radiance: &mut Radiance,
+    ) {
+        let rs = self.rs;
+        for k in 0..packet.len {
+            let lines = &seen[packet.pixel[k]];
+            if lines.is_empty() {
+                continue;
+            }
+            let mut rng =
+                CounterRng::camera_sample(self.opts.seed, pass, packet.index[k], packet.sample[k]);
+            let used = 2 + if radiance.shaded >> k & 1 == 1 {
+                rs.lights.len()
+            } else {
+                0
+            };
+            for _ in 0..used {
+                rng.next_u32();
+            }
+            let mut t = get3(&radiance.total, k);
+            rs.visible
+                .add_estimate(lines, &rs.bvh, || rng.next_f64(), &mut t);
+            set3(&mut radiance.total, k, t);
+        }
+    }
+}
+
+/// The camera samples of a packet: lane k is sample `sample[k]` of the tile's pixel
+/// `pixel[k]` at full-film (`fx[k]`, `fy[k]`), film index `index[k]`; lanes ≥ `len` repeat the
+/// last sample and are ignored.
+#[derive(Default)]
+struct Packet {
+    len: usize,
+    pixel: [usize; LANES],
+    fx: [u32; LANES],
+    fy: [u32; LANES],
+    index: [u32; LANES],
+    sample: [u32; LANES],
+}
+
+/// Radiance of each lane of a packet, and the lanes whose camera ray reached a reflecting
+/// surface (they used one number per light).
+struct Radiance {
+    total: Lanes3,
+    shaded: u32,
+}
+
+linlight_sampling::isa_variants! {
+    fn run_packet(ctx: &Context, packet: &Packet, pass: u32) -> Radiance = packet_kernel;
+}
+
+/// Radiance of the camera samples of `packet` (see the module documentation), every stage
+/// over all lanes. Inlined into one function per instruction set.
+#[inline(always)]
+fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
+    let rs = ctx.rs;
+    let lights = &rs.lights;
+    let active = ((1u64 << packet.len) - 1) as u32;
+    // Film position (2 numbers) and one number per light, from the lanes' own streams.
+    let mut words = [[[0u32; LANES]; 4]; MAX_BLOCKS];
+    let blocks = (2 + lights.len()).div_ceil(4);
+    for (b, w) in words.iter_mut().enumerate().take(blocks.min(MAX_BLOCKS)) {
+        *w = CounterRng::camera_sample_block(
+            ctx.opts.seed,
+            pass,
+            &packet.index,
+            &packet.sample,
+            b as u32,
+        );
+    }
+    let number = |dim: usize| -> [f32; LANES] {
+        if dim / 4 < MAX_BLOCKS {
+            words[dim / 4][dim % 4].map(unit_f32)
+        } else {
+            // More lights than the blocks kept: this dimension lane by lane.
+            std::array::from_fn(|k| {
+                let id = [packet.sample[k], packet.index[k], pass];
+                unit_f32(CounterRng::at(ctx.opts.seed, id, dim as u64))
+            })
+        }
+    };
+
+    let (u, v) = (number(0), number(1));
+    let px: [f32; LANES] = std::array::from_fn(|k| packet.fx[k] as f32 + u[k]);
+    let py: [f32; LANES] = std::array::from_fn(|k| packet.fy[k] as f32 + v[k]);
+    let mut rays = RayLanes::default();
+    rs.camera.ray_lanes(&px, &py, &mut rays);
+    let hits = rs.bvh.intersect_lanes(&rays, active);
+    let shading = shading_points(rs, &rays, &hits);
+
+    let mut total = [[0.0f32; LANES]; 3];
+    let mut dropped = 0u64;
+    for (j, (segment, k_light)) in lights.iter().enumerate() {
+        let samples = ctx.light_samples(segment, &shading, &number(2 + j));
+        let (shadow, mask) = shadow_rays(&shading, &samples);
+        let occluded = rs.bvh.occluded_lanes(&shadow, mask);
+        let lit = mask & !occluded;
+        // K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R), and only finite contributions (adding
+        // +0 elsewhere leaves a sum that starts at +0 bitwise unchanged).
+        let mut lambert_dropped = 0u32;
+        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+        for k in 0..LANES {
+            let n = get3(&shading.n, k);
+            let dir = get3(&samples.dir, k);
+            let f = get3(&shading.lambert, k);
+            let c = *k_light * f * (n.dot(dir) / samples.pdf[k]);
+            let lambert = lit >> k & 1 == 1;
+            let add = lambert & c.is_finite();
+            lambert_dropped |= ((lambert & !c.is_finite()) as u32) << k;
+            for a in 0..3 {
+                total[a][k] += if add { c[a] } else { 0.0 };
+            }
+        }
+        dropped += lambert_dropped.count_ones() as u64;
+    }
+    if dropped > 0 {
+        rs.dropped.0.fetch_add(dropped, Ordering::Relaxed);
+    }
+    Radiance {
+        total,
+        shaded: shading.active,
+    }
+}
+
+/// Blocks of four numbers per lane drawn together (2 + lights ≤ 16); further dimensions are
+/// drawn lane by lane.
+const MAX_BLOCKS: usize = 4;
+
+/// The shading points of the lanes that hit a surface reflecting toward the camera: the
+/// scalar integrator's `surface_point` and `reflecting_normal`, lane by lane (every surface
+/// is Lambertian: [`applies`]).
+#[inline(always)]
+fn shading_points(rs: &RenderScene, rays: &RayLanes, hits: &PacketHits) -> ShadingLanes {
+    let mut out = ShadingLanes {
+        active: 0,
+        p: [[0.0; LANES]; 3],
+        ng: [[0.0; LANES]; 3],
+        n: [[0.0; LANES]; 3],
+        lambert: [[0.0; LANES]; 3],
+    };
+    // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
+    // all lanes at once below, other primitives with their own `surface_point`.
+    let (mut p, mut ng, mut ns) = (
+        [[0.0f32; LANES]; 3],
+        [[0.0f32; LANES]; 3],
+        [[0.0f32; LANES]; 3],
+    );
+    let mut tri = Triangles::default();
+    let mut shape_of = [0usize; LANES];
+    let mut m = hits.mask;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let prim = rs.bvh.primitive(hits.prim[k]);
+        let shape = prim.shape() as usize;
+        shape_of[k] = shape;
+        let flip = rs.surfaces[shape].1;
+        match prim {
+            Primitive::Triangle { v, n, .. } => tri.set(k, v, n.as_ref(), flip),
+            _ => {
+                let Some(hit) = hits.get(k) else { continue };
+                let sp = prim.surface_point(&rays.get(k), &hit, flip);
+                set3(&mut p, k, sp.p);
+                set3(&mut ng, k, sp.ng);
+                set3(&mut ns, k, sp.ns);
+            }
+        }
+    }
+    if tri.mask != 0 {
+        tri.surface_points(hits, &mut p, &mut ng, &mut ns);
+    }
+    let mut m = hits.mask;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let shape = shape_of[k];
+        let wi = -get3(&rays.d, k);
+        let Some(n) = reflecting_normal(&rs.surfaces[shape].0, get3(&ns, k), wi) else {
+            continue;
+        };
+        out.active |= 1 << k;
+        set3(&mut out.p, k, get3(&p, k));
+        set3(&mut out.ng, k, get3(&ng, k));
+        set3(&mut out.n, k, n);
+        debug_assert!(rs.lambert[shape].is_some(), "only Lambertian surfaces");
+        set3(&mut out.lambert, k, rs.lambert[shape].unwrap_or(Vec3::ZERO));
+    }
+    out
+}
+
+/// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
+/// (`normals`: lanes that have them), the sign of `flip_normals`.
+struct Triangles {
+    mask: u32,
+    v: [Lanes3; 3],
+    n: [Lanes3; 3],
+    normals: u32,
+    sign: [f32; LANES],
+}
+
+impl Default for Triangles {
+    fn default() -> Self {
+        Self {
+            mask: 0,
+            v: [[[0.0; LANES]; 3]; 3],
+            n: [[[0.0; LANES]; 3]; 3],
+            normals: 0,
+            sign: [1.0; LANES],
+        }
+    }
+}
+
+impl Triangles {
+    #[inline(always)]
+    fn set(&mut self, k: usize, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
+        self.mask |= 1 << k;
+        for (lanes, &vj) in self.v.iter_mut().zip(v) {
+            set3(lanes, k, vj);
+        }
+        if let Some(n) = n {
+            self.normals |= 1 << k;
+            for (lanes, &nj) in self.n.iter_mut().zip(n) {
+                set3(lanes, k, nj);
+            }
+        }
+        self.sign[k] = if flip { -1.0 } else { 1.0 };
+    }
+
+    /// `Primitive::surface_point` of the triangle lanes, the same operations lane by lane (so
+    /// the same bits), in one loop over all lanes that the compiler vectorises; other lanes
+    /// are left as they are.
+    #[inline(always)]
+    fn surface_points(&self, hits: &PacketHits, p: &mut Lanes3, ng: &mut Lanes3, ns: &mut Lanes3) {
+        for k in 0..LANES {
+            let (b1, b2) = (hits.b1[k], hits.b2[k]);
+            let b0 = 1.0 - b1 - b2;
+            let [v0, v1, v2] = self.v.each_ref().map(|v| get3(v, k));
+            let [n0, n1, n2] = self.n.each_ref().map(|n| get3(n, k));
+            let pk = b0 * v0 + b1 * v1 + b2 * v2;
+            let ngk = (v1 - v0).cross(v2 - v0).normalize_or_zero();
+            let nsk = (b0 * n0 + b1 * n1 + b2 * n2).normalize_or_zero();
+            let nsk = if (self.normals >> k & 1 == 1) & (nsk != Vec3::ZERO) {
+                nsk
+            } else {
+                ngk
+            };
+            if self.mask >> k & 1 == 1 {
+                let sign = self.sign[k];
+                set3(p, k, pk);
+                set3(ng, k, sign * ngk);
+                set3(ns, k, sign * nsk);
+            }
+        }
+    }
+}
+
+/// Shadow rays of the lanes whose sample can contribute (the scalar integrator's tests:
+/// positive finite density, n·ω > 0, a finite positive distance, a usable shadow ray), and
+/// their mask.
+#[inline(always)]
+fn shadow_rays(shading: &ShadingLanes, samples: &SampleLanes) -> (RayLanes, u32) {
+    let mut rays = RayLanes::default();
+    let mut mask = 0u32;
+    for k in 0..LANES {
+        let (p, ng, n) = (
+            get3(&shading.p, k),
+            get3(&shading.ng, k),
+            get3(&shading.n, k),
+        );
+        let (dir, pdf, distance) = (get3(&samples.dir, k), samples.pdf[k], samples.distance[k]);
+        let cos = n.dot(dir);
+        // distance = d/t with d > 0: the scalar test "t > 0 and d/t finite".
+        let usable =
+            (pdf > 0.0) & pdf.is_finite() & (cos > 0.0) & (distance > 0.0) & distance.is_finite();
+        let (ray, ok) = shadow_ray_lane(p, ng, p + distance * dir);
+        rays.set(k, &ray);
+        mask |= ((usable & ok & (samples.mask >> k & 1 == 1)) as u32) << k;
+    }
+    (rays, mask)
+}
+
+impl<'a> Context<'a> {
+    /// One sample of the light `segment` for every lane with a shading point (the lanes of
+    /// `mask` in the result), ξ of lane k = `xi[k]`.
+    #[inline(always)]
+    fn light_samples(
+        &self,
+        segment: &Segment,
+        shading: &ShadingLanes,
+        xi: &[f32; LANES],
+    ) -> SampleLanes {
+        let technique = lambert_technique(self.opts.method);
+        // `applies` admits projected solid angle and Li et al. only.
+        debug_assert!(matches!(
+            technique,
+            Technique::ProjectedSolidAngle | Technique::Li2018
+        ));
+        let mut out = SampleLanes::default();
+        let mut inputs = [PsaBatchInput::default(); 2];
+        for (b, input) in inputs.iter_mut().enumerate() {
+            input.begin = Vec3x8::splat(segment.begin);
+            input.end = Vec3x8::splat(segment.end);
+            for i in 0..BATCH {
+                let k = b * BATCH + i;
+                // Lanes without a shading point have a zero normal: no contribution.
+                input.x.set(i, get3(&shading.p, k));
+                input.n.set(i, get3(&shading.n, k));
+                input.xi[i] = xi[k];
+            }
+        }
+        let mut outputs = [PsaBatchOutput::default(); 2];
+        if technique == Technique::ProjectedSolidAngle {
+            batch::sample_projected_solid_angle_slice(self.isa, &inputs, &mut outputs);
+        } else {
+            for (input, output) in inputs.iter().zip(&mut outputs) {
+                *output = batch::sample_li2018_with(self.isa, input).0;
+            }
+        }
+        for (b, o) in outputs.iter().enumerate() {
+            for i in 0..BATCH {
+                let k = b * BATCH + i;
+                set3(&mut out.dir, k, o.dir.get(i));
+                out.pdf[k] = o.pdf[i];
+                out.distance[k] = o.distance[i];
+            }
+            out.mask |= (o.mask as u32) << (b * BATCH);
+        }
+        out.mask &= shading.active;
+        out
+    }
+}
+
+/// [`shadow_ray_to`] without branches: the ray, and whether `shadow_ray_to` returns it.
+#[inline(always)]
+fn shadow_ray_lane(p: Vec3, ng: Vec3, target: Vec3) -> (Ray, bool) {
+    let o = offset_origin(p, ng, target - p);
+    let d = target - o;
+    let dist = d.length();
+    let ok = (dist > 0.0) & dist.is_finite();
+    let ray = Ray {
+        o,
+        d: d / dist,
+        t_min: 0.0,
+        t_max: dist * (1.0 - SHADOW_EPSILON),
+    };
+    (ray, ok)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hooks::Hooks;
+    use crate::method::Method;
+    use crate::render::render_with;
+    use crate::xml;
+
+    fn scene(name: &str, res: u32) -> Scene {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../references/scenes")
+            .join(format!("{name}.xml"));
+        xml::load_scene(&path, &[("res".into(), res.to_string())]).expect(name)
+    }
+
+    fn bits(img: &Image) -> Vec<u32> {
+        img.mean
+            .iter()
+            .chain(&img.var)
+            .chain(img.tail.iter().flatten())
+            .flat_map(|p| p.map(f32::to_bits))
+            .collect()
+    }
+
+    /// Every committed scene the batched renderer applies to, both batch techniques, every
+    /// kernel the CPU runs: the image equals the scalar path's bit for bit (means, variances,
+    /// tail shares, header), with spp not a multiple of the packet (packets span pixels) and
+    /// with passes.
+    #[test]
+    fn images_equal_the_scalar_path() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../references/scenes");
+        let mut names: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| {
+                let p = e.ok()?.path();
+                (p.extension()? == "xml").then(|| p.file_stem()?.to_str().map(String::from))?
+            })
+            .collect();
+        names.sort();
+        assert!(names.len() >= 5, "{names:?}");
+        let mut rendered = 0;
+        for name in &names {
+            let scene = scene(name, 24);
+            // The two batch techniques, and the default MIS and LTC, which shade Lambertian
+            // surfaces with the projected solid angle.
+            let methods = [
+                Technique::ProjectedSolidAngle.into(),
+                Technique::Li2018.into(),
+                Method::default(),
+                Method::Ltc,
+            ];
+            for technique in methods {
+                for (spp, passes) in [(5, 1), (16, 2)] {
+                    let opts = RenderOptions {
+                        spp,
+                        passes,
+                        seed: 3,
+                        method: technique,
+                        light_samples: 1,
+                        noise: Default::default(),
+                    };
+                    if !applies(&scene, &opts) {
+                        continue;
+                    }
+                    let scalar = render_with(&scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
+                    // Every kernel this CPU runs (the baseline always: CPUs without AVX).
+                    for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
+                        let batched = render_isa(&scene, &opts, isa, &|_, _| {}).unwrap();
+                        assert!(
+                            bits(&batched) == bits(&scalar),
+                            "{name}, {technique}, {isa:?}, {spp} spp × {passes}"
+                        );
+                        assert_eq!(batched.meta, scalar.meta, "{name}, {technique}");
+                    }
+                    rendered += 1;
+                }
+            }
+        }
+        // The Lambertian scenes (cornell-tube at least) take the batched path.
+        assert!(rendered >= 16, "{rendered} batched renders");
+    }
+
+    /// Glossy scenes and techniques without a batch kernel take the scalar path.
+    #[test]
+    fn applies_only_where_it_can() {
+        let opts = |technique: Technique| RenderOptions {
+            spp: 1,
+            passes: 1,
+            seed: 0,
+            method: technique.into(),
+            light_samples: 1,
+            noise: Default::default(),
+        };
+        let cornell = scene("cornell-tube", 8);
+        assert!(applies(&cornell, &opts(Technique::ProjectedSolidAngle)));
+        assert!(applies(&cornell, &opts(Technique::Li2018)));
+        assert!(!applies(&cornell, &opts(Technique::Area)));
+        // Blue noise reaches the light samples through the scalar path only.
+        assert!(!applies(
+            &cornell,
+            &RenderOptions {
+                noise: linlight_sampling::noise::Noise::Blue,
+                ..opts(Technique::ProjectedSolidAngle)
+            }
+        ));
+        assert!(applies(
+            &cornell,
+            &RenderOptions {
+                method: Method::default(),
+                ..opts(Technique::Area)
+            }
+        ));
+        assert!(!applies(
+            &cornell,
+            &RenderOptions {
+                light_samples: 2,
+                ..opts(Technique::ProjectedSolidAngle)
+            }
+        ));
+        assert!(render(&cornell, &opts(Technique::Area), &|_, _| {}).is_err());
+        let mut glossy = cornell.clone();
+        glossy.shapes[0].bsdf = crate::scene::Bsdf::RoughConductor(linlight_brdf::RoughConductor {
+            alpha: 0.2,
+            fresnel: linlight_brdf::ConductorFresnel::One,
+            specular_reflectance: [1.0; 3],
+        });
+        assert!(!applies(&glossy, &opts(Technique::ProjectedSolidAngle)));
+    }
+}

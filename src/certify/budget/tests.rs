@@ -1,0 +1,280 @@
+use super::*;
+use linlight_verify::image_stats::Verdict;
+
+fn flat(var: f32) -> Image {
+    let mut img = Image::new(4, 4);
+    img.mean.iter_mut().for_each(|m| *m = [1.0; 3]);
+    img.var.iter_mut().for_each(|v| *v = [var; 3]);
+    img.meta.dof = 31.0;
+    img
+}
+
+#[test]
+fn parity_matches_the_reference_variance() {
+    // σ² = 256 · 1e-4 = 0.0256 per sample, reference 1e-6 → 25 600 spp.
+    let rule = BudgetRule::parity();
+    let cfg = CompareConfig::default();
+    let b = rule.choose(&flat(1e-4), &flat(1e-6), &cfg).unwrap();
+    assert_eq!(b.spp, 25_600);
+    assert!(!b.capped);
+    assert_eq!(b.bound, Bound::Parity);
+    let capped = BudgetRule {
+        max_spp: 1024,
+        ..rule
+    }
+    .choose(&flat(1e-4), &flat(1e-6), &cfg)
+    .unwrap();
+    assert_eq!((capped.spp, capped.capped), (1024, true));
+    // Nothing to match (all black): the minimum.
+    assert_eq!(
+        rule.choose(&flat(0.0), &flat(1e-6), &cfg).unwrap().spp,
+        rule.min_spp
+    );
+}
+
+#[test]
+fn quantile_ignores_rare_outliers() {
+    let mut v = vec![1.0; 999];
+    v.push(1e9);
+    assert_eq!(quantile(v.clone(), 0.99), Some(1.0));
+    assert_eq!(quantile(v, 1.0), Some(1e9));
+    assert_eq!(quantile(vec![], 0.5), None);
+}
+
+#[test]
+fn precision_counts_pixels() {
+    let p = precision(&flat(1e-6), &flat(2e-6));
+    assert_eq!(p.at_least_as_precise, 1.0);
+    assert_eq!(p.median_variance_ratio, Some(0.5));
+}
+
+#[test]
+fn one_constraint() {
+    // V_A = 4/100² = 4e-4, V_B = 1e-6/1e4 = 1e-10... with T = (0.005/5)² = 1e-6.
+    let s = SetSums {
+        sigma2_a: 4.0,
+        var_b: 1e-2,
+        mean_b: 100.0,
+    };
+    let (va, vb) = (4e-4, 1e-6);
+    let t: f64 = 1e-6 * 4.0;
+    // T = (0.01/5)² = 4e-6: N = V_A/(T − V_B) = 4e-4/3e-6.
+    match need(&s, 0.01, 5.0) {
+        Need::Spp(n) => assert!((n - va / (t - vb)).abs() < 1e-6 * n, "{n}"),
+        other => panic!("{other:?}"),
+    }
+    // T = (0.005/5)² = 1e-6 ≤ V_B/0.8: reference-limited, A gets 4·V_A/V_B.
+    match need(&s, 0.005, 5.0) {
+        Need::ReferenceLimited(n) => assert!((n - 4.0 * va / vb).abs() < 1e-6 * n, "{n}"),
+        other => panic!("{other:?}"),
+    }
+    // No signal, or no variance: nothing to ask.
+    let dark = SetSums { mean_b: 0.0, ..s };
+    assert_eq!(need(&dark, 0.05, 5.0), Need::Nothing);
+    let exact = SetSums { sigma2_a: 0.0, ..s };
+    assert_eq!(need(&exact, 0.05, 5.0), Need::Nothing);
+}
+
+/// Deterministic normal variates (SplitMix64 + Box–Muller).
+struct Normal(u64);
+
+impl Normal {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn next(&mut self) -> f64 {
+        let u = self.uniform().max(1e-300);
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * self.uniform()).cos()
+    }
+}
+
+const SIZE: usize = 64;
+/// The dark tile of the synthetic scene (a tile of the grid shifted by half a tile).
+const DARK: Region = Region {
+    x: 24,
+    y: 24,
+    width: 16,
+    height: 16,
+};
+
+fn in_dark(i: usize) -> bool {
+    let (x, y) = (i % SIZE, i / SIZE);
+    (DARK.x..DARK.x + 16).contains(&x) && (DARK.y..DARK.y + 16).contains(&y)
+}
+
+/// True mean and per-sample variance of pixel i: 1 and 4 (CV² = 4) everywhere, 0.1 and 0.4
+/// (CV² = 40) in the dark tile when `dark`.
+fn truth(i: usize, dark: bool) -> (f64, f64) {
+    if dark && in_dark(i) {
+        (0.1, 0.4)
+    } else {
+        (1.0, 4.0)
+    }
+}
+
+/// An image of `spp` samples whose pixel means are normal around the truth (× `scale` where
+/// `biased`), with exact variances of the mean.
+fn image(
+    spp: Option<u32>,
+    ref_var: f64,
+    dark: bool,
+    rng: &mut Normal,
+    scale: f64,
+    biased: impl Fn(usize) -> bool,
+) -> Image {
+    let mut img = Image::new(SIZE, SIZE);
+    for i in 0..SIZE * SIZE {
+        let (mu, s2) = truth(i, dark);
+        let v = spp.map_or(ref_var * mu * mu, |n| s2 / n as f64);
+        let k = if biased(i) { scale } else { 1.0 };
+        for c in 0..3 {
+            img.mean[i][c] = (k * (mu + v.sqrt() * rng.next())) as f32;
+            img.var[i][c] = (k * k * v) as f32;
+        }
+    }
+    img.meta.spp = spp.map_or(32_768, u64::from);
+    img.meta.dof = spp.map_or(31.0, |n| n as f64 - 1.0);
+    img
+}
+
+/// Verdicts of `draws` renders at the budget against fresh references.
+fn verdicts(
+    spp: u32,
+    dark: bool,
+    scale: f64,
+    biased: impl Fn(usize) -> bool + Copy,
+    draws: usize,
+) -> (usize, usize) {
+    let cfg = CompareConfig::default();
+    let mut rng = Normal(spp as u64 * 7919 + draws as u64);
+    let (mut different, mut inconclusive) = (0, 0);
+    for _ in 0..draws {
+        let b = image(None, 1e-6, dark, &mut rng, 1.0, |_| false);
+        let a = image(Some(spp), 0.0, dark, &mut rng, scale, biased);
+        match compare(&a, &b, &cfg).unwrap().verdict {
+            Verdict::Different => different += 1,
+            Verdict::Inconclusive => inconclusive += 1,
+            Verdict::Consistent => {}
+        }
+    }
+    (different, inconclusive)
+}
+
+/// The test-power rule with a 5 % tile target (certify's default is 1 %; at 5 % the synthetic
+/// scenes have a global-bound and a tile-bound case).
+fn rule() -> BudgetRule {
+    BudgetRule {
+        min_spp: 64,
+        target: Target::Tests {
+            power: 0.99,
+            tile_bias: 0.05,
+        },
+        ..BudgetRule::default()
+    }
+}
+
+fn budget_of(dark: bool) -> Budget {
+    let mut rng = Normal(1);
+    // Noise-free pilot and reference means (the budget's sums are then exact): the pilot's
+    // variances are the per-sample variances over 256, the reference's 1e-6 relative.
+    let mut reference = image(None, 1e-6, dark, &mut rng, 1.0, |_| false);
+    let mut pilot = image(Some(256), 0.0, dark, &mut rng, 1.0, |_| false);
+    for i in 0..SIZE * SIZE {
+        pilot.mean[i] = [truth(i, dark).0 as f32; 3];
+        reference.mean[i] = pilot.mean[i];
+    }
+    rule()
+        .choose(&pilot, &reference, &CompareConfig::default())
+        .unwrap()
+}
+
+/// The global constraint binds on a uniform image: V_A = 4/4096 per sample, V_B ≈ 1e-6/4096,
+/// T = (0.5 %/k_g)² with k_g = z(α/24) + z(0.99) at α = 0.01.
+#[test]
+fn the_global_test_sets_the_budget_of_a_uniform_image() {
+    let b = budget_of(false);
+    let t = b.tests.unwrap();
+    assert_eq!(b.bound, Bound::Global, "{b:?}");
+    let k = normal_two_sided_quantile(0.01 / 12.0) + normal_two_sided_quantile(0.02);
+    assert!((t.k_global - k).abs() < 1e-9, "{} vs {k}", t.k_global);
+    let want = (4.0 / 4096.0) / ((0.005 / k).powi(2) - 1e-6 / 4096.0);
+    assert!(
+        (t.global_spp - want).abs() < 1e-6 * want,
+        "{} vs {want}",
+        t.global_spp
+    );
+    assert_eq!(b.spp, (want / 64.0).ceil() as u32 * 64);
+    assert!(t.detectable_global_bias <= 0.005 && t.detectable_global_bias > 0.0045);
+    // 16 aligned + 9 full shifted tiles, all resolvable.
+    assert_eq!((t.tiles, t.tiles_covered), (25, 25));
+}
+
+/// A dark, noisy tile sets the budget when its constraint is the largest.
+#[test]
+fn a_dark_tile_sets_the_budget() {
+    let b = budget_of(true);
+    let t = b.tests.unwrap();
+    assert_eq!(b.bound, Bound::Tile(DARK), "{b:?}");
+    assert_eq!(t.hardest_tile, Some(DARK));
+    assert!(t.tile_spp > t.global_spp);
+    assert!(t.detectable_tile_bias.unwrap() <= 0.05);
+}
+
+/// The budget delivers what it promises: at its spp a 0.5 % global bias and a 5 % bias of the
+/// hardest tile are rejected (design power 0.99 per channel), an unbiased render is
+/// consistent (false alarms ≤ α, equivalence shown with probability 0.99) — and at an eighth
+/// of it the same biases mostly pass: the budget is not wasteful. At N/8 the bias is
+/// k/√8 ≈ 2.0 standard errors instead of k ≈ 5.7, a per-channel power of Φ(2.0 − z_t) ≈ 9 % for
+/// the global test (z_t = 3.34); the synthetic channels are independent, so about
+/// 1 − 0.91³ ≈ 25 % of the renders are rejected (at N/4 it would be 1 − 0.69³ ≈ 67 %: the
+/// three channels of a real render are nearly one, which is why the design is per channel).
+#[test]
+fn the_budget_has_the_power_it_promises() {
+    let draws = 100;
+    let uniform = budget_of(false).spp;
+    let (d, i) = verdicts(uniform, false, 1.0, |_| false, draws);
+    assert!(
+        d <= 3 && i <= 4,
+        "unbiased at {uniform} spp: {d} different, {i} inconclusive"
+    );
+    let (d, _) = verdicts(uniform, false, 1.005, |_| true, draws);
+    assert!(
+        d >= 96,
+        "0.5 % global bias at {uniform} spp: {d}/{draws} rejected"
+    );
+    let (d, _) = verdicts(uniform / 8, false, 1.005, |_| true, draws);
+    assert!(
+        d <= 50,
+        "0.5 % global bias at an eighth: {d}/{draws} rejected"
+    );
+
+    let dark = budget_of(true).spp;
+    let (d, _) = verdicts(dark, true, 1.05, in_dark, draws);
+    assert!(
+        d >= 96,
+        "5 % bias of the dark tile at {dark} spp: {d}/{draws} rejected"
+    );
+    let (d, _) = verdicts(dark / 8, true, 1.05, in_dark, draws);
+    assert!(d <= 50, "5 % tile bias at an eighth: {d}/{draws} rejected");
+}
+
+#[test]
+fn a_reference_limited_tile_is_not_covered() {
+    let mut rng = Normal(3);
+    let mut reference = image(None, 1e-6, true, &mut rng, 1.0, |_| false);
+    // The dark tile's reference is so noisy that a 5 % bias there is beyond its resolution.
+    for i in (0..SIZE * SIZE).filter(|&i| in_dark(i)) {
+        reference.var[i] = [1e-2; 3];
+    }
+    let pilot = image(Some(256), 0.0, true, &mut rng, 1.0, |_| false);
+    let b = rule()
+        .choose(&pilot, &reference, &CompareConfig::default())
+        .unwrap();
+    let t = b.tests.unwrap();
+    assert_eq!(t.tiles_covered, t.tiles - 1, "{t:?}");
+    assert_ne!(t.hardest_tile, Some(DARK));
+}
