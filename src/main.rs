@@ -17,8 +17,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// The main job: sampler suite + every unbiased technique on every scene against Mitsuba
-    /// (exit 0 all consistent, 1 a check failed, 2 unusable input, 3 inconclusive).
+    /// The main job: sampler suite + every unbiased technique (on glossy scenes also LTC and MIS
+    /// with every heuristic) on every scene against Mitsuba (exit 0 all consistent, 1 a check
+    /// failed, 2 unusable input, 3 inconclusive).
     #[command(after_help = cmd::certify::AFTER_HELP)]
     Certify(cmd::certify::Args),
     /// Chi-square certification of every line-sampling technique (exit 0 only if all pass).
@@ -45,6 +46,9 @@ enum Command {
     /// and compares it with the committed table (exit 0 consistent, 1 mismatch, 2 bad input).
     #[command(after_help = cmd::fit_ltc::AFTER_HELP)]
     FitLtc(cmd::fit_ltc::Args),
+    /// The exact unshadowed image of an unoccluded plane (closed form, or quadrature along the
+    /// line for glossy BSDFs), variance 0: the ground truth certify compares with.
+    Unshadowed(cmd::unshadowed::Args),
 }
 
 /// The method names for `--help` (from the render crate, so the list cannot go stale).
@@ -74,6 +78,7 @@ fn main() -> ExitCode {
         Command::Merge(a) => cmd::merge::run(a),
         Command::Calibrate(a) => cmd::calibrate::run(a),
         Command::FitLtc(a) => cmd::fit_ltc::run(a),
+        Command::Unshadowed(a) => cmd::unshadowed::run(a),
         Command::Figures(a) => cmd::figures::run(a),
     }
 }

@@ -295,7 +295,11 @@ fn rejects_a_five_percent_tile_bias_in_every_scene() {
 /// under `compare` at its default α = 0.01 (one comparison per scene, fixed seeds).
 #[test]
 fn renders_differing_only_in_seed_pass_compare() {
-    let scenes = certify::selected_scenes(&options("*")).expect("scenes with references");
+    // The Lambertian scenes (tests/certify_glossy_power.rs has the glossy ones).
+    let scenes = certify::selected_scenes(&options(
+        "floor-tube,floor-crossing,two-tubes,cornell-tube,mesh-occluder",
+    ))
+    .expect("scenes with references");
     assert_eq!(scenes.len(), 5);
     for s in &scenes {
         let opts = |seed| RenderOptions {

@@ -2,22 +2,25 @@
 //!
 //! 1. The sampler chi-square suite (`linlight samplers`).
 //! 2. For every selected scene: its committed Mitsuba reference (or a live Mitsuba render), and
-//!    for every subject (by default every unbiased technique) a Rust render at a budget from
+//!    for every subject (by default [`matrix::default_subjects`]: every unbiased technique, and
+//!    on glossy scenes also the glossy-only configurations) a Rust render at a budget from
 //!    [`budget::BudgetRule`], compared with the reference (B) by
-//!    [`linlight_verify::image_stats::compare`]; for the scenes of [`CLOSED_FORM_SCENES`] the same
-//!    render is also compared with the exact R → 0 image.
+//!    [`linlight_verify::image_stats::compare`]; for the scenes of [`matrix::EXACT_SCENES`] the
+//!    same render is also compared with the exact R → 0 image (closed form on Lambertian
+//!    surfaces, quadrature along the line on glossy ones).
 //!
 //! Multiple testing: every comparison runs at the Šidák level α_c = 1 − (1 − α)^(1/m), m the
 //! number of comparisons of the *full default* certification (every scene with a reference ×
-//! every unbiased technique, plus the closed-form comparisons), so that the family-wise false
-//! alarm rate of the image comparisons is α and a subset (`--scenes`, `--techniques`, a test)
-//! reproduces exactly the verdicts of the full run. The sampler suite has its own α.
+//! its default subjects × its oracles), so that the family-wise false alarm rate of the image
+//! comparisons is α and a subset (`--scenes`, `--techniques`, a test) reproduces exactly the
+//! verdicts of the full run. The sampler suite has its own α.
 //!
 //! Unusable input (missing or stale reference, a glob matching nothing, an unreadable scene) is
 //! detected before anything is rendered and is an error ([`Unusable`], exit 2), never a failure.
 
 pub mod budget;
 pub mod closed_form;
+pub mod matrix;
 pub mod oracle;
 pub mod report;
 pub mod report_html;
@@ -39,9 +42,6 @@ use std::time::Instant;
 use budget::{Budget, BudgetRule, Precision};
 use sampler_suite::SuiteSummary;
 use scenes::ReferencedScene;
-
-/// Scenes that are also compared with the closed-form R → 0 image (unoccluded diffuse plane).
-pub const CLOSED_FORM_SCENES: [&str; 1] = ["floor-tube"];
 
 /// A render with blue noise, certified besides the white-noise renders of the techniques, so
 /// that the noise's unbiasedness across passes is part of the main job.
@@ -195,8 +195,12 @@ pub struct Options {
     pub budget: BudgetRule,
     /// Seed of every Rust render (the pilot renders use a seed derived from it).
     pub seed: u64,
-    /// Sub-samples per pixel side of the closed-form image.
+    /// Sub-samples per pixel side of the closed-form image (Lambertian scenes).
     pub closed_form_subsamples: u32,
+    /// Sub-samples per pixel side of the line-quadrature image (glossy scenes): its midpoint
+    /// rule is accurate to ~4e-4 per pixel at 8 on glossy-conductor-sharp (α = 0.1), far below
+    /// any render's per-pixel standard error, and the quadrature costs ~100 times the closed form.
+    pub quadrature_subsamples: u32,
     /// Run only this part of the scene × technique list (`--shard i/N`, [`shard`]).
     pub shard: Option<shard::Shard>,
     /// The blue-noise renders of [`NOISE_RENDERS`] whose scene is selected (and whose technique
@@ -220,6 +224,7 @@ impl Options {
             budget: BudgetRule::default(),
             seed: 1,
             closed_form_subsamples: 16,
+            quadrature_subsamples: 8,
             shard: None,
             noise_renders: NOISE_RENDERS.to_vec(),
         }
@@ -264,7 +269,7 @@ pub struct ReferenceInfo {
 pub struct Row {
     pub scene: String,
     pub subject: String,
-    /// "mitsuba" or "closed-form".
+    /// "mitsuba", "closed-form" or "quadrature" (the exact unshadowed image).
     pub oracle: String,
     pub verdict: Verdict,
     pub budget: Budget,
@@ -334,28 +339,25 @@ impl Report {
 }
 
 /// m: comparisons of the full default certification of the scenes in `scenes_dir` that have a
-/// reference.
+/// reference (each scene loaded with its reference's overrides to tell glossy from diffuse).
 fn family_size(opts: &Options) -> Result<usize, Unusable> {
-    let per_render = |name: &str| {
-        if CLOSED_FORM_SCENES.contains(&name) {
+    let mut m = 0;
+    for path in scenes::scene_files(&opts.scenes_dir)? {
+        let name = scenes::scene_name(&path);
+        if !scenes::reference_path(&opts.references_dir, &name).is_file() {
+            continue;
+        }
+        let s = scenes::load_referenced(&path, &opts.references_dir, false)?;
+        m += matrix::default_comparisons(&name, &s.scene);
+        // The scene's blue-noise renders, against each of its oracles.
+        let oracles = if matrix::has_exact_oracle(&name) {
             2
         } else {
             1
-        }
-    };
-    let with_reference: Vec<String> = scenes::scene_files(&opts.scenes_dir)?
-        .iter()
-        .map(|p| scenes::scene_name(p))
-        .filter(|n| scenes::reference_path(&opts.references_dir, n).is_file())
-        .collect();
-    let techniques: usize =
-        with_reference.iter().map(|n| per_render(n)).sum::<usize>() * Technique::UNBIASED.len();
-    let noise: usize = NOISE_RENDERS
-        .iter()
-        .filter(|r| with_reference.iter().any(|n| n == r.scene))
-        .map(|r| per_render(r.scene))
-        .sum();
-    Ok((techniques + noise).max(1))
+        };
+        m += NOISE_RENDERS.iter().filter(|r| r.scene == name).count() * oracles;
+    }
+    Ok(m.max(1))
 }
 
 fn reference_info(s: &ReferencedScene) -> ReferenceInfo {
@@ -439,16 +441,39 @@ pub fn comparison_config(opts: &Options) -> Result<(usize, CompareConfig), Unusa
     ))
 }
 
-/// Run the certification with the given subjects (the command line passes the techniques).
+/// Which subjects render each scene.
+#[derive(Clone, Copy)]
+enum Plan<'a> {
+    /// [`matrix::default_subjects`] of each scene.
+    Default,
+    /// These subjects on every scene.
+    Only(&'a [&'a dyn Subject]),
+}
+
+/// Run the default certification: on every selected scene its [`matrix::default_subjects`].
+pub fn run_default(opts: &Options, events: &(dyn Fn(Event) + Sync)) -> Result<Report, Unusable> {
+    run_plan(opts, Plan::Default, events)
+}
+
+/// Run the certification with the given subjects on every selected scene (the command line's
+/// `--techniques`, tests' deliberately wrong variants).
 pub fn run(
     opts: &Options,
     subjects: &[&dyn Subject],
     events: &(dyn Fn(Event) + Sync),
 ) -> Result<Report, Unusable> {
-    let started = Instant::now();
     if subjects.is_empty() {
         return Err(Unusable("no technique to certify".into()));
     }
+    run_plan(opts, Plan::Only(subjects), events)
+}
+
+fn run_plan(
+    opts: &Options,
+    plan: Plan,
+    events: &(dyn Fn(Event) + Sync),
+) -> Result<Report, Unusable> {
+    let started = Instant::now();
     let chosen = selected_scenes(opts)?;
     if opts.oracle == Oracle::Live {
         oracle::check_ready(&opts.root)?;
@@ -463,14 +488,24 @@ pub fn run(
             ))
         })?;
     }
-    // Per scene: the subjects, then the scene's blue-noise renders; the plan (and a shard's
-    // part of it) is over these, scene-major.
+    let per_scene: Vec<Vec<Box<dyn Subject>>> = chosen
+        .iter()
+        .map(|s| match plan {
+            Plan::Default => matrix::default_subjects(&s.scene),
+            Plan::Only(_) => Vec::new(),
+        })
+        .collect();
+    // Per scene: its subjects, then its blue-noise renders; the plan (and a shard's part of
+    // it) is over these, scene-major.
     let scene_subjects: Vec<Vec<&dyn Subject>> = chosen
         .iter()
-        .map(|s| {
-            subjects
-                .iter()
-                .copied()
+        .enumerate()
+        .map(|(i, s)| {
+            let own: Vec<&dyn Subject> = match plan {
+                Plan::Default => per_scene[i].iter().map(|b| b.as_ref()).collect(),
+                Plan::Only(list) => list.to_vec(),
+            };
+            own.into_iter()
                 .chain(
                     opts.noise_renders
                         .iter()
@@ -535,9 +570,14 @@ pub fn run(
                 img
             }
         };
-        let closed = if CLOSED_FORM_SCENES.contains(&s.name.as_str()) {
-            closed_form::image(&s.scene, opts.closed_form_subsamples)
-                .map_err(|e| Unusable(format!("closed form of {}: {e}", s.name)))?
+        let exact = if matrix::has_exact_oracle(&s.name) {
+            let subsamples = if matrix::is_glossy(&s.scene) {
+                opts.quadrature_subsamples
+            } else {
+                opts.closed_form_subsamples
+            };
+            closed_form::image(&s.scene, subsamples)
+                .map_err(|e| Unusable(format!("exact image of {}: {e}", s.name)))?
         } else {
             None
         };
@@ -584,8 +624,8 @@ pub fn run(
             let render_seconds = t.elapsed().as_secs_f64();
             record_inputs(&mut image.meta, &s.scene_file, &s.overrides);
             let mut oracles = vec![("mitsuba", &reference)];
-            if let Some(c) = &closed {
-                oracles.push(("closed-form", c));
+            if let Some(c) = &exact {
+                oracles.push((closed_form::oracle_name(c), c));
             }
             for (oracle_name, b) in oracles {
                 let cmp = compare(&image, b, &cfg).map_err(|e| {

@@ -139,6 +139,7 @@ fn oracle_label(oracle: &str) -> String {
     match oracle {
         "mitsuba" => "Mitsuba".into(),
         "closed-form" => "closed form (R → 0)".into(),
+        "quadrature" => "line quadrature (R → 0)".into(),
         o => o.into(),
     }
 }

@@ -61,16 +61,19 @@ pub fn wildcard_match(pattern: &str, text: &str) -> bool {
     p[i..].iter().all(|&c| c == '*')
 }
 
-/// Whether a scene file is selected by `--scenes GLOB`: the pattern may name the scene
-/// (`floor-*`), its file (`floor-*.xml`) or its path (`references/scenes/floor-*.xml`).
-pub fn selected(pattern: &str, path: &Path) -> bool {
+/// Whether a scene file is selected by `--scenes GLOB[,GLOB...]`: a pattern may name the scene
+/// (`floor-*`), its file (`floor-*.xml`) or its path (`references/scenes/floor-*.xml`); any of
+/// the comma-separated patterns selects.
+pub fn selected(patterns: &str, path: &Path) -> bool {
     let name = scene_name(path);
     let file = path
         .file_name()
         .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
-    wildcard_match(pattern, &name)
-        || wildcard_match(pattern, &file)
-        || wildcard_match(pattern, &path.to_string_lossy())
+    patterns.split(',').map(str::trim).any(|pattern| {
+        wildcard_match(pattern, &name)
+            || wildcard_match(pattern, &file)
+            || wildcard_match(pattern, &path.to_string_lossy())
+    })
 }
 
 /// `-D` overrides recorded in a reference (`k=v,k=v`; empty: none).
@@ -200,6 +203,9 @@ mod tests {
         assert!(selected("floor-*.xml", p));
         assert!(selected("references/scenes/floor*", p));
         assert!(!selected("cornell*", p));
+        assert!(selected("cornell*,floor-tube", p));
+        assert!(selected("glossy-*, floor-*", p));
+        assert!(!selected("cornell*,glossy-*", p));
     }
 
     #[test]

@@ -8,7 +8,7 @@ use linlight::certify::budget::BudgetRule;
 use linlight::certify::shard::{self, Shard};
 use linlight::certify::{self, report, Event, Options, Oracle, Report, Subject};
 use linlight::outputs;
-use linlight_sampling::Technique;
+use linlight_render::Method;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -43,13 +43,16 @@ pub struct Args {
     /// Directory for report.md, report.json, heat maps and renders.
     #[arg(long, value_name = "DIR", default_value = "certify-report")]
     report_dir: PathBuf,
-    /// Scenes to certify: wildcard on the scene name, file name or path (e.g. 'floor-*').
+    /// Scenes to certify: wildcards on the scene name, file name or path, comma-separated
+    /// (e.g. 'floor-*' or 'floor-tube,glossy-*').
     #[arg(long, value_name = "GLOB", default_value = "*")]
     scenes: String,
     /// Source of the Mitsuba images.
     #[arg(long, value_enum, default_value = "committed")]
     oracle: OracleArg,
-    /// Comma-separated techniques [default: every unbiased technique].
+    /// Comma-separated methods: technique names, `ltc`, `mis` (clamped optimal, v = 0.5) or
+    /// `mis:HEURISTIC` (balance, power, weighted, clamped-optimal=v) [default: every unbiased
+    /// technique; on glossy scenes also ltc and mis with every heuristic, v in {0, 0.5, 1}].
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     techniques: Vec<String>,
     /// Worker threads [default: all cores; at most 4 per core, or 64].
@@ -89,25 +92,27 @@ pub fn run(args: Args) -> ExitCode {
     if !args.merge.is_empty() {
         return merge(&args);
     }
-    let mut techniques = Vec::new();
+    let mut methods: Vec<Method> = Vec::new();
     for name in &args.techniques {
-        match name.trim().parse::<Technique>() {
-            Ok(Technique::Baseline) => {
-                return unusable("the baseline technique is biased by design and is not certified")
+        match name.trim().parse::<Method>() {
+            Ok(m) if !m.is_unbiased() => {
+                return unusable(format!(
+                    "the {m} technique is biased by design and is not certified"
+                ))
             }
-            Ok(t) => techniques.push(t),
+            Ok(m) => methods.push(m),
             Err(e) => return unusable(e),
         }
     }
-    if techniques.is_empty() {
-        techniques = Technique::UNBIASED.to_vec();
-    }
-    let subjects: Vec<&dyn Subject> = techniques.iter().map(|t| t as &dyn Subject).collect();
+    // No --techniques: each scene's default subjects (certify::matrix).
+    let subjects: Vec<&dyn Subject> = methods.iter().map(|m| m as &dyn Subject).collect();
     let mut opts = Options::new(&args.root);
     opts.scenes = args.scenes.clone();
     // The blue-noise renders of the selected techniques (all of them by default).
-    opts.noise_renders
-        .retain(|r| techniques.contains(&r.technique));
+    if !methods.is_empty() {
+        opts.noise_renders
+            .retain(|r| methods.contains(&Method::Technique(r.technique)));
+    }
     opts.oracle = match args.oracle {
         OracleArg::Committed => Oracle::Committed,
         OracleArg::Live => Oracle::Live,
@@ -194,7 +199,13 @@ pub fn run(args: Args) -> ExitCode {
             }
         }
     };
-    let result = pool.install(|| certify::run(&opts, &subjects, &events));
+    let result = pool.install(|| {
+        if subjects.is_empty() {
+            certify::run_default(&opts, &events)
+        } else {
+            certify::run(&opts, &subjects, &events)
+        }
+    });
     bar.finish_and_clear();
     let report = match result {
         Ok(r) => r,

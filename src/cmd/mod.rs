@@ -10,3 +10,4 @@ pub mod info;
 pub mod merge;
 pub mod render;
 pub mod samplers;
+pub mod unshadowed;

@@ -13,6 +13,7 @@ pub mod contacts;
 pub mod film;
 pub mod hooks;
 pub mod integrator;
+pub mod line_quadrature;
 pub mod method;
 pub mod power_controls;
 pub mod render;
