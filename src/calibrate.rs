@@ -13,7 +13,8 @@
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::xml::load_scene;
-use linlight_render::{render, RenderOptions};
+use linlight_render::{render, Method, RenderOptions};
+use linlight_sampling::mis::Heuristic;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Verdict};
 use serde::Serialize;
@@ -24,11 +25,18 @@ use std::time::Instant;
 use crate::certify::budget::{Budget, BudgetRule};
 use crate::certify::{pilot_seed, Unusable};
 
-/// A scene family: a name and the committed scene that stands for it.
+/// A scene family: a name, the committed scene that stands for it and the method its renders
+/// use (the paper's MIS estimator on the glossy family, projected solid angle elsewhere).
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct Family {
     pub name: &'static str,
     pub scene: &'static str,
+    #[serde(serialize_with = "method_name")]
+    pub method: Method,
+}
+
+fn method_name<S: serde::Serializer>(m: &Method, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&m.name())
 }
 
 /// The calibrated families; adding one is one line here.
@@ -36,10 +44,17 @@ pub const FAMILIES: &[Family] = &[
     Family {
         name: "unoccluded",
         scene: "floor-tube",
+        method: Method::Technique(Technique::ProjectedSolidAngle),
     },
     Family {
         name: "occluded",
         scene: "mesh-occluder",
+        method: Method::Technique(Technique::ProjectedSolidAngle),
+    },
+    Family {
+        name: "glossy",
+        scene: "glossy-blend",
+        method: Method::Mis(Heuristic::ClampedOptimal(0.5)),
     },
 ];
 
@@ -216,12 +231,12 @@ fn render_error(what: &str, e: impl std::fmt::Display) -> Unusable {
     Unusable(format!("calibration render ({what}): {e}"))
 }
 
-fn options(spp: u32, passes: u32, seed: u64) -> RenderOptions {
+fn options(method: Method, spp: u32, passes: u32, seed: u64) -> RenderOptions {
     RenderOptions {
         spp,
         passes,
         seed,
-        method: Technique::ProjectedSolidAngle.into(),
+        method,
         light_samples: 1,
         noise: Default::default(),
     }
@@ -241,14 +256,19 @@ fn calibrate_family(
         let base = 1_000_003 * (k + 1);
         let b = render(
             scene,
-            &options(opts.reference_spp, opts.reference_passes, base),
+            &options(
+                family.method,
+                opts.reference_spp,
+                opts.reference_passes,
+                base,
+            ),
             &quiet,
         )
         .map_err(|e| render_error("reference", e))?;
         let seed = base + 1;
         let pilot = render(
             scene,
-            &options(opts.budget.pilot_spp, 1, pilot_seed(seed)),
+            &options(family.method, opts.budget.pilot_spp, 1, pilot_seed(seed)),
             &quiet,
         )
         .map_err(|e| render_error("pilot", e))?;
@@ -256,10 +276,10 @@ fn calibrate_family(
             .budget
             .choose(&pilot, &b, &opts.compare)
             .map_err(|e| Unusable(format!("budget of {}: {e}", family.name)))?;
-        let a = render(scene, &options(spp, 1, seed), &quiet)
+        let a = render(scene, &options(family.method, spp, 1, seed), &quiet)
             .map_err(|e| render_error("certify budget", e))?;
         at_budget.add(&a, &b, spp, &opts.compare)?;
-        let low = render(scene, &options(LOW_SPP, 1, base + 2), &quiet)
+        let low = render(scene, &options(family.method, LOW_SPP, 1, base + 2), &quiet)
             .map_err(|e| render_error("256 spp", e))?;
         at_low.add(&low, &b, LOW_SPP, &opts.compare)?;
         progress(k as usize + 1, opts.pairs);

@@ -35,7 +35,7 @@ fn small_calibration_is_calibrated_and_has_power() {
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let families = r["families"].as_array().unwrap();
-    assert_eq!(families.len(), 2);
+    assert_eq!(families.len(), 3);
     for f in families {
         for row in f["rows"].as_array().unwrap() {
             let what = format!("{} at {}", f["family"]["name"], row["budget"]);
