@@ -46,7 +46,7 @@
 use crate::geometry::{arc_tolerance, sin_cos_at, tau_in_arc, unit_normal, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Largest last Halley step |h| after which the values at the sample are rotated from those at
@@ -505,6 +505,52 @@ impl<T: Real> PsaCore<T> {
     }
 }
 
+/// Most Halley steps of [`PsaCore::solve_converged`] (it stops as soon as a step changes τ by
+/// no more than its rounding: after 2–7 steps from the solid-angle start value on the tails of
+/// the fitted-table LTC configurations measured; the bound only stops a pathological case).
+const CONVERGED_MAX_STEPS: u32 = 60;
+
+impl PsaCore<f64> {
+    /// τ with C(φ_b + τ) − C(φ_b) = ξ·total to the f64 rounding of the CDF, without the ξ guard:
+    /// Halley steps from the start value, each kept inside the bracket [lo, hi] of the root
+    /// (G is increasing) and replaced by bisection where it would leave it. For the rare ξ where
+    /// the guarded two-step [`Self::solve`] is not accurate enough: within [`XI_GUARD`] of 0 or
+    /// 1 it returns the solid-angle sample, whose projected-solid-angle CDF is off by up to
+    /// ~1e-5 in ξ — harmless in the segment's own φ, but not where a sampler maps the ends of
+    /// this segment non-linearly onto a wide range (LTC of a sharp lobe, `crate::ltc`).
+    pub fn solve_converged(&self, xi: f64) -> f64 {
+        if xi.is_nan() || xi <= 0.0 {
+            return 0.0;
+        }
+        if xi >= 1.0 {
+            return self.width;
+        }
+        let (mut lo, mut hi) = (0.0, self.width);
+        let mut tau = self.start(xi);
+        for _ in 0..CONVERGED_MAX_STEPS {
+            let e = self.eval(tau);
+            let g = e.delta_c - xi * self.total;
+            if g < 0.0 {
+                lo = tau;
+            } else if g > 0.0 {
+                hi = tau;
+            } else {
+                return tau;
+            }
+            let step = self.halley_from(tau, xi, &e);
+            if (step - tau).abs() <= 4.0 * f64::EPSILON * tau {
+                return step;
+            }
+            tau = if step > lo && step < hi {
+                step
+            } else {
+                0.5 * (lo + hi)
+            };
+        }
+        tau
+    }
+}
+
 /// Projected-solid-angle sampler of Peters 2021 (technique 8).
 #[derive(Clone, Copy, Debug)]
 pub struct ProjectedSolidAngle {
@@ -559,11 +605,37 @@ impl ProjectedSolidAngle {
         iterations: u32,
         atan2: impl Fn(f64, f64) -> f64,
     ) -> (Self, bool) {
-        // In f64 from the f32 frame (no overflow, exact products), each value rounded once:
-        // n_s, n_t; (sin φ_b, cos φ_b) = (l_b, d)/r_b, cos φ_b accurate where s_b ≈ ±1 is not;
-        // Δ from tan Δ = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b;
-        // p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b: at a horizon-clipped begin p0 ≈ 0 is a
-        // difference of O(1) terms, whose f32 rounding was ~1e-5 of Ω⊥ of a 3e-3-rad interval.
+        // In f64 from the f32 frame, each value rounded once ([`Self::core_values`]).
+        let v = Self::core_values(&frame, n, atan2);
+        let (core, valid) = PsaCore::new_lane(
+            v[0] as f32,
+            v[1] as f32,
+            v[2] as f32,
+            v[3] as f32,
+            v[4] as f32,
+            v[5] as f32,
+            v[6] as f32,
+        );
+        let inv_psa = frame.d / core.total;
+        let sampler = Self {
+            frame,
+            n,
+            core,
+            inv_psa,
+            tolerance: arc_tolerance(v[4]) as f32,
+            iterations,
+        };
+        (sampler, valid && inv_psa.is_finite() && inv_psa > 0.0)
+    }
+
+    /// (n_s, n_t, sin φ_b, cos φ_b, Δ, p0, p1) of the inversion core in f64 from the f32 frame
+    /// (no overflow, exact products): n_s, n_t; (sin φ_b, cos φ_b) = (l_b, d)/r_b, cos φ_b
+    /// accurate where s_b ≈ ±1 is not; Δ from tan Δ = (l_e − l_b)d / (d² + l_b l_e), free of the
+    /// cancellation of φ_e − φ_b; p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b: at a horizon-clipped
+    /// begin p0 ≈ 0 is a difference of O(1) terms, whose f32 rounding was ~1e-5 of Ω⊥ of a
+    /// 3e-3-rad interval. The sampler rounds each once to f32.
+    #[inline(always)]
+    fn core_values(frame: &LineFrame, n: Vec3, atan2: impl Fn(f64, f64) -> f64) -> [f64; 7] {
         let (n64, d, lb, le) = (
             n.as_dvec3(),
             frame.d as f64,
@@ -573,25 +645,29 @@ impl ProjectedSolidAngle {
         let (ns, nt) = (n64.dot(frame.u.as_dvec3()), n64.dot(frame.c_hat.as_dvec3()));
         let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
         let width = atan2((le - lb) * d, d * d + lb * le);
-        let (core, valid) = PsaCore::new_lane(
-            ns as f32,
-            nt as f32,
-            s_b as f32,
-            c_b as f32,
-            width as f32,
-            (ns * s_b + nt * c_b) as f32,
-            (ns * c_b - nt * s_b) as f32,
-        );
-        let inv_psa = frame.d / core.total;
-        let sampler = Self {
-            frame,
-            n,
-            core,
-            inv_psa,
-            tolerance: arc_tolerance(width) as f32,
-            iterations,
+        [
+            ns,
+            nt,
+            s_b,
+            c_b,
+            width,
+            ns * s_b + nt * c_b,
+            ns * c_b - nt * s_b,
+        ]
+    }
+
+    /// The sample for ξ with τ from [`PsaCore::solve_converged`] on the core in f64 (not
+    /// rounded to f32), as an f64 unit direction; no ξ guard. Slower than
+    /// [`LineSampler::sample`] (a libm-based f64 solve of several steps): for the few ξ where a
+    /// caller needs the exact inverse CDF, e.g. the tails of [`crate::ltc::LtcLine`].
+    pub fn sample_converged(&self, xi: f32) -> DVec3 {
+        let v = Self::core_values(&self.frame, self.n, f64::atan2);
+        let Some(core) = PsaCore::new(v[0], v[1], v[2], v[3], v[4], v[5], v[6]) else {
+            return self.sample(xi).as_dvec3();
         };
-        (sampler, valid && inv_psa.is_finite() && inv_psa > 0.0)
+        let tau = core.solve_converged(clamp_xi(xi) as f64);
+        let (s, t, _) = core.at(tau);
+        s * self.frame.u.as_dvec3() + t.max(0.0) * self.frame.c_hat.as_dvec3()
     }
 
     /// Ω⊥_R of the clipped segment.
@@ -915,5 +991,54 @@ mod tests {
             let (dir, pdf) = p.sample_with_pdf(i as f32 / 100.0);
             assert!(dir.is_finite() && pdf.is_finite());
         }
+    }
+
+    /// The f64 solve without the guard inverts the CDF to rounding for every ξ: in the guard
+    /// band, at horizon-clipped ends (G' = 0 there: the CDF starts as τ²), on a wide interval
+    /// reaching φ ≈ ±π/2 and on a short one. The guarded two-step solve returns the
+    /// solid-angle start value in the band, off by a large factor in ξ on the clipped ends.
+    #[test]
+    fn converged_solve_inverts_the_cdf() {
+        use std::f64::consts::FRAC_PI_2;
+        // (ψ, φ_b, φ_e) with (n_s, n_t) = (sin ψ, cos ψ): n·ω = cos(φ − ψ).
+        let cases = [
+            (0.3, 0.3 - FRAC_PI_2, 1.0),               // horizon-clipped begin
+            (-0.4, -0.9, FRAC_PI_2 - 0.4),             // horizon-clipped end
+            (0.0, 1e-4 - FRAC_PI_2, FRAC_PI_2 - 1e-4), // almost the whole line
+            (0.1, 0.2, 0.2003),                        // short
+            (1.2, -0.3, 0.4),                          // grazing normal
+        ];
+        let xis = [
+            1e-9, 1e-7, 1e-6, 5e-6, 9.99e-6, 1e-5, 0.3, 0.5, 0.99, 0.99999, 0.999999, 0.9999999,
+        ];
+        let mut worst_guarded = 0.0f64;
+        for (psi, phi_b, phi_e) in cases {
+            let (ns, nt) = f64::sin_cos(psi);
+            let core = PsaCore::<f64>::from_angles(ns, nt, phi_b, phi_e).unwrap();
+            for xi in xis {
+                let tau = core.solve_converged(xi);
+                assert!((0.0..=core.width).contains(&tau), "{psi} {xi}: τ = {tau}");
+                let cdf = core.delta_c(tau) / core.total;
+                // Relative to the smaller tail mass ξ or 1 − ξ, plus the rounding of 1 − ξ.
+                let tail = xi.min(1.0 - xi);
+                let err = (cdf - xi).abs();
+                assert!(
+                    err <= 1e-9 * tail + 1e-15,
+                    "ψ = {psi}, [{phi_b}, {phi_e}], ξ = {xi}: CDF {cdf} (error {err:e})"
+                );
+                if PsaCore::<f64>::in_guard(xi) {
+                    let guarded = core.delta_c(core.solve(xi, DEFAULT_ITERATIONS)) / core.total;
+                    worst_guarded = worst_guarded.max((guarded - xi).abs() / tail);
+                }
+            }
+        }
+        // The guard's start value is far from the inverse CDF relative to the tail mass.
+        assert!(worst_guarded > 0.5, "{worst_guarded}");
+        assert_eq!(
+            PsaCore::<f64>::from_angles(1.0, 0.0, -0.5, 0.5)
+                .unwrap()
+                .solve_converged(f64::NAN),
+            0.0
+        );
     }
 }
