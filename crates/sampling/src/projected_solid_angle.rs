@@ -551,6 +551,24 @@ impl PsaCore<f64> {
     }
 }
 
+impl PsaCore<f32> {
+    /// The same interval and normal in f64: the f32 parameters converted exactly, Δs and the
+    /// total recomputed in f64 (the f32 total is rounded: its CDF would reach 1 − ~3e-8 at Δ,
+    /// a large error relative to the last 1e-6 of the mass). `None` where [`PsaCore::new`] is.
+    pub fn widened(&self) -> Option<PsaCore<f64>> {
+        let f = |x: f32| x as f64;
+        PsaCore::new(
+            f(self.ns),
+            f(self.nt),
+            f(self.s_b),
+            f(self.c_b),
+            f(self.width),
+            f(self.p0),
+            f(self.p1),
+        )
+    }
+}
+
 /// Projected-solid-angle sampler of Peters 2021 (technique 8).
 #[derive(Clone, Copy, Debug)]
 pub struct ProjectedSolidAngle {
@@ -605,37 +623,11 @@ impl ProjectedSolidAngle {
         iterations: u32,
         atan2: impl Fn(f64, f64) -> f64,
     ) -> (Self, bool) {
-        // In f64 from the f32 frame, each value rounded once ([`Self::core_values`]).
-        let v = Self::core_values(&frame, n, atan2);
-        let (core, valid) = PsaCore::new_lane(
-            v[0] as f32,
-            v[1] as f32,
-            v[2] as f32,
-            v[3] as f32,
-            v[4] as f32,
-            v[5] as f32,
-            v[6] as f32,
-        );
-        let inv_psa = frame.d / core.total;
-        let sampler = Self {
-            frame,
-            n,
-            core,
-            inv_psa,
-            tolerance: arc_tolerance(v[4]) as f32,
-            iterations,
-        };
-        (sampler, valid && inv_psa.is_finite() && inv_psa > 0.0)
-    }
-
-    /// (n_s, n_t, sin φ_b, cos φ_b, Δ, p0, p1) of the inversion core in f64 from the f32 frame
-    /// (no overflow, exact products): n_s, n_t; (sin φ_b, cos φ_b) = (l_b, d)/r_b, cos φ_b
-    /// accurate where s_b ≈ ±1 is not; Δ from tan Δ = (l_e − l_b)d / (d² + l_b l_e), free of the
-    /// cancellation of φ_e − φ_b; p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b: at a horizon-clipped
-    /// begin p0 ≈ 0 is a difference of O(1) terms, whose f32 rounding was ~1e-5 of Ω⊥ of a
-    /// 3e-3-rad interval. The sampler rounds each once to f32.
-    #[inline(always)]
-    fn core_values(frame: &LineFrame, n: Vec3, atan2: impl Fn(f64, f64) -> f64) -> [f64; 7] {
+        // In f64 from the f32 frame (no overflow, exact products), each value rounded once:
+        // n_s, n_t; (sin φ_b, cos φ_b) = (l_b, d)/r_b, cos φ_b accurate where s_b ≈ ±1 is not;
+        // Δ from tan Δ = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b;
+        // p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b: at a horizon-clipped begin p0 ≈ 0 is a
+        // difference of O(1) terms, whose f32 rounding was ~1e-5 of Ω⊥ of a 3e-3-rad interval.
         let (n64, d, lb, le) = (
             n.as_dvec3(),
             frame.d as f64,
@@ -645,24 +637,33 @@ impl ProjectedSolidAngle {
         let (ns, nt) = (n64.dot(frame.u.as_dvec3()), n64.dot(frame.c_hat.as_dvec3()));
         let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
         let width = atan2((le - lb) * d, d * d + lb * le);
-        [
-            ns,
-            nt,
-            s_b,
-            c_b,
-            width,
-            ns * s_b + nt * c_b,
-            ns * c_b - nt * s_b,
-        ]
+        let (core, valid) = PsaCore::new_lane(
+            ns as f32,
+            nt as f32,
+            s_b as f32,
+            c_b as f32,
+            width as f32,
+            (ns * s_b + nt * c_b) as f32,
+            (ns * c_b - nt * s_b) as f32,
+        );
+        let inv_psa = frame.d / core.total;
+        let sampler = Self {
+            frame,
+            n,
+            core,
+            inv_psa,
+            tolerance: arc_tolerance(width) as f32,
+            iterations,
+        };
+        (sampler, valid && inv_psa.is_finite() && inv_psa > 0.0)
     }
 
-    /// The sample for ξ with τ from [`PsaCore::solve_converged`] on the core in f64 (not
-    /// rounded to f32), as an f64 unit direction; no ξ guard. Slower than
-    /// [`LineSampler::sample`] (a libm-based f64 solve of several steps): for the few ξ where a
-    /// caller needs the exact inverse CDF, e.g. the tails of [`crate::ltc::LtcLine`].
+    /// The sample for ξ with τ from [`PsaCore::solve_converged`] on the sampler's own core
+    /// widened to f64 ([`PsaCore::widened`]), as an f64 direction; no ξ guard. Slower than [`LineSampler::sample`] (a
+    /// libm-based f64 solve of several steps): for the few ξ where a caller needs the exact
+    /// inverse CDF, e.g. the tails of [`crate::ltc::LtcLine`].
     pub fn sample_converged(&self, xi: f32) -> DVec3 {
-        let v = Self::core_values(&self.frame, self.n, f64::atan2);
-        let Some(core) = PsaCore::new(v[0], v[1], v[2], v[3], v[4], v[5], v[6]) else {
+        let Some(core) = self.core.widened() else {
             return self.sample(xi).as_dvec3();
         };
         let tau = core.solve_converged(clamp_xi(xi) as f64);
