@@ -20,8 +20,7 @@
 
 use crate::geometry::{antiderivative_at, unit_normal, FrameArc, LineFrame, Segment};
 use crate::projected_solid_angle::{ProjectedSolidAngle, PsaCore, DEFAULT_ITERATIONS};
-use crate::sampler::clamp_xi;
-use crate::sampler::LineSampler;
+use crate::sampler::{clamp_xi, LineSampler};
 use glam::{DVec3, Mat3, Vec3};
 
 /// Largest accepted condition-like ratio ‖A‖³/|det A| (beyond it A counts as singular in f32).
@@ -184,10 +183,9 @@ impl LineSampler for LtcLine {
     /// technique 8's guard band (within [`XI_GUARD`](crate::projected_solid_angle::XI_GUARD)
     /// of 0 or 1: 2e-5 of the samples) the cosine-space sample is the exact inverse CDF, solved
     /// in f64 ([`ProjectedSolidAngle::sample_converged`]), not the guard's solid-angle start
-    /// value.
-    /// For a sharp lobe A⁻¹ spreads the outermost 1e-5 of the cosine-space mass over a wide
-    /// part of the line (α = 0.05, θ_o = 80°: 15 % of its φ-range at each end, where p_s falls
-    /// to ~1e-6 of its peak), and the start value had put those samples at the very ends
+    /// value: for a sharp lobe A⁻¹ spreads the outermost 1e-5 of the cosine-space mass over a
+    /// wide part of the line (α = 0.05, θ_o = 80°: 15 % of its φ-range at each end, where p_s
+    /// falls to ~1e-6 of its peak), and the start value had put those samples at the very ends
     /// (docs/sampler-suite.md, "LTC tails").
     fn sample(&self, xi: f32) -> Vec3 {
         let xi = clamp_xi(xi);
@@ -361,8 +359,8 @@ mod tests {
     /// to their own mass: the fitted GGX LTC of α = 0.05 at θ_o = 80° (A as the table gives it,
     /// `linlight_brdf::ltc`) and a line across the mirror direction, where A⁻¹ spreads the
     /// outermost 1e-5 of the cosine-space mass over 15 % of the line's φ-range at each end.
-    /// With the guard's solid-angle start value the tail mass below the sample for ξ = 5e-6 was
-    /// ~1e-7 (the samples sat at the ends; the chi-square suite saw the excess).
+    /// With the guard's solid-angle start value the tail mass below the sample for ξ = 1e-6 was
+    /// 3.4e-8 (the samples sat at the ends; the chi-square suite saw the excess).
     #[test]
     fn tails_follow_the_density() {
         let a = Mat3::from_cols_array(&[
