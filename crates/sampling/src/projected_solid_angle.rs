@@ -46,7 +46,7 @@
 use crate::geometry::{arc_tolerance, sin_cos_at, tau_in_arc, unit_normal, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Largest last Halley step |h| after which the values at the sample are rotated from those at
@@ -505,6 +505,70 @@ impl<T: Real> PsaCore<T> {
     }
 }
 
+/// Most Halley steps of [`PsaCore::solve_converged`] (it stops as soon as a step changes τ by
+/// no more than its rounding: after 2–7 steps from the solid-angle start value on the tails of
+/// the fitted-table LTC configurations measured; the bound only stops a pathological case).
+const CONVERGED_MAX_STEPS: u32 = 60;
+
+impl PsaCore<f64> {
+    /// τ with C(φ_b + τ) − C(φ_b) = ξ·total to the f64 rounding of the CDF, without the ξ guard:
+    /// Halley steps from the start value, each kept inside the bracket [lo, hi] of the root
+    /// (G is increasing) and replaced by bisection where it would leave it. For the rare ξ where
+    /// the guarded two-step [`Self::solve`] is not accurate enough: within [`XI_GUARD`] of 0 or
+    /// 1 it returns the solid-angle sample, whose projected-solid-angle CDF is off by up to
+    /// ~1e-5 in ξ — harmless in the segment's own φ, but not where a sampler maps the ends of
+    /// this segment non-linearly onto a wide range (LTC of a sharp lobe, `crate::ltc`).
+    pub fn solve_converged(&self, xi: f64) -> f64 {
+        if xi.is_nan() || xi <= 0.0 {
+            return 0.0;
+        }
+        if xi >= 1.0 {
+            return self.width;
+        }
+        let (mut lo, mut hi) = (0.0, self.width);
+        let mut tau = self.start(xi);
+        for _ in 0..CONVERGED_MAX_STEPS {
+            let e = self.eval(tau);
+            let g = e.delta_c - xi * self.total;
+            if g < 0.0 {
+                lo = tau;
+            } else if g > 0.0 {
+                hi = tau;
+            } else {
+                return tau;
+            }
+            let step = self.halley_from(tau, xi, &e);
+            if (step - tau).abs() <= 4.0 * f64::EPSILON * tau {
+                return step;
+            }
+            tau = if step > lo && step < hi {
+                step
+            } else {
+                0.5 * (lo + hi)
+            };
+        }
+        tau
+    }
+}
+
+impl PsaCore<f32> {
+    /// The same interval and normal in f64: the f32 parameters converted exactly, Δs and the
+    /// total recomputed in f64 (the f32 total is rounded: its CDF would reach 1 − ~3e-8 at Δ,
+    /// a large error relative to the last 1e-6 of the mass). `None` where [`PsaCore::new`] is.
+    pub fn widened(&self) -> Option<PsaCore<f64>> {
+        let f = |x: f32| x as f64;
+        PsaCore::new(
+            f(self.ns),
+            f(self.nt),
+            f(self.s_b),
+            f(self.c_b),
+            f(self.width),
+            f(self.p0),
+            f(self.p1),
+        )
+    }
+}
+
 /// Projected-solid-angle sampler of Peters 2021 (technique 8).
 #[derive(Clone, Copy, Debug)]
 pub struct ProjectedSolidAngle {
@@ -592,6 +656,19 @@ impl ProjectedSolidAngle {
             iterations,
         };
         (sampler, valid && inv_psa.is_finite() && inv_psa > 0.0)
+    }
+
+    /// The sample for ξ with τ from [`PsaCore::solve_converged`] on the sampler's own core
+    /// widened to f64 ([`PsaCore::widened`]), as an f64 direction; no ξ guard. Slower than [`LineSampler::sample`] (a
+    /// libm-based f64 solve of several steps): for the few ξ where a caller needs the exact
+    /// inverse CDF, e.g. the tails of [`crate::ltc::LtcLine`].
+    pub fn sample_converged(&self, xi: f32) -> DVec3 {
+        let Some(core) = self.core.widened() else {
+            return self.sample(xi).as_dvec3();
+        };
+        let tau = core.solve_converged(clamp_xi(xi) as f64);
+        let (s, t, _) = core.at(tau);
+        s * self.frame.u.as_dvec3() + t.max(0.0) * self.frame.c_hat.as_dvec3()
     }
 
     /// Ω⊥_R of the clipped segment.
@@ -915,5 +992,54 @@ mod tests {
             let (dir, pdf) = p.sample_with_pdf(i as f32 / 100.0);
             assert!(dir.is_finite() && pdf.is_finite());
         }
+    }
+
+    /// The f64 solve without the guard inverts the CDF to rounding for every ξ: in the guard
+    /// band, at horizon-clipped ends (G' = 0 there: the CDF starts as τ²), on a wide interval
+    /// reaching φ ≈ ±π/2 and on a short one. The guarded two-step solve returns the
+    /// solid-angle start value in the band, off by a large factor in ξ on the clipped ends.
+    #[test]
+    fn converged_solve_inverts_the_cdf() {
+        use std::f64::consts::FRAC_PI_2;
+        // (ψ, φ_b, φ_e) with (n_s, n_t) = (sin ψ, cos ψ): n·ω = cos(φ − ψ).
+        let cases = [
+            (0.3, 0.3 - FRAC_PI_2, 1.0),               // horizon-clipped begin
+            (-0.4, -0.9, FRAC_PI_2 - 0.4),             // horizon-clipped end
+            (0.0, 1e-4 - FRAC_PI_2, FRAC_PI_2 - 1e-4), // almost the whole line
+            (0.1, 0.2, 0.2003),                        // short
+            (1.2, -0.3, 0.4),                          // grazing normal
+        ];
+        let xis = [
+            1e-9, 1e-7, 1e-6, 5e-6, 9.99e-6, 1e-5, 0.3, 0.5, 0.99, 0.99999, 0.999999, 0.9999999,
+        ];
+        let mut worst_guarded = 0.0f64;
+        for (psi, phi_b, phi_e) in cases {
+            let (ns, nt) = f64::sin_cos(psi);
+            let core = PsaCore::<f64>::from_angles(ns, nt, phi_b, phi_e).unwrap();
+            for xi in xis {
+                let tau = core.solve_converged(xi);
+                assert!((0.0..=core.width).contains(&tau), "{psi} {xi}: τ = {tau}");
+                let cdf = core.delta_c(tau) / core.total;
+                // Relative to the smaller tail mass ξ or 1 − ξ, plus the rounding of 1 − ξ.
+                let tail = xi.min(1.0 - xi);
+                let err = (cdf - xi).abs();
+                assert!(
+                    err <= 1e-9 * tail + 1e-15,
+                    "ψ = {psi}, [{phi_b}, {phi_e}], ξ = {xi}: CDF {cdf} (error {err:e})"
+                );
+                if PsaCore::<f64>::in_guard(xi) {
+                    let guarded = core.delta_c(core.solve(xi, DEFAULT_ITERATIONS)) / core.total;
+                    worst_guarded = worst_guarded.max((guarded - xi).abs() / tail);
+                }
+            }
+        }
+        // The guard's start value is far from the inverse CDF relative to the tail mass.
+        assert!(worst_guarded > 0.5, "{worst_guarded}");
+        assert_eq!(
+            PsaCore::<f64>::from_angles(1.0, 0.0, -0.5, 0.5)
+                .unwrap()
+                .solve_converged(f64::NAN),
+            0.0
+        );
     }
 }
