@@ -1,7 +1,8 @@
 //! `linlight figures --quick` end to end: every figure and the page are produced, the page links
 //! only files that exist and embeds its pictures, the numbers behind the figures are sane
 //! (projected solid angle beats area sampling on the unoccluded diffuse floor, blue noise's
-//! low-pass RMSE is below white noise's at equal spp), and a second run with the same seed
+//! low-pass RMSE is below white noise's at equal spp, every convergence curve — one per technique
+//! and per MIS heuristic — has slope −½, MIS beats PSA only on the glossy scene), and a second run with the same seed
 //! reproduces the seeded numbers exactly.
 
 mod common;
@@ -82,8 +83,8 @@ fn quick_run_produces_every_figure_and_a_page_that_links_only_existing_files() {
             "index.html has no section {name}"
         );
     }
-    // What the page does not make, it says (no stand-in pictures).
-    assert!(html.contains("id=\"mis-heuristics\"") && html.contains("not produced"));
+    // The per-heuristic convergence curves are drawn (they were once announced as missing).
+    assert!(html.contains("id=\"mis-heuristics\"") && !html.contains("not produced"));
     let links = attributes(&html, "href");
     assert!(links.len() > 20, "too few links: {}", links.len());
     for link in links.iter().filter(|l| !l.starts_with('#')) {
@@ -234,4 +235,111 @@ fn mis_beats_each_technique_on_the_glossy_plane() {
     );
     assert!(mis.is_finite() && mis > 0.0);
     assert!(mis < psa && mis < ltc, "PSA {psa}, LTC {ltc}, MIS {mis}");
+}
+
+/// A glossy curve of the convergence figure: label, method name, points (spp, RMSE).
+type Curve = (String, String, Vec<(f64, f64)>);
+
+/// The glossy curves of the convergence figure.
+fn glossy_curves() -> Vec<Curve> {
+    let conv = json(&quick().join("convergence.json"));
+    conv["glossy"]["curves"]
+        .as_array()
+        .expect("convergence.json has no glossy curves")
+        .iter()
+        .map(|c| {
+            let pts = c["points"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| (p["spp"].as_f64().unwrap(), p["rmse"].as_f64().unwrap()))
+                .collect();
+            (
+                c["curve"].as_str().unwrap().to_string(),
+                c["method"].as_str().unwrap().to_string(),
+                pts,
+            )
+        })
+        .collect()
+}
+
+/// One convergence curve per MIS heuristic (and PSA only, LTC only) on the glossy scene, each
+/// with its points at 1, 2, …, 64 spp (the `--quick` maximum).
+#[test]
+fn convergence_has_a_curve_per_mis_heuristic() {
+    let curves = glossy_curves();
+    let methods: Vec<&str> = curves.iter().map(|c| c.1.as_str()).collect();
+    for m in [
+        "projected-solid-angle",
+        "ltc",
+        "mis:balance",
+        "mis:power",
+        "mis:weighted",
+        "mis:clamped-optimal=0.5",
+    ] {
+        assert!(methods.contains(&m), "no glossy curve for {m}: {methods:?}");
+    }
+    for (name, _, pts) in &curves {
+        let spps: Vec<f64> = pts.iter().map(|p| p.0).collect();
+        assert_eq!(spps, [1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0], "{name}");
+        assert!(
+            pts.iter().all(|p| p.1.is_finite() && p.1 > 0.0),
+            "{name}: {pts:?}"
+        );
+    }
+    let csv = std::fs::read_to_string(quick().join("convergence.csv")).unwrap();
+    assert!(csv
+        .lines()
+        .any(|l| l.starts_with("glossy-blend,MIS power,mis:power,64,")));
+}
+
+/// Every Rust curve (the Cornell box's techniques, the glossy scene's methods) has slope −½ of
+/// log RMSE over log spp. Tolerance ±0.05: each RMSE averages 64×64×3 squared errors, so its
+/// log scatters by about 0.01–0.03 (heavier tails at 1 spp); over 7 points at spp 1 … 64 the
+/// least-squares slope then scatters by σ/√Σ(ln spp − mean)² = σ/3.7 ≤ 0.01 — the tolerance is
+/// ≥ 5 of those, while a biased or noise-floored estimator flattens the slope past it (a bias
+/// equal to the 64-spp standard error gives −0.42, twice that −0.32). The glossy reference is exact (variance 0);
+/// the Cornell box's has its variance subtracted. Mitsuba's curve (committed numbers) is drawn but
+/// not tested here.
+#[test]
+fn convergence_slopes_are_minus_one_half() {
+    let conv = json(&quick().join("convergence.json"));
+    let mut slopes: Vec<(String, f64)> = Vec::new();
+    for s in conv["slopes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .chain(conv["glossy"]["slopes"].as_array().unwrap())
+    {
+        let curve = s["curve"].as_str().unwrap();
+        if !curve.starts_with("Mitsuba") {
+            slopes.push((curve.to_string(), s["slope"].as_f64().unwrap()));
+        }
+    }
+    assert_eq!(slopes.len(), 7 + 6, "{slopes:?}");
+    for (curve, s) in &slopes {
+        assert!((s + 0.5).abs() < 0.05, "{curve}: slope {s}");
+    }
+}
+
+/// On the glossy scene at 64 spp (the `--quick` maximum, fixed seed), MIS with the paper's
+/// heuristic (clamped optimal, v = 0.5) has an RMSE below PSA only's — by a wide margin (this
+/// seed: 0.0016 vs 0.0115, a factor of 7; the test asks for a factor of 2), although
+/// at equal spp MIS draws two light samples to PSA's one: variance, not sample count, makes it.
+#[test]
+fn mis_beats_psa_only_at_equal_spp_on_the_glossy_scene() {
+    let curves = glossy_curves();
+    let last = |m: &str| {
+        curves
+            .iter()
+            .find(|c| c.1 == m)
+            .and_then(|c| c.2.last())
+            .map(|p| p.1)
+            .unwrap_or_else(|| panic!("no glossy curve {m}"))
+    };
+    let (psa, mis) = (
+        last("projected-solid-angle"),
+        last("mis:clamped-optimal=0.5"),
+    );
+    assert!(mis > 0.0 && 2.0 * mis < psa, "MIS {mis} vs PSA only {psa}");
 }

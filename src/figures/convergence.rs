@@ -2,13 +2,16 @@
 //! function of samples per pixel and of seconds, log–log, one curve per technique, with
 //! Mitsuba's own curve (rendered now through the harness when the oracle venv exists and the run
 //! is not `--quick`, else from the committed numbers `references/figures/`), and the fitted
-//! slopes (−½ for any unbiased Monte Carlo estimator).
+//! slopes (−½ for any unbiased Monte Carlo estimator). A second pair of plots does the same for
+//! glossy shading (`glossy-blend`, unoccluded): PSA only, LTC only and MIS of both under each
+//! heuristic, against the exact line-quadrature image (variance 0).
 
 use super::imaging::{reference_mse, rmse};
 use super::page::{num, plot, row, table};
 use super::plot::{log_log, Series, PALETTE};
 use super::{csv, Ctx, Section};
 use linlight_imagefile::Image;
+use linlight_render::{Heuristic, Method};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use serde_json::json;
@@ -16,6 +19,34 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 const SCENE: &str = "references/scenes/cornell-tube.xml";
+/// The glossy scene of the per-heuristic curves: unoccluded, so its exact image is known.
+const GLOSSY: &str = "references/scenes/glossy-blend.xml";
+/// Side of the glossy renders in every run: the exact image costs ~25× more at the publication
+/// size (320: about 2½ minutes on two loaded cores) and the curves ~25 minutes at 1 … 1024 spp,
+/// while the slopes and the ordering of the heuristics do not depend on the film size.
+const GLOSSY_RES: u32 = 64;
+/// Film positions per pixel side of the exact image (as `linlight unshadowed`'s default).
+const EXACT_SUBSAMPLES: u32 = 8;
+
+/// The glossy curves: label and method (one iteration per light and camera sample).
+fn glossy_methods() -> Vec<(&'static str, Method)> {
+    let mut v = vec![
+        (
+            "PSA only",
+            Method::Technique(Technique::ProjectedSolidAngle),
+        ),
+        ("LTC only", Method::Ltc),
+    ];
+    for (label, h) in [
+        ("MIS balance", Heuristic::Balance),
+        ("MIS power", Heuristic::Power),
+        ("MIS weighted balance", Heuristic::Weighted),
+        ("MIS clamped optimal v=0.5", Heuristic::ClampedOptimal(0.5)),
+    ] {
+        v.push((label, Method::Mis(h)));
+    }
+    v
+}
 /// Committed numbers of Mitsuba's curve (written by a live run: `mitsuba-convergence.json`).
 pub const COMMITTED: &str = "references/figures/mitsuba-convergence-cornell-tube.json";
 /// Seeds of Mitsuba's convergence renders start here (the reference used 0 … 31).
@@ -103,6 +134,134 @@ fn mitsuba_live(ctx: &Ctx, venv: &Path, reference: &Image) -> Result<Vec<Point>,
     Ok(points)
 }
 
+/// The curves of one scene: (label, method name, points).
+type Curves = Vec<(String, String, Vec<Point>)>;
+
+/// RMSE of each method at each spp (one render per spp, seeds differ) against `reference`.
+fn curves(
+    ctx: &Ctx,
+    scene: &linlight_render::scene::Scene,
+    reference: &Image,
+    methods: &[(String, Method)],
+    spps: &[u32],
+    progress: &dyn Fn(usize),
+) -> Result<Curves, String> {
+    let mut out = Vec::new();
+    for (i, (label, method)) in methods.iter().enumerate() {
+        let mut pts = Vec::new();
+        for &spp in spps {
+            let r = ctx.render_method(
+                scene,
+                *method,
+                Noise::White,
+                spp,
+                1,
+                ctx.opts.seed.wrapping_add(spp as u64),
+            )?;
+            pts.push(Point {
+                spp: spp as u64,
+                rmse: rmse(&r.image, reference),
+                seconds: r.seconds,
+            });
+        }
+        out.push((label.clone(), method.name(), pts));
+        progress(i + 1);
+    }
+    Ok(out)
+}
+
+/// Slope of log RMSE over log spp of a curve.
+fn spp_slope(pts: &[Point]) -> f64 {
+    slope(
+        &pts.iter()
+            .map(|p| (p.spp as f64, p.rmse))
+            .collect::<Vec<_>>(),
+    )
+}
+
+/// Slope of log RMSE over log seconds of a curve.
+fn time_slope(pts: &[Point]) -> f64 {
+    slope(&pts.iter().map(|p| (p.seconds, p.rmse)).collect::<Vec<_>>())
+}
+
+/// The two log–log plots (by spp, by seconds) of `curves`, written as `<stem>-spp.svg` and
+/// `<stem>-time.svg`; their SVG texts and file names.
+fn plots(
+    ctx: &Ctx,
+    stem: &str,
+    what: &str,
+    curves: &Curves,
+) -> Result<[(String, String); 2], String> {
+    let series = |f: fn(&Point) -> f64| -> Vec<Series> {
+        curves
+            .iter()
+            .enumerate()
+            .map(|(i, (name, _, pts))| Series {
+                name: name.clone(),
+                points: pts.iter().map(|p| (f(p), p.rmse)).collect(),
+                colour: PALETTE[i % PALETTE.len()],
+                dashed: name.starts_with("Mitsuba"),
+            })
+            .collect()
+    };
+    let by_spp = log_log(
+        &format!("{what}: RMSE vs samples per pixel"),
+        "spp",
+        "RMSE",
+        &series(|p| p.spp as f64),
+    )?;
+    let by_time = log_log(
+        &format!("{what}: RMSE vs render time"),
+        "seconds",
+        "RMSE",
+        &series(|p| p.seconds),
+    )?;
+    let f1 = ctx.write_text(&format!("{stem}-spp.svg"), &by_spp)?;
+    let f2 = ctx.write_text(&format!("{stem}-time.svg"), &by_time)?;
+    Ok([(by_spp, f1), (by_time, f2)])
+}
+
+/// Table rows (curve, slopes, last RMSE, at spp) and the slopes as JSON.
+fn slope_rows(curves: &Curves) -> (Vec<Vec<String>>, Vec<serde_json::Value>) {
+    let mut rows = Vec::new();
+    let mut slopes = Vec::new();
+    for (name, method, pts) in curves {
+        let (s, st) = (spp_slope(pts), time_slope(pts));
+        let last = pts.last().map_or(f64::NAN, |p| p.rmse);
+        rows.push(vec![
+            format!("<span style=\"float:left\">{name}</span>"),
+            num(s),
+            num(st),
+            num(last),
+            pts.last().map_or(String::new(), |p| p.spp.to_string()),
+        ]);
+        slopes.push(json!({"curve": name, "method": method, "slope": s, "slope_time": st}));
+    }
+    (rows, slopes)
+}
+
+const SLOPE_HEADER: [&str; 5] = [
+    "curve",
+    "slope of log RMSE vs log spp",
+    "vs log seconds",
+    "last RMSE",
+    "at spp",
+];
+
+fn slope_list(slopes: &[serde_json::Value]) -> String {
+    slopes
+        .iter()
+        .map(|s| {
+            format!(
+                "{} {}",
+                s["curve"].as_str().unwrap_or(""),
+                num(s["slope"].as_f64().unwrap_or(f64::NAN))
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let overrides = vec![("res", "64".to_string())];
     let (reference, what) = ctx.reference(SCENE, &overrides)?;
@@ -111,28 +270,18 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     while *spps.last().unwrap() < ctx.settings.max_spp {
         spps.push(spps.last().unwrap() * 2);
     }
-    let mut curves: Vec<(String, Vec<Point>)> = Vec::new();
-    let n = Technique::UNBIASED.len() as f64;
-    for (i, t) in Technique::UNBIASED.into_iter().enumerate() {
-        let mut pts = Vec::new();
-        for &spp in &spps {
-            let r = ctx.render(
-                &scene,
-                t,
-                Noise::White,
-                spp,
-                1,
-                ctx.opts.seed.wrapping_add(spp as u64),
-            )?;
-            pts.push(Point {
-                spp: spp as u64,
-                rmse: rmse(&r.image, &reference),
-                seconds: r.seconds,
-            });
-        }
-        curves.push((t.name().to_string(), pts));
-        ctx.progress((i + 1) as f64 / (n + 1.0));
-    }
+    let techniques: Vec<(String, Method)> = Technique::UNBIASED
+        .into_iter()
+        .map(|t| (t.name().to_string(), t.into()))
+        .collect();
+    let glossy_list: Vec<(String, Method)> = glossy_methods()
+        .into_iter()
+        .map(|(l, m)| (l.to_string(), m))
+        .collect();
+    let steps = (techniques.len() + glossy_list.len() + 2) as f64;
+    let mut curves = curves(ctx, &scene, &reference, &techniques, &spps, &|i| {
+        ctx.progress(i as f64 / steps)
+    })?;
     // Mitsuba's own curve.
     let (mitsuba, mitsuba_source) = match venv(&ctx.opts.root).filter(|_| !ctx.opts.quick) {
         Some(v) => {
@@ -149,7 +298,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             (pts, format!("the committed numbers {COMMITTED} (from an earlier run with the oracle venv; no venv, or --quick, in this run)"))
         }
     };
-    ctx.progress(1.0);
+    ctx.progress((techniques.len() + 1) as f64 / steps);
     let mitsuba_file = ctx.write_text(
         "mitsuba-convergence.json",
         &serde_json::to_string_pretty(
@@ -157,101 +306,113 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         )
         .map_err(|e| e.to_string())?,
     )?;
-    curves.push(("Mitsuba 3 (area sampling)".into(), mitsuba));
-    let series = |f: fn(&Point) -> f64| -> Vec<Series> {
-        curves
-            .iter()
-            .enumerate()
-            .map(|(i, (name, pts))| Series {
-                name: name.clone(),
-                points: pts.iter().map(|p| (f(p), p.rmse)).collect(),
-                colour: PALETTE[i % PALETTE.len()],
-                dashed: name.starts_with("Mitsuba"),
-            })
-            .collect()
-    };
-    let by_spp = log_log(
-        "RMSE vs samples per pixel",
-        "spp",
-        "RMSE",
-        &series(|p| p.spp as f64),
-    )?;
-    let by_time = log_log(
-        "RMSE vs render time",
-        "seconds",
-        "RMSE",
-        &series(|p| p.seconds),
-    )?;
-    let mut files = vec![
-        ctx.write_text("convergence-spp.svg", &by_spp)?,
-        ctx.write_text("convergence-time.svg", &by_time)?,
-        mitsuba_file,
-    ];
+    curves.push((
+        "Mitsuba 3 (area sampling)".into(),
+        "mitsuba:area".into(),
+        mitsuba,
+    ));
+
+    // Glossy shading, one curve per MIS heuristic, against the exact image (variance 0: the
+    // RMSE has no floor, so the slopes are those of the estimators alone).
+    let glossy_overrides = vec![("res", GLOSSY_RES.to_string())];
+    let glossy_scene = ctx.scene(GLOSSY, &glossy_overrides)?;
+    let exact = crate::certify::closed_form::image(&glossy_scene, EXACT_SUBSAMPLES)?
+        .ok_or_else(|| format!("{GLOSSY}: no exact image"))?;
+    let glossy_what = format!(
+        "the exact image by {} along the line ({EXACT_SUBSAMPLES}×{EXACT_SUBSAMPLES} film positions per pixel, \
+         variance 0; what <code>linlight unshadowed</code> writes and <code>linlight certify</code> tests against)",
+        crate::certify::closed_form::oracle_name(&exact)
+    );
+    let base = techniques.len() + 1;
+    let glossy = self::curves(ctx, &glossy_scene, &exact, &glossy_list, &spps, &|i| {
+        ctx.progress((base + i) as f64 / steps)
+    })?;
+    ctx.progress(1.0);
+
+    let [(svg_spp, f_spp), (svg_time, f_time)] = plots(ctx, "convergence", "Cornell box", &curves)?;
+    let [(gsvg_spp, gf_spp), (gsvg_time, gf_time)] =
+        plots(ctx, "convergence-mis", "glossy-blend", &glossy)?;
+    let mut files = vec![f_spp, f_time, gf_spp, gf_time, mitsuba_file];
     let mut csv_rows = Vec::new();
-    let mut slope_rows = Vec::new();
-    let mut slopes = Vec::new();
-    for (name, pts) in &curves {
-        for p in pts {
-            csv_rows.push(vec![
-                name.clone(),
-                p.spp.to_string(),
-                format!("{}", p.rmse),
-                format!("{}", p.seconds),
-            ]);
+    for (scene_name, set) in [("cornell-tube", &curves), ("glossy-blend", &glossy)] {
+        for (name, method, pts) in set.iter() {
+            for p in pts {
+                csv_rows.push(vec![
+                    scene_name.to_string(),
+                    name.clone(),
+                    method.clone(),
+                    p.spp.to_string(),
+                    format!("{}", p.rmse),
+                    format!("{}", p.seconds),
+                ]);
+            }
         }
-        let s = slope(
-            &pts.iter()
-                .map(|p| (p.spp as f64, p.rmse))
-                .collect::<Vec<_>>(),
-        );
-        let last = pts.last().map_or(f64::NAN, |p| p.rmse);
-        slope_rows.push(vec![
-            format!("<span style=\"float:left\">{name}</span>"),
-            num(s),
-            num(last),
-            pts.last().map_or(String::new(), |p| p.spp.to_string()),
-        ]);
-        slopes.push(json!({"curve": name, "slope": s}));
     }
     files.push(ctx.write_text(
         "convergence.csv",
-        &csv(&["curve", "spp", "rmse", "seconds"], &csv_rows),
+        &csv(
+            &["scene", "curve", "method", "spp", "rmse", "seconds"],
+            &csv_rows,
+        ),
     )?);
-    let slope_table = table(
-        &[
-            "curve",
-            "slope of log RMSE vs log spp",
-            "last RMSE",
-            "at spp",
-        ],
-        &slope_rows,
+    let (rows, slopes) = slope_rows(&curves);
+    let (grows, gslopes) = slope_rows(&glossy);
+    let slope_table = table(&SLOPE_HEADER, &rows);
+    let glossy_table = table(&SLOPE_HEADER, &grows);
+    let at = |label: &str| -> f64 {
+        glossy
+            .iter()
+            .find(|c| c.0 == label)
+            .and_then(|c| c.2.last())
+            .map_or(f64::NAN, |p| p.rmse)
+    };
+    let (psa_last, mis_last) = (at("PSA only"), at("MIS clamped optimal v=0.5"));
+    let body = format!(
+        "{}{}<h3 id=\"mis-heuristics\">Glossy shading: one curve per MIS heuristic</h3>{}{}",
+        row(&[plot(&svg_spp), plot(&svg_time)]),
+        slope_table,
+        row(&[plot(&gsvg_spp), plot(&gsvg_time)]),
+        glossy_table
     );
-    let body = format!("{}{}", row(&[plot(&by_spp), plot(&by_time)]), slope_table);
     let floor = reference_mse(&reference).sqrt();
+    let max_spp = ctx.settings.max_spp;
     let caption = format!(
         "What it shows: every unbiased technique converges at the Monte Carlo rate (slope −½ of log RMSE over \
          log spp); the techniques differ by a constant factor, which is their variance, and at equal time by \
          variance × cost. Settings: the Cornell box at 64×64 (the size of its committed reference), white noise, \
-         one render per spp (1 … {} spp, seeds differ), RMSE over pixels and RGB against {what}, its variance \
-         (RMSE floor {}) subtracted; Mitsuba's curve is {mitsuba_source}. Fitted slopes: {}.",
-        ctx.settings.max_spp,
+         one render per spp (1 … {max_spp} spp, seeds differ), RMSE over pixels and RGB against {what}, its variance \
+         (RMSE floor {}) subtracted; Mitsuba's curve is {mitsuba_source}. Fitted slopes: {}. \
+         Second row: glossy shading (<code>{GLOSSY}</code>, a 65 % diffuse / 35 % GGX α = 0.2 blend, unoccluded) at \
+         {r}×{r}, white noise, 1 … {max_spp} spp, PSA only and LTC only (one sample per light and camera sample) and \
+         MIS of one PSA and one LTC sample under each heuristic (two samples), RMSE against {glossy_what}. \
+         Fitted slopes: {}. At {max_spp} spp, MIS clamped optimal (v = 0.5) has RMSE {} against PSA only's {} \
+         (ratio {}; MIS takes twice the light samples per spp: the time plot compares at equal cost).",
         num(floor),
-        slopes
-            .iter()
-            .map(|s| format!("{} {}", s["curve"].as_str().unwrap_or(""), num(s["slope"].as_f64().unwrap_or(f64::NAN))))
-            .collect::<Vec<_>>()
-            .join(", ")
+        slope_list(&slopes),
+        slope_list(&gslopes),
+        num(mis_last),
+        num(psa_last),
+        num(mis_last / psa_last),
+        r = GLOSSY_RES,
     );
-    let summary_html =
-        format!("<p>Convergence slopes (log RMSE over log spp; −½ expected):</p>{slope_table}");
+    let summary_html = format!(
+        "<p>Convergence slopes (log RMSE over log spp; −½ expected), Cornell box:</p>{slope_table}\
+         <p>Glossy shading, one curve per MIS heuristic (<code>{GLOSSY}</code>, against the exact image):</p>{glossy_table}"
+    );
     Ok(Section {
         caption,
         body,
         files,
         numbers: json!({
             "reference": what, "reference_rmse_floor": floor,
-            "curves": curves.iter().map(|(n, p)| json!({"curve": n, "points": p})).collect::<Vec<_>>(),
-            "slopes": slopes, "mitsuba_source": mitsuba_source, "summary_html": summary_html,
+            "curves": curves.iter().map(|(n, m, p)| json!({"curve": n, "method": m, "points": p})).collect::<Vec<_>>(),
+            "slopes": slopes, "mitsuba_source": mitsuba_source,
+            "glossy": {
+                "scene": GLOSSY, "res": GLOSSY_RES, "reference": glossy_what,
+                "curves": glossy.iter().map(|(n, m, p)| json!({"curve": n, "method": m, "points": p})).collect::<Vec<_>>(),
+                "slopes": gslopes,
+            },
+            "summary_html": summary_html,
         }),
         ..Default::default()
     })

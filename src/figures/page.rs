@@ -146,10 +146,7 @@ pub fn html(sections: &[Section], settings: &Settings, quick: bool, seconds: f64
             esc(&sec.title)
         );
     }
-    s.push_str(
-        "<li><a href=\"#mis-heuristics\">Convergence per MIS heuristic: not produced</a></li>\
-         <li><a href=\"#summary\">Summary and differences from the paper</a></li></ul>",
-    );
+    s.push_str("<li><a href=\"#summary\">Summary and differences from the paper</a></li></ul>");
     for sec in sections {
         let _ = write!(
             s,
@@ -166,18 +163,10 @@ pub fn html(sections: &[Section], settings: &Settings, quick: bool, seconds: f64
             sec.seconds
         );
     }
-    s.push_str(NOT_PRODUCED);
     s.push_str(&summary(sections));
     s.push_str("</body></html>\n");
     s
 }
-
-/// The part of the paper's experiments this version does not make. No picture stands in for it.
-pub const NOT_PRODUCED: &str = "<section id=\"mis-heuristics\"><h2>Convergence per MIS heuristic: not \
-     produced</h2><p class=\"caption\">One convergence curve per MIS heuristic (balance, power, weighted balance, \
-     clamped optimal) is <b>not produced by this version</b>: the MIS integrator arrived late in this work, and only \
-     the paper's heuristic (clamped optimal, v = 0.5) is shown, in the diffuse + specular figure. \
-     <code>linlight render --mis balance|power|weighted|clamped-optimal=v</code> renders each of them.</p></section>";
 
 /// The closing note: headline numbers of the figures that ran, and the differences from the
 /// paper.

@@ -596,6 +596,7 @@ mod tests {
             seed: 7,
             method: linlight_sampling::Technique::ProjectedSolidAngle.into(),
             light_samples: 1,
+            ..Default::default()
         };
         let mc = crate::render(&sc, &opts, &|_, _| {}).unwrap();
         let (mut sum_d, mut sum_v, mut worst) = (0.0f64, 0.0f64, 0.0f64);
