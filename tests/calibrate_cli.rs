@@ -62,7 +62,7 @@ fn small_calibration_is_calibrated_and_has_power() {
     }
     // Unusable input: an unknown family, a film too small for the local region.
     for (args, needle) in [
-        (vec!["--families", "glossy"], "unknown family 'glossy'"),
+        (vec!["--families", "specular"], "unknown family 'specular'"),
         (vec!["--res", "16"], "--res must be at least 24"),
     ] {
         let o = Command::new(env!("CARGO_BIN_EXE_linlight"))
