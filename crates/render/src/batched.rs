@@ -29,7 +29,7 @@ use crate::bvh::{PacketHits, RayLanes, PACKET};
 use crate::film::Welford;
 use crate::integrator::{offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON};
 use crate::render::{
-    check_options, metadata, pixel_entries, pixel_value, window, RenderError, RenderOptions, TILE,
+    check_options, metadata, pixel_entries, render_in_tiles, window, RenderError, RenderOptions,
 };
 use crate::scene::Scene;
 use crate::shading::lambert_technique;
@@ -40,9 +40,6 @@ use linlight_imagefile::Image;
 use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 
 /// Camera samples rendered together: one ray packet.
 pub const LANES: usize = PACKET;
@@ -95,50 +92,13 @@ pub fn render_isa(
         isa: if isa.supported() { isa } else { Isa::Baseline },
         full_width: scene.sensor.film.width,
     };
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    let done = AtomicUsize::new(0);
-    let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
-    let image = Mutex::new({
-        let mut image = Image::new(w as usize, h as usize);
-        image.tail = Some(vec![[0.0; 3]; image.mean.len()]);
-        image
-    });
-    tiles.par_iter().for_each(|&(tx, ty)| {
-        let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
-            .flat_map(|y| (tx..(tx + TILE).min(w)).map(move |x| (x0 + x, y0 + y)))
-            .collect();
-        let mut seen: Vec<Vec<PixelLine>> = vec![Vec::new(); pixels.len()];
-        for (&(fx, fy), s) in pixels.iter().zip(&mut seen) {
-            rs.visible.pixel(fx, fy, s);
-        }
-        let mut passes = vec![Welford::default(); pixels.len()];
-        let mut single = vec![Welford::default(); pixels.len()];
-        for pass in 0..opts.passes {
-            single.fill(Welford::default());
-            ctx.tile_pass(&pixels, &seen, pass, &mut single);
-            for (p, s) in passes.iter_mut().zip(&single) {
-                p.push(s.mean());
-            }
-            let step = pixels.len() * opts.spp as usize;
-            progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
-        }
-        let mut image = image.lock().unwrap_or_else(|e| e.into_inner());
-        for (k, (p, s)) in passes.iter().zip(&single).enumerate() {
-            let (x, y) = (
-                tx + k as u32 % TILE.min(w - tx),
-                ty + k as u32 / TILE.min(w - tx),
-            );
-            let i = y as usize * w as usize + x as usize;
-            let v = pixel_value(opts, p, s);
-            (image.mean[i], image.var[i]) = (v.mean, v.var);
-            if let Some(tail) = &mut image.tail {
-                tail[i] = v.tail;
-            }
-        }
-    });
-    let mut image = image.into_inner().unwrap_or_else(|e| e.into_inner());
+    let mut image = render_in_tiles(
+        &rs,
+        opts,
+        (x0, y0, w, h),
+        progress,
+        |pixels, seen, pass, single| ctx.tile_pass(pixels, seen, pass, single),
+    );
     image.meta = metadata(
         opts,
         scene,
@@ -351,7 +311,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         dropped += lambert_dropped.count_ones() as u64;
     }
     if dropped > 0 {
-        rs.dropped.0.fetch_add(dropped, Ordering::Relaxed);
+        rs.dropped.0.fetch_add(dropped, std::sync::atomic::Ordering::Relaxed);
     }
     Radiance {
         total,

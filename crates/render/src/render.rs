@@ -357,14 +357,46 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     let (x0, y0, w, h) = window(scene)?;
     let rs = RenderScene::new(scene)?;
     let full_width = scene.sensor.film.width;
+    let noise = NoiseSource::new(opts.noise, opts.seed, opts.spp);
+    let mut image = render_in_tiles(
+        &rs,
+        opts,
+        (x0, y0, w, h),
+        progress,
+        |pixels, seen, pass, single| {
+            for (i, &(fx, fy)) in pixels.iter().enumerate() {
+                // < 2^32: checked by `window`.
+                let index = fy.wrapping_mul(full_width).wrapping_add(fx);
+                single[i] =
+                    render_pixel_pass(&rs, opts, &noise, pieces, fx, fy, index, pass, &seen[i]);
+            }
+        },
+    );
+    image.meta = Metadata {
+        extra: pixel_entries(scene, &rs, (x0, y0, w, h)),
+        ..Default::default()
+    };
+    Ok(image)
+}
+
+/// The tile loop of both renderers (the scalar path here and [`crate::batched`]): tiles of
+/// TILE² pixels of `window` in parallel; per tile the lines each pixel sees, then per pass
+/// `pass_samples(pixels, seen, pass, single)`, which sets each pixel's accumulator of that
+/// pass's samples. The pass means and the last pass's samples give each pixel's value
+/// ([`pixel_value`]), written into the image as soon as its tile is done, so the image is the
+/// only full-size buffer. `progress` advances per tile and pass. The header is left empty.
+pub(crate) fn render_in_tiles(
+    rs: &RenderScene,
+    opts: &RenderOptions,
+    (x0, y0, w, h): (u32, u32, u32, u32),
+    progress: &(dyn Fn(usize, usize) + Sync),
+    pass_samples: impl Fn(&[(u32, u32)], &[Vec<PixelLine>], u32, &mut [Welford]) + Sync,
+) -> Image {
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
-    let noise = NoiseSource::new(opts.noise, opts.seed, opts.spp);
     let done = AtomicUsize::new(0);
     let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
-    // Each tile writes its pixels into the image when it is done: the image is the only
-    // full-size buffer (no second copy of every pixel's result to assemble afterwards).
     let image = std::sync::Mutex::new({
         let mut image = Image::new(w as usize, h as usize);
         image.tail = Some(vec![[0.0f32; 3]; image.mean.len()]);
@@ -381,13 +413,10 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         let mut passes = vec![Welford::default(); pixels.len()];
         let mut single = vec![Welford::default(); pixels.len()];
         for pass in 0..opts.passes {
-            for (i, &(fx, fy)) in pixels.iter().enumerate() {
-                // < 2^32: checked by `window`.
-                let index = fy.wrapping_mul(full_width).wrapping_add(fx);
-                let acc =
-                    render_pixel_pass(&rs, opts, &noise, pieces, fx, fy, index, pass, &seen[i]);
-                passes[i].push(acc.mean());
-                single[i] = acc;
+            single.fill(Welford::default());
+            pass_samples(&pixels, &seen, pass, &mut single);
+            for (p, s) in passes.iter_mut().zip(&single) {
+                p.push(s.mean());
             }
             let step = pixels.len() * opts.spp as usize;
             progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
@@ -409,12 +438,7 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             }
         }
     });
-    let mut image = image.into_inner().unwrap_or_else(|e| e.into_inner());
-    image.meta = Metadata {
-        extra: pixel_entries(scene, &rs, (x0, y0, w, h)),
-        ..Default::default()
-    };
-    Ok(image)
+    image.into_inner().unwrap_or_else(|e| e.into_inner())
 }
 
 /// The header entries the pixels of a render determine: `nonfinite_dropped` (when non-zero)
