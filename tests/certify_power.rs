@@ -3,88 +3,25 @@
 //! only in their seed. The wrong variants exist only here (test-only subjects through
 //! `linlight_render::render_with`), never as user-facing options.
 
+mod power;
+
 use glam::Vec3;
-use linlight::certify::{self, Options, Oracle, Report, Subject};
+use linlight::certify::{self, Subject};
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{render_with, Hooks, LightSampling, RenderError, RenderOptions};
+use linlight_render::{Hooks, LightSampling, RenderError, RenderOptions};
 use linlight_sampling::area::Area;
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::{LineFrame, LineSampler, Segment, Technique};
 use linlight_verify::image_stats::{compare, CompareConfig, Region, Verdict};
-use std::path::Path;
+use power::{assert_rejected, certify_with, options, Hooked};
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// The default certification (committed references) of the scenes matching `scenes`, without
-/// the sampler suite (it has its own negative controls) and without writing a report.
-fn options(scenes: &str) -> Options {
-    let mut o = Options::new(root());
-    o.scenes = scenes.into();
-    o.oracle = Oracle::Committed;
-    o.sampler_suite = false;
-    // Only the subjects under test (no blue-noise renders of the production technique).
-    o.noise_renders.clear();
-    o
-}
-
-fn certify_with(scenes: &str, subject: &dyn Subject) -> Report {
-    certify::run(&options(scenes), &[subject], &|_| {}).expect("usable input")
-}
-
-/// Every row of the run says DIFFERENT (and so the run fails).
-fn assert_rejected(report: &Report, what: &str) {
-    assert!(!report.passed, "{what}: certification passed");
-    for row in report.rows() {
-        assert_eq!(
-            row.verdict,
-            Verdict::Different,
-            "{what}: {} vs {} not rejected: rel. diff {:?}, CI {:?}",
-            row.scene,
-            row.oracle,
-            row.rel_diff,
-            row.rel_ci
-        );
-    }
-    for row in report.rows() {
-        eprintln!(
-            "{what}: {} vs {}: rel. diff {:?}, failures {:?}",
-            row.scene,
-            row.oracle,
-            row.rel_diff,
-            row.comparison
-                .failures
-                .iter()
-                .map(|f| f.test)
-                .collect::<Vec<_>>()
-        );
-    }
-}
-
-/// A light sampling rendered through the generic hook.
-struct Sampled<S>(&'static str, S);
-
-impl<S: LightSampling + Clone> Subject for Sampled<S> {
-    fn name(&self) -> String {
-        self.0.into()
-    }
-    fn render(
-        &self,
-        scene: &Scene,
-        opts: &RenderOptions,
-        progress: &(dyn Fn(usize, usize) + Sync),
-    ) -> Result<Image, RenderError> {
-        render_with(
-            scene,
-            &RenderOptions {
-                method: Technique::ProjectedSolidAngle.into(),
-                ..*opts
-            },
-            &Hooks::new().with_technique(self.1.clone()),
-            progress,
-        )
+/// A light sampling in place of the technique (the method stays a single technique).
+fn sampled<S: LightSampling>(name: &'static str, sampling: S) -> impl Subject {
+    Hooked {
+        name,
+        method: Technique::ProjectedSolidAngle.into(),
+        hooks: Hooks::new().with_technique(sampling),
     }
 }
 
@@ -180,7 +117,7 @@ fn rejects_a_render_scaled_by_one_percent() {
 fn rejects_area_with_halved_density_where_the_light_crosses_the_horizon() {
     let r = certify_with(
         "floor-crossing",
-        &Sampled("area-halved-at-horizon", AreaHalvedAtHorizon),
+        &sampled("area-halved-at-horizon", AreaHalvedAtHorizon),
     );
     assert_rejected(&r, "area, pdf × 0.5 where clipped");
 }
@@ -195,7 +132,7 @@ fn rejects_li2018_stopped_after_two_iterations() {
     // penumbrae through the box.
     let r = certify_with(
         "cornell-tube",
-        &Sampled("li2018-2-iterations", LiTwoIterations),
+        &sampled("li2018-2-iterations", LiTwoIterations),
     );
     assert_rejected(&r, "Li 2018, 2 iterations");
 }

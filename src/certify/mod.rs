@@ -131,9 +131,10 @@ pub trait Subject: Sync {
     ) -> Result<Image, RenderError>;
 }
 
+/// A single technique: the [`Method`] subject of that technique.
 impl Subject for Technique {
     fn name(&self) -> String {
-        Technique::name(*self).to_string()
+        Method::from(*self).name()
     }
     fn render(
         &self,
@@ -141,14 +142,7 @@ impl Subject for Technique {
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        render(
-            scene,
-            &RenderOptions {
-                method: (*self).into(),
-                ..*opts
-            },
-            progress,
-        )
+        Method::from(*self).render(scene, opts, progress)
     }
 }
 
