@@ -311,7 +311,9 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         dropped += lambert_dropped.count_ones() as u64;
     }
     if dropped > 0 {
-        rs.dropped.0.fetch_add(dropped, std::sync::atomic::Ordering::Relaxed);
+        rs.dropped
+            .0
+            .fetch_add(dropped, std::sync::atomic::Ordering::Relaxed);
     }
     Radiance {
         total,

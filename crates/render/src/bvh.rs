@@ -1101,21 +1101,27 @@ mod tests {
     use super::*;
     use linlight_sampling::rng::Pcg32;
 
+    /// `count` triangles in the cube [0, 10]³, each spanning about `size`, shape i.
+    fn triangle_soup(r3: &mut impl FnMut() -> Vec3, count: u32, size: f32) -> Vec<Primitive> {
+        (0..count)
+            .map(|i| {
+                let c = r3() * 10.0;
+                let v = [c, c + size * (r3() - 0.5), c + size * (r3() - 0.5)];
+                Primitive::Triangle {
+                    v,
+                    n: None,
+                    shape: i,
+                }
+            })
+            .collect()
+    }
+
     /// The BVH must agree with brute force on closest hits and any-hits.
     #[test]
     fn matches_brute_force() {
         let mut rng = Pcg32::new(7, 0);
         let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
-        let mut prims = Vec::new();
-        for i in 0..300 {
-            let c = r3() * 10.0;
-            let v = [c, c + 3.0 * (r3() - 0.5), c + 3.0 * (r3() - 0.5)];
-            prims.push(Primitive::Triangle {
-                v,
-                n: None,
-                shape: i,
-            });
-        }
+        let mut prims = triangle_soup(&mut r3, 300, 3.0);
         for i in 0..20 {
             prims.push(Primitive::Sphere {
                 center: r3() * 10.0,
@@ -1182,16 +1188,7 @@ mod tests {
     fn packets_match_single_rays() {
         let mut rng = Pcg32::new(3, 9);
         let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
-        let mut prims = Vec::new();
-        for i in 0..400 {
-            let c = r3() * 10.0;
-            let v = [c, c + 2.0 * (r3() - 0.5), c + 2.0 * (r3() - 0.5)];
-            prims.push(Primitive::Triangle {
-                v,
-                n: None,
-                shape: i,
-            });
-        }
+        let mut prims = triangle_soup(&mut r3, 400, 2.0);
         prims.push(Primitive::Sphere {
             center: Vec3::splat(5.0),
             radius: 1.0,
@@ -1240,23 +1237,21 @@ mod tests {
     fn closest_hit_packets_match_single_rays() {
         let mut rng = Pcg32::new(5, 2);
         let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
-        let mut prims = Vec::new();
-        for i in 0..300 {
-            let c = r3() * 10.0;
-            let v = [c, c + 2.0 * (r3() - 0.5), c + 2.0 * (r3() - 0.5)];
-            prims.push(Primitive::Triangle {
-                v,
-                n: None,
-                shape: i,
-            });
-            if i % 3 == 0 {
-                prims.push(Primitive::Triangle {
-                    v,
-                    n: None,
-                    shape: 1000 + i,
-                });
-            }
-        }
+        let mut prims = triangle_soup(&mut r3, 300, 2.0);
+        // Every third triangle twice: every hit on it is a tie.
+        let twins: Vec<Primitive> = prims
+            .iter()
+            .step_by(3)
+            .map(|p| match p {
+                Primitive::Triangle { v, n, shape } => Primitive::Triangle {
+                    v: *v,
+                    n: *n,
+                    shape: 1000 + shape,
+                },
+                _ => unreachable!("the soup holds triangles"),
+            })
+            .collect();
+        prims.extend(twins);
         for i in 0..10 {
             prims.push(Primitive::Sphere {
                 center: r3() * 10.0,
