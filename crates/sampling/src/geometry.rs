@@ -139,14 +139,15 @@ impl LineFrame {
         if !(d > 0.0 && l_begin.is_finite() && l_end.is_finite()) {
             return None;
         }
+        let ((s_begin, _), (s_end, _)) = sin_cos_pair(l_begin, l_end, d);
         Self {
             u: u.as_vec3(),
             c_hat,
             d,
             l_begin,
             l_end,
-            s_begin: s_of_l(l_begin, d),
-            s_end: s_of_l(l_end, d),
+            s_begin: clamp_s(s_begin),
+            s_end: clamp_s(s_end),
         }
         .nonempty()
     }
@@ -197,14 +198,15 @@ impl LineFrame {
         let (d, l_begin, l_end) = (d as f32, lb as f32, le as f32);
         // Rounded to f32, d may underflow to 0 and l overflow to ±inf.
         valid &= d > 0.0 && l_begin.is_finite() && l_end.is_finite();
+        let ((s_begin, _), (s_end, _)) = sin_cos_pair(l_begin, l_end, d);
         let frame = Self {
             u: u.as_vec3(),
             c_hat,
             d,
             l_begin,
             l_end,
-            s_begin: s_of_l(l_begin, d),
-            s_end: s_of_l(l_end, d),
+            s_begin: clamp_s(s_begin),
+            s_end: clamp_s(s_end),
         };
         valid &= frame.l_end > frame.l_begin && frame.s_end > frame.s_begin;
         (frame, valid)
@@ -402,7 +404,7 @@ pub struct FrameArc {
 impl FrameArc {
     pub fn of(frame: &LineFrame) -> Self {
         let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
-        let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
+        let ((s_b, c_b), _) = sin_cos_pair(frame.l_begin, frame.l_end, frame.d);
         // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
         let width = atan2_f64((le - lb) * d, d * d + lb * le);
         let (sh, ch) = sin_cos_f64(0.5 * width);
@@ -506,6 +508,22 @@ pub fn sin_cos_at(l: f32, d: f32) -> (f64, f64) {
     let (l, d) = (l as f64, d as f64);
     let inv_r = 1.0 / (l * l + d * d).sqrt();
     (l * inv_r, d * inv_r)
+}
+
+/// (sin φ, cos φ) of both ends of an l-interval ([`sin_cos_at`] of each), with one division
+/// for both: 1/(r_b r_e) (the product of two f32-range radii stays in the f64 range).
+#[inline(always)]
+pub fn sin_cos_pair(lb: f32, le: f32, d: f32) -> ((f64, f64), (f64, f64)) {
+    let (lb, le, d) = (lb as f64, le as f64, d as f64);
+    let (rb, re) = ((lb * lb + d * d).sqrt(), (le * le + d * d).sqrt());
+    let z = 1.0 / (rb * re);
+    let (inv_rb, inv_re) = (re * z, rb * z);
+    ((lb * inv_rb, d * inv_rb), (le * inv_re, d * inv_re))
+}
+
+#[inline(always)]
+fn clamp_s(s: f64) -> f32 {
+    (s as f32).clamp(-1.0, 1.0)
 }
 
 /// The antiderivative of the projected solid angle along a line, the one implementation of the
