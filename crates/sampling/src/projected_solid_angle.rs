@@ -43,7 +43,7 @@
 //! scale-invariant), and the pdf of a sample is (n·ω)/Ω⊥_R with n·ω from the rotation already at
 //! hand. The f64 instantiation keeps std's functions and the full series.
 
-use crate::geometry::{arc_tolerance, sin_cos_pair, tau_in_arc, unit_normal, LineFrame, Segment};
+use crate::geometry::{arc_tolerance, tau_in_arc, unit_normal, EndValues, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
 use glam::{DVec3, Vec3};
@@ -657,14 +657,25 @@ impl ProjectedSolidAngle {
         iterations: u32,
     ) -> Option<Self> {
         let n = unit_normal(n)?;
-        let frame = LineFrame::clipped(segment, x, n)?;
-        Self::on_frame(frame, n, iterations)
+        let (frame, ends) = LineFrame::clipped_with_ends(segment, x, n)?;
+        Self::on_frame_with(frame, ends, n, iterations)
     }
 
     /// On an already clipped frame (n unit, frame clipped to its horizon).
     #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
-        let (sampler, valid) = Self::lane(frame, n, iterations, atan2_f64);
+        Self::on_frame_with(frame, EndValues::of(&frame), n, iterations)
+    }
+
+    /// [`Self::on_frame`] with the frame's [`EndValues`] from its constructor.
+    #[inline]
+    pub(crate) fn on_frame_with(
+        frame: LineFrame,
+        ends: EndValues,
+        n: Vec3,
+        iterations: u32,
+    ) -> Option<Self> {
+        let (sampler, valid) = Self::lane(frame, ends, n, iterations, atan2_f64);
         valid.then_some(sampler)
     }
 
@@ -673,6 +684,7 @@ impl ProjectedSolidAngle {
     #[inline(always)]
     pub(crate) fn lane(
         frame: LineFrame,
+        ends: EndValues,
         n: Vec3,
         iterations: u32,
         atan2: impl Fn(f64, f64) -> f64,
@@ -689,8 +701,10 @@ impl ProjectedSolidAngle {
             frame.l_end as f64,
         );
         let (ns, nt) = (n64.dot(frame.u.as_dvec3()), n64.dot(frame.c_hat.as_dvec3()));
-        // (The frame's own s_begin came from the same expression: computed once.)
-        let ((s_b, c_b), _) = sin_cos_pair(frame.l_begin, frame.l_end, frame.d);
+        // (s_b, c_b) and Δs as the frame's constructor computed them ([`EndValues`]); Δs for
+        // the start value from there, not from sin/cos(Δ/2) after Δ's atan2: the start value no
+        // longer waits for that chain (only the total, needed one evaluation later, does).
+        let EndValues { s_b, c_b, delta_s } = ends;
         let width = atan2((le - lb) * d, d * d + lb * le);
         let (core, valid) = PsaCore::new_lane(
             ns as f32,
@@ -701,6 +715,10 @@ impl ProjectedSolidAngle {
             (ns * s_b + nt * c_b) as f32,
             (ns * c_b - nt * s_b) as f32,
         );
+        let core = PsaCore {
+            delta_s: delta_s as f32,
+            ..core
+        };
         let inv_psa = frame.d / core.total;
         let sampler = Self {
             frame,
