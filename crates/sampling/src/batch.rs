@@ -351,7 +351,7 @@ fn prepare_kernel(input: &PsaBatchInput) -> PreparedBatch {
             input.begin.get(i),
             input.end.get(i),
             input.x.get(i),
-            Some(n),
+            Some(input.n.get(i)),
         );
         let (li, ok) = Li2018::lane(frame, ends, n);
         out.store(i, &li);
@@ -493,7 +493,7 @@ fn lane(input: &PsaBatchInput, i: usize) -> (Vec3, f32, f32, bool) {
         input.begin.get(i),
         input.end.get(i),
         input.x.get(i),
-        Some(n),
+        Some(input.n.get(i)),
     );
     let (sampler, sampler_ok) =
         ProjectedSolidAngle::lane(frame, ends, n, DEFAULT_ITERATIONS, atan2_f64_select);

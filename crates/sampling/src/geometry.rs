@@ -85,7 +85,9 @@ impl LineFrame {
         Self::build(segment, x, Some(n)).map(|(frame, _)| frame)
     }
 
-    /// [`Self::clipped`] and the f64 values at its ends that it computed on the way.
+    /// [`Self::clipped`] and the f64 values at its ends that it computed on the way. `n` may be
+    /// any finite positive multiple of the unit normal (the samplers pass the normal as given,
+    /// so that the clipping does not wait for its normalisation).
     #[inline]
     pub(crate) fn clipped_with_ends(
         segment: &Segment,

@@ -42,8 +42,10 @@ pub struct Li2018 {
 
 impl Li2018 {
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
-        let n = unit_normal(n)?;
+        let unit = unit_normal(n)?;
+        // Clipped with the normal as given (as `ProjectedSolidAngle::prepare`).
         let (frame, ends) = LineFrame::clipped_with_ends(segment, x, n)?;
+        let n = unit;
         let exact = ProjectedSolidAngle::on_frame_with(frame, ends, n, DEFAULT_ITERATIONS)?;
         let (ns, nt) = frame.normal_coefficients(n);
         Some(Self {

@@ -656,9 +656,11 @@ impl ProjectedSolidAngle {
         n: Vec3,
         iterations: u32,
     ) -> Option<Self> {
-        let n = unit_normal(n)?;
+        let unit = unit_normal(n)?;
+        // Clipped with the normal as given: the horizon depends on its direction only, and the
+        // clipping then need not wait for the normalisation (a square root and a division).
         let (frame, ends) = LineFrame::clipped_with_ends(segment, x, n)?;
-        Self::on_frame_with(frame, ends, n, iterations)
+        Self::on_frame_with(frame, ends, unit, iterations)
     }
 
     /// On an already clipped frame (n unit, frame clipped to its horizon).
