@@ -563,7 +563,9 @@ pub fn sin_cos_pair(lb: f32, le: f32, d: f32) -> ((f64, f64), (f64, f64), f64) {
     let (lb, le, d) = (lb as f64, le as f64, d as f64);
     let (rb, re) = ((lb * lb + d * d).sqrt(), (le * le + d * d).sqrt());
     let same_side = lb * le > 0.0;
-    let f = if same_side { le * rb + lb * re } else { 1.0 };
+    // (A select the compiler keeps before the division: otherwise it splits the one division
+    // into one per arm in the branch-free lanes of `crate::batch`.)
+    let f = std::hint::select_unpredictable(same_side, le * rb + lb * re, 1.0);
     let zf = 1.0 / (rb * re * f);
     let z = zf * f;
     let (inv_rb, inv_re) = (re * z, rb * z);
