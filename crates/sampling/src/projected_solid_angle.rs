@@ -33,15 +33,19 @@
 //! f32.
 //!
 //! Cost (the f32 hot path; `cargo bench -p linlight-sampling --bench techniques`): a sample is a
-//! chain of dependent evaluations — Δ (atan2) and C(φ_e) − C(φ_b) (sin/cos of Δ/2) in `prepare`,
-//! the start value (sqrt, atan2), two Halley steps (sin/cos of τ/2, δ − sin δ, sqrt, division)
-//! and the direction (sin/cos of τ/2) — so its latency, not its instruction count, sets the
-//! time. Hence: the f32 `atan2`/`sin_cos` of [`Real`] are short f64 polynomials without libm
-//! calls ([`crate::trig`]; a libm call also spills every live SSE register), the series of
-//! δ − sin δ is cut to the f32 precision and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1, atan2
-//! arguments are formed without divisions, the start value saves its division (atan2 is
-//! scale-invariant), and the pdf of a sample is (n·ω)/Ω⊥_R with n·ω from the rotation already at
-//! hand. The f64 instantiation keeps std's functions and the full series.
+//! chain of dependent evaluations — the frame (f64 square roots and divisions), (sin, cos) at
+//! the interval's begin and Δs, the start value (two square roots, a division), two Halley steps
+//! (sin/cos of τ/2, δ − sin δ, sqrt, division) and the direction — so its latency, not its
+//! instruction count, sets the time. Hence: the f32 `atan2`/`sin_cos` of [`Real`] are short f64
+//! polynomials without libm calls ([`crate::trig`]; a libm call also spills every live SSE
+//! register); work that only the total needs (Δ's atan2, sin/cos(Δ/2)) and the start value's own
+//! atan2 run beside the chain, not in it: Δs comes from the frame's end values
+//! ([`crate::geometry::EndValues`]), and the first Halley step takes sin/cos(τ₀/2) from the
+//! start value's bisector (`PsaCore::start_half_with`); the series of δ − sin δ is cut to the
+//! f32 precision, evaluated by Estrin's scheme, and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1;
+//! the last step rotates the values it started from instead of a further sin/cos; the pdf is
+//! (n·ω)/Ω⊥_R with n·ω from that rotation. The f64 instantiation keeps std's functions and the
+//! full series.
 
 use crate::geometry::{arc_tolerance, tau_in_arc, unit_normal, EndValues, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
