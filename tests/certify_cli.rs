@@ -98,14 +98,14 @@ fn full_certification_on_the_committed_references() {
 }
 
 /// The glossy scenes, within the test budget (issue 7): the full default matrix (every unbiased
-/// technique on the full BSDF, MIS with every heuristic, clamped optimal at v = 0, 0.5, 1)
+/// technique on the full BSDF, LTC, MIS with every heuristic, clamped optimal at v = 0, 0.5, 1)
 /// on glossy-blend against Mitsuba and the line quadrature, and the paper's estimator (MIS,
 /// clamped optimal v = 0.5) on every other glossy scene. `linlight certify` without `--scenes`
 /// runs the full matrix on all of them.
 #[test]
 fn glossy_certification_of_a_representative_subset() {
     let runs: [(&str, &[&str], usize); 2] = [
-        ("glossy-blend", &[], 2 * 13),
+        ("glossy-blend", &[], 2 * 14),
         (
             "glossy-conductor-rough,glossy-principled,glossy-cornell",
             &["--techniques", "mis"],

@@ -23,6 +23,7 @@ use linlight_render::power_controls::{
 };
 use linlight_render::shading::{estimate_light, shading_frame, Combination, ShadingPoint};
 use linlight_render::{Heuristic, Method};
+use linlight_sampling::noise::Uniforms;
 use linlight_sampling::philox::CounterRng;
 use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
 use linlight_sampling::rng::Pcg32;
@@ -475,4 +476,76 @@ fn weights_of_the_two_techniques_sum_to_one() {
         }
     }
     assert!(checked > 10_000, "{checked}");
+}
+
+/// Uniforms from a fixed list, cycled.
+struct Fixed(Vec<f32>, usize);
+
+impl Uniforms for Fixed {
+    fn next_f32(&mut self) -> f32 {
+        let v = self.0[self.1 % self.0.len()];
+        self.1 += 1;
+        v
+    }
+}
+
+/// LTC alone at the ends of the renderer's uniform lattice (k·2⁻²⁴; docs/glossy-scenes.md, "LTC
+/// alone"): the glossy-principled floor point of pixel (0, 36) of a 64² render and its cool tube,
+/// which crosses the edge of the LTC support inside the hemisphere (θ_o = 54.5°, α = 0.16). The
+/// one-iteration estimate with the LTC sample at the first or last lattice point (ξ_s = 0 or
+/// 1 − 2⁻²⁴; ξ_d = 0.5, on the complement's side or not) weighs 2⁻²⁴ in the expectation: it
+/// must not add more than 1e-3 of the point's value to it, i.e. stay below 2²⁴·10⁻³ ≈ 1.7·10⁴
+/// times the quadrature value. With the sample for ξ = 0 on the support's edge (density = f32
+/// rounding noise) it was 7.7·10⁴ times here (2.3·10⁵ at the same point in the render, whose
+/// shading point is not at the origin); on the √ξ law of the rest of the tail it is ~500.
+#[test]
+fn ltc_alone_is_bounded_at_the_lattice_ends() {
+    let x = Vec3::new(-1.311_127_3, -0.081_670_165, 0.0);
+    let case = Case {
+        name: "glossy-principled floor (0, 36), cool tube".into(),
+        bsdf: Bsdf::Principled(Principled {
+            base_color: [0.55, 0.35, 0.25],
+            roughness: 0.4,
+            metallic: 0.0,
+            ..Principled::new()
+        }),
+        wi: Vec3::new(0.400_753_83, -0.708_611_4, 0.580_746_3).normalize(),
+        segment: Segment::new(Vec3::new(1.5, -0.8, 1.2) - x, Vec3::new(1.7, 0.6, 1.3) - x),
+        k: Vec3::new(0.3, 0.5, 0.9),
+    };
+    let truth = quadrature(&case);
+    assert!(truth.min_element() > 0.0);
+    let hooks = Hooks::new();
+    let sp = ShadingPoint::new(&hooks.bsdf, &case.bsdf, Vec3::ZERO, N, case.wi);
+    let (a, _) = sp.ltc.expect("a specular lobe");
+    let ltc = linlight_sampling::ltc::LtcLine::prepare(&case.segment, Vec3::ZERO, sp.frame, a)
+        .expect("the lobe reaches the line");
+    // The support begins or ends on the lobe's horizon: the line crosses the support's edge.
+    let z_o = |l: f32| {
+        let aw = a * (sp.frame.transpose() * ltc.support().direction_to(l));
+        aw.z / aw.length()
+    };
+    let (l_b, l_e) = (ltc.support().l_begin, ltc.support().l_end);
+    assert!(z_o(l_b).min(z_o(l_e)) < 1e-6, "{} {}", z_o(l_b), z_o(l_e));
+    let bound = 16_777_216.0 * 1e-3;
+    for xi_s in [0.0f32, 1.0 - 1.0 / 16_777_216.0] {
+        let mut dropped = 0;
+        let e = estimate_light(
+            &hooks,
+            Method::Ltc,
+            &sp,
+            &case.segment,
+            case.k,
+            1,
+            &mut Fixed(vec![0.5, xi_s], 0),
+            &mut |_, _| true,
+            &mut dropped,
+        );
+        assert_eq!(dropped, 0);
+        let ratio = (e.as_dvec3() / truth).max_element();
+        assert!(
+            ratio < bound,
+            "ξ_s = {xi_s}: estimate {e:?} = {ratio:.3e} × the quadrature value {truth:?}"
+        );
+    }
 }
