@@ -23,6 +23,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use crate::certify::budget::{Budget, BudgetRule};
+use crate::certify::planned;
 use crate::certify::{pilot_seed, Unusable};
 
 /// A scene family: a name, the committed scene that stands for it and the method its renders
@@ -272,12 +273,19 @@ fn calibrate_family(
             &quiet,
         )
         .map_err(|e| render_error("pilot", e))?;
-        let Budget { spp, .. } = opts
+        let (Budget { spp, .. }, pixel_spp) = opts
             .budget
-            .choose(&pilot, &b, &opts.compare)
+            .plan(&pilot, &b, &opts.compare)
             .map_err(|e| Unusable(format!("budget of {}: {e}", family.name)))?;
-        let a = render(scene, &options(family.method, spp, 1, seed), &quiet)
-            .map_err(|e| render_error("certify budget", e))?;
+        // As certify renders: per-tile counts where the plan has them.
+        let a = planned::render(
+            &|s, o, p| render(s, o, p),
+            scene,
+            &options(family.method, spp, 1, seed),
+            pixel_spp.as_deref(),
+            &quiet,
+        )
+        .map_err(|e| render_error("certify budget", e))?;
         at_budget.add(&a, &b, spp, &opts.compare)?;
         let low = render(scene, &options(family.method, LOW_SPP, 1, base + 2), &quiet)
             .map_err(|e| render_error("256 spp", e))?;
