@@ -136,7 +136,7 @@ impl Rate {
 pub struct BudgetRow {
     /// "certify" or "256 spp".
     pub budget: String,
-    /// Median spp of A over the pairs.
+    /// Median over the pairs of A's samples per pixel (its mean over the pixels).
     pub median_spp: u32,
     pub different: Rate,
     pub inconclusive: Rate,
@@ -273,7 +273,14 @@ fn calibrate_family(
             &quiet,
         )
         .map_err(|e| render_error("pilot", e))?;
-        let (Budget { spp, .. }, pixel_spp) = opts
+        let (
+            Budget {
+                spp,
+                pixel_spp_mean,
+                ..
+            },
+            pixel_spp,
+        ) = opts
             .budget
             .plan(&pilot, &b, &opts.compare)
             .map_err(|e| Unusable(format!("budget of {}: {e}", family.name)))?;
@@ -286,7 +293,9 @@ fn calibrate_family(
             &quiet,
         )
         .map_err(|e| render_error("certify budget", e))?;
-        at_budget.add(&a, &b, spp, &opts.compare)?;
+        // The samples a render costs: per pixel on average (the per-tile budget gives the
+        // pixels of hard tiles more than `spp`).
+        at_budget.add(&a, &b, pixel_spp_mean.round() as u32, &opts.compare)?;
         let low = render(scene, &options(family.method, LOW_SPP, 1, base + 2), &quiet)
             .map_err(|e| render_error("256 spp", e))?;
         at_low.add(&low, &b, LOW_SPP, &opts.compare)?;
@@ -392,7 +401,7 @@ pub fn markdown(report: &Report) -> String {
     for f in &report.families {
         for r in &f.rows {
             s += &format!(
-                "| {} ({}) | {} (median {} spp) | {} | {} |",
+                "| {} ({}) | {} (median {} spp per pixel) | {} | {} |",
                 f.family.name,
                 f.family.scene,
                 r.budget,
