@@ -169,9 +169,16 @@ impl<'a> Context<'a> {
         while start < total {
             let len = LANES.min(total - start);
             packet.len = len;
+            // Sample j = start + k is sample j % spp of pixel j / spp: one division per
+            // packet, then counting.
+            let (mut pixel, mut sample) = (start / spp, (start % spp) as u32);
             for k in 0..LANES {
-                let j = (start + k.min(len - 1)) as u64;
-                let (pixel, sample) = ((j / spp as u64) as usize, (j % spp as u64) as u32);
+                if k > 0 && k < len {
+                    sample += 1;
+                    if sample as usize == spp {
+                        (pixel, sample) = (pixel + 1, 0);
+                    }
+                }
                 let (fx, fy) = pixels[pixel];
                 packet.pixel[k] = pixel;
                 packet.fx[k] = fx;
@@ -297,13 +304,16 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         let mut lambert_dropped = 0u32;
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
         for k in 0..LANES {
-            let n = get3(&shading.n, k);
-            let dir = get3(&samples.dir, k);
-            let f = get3(&shading.lambert, k);
-            let c = *k_light * f * (n.dot(dir) / samples.pdf[k]);
+            // glam's k·f·(n·ω/p) written on the lanes: the same operations in the same order
+            // (the dot product adds x, y, then z), so the same bits.
+            let (n, dir, f) = (&shading.n, &samples.dir, &shading.lambert);
+            let cos = n[0][k] * dir[0][k] + n[1][k] * dir[1][k] + n[2][k] * dir[2][k];
+            let s = cos / samples.pdf[k];
+            let c: [f32; 3] = std::array::from_fn(|a| k_light[a] * f[a][k] * s);
+            let finite = c.iter().all(|x| x.is_finite());
             let lambert = lit >> k & 1 == 1;
-            let add = lambert & c.is_finite();
-            lambert_dropped |= ((lambert & !c.is_finite()) as u32) << k;
+            let add = lambert & finite;
+            lambert_dropped |= ((lambert & !finite) as u32) << k;
             for a in 0..3 {
                 total[a][k] += if add { c[a] } else { 0.0 };
             }

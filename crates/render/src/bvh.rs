@@ -118,6 +118,20 @@ pub struct Bvh {
     prims: Vec<Primitive>,
     isect: Vec<Isect>,
     nodes: Vec<Node>,
+    /// The packet walks' kernel, detected once at build (detection per walk cost ~70
+    /// instructions per packet): AVX-512 (with BW), AVX2 + FMA, or the target's baseline.
+    walk_isa: linlight_sampling::batch::Isa,
+}
+
+/// The packet walks' kernel on this CPU ([`Bvh::walk_isa`]).
+fn detect_walk_isa() -> linlight_sampling::batch::Isa {
+    use linlight_sampling::batch::Isa;
+    match Isa::detect() {
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 if std::arch::is_x86_feature_detected!("avx512bw") => Isa::Avx512,
+        Isa::Avx512 | Isa::Avx2 => Isa::Avx2,
+        Isa::Baseline => Isa::Baseline,
+    }
 }
 
 struct BuildItem {
@@ -368,13 +382,14 @@ impl<const N: usize> RayPacket<N> {
             }
         }
         let mut mask = 0u32;
-        let mut entry = f32::INFINITY;
+        let mut entries = [f32::INFINITY; N];
         for i in 0..N {
             let hit = t0[i] <= t1[i];
             mask |= (hit as u32) << i;
-            entry = entry.min(if hit { t0[i] } else { f32::INFINITY });
+            // t0 is never NaN (it only takes values that compared greater).
+            entries[i] = if hit { t0[i] } else { f32::INFINITY };
         }
-        (mask, entry)
+        (mask, reduce::<N, false>(entries))
     }
 
     /// The four boxes of `node` against the packet as intervals (valid when `coherent`), with
@@ -503,11 +518,23 @@ fn replaces(t: f32, i: u32, best_t: f32, best_prim: u32) -> bool {
 /// A pending subtree of a packet walk: parent node, slot, rays, entry distance.
 type PacketEntry = (u32, u32, u32, f32);
 
+/// A fixed stack of `S` entries on the call stack, not initialised: zeroing it was a per-walk
+/// cost (a `memset` of 1 KiB per packet walk); only entries below the stack pointer are read.
+#[inline(always)]
+fn stack<T: Copy, const S: usize>() -> [std::mem::MaybeUninit<T>; S] {
+    [const { std::mem::MaybeUninit::uninit() }; S]
+}
+
 /// Push onto a fixed stack, spilling into a Vec when it is full (exact, only slower).
 #[inline(always)]
-fn push<T: Copy, const S: usize>(stack: &mut [T; S], sp: &mut usize, spill: &mut Vec<T>, e: T) {
+fn push<T: Copy, const S: usize>(
+    stack: &mut [std::mem::MaybeUninit<T>; S],
+    sp: &mut usize,
+    spill: &mut Vec<T>,
+    e: T,
+) {
     if *sp < S && spill.is_empty() {
-        stack[*sp] = e;
+        stack[*sp] = std::mem::MaybeUninit::new(e);
         *sp += 1;
     } else {
         spill.push(e);
@@ -515,20 +542,24 @@ fn push<T: Copy, const S: usize>(stack: &mut [T; S], sp: &mut usize, spill: &mut
 }
 
 #[inline(always)]
-fn pop<T: Copy, const S: usize>(stack: &[T; S], sp: &mut usize, spill: &mut Vec<T>) -> Option<T> {
+fn pop<T: Copy, const S: usize>(
+    stack: &[std::mem::MaybeUninit<T>; S],
+    sp: &mut usize,
+    spill: &mut Vec<T>,
+) -> Option<T> {
     if let Some(e) = spill.pop() {
         Some(e)
     } else if *sp > 0 {
         *sp -= 1;
-        Some(stack[*sp])
+        // SAFETY: entries below the stack pointer were written by `push`.
+        Some(unsafe { stack[*sp].assume_init() })
     } else {
         None
     }
 }
 /// A pending subtree: (child, count, entry distance) as in [`Node`].
 type Entry = (u32, u32, f32);
-/// Entries of the traversal stack held on the call stack (zeroing it is a per-ray cost, so it
-/// is small); more pending subtrees spill into a Vec, which stays exact, only slower. A 4-wide
+/// Entries of the traversal stack held on the call stack (small, to stay in the L1 cache); more pending subtrees spill into a Vec, which stays exact, only slower. A 4-wide
 /// level adds at most 3 entries net, so spilling needs a deep tree and an unlucky ray.
 const STACK: usize = 16;
 
@@ -573,6 +604,7 @@ impl Bvh {
             prims: ordered,
             isect,
             nodes,
+            walk_isa: detect_walk_isa(),
         }
     }
 
@@ -676,12 +708,11 @@ impl Bvh {
             unsafe fn avx2(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
                 bvh.occluded_lanes_n::<PACKET>(lanes, active)
             }
-            match Isa::detect() {
-                // SAFETY: the features the functions are compiled for were detected.
-                Isa::Avx512 if std::arch::is_x86_feature_detected!("avx512bw") => unsafe {
-                    return avx512(self, lanes, active);
-                },
-                Isa::Avx512 | Isa::Avx2 => unsafe { return avx2(self, lanes, active) },
+            match self.walk_isa {
+                // SAFETY: the features the functions are compiled for were detected
+                // (`detect_walk_isa`).
+                Isa::Avx512 => unsafe { return avx512(self, lanes, active) },
+                Isa::Avx2 => unsafe { return avx2(self, lanes, active) },
                 Isa::Baseline => {}
             }
         }
@@ -692,7 +723,7 @@ impl Bvh {
     fn occluded_lanes_n<const N: usize>(&self, lanes: &RayLanes, active: u32) -> u32 {
         let packet = RayPacket::<N>::new(lanes, active);
         let mut occluded = 0u32;
-        let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
+        let mut stack = stack::<PacketEntry, 64>();
         let mut spill: Vec<PacketEntry> = Vec::new();
         let mut sp = 0;
         let mut expand = Some((0u32, active));
@@ -782,13 +813,14 @@ impl Bvh {
             unsafe fn avx2(bvh: &Bvh, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
                 bvh.intersect_lanes_n::<PACKET>(lanes, active, out)
             }
-            match Isa::detect() {
-                // SAFETY: the features the functions are compiled for were detected.
-                Isa::Avx512 if std::arch::is_x86_feature_detected!("avx512bw") => unsafe {
+            match self.walk_isa {
+                // SAFETY: the features the functions are compiled for were detected
+                // (`detect_walk_isa`).
+                Isa::Avx512 => unsafe {
                     avx512(self, lanes, active, &mut out);
                     return out;
                 },
-                Isa::Avx512 | Isa::Avx2 => unsafe {
+                Isa::Avx2 => unsafe {
                     avx2(self, lanes, active, &mut out);
                     return out;
                 },
@@ -809,7 +841,7 @@ impl Bvh {
         let mut packet = RayPacket::<N>::new(lanes, active);
         let (mut best_t, mut best_prim) = ([0.0f32; N], [u32::MAX; N]);
         let (mut best_b1, mut best_b2) = ([0.0f32; N], [0.0f32; N]);
-        let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
+        let mut stack = stack::<PacketEntry, 64>();
         let mut spill: Vec<PacketEntry> = Vec::new();
         let mut sp = 0;
         let mut expand = Some((0u32, active));
@@ -916,7 +948,7 @@ impl Bvh {
             return;
         }
         let rb = RayBoxes::new(ray);
-        let mut stack: [Entry; N] = [(0, 0, 0.0); N];
+        let mut stack = stack::<Entry, N>();
         let mut spill: Vec<Entry> = Vec::new();
         let mut sp = 0usize;
         // The nearest child of the last node, entered without a trip through the stack.
@@ -928,7 +960,8 @@ impl Bvh {
                 e
             } else if sp > 0 {
                 sp -= 1;
-                stack[sp]
+                // SAFETY: entries below the stack pointer were written below.
+                unsafe { stack[sp].assume_init() }
             } else {
                 return;
             };
@@ -968,7 +1001,7 @@ impl Bvh {
             for &lane in &order[..n - 1] {
                 let e = entry(lane);
                 if sp < N && spill.is_empty() {
-                    stack[sp] = e;
+                    stack[sp] = std::mem::MaybeUninit::new(e);
                     sp += 1;
                 } else {
                     spill.push(e);

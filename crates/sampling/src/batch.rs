@@ -347,13 +347,13 @@ fn prepare_kernel(input: &PsaBatchInput) -> PreparedBatch {
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
     for i in 0..LANES {
         let (n, normal_ok) = unit_normal_lane(input.n.get(i));
-        let (frame, frame_ok) = LineFrame::lane(
+        let (frame, ends, frame_ok) = LineFrame::lane(
             input.begin.get(i),
             input.end.get(i),
             input.x.get(i),
-            Some(n),
+            Some(input.n.get(i)),
         );
-        let (li, ok) = Li2018::lane(frame, n);
+        let (li, ok) = Li2018::lane(frame, ends, n);
         out.store(i, &li);
         valid[i] = normal_ok && frame_ok && ok;
     }
@@ -489,14 +489,14 @@ fn kernel(input: &PsaBatchInput) -> PsaBatchOutput {
 #[inline(always)]
 fn lane(input: &PsaBatchInput, i: usize) -> (Vec3, f32, f32, bool) {
     let (n, normal_ok) = unit_normal_lane(input.n.get(i));
-    let (frame, frame_ok) = LineFrame::lane(
+    let (frame, ends, frame_ok) = LineFrame::lane(
         input.begin.get(i),
         input.end.get(i),
         input.x.get(i),
-        Some(n),
+        Some(input.n.get(i)),
     );
     let (sampler, sampler_ok) =
-        ProjectedSolidAngle::lane(frame, n, DEFAULT_ITERATIONS, atan2_f64_select);
+        ProjectedSolidAngle::lane(frame, ends, n, DEFAULT_ITERATIONS, atan2_f64_select);
     let (dir, pdf) = sampler.sample_with_pdf_lane(clamp_xi(input.xi[i]), atan2_select);
     let distance = frame.d / frame.c_hat.dot(dir);
     (dir, pdf, distance, normal_ok && frame_ok && sampler_ok)

@@ -72,7 +72,7 @@ impl LineFrame {
     /// `MIN_RELATIVE_DISTANCE`·|b|, which left ĉ far from orthogonal to u; and the squares in
     /// |b| leave the f32 range for coordinates beyond ~1e±19.
     pub fn new(segment: &Segment, x: Vec3) -> Option<Self> {
-        Self::build(segment, x, None)
+        Self::build(segment, x, None).map(|(frame, _)| frame)
     }
 
     /// `LineFrame::new(segment, x)?.clip_to_horizon(n)` (n unit) in one pass: the endpoints'
@@ -82,6 +82,18 @@ impl LineFrame {
     /// l = σ + ℓ·n·b/(n·b − n·e) (a sum of like-signed terms in the denominator).
     #[inline]
     pub fn clipped(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
+        Self::build(segment, x, Some(n)).map(|(frame, _)| frame)
+    }
+
+    /// [`Self::clipped`] and the f64 values at its ends that it computed on the way. `n` may be
+    /// any finite positive multiple of the unit normal (the samplers pass the normal as given,
+    /// so that the clipping does not wait for its normalisation).
+    #[inline]
+    pub(crate) fn clipped_with_ends(
+        segment: &Segment,
+        x: Vec3,
+        n: Vec3,
+    ) -> Option<(Self, EndValues)> {
         Self::build(segment, x, Some(n))
     }
 
@@ -90,7 +102,7 @@ impl LineFrame {
     /// the branches the compiler pairs the square roots of |a|² and d² into one packed
     /// instruction, so that u and l wait for d (measured 15 → 42 ns per frame).
     #[inline(always)]
-    fn build(segment: &Segment, x: Vec3, horizon: Option<Vec3>) -> Option<Self> {
+    fn build(segment: &Segment, x: Vec3, horizon: Option<Vec3>) -> Option<(Self, EndValues)> {
         let b = segment.begin.as_dvec3() - x.as_dvec3();
         let e = segment.end.as_dvec3() - x.as_dvec3();
         // Fraction along the segment where it crosses the horizon, for the end to move. Decided
@@ -139,23 +151,29 @@ impl LineFrame {
         if !(d > 0.0 && l_begin.is_finite() && l_end.is_finite()) {
             return None;
         }
-        Self {
+        let (ends, s_end) = EndValues::with_s_end(l_begin, l_end, d);
+        let frame = Self {
             u: u.as_vec3(),
             c_hat,
             d,
             l_begin,
             l_end,
-            s_begin: s_of_l(l_begin, d),
-            s_end: s_of_l(l_end, d),
-        }
-        .nonempty()
+            s_begin: clamp_s(ends.s_b),
+            s_end: clamp_s(s_end),
+        };
+        frame.nonempty().map(|frame| (frame, ends))
     }
 
     /// The frame as [`Self::new`] / [`Self::clipped`] compute it, without branches (every value
     /// computed, `valid` = whether the constructor returns `Some`): the one implementation of
     /// both the scalar constructors and the lanes of [`crate::batch`].
     #[inline(always)]
-    pub(crate) fn lane(begin: Vec3, end: Vec3, x: Vec3, horizon: Option<Vec3>) -> (Self, bool) {
+    pub(crate) fn lane(
+        begin: Vec3,
+        end: Vec3,
+        x: Vec3,
+        horizon: Option<Vec3>,
+    ) -> (Self, EndValues, bool) {
         let b = begin.as_dvec3() - x.as_dvec3();
         let e = end.as_dvec3() - x.as_dvec3();
         let axis = e - b;
@@ -197,17 +215,18 @@ impl LineFrame {
         let (d, l_begin, l_end) = (d as f32, lb as f32, le as f32);
         // Rounded to f32, d may underflow to 0 and l overflow to ±inf.
         valid &= d > 0.0 && l_begin.is_finite() && l_end.is_finite();
+        let (ends, s_end) = EndValues::with_s_end(l_begin, l_end, d);
         let frame = Self {
             u: u.as_vec3(),
             c_hat,
             d,
             l_begin,
             l_end,
-            s_begin: s_of_l(l_begin, d),
-            s_end: s_of_l(l_end, d),
+            s_begin: clamp_s(ends.s_b),
+            s_end: clamp_s(s_end),
         };
         valid &= frame.l_end > frame.l_begin && frame.s_end > frame.s_begin;
-        (frame, valid)
+        (frame, ends, valid)
     }
 
     /// `Some(self)` iff the interval is non-degenerate in both l and s. A segment so far away
@@ -376,6 +395,31 @@ impl LineFrame {
     }
 }
 
+/// f64 values at the ends of a frame's interval: (sin φ_b, cos φ_b) and sin φ_e − sin φ_b
+/// ([`sin_cos_pair`]). The frame's constructors compute them on the way to `s_begin` and
+/// `s_end` and hand them to the samplers that need them unrounded (computed once, not
+/// recomputed from the rounded frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EndValues {
+    pub s_b: f64,
+    pub c_b: f64,
+    pub delta_s: f64,
+}
+
+impl EndValues {
+    /// The values of `frame`'s interval (what its constructor computed).
+    #[inline(always)]
+    pub fn of(frame: &LineFrame) -> Self {
+        Self::with_s_end(frame.l_begin, frame.l_end, frame.d).0
+    }
+
+    #[inline(always)]
+    fn with_s_end(lb: f32, le: f32, d: f32) -> (Self, f64) {
+        let ((s_b, c_b), (s_e, _), delta_s) = sin_cos_pair(lb, le, d);
+        (Self { s_b, c_b, delta_s }, s_e)
+    }
+}
+
 /// The directions toward a frame's interval as an arc φ ∈ [φ_b, φ_b + Δ] in the plane of
 /// (u, ĉ), φ = atan2(l, d). For support tests, densities and samples that must stay accurate
 /// where s = u·ω does not: near |s| → 1 (line seen almost along its axis) consecutive f32 s are
@@ -402,7 +446,7 @@ pub struct FrameArc {
 impl FrameArc {
     pub fn of(frame: &LineFrame) -> Self {
         let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
-        let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
+        let EndValues { s_b, c_b, .. } = EndValues::of(frame);
         // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
         let width = atan2_f64((le - lb) * d, d * d + lb * le);
         let (sh, ch) = sin_cos_f64(0.5 * width);
@@ -506,6 +550,37 @@ pub fn sin_cos_at(l: f32, d: f32) -> (f64, f64) {
     let (l, d) = (l as f64, d as f64);
     let inv_r = 1.0 / (l * l + d * d).sqrt();
     (l * inv_r, d * inv_r)
+}
+
+/// (sin φ, cos φ) of both ends of an l-interval ([`sin_cos_at`] of each) and
+/// sin φ_e − sin φ_b without cancellation, in f64 with one division for all: where the ends lie
+/// on the same side of l = 0, Δs = (s_e² − s_b²)/(s_e + s_b) = d²(l_e − l_b)(l_e + l_b) /
+/// (r_b r_e (l_e r_b + l_b r_e)) (like-signed terms in the last factor), else Δs = s_e − s_b is
+/// a difference of opposite-signed sines. Products of a few f32-range values stay in the f64
+/// range.
+#[inline(always)]
+pub fn sin_cos_pair(lb: f32, le: f32, d: f32) -> ((f64, f64), (f64, f64), f64) {
+    let (lb, le, d) = (lb as f64, le as f64, d as f64);
+    let (rb, re) = ((lb * lb + d * d).sqrt(), (le * le + d * d).sqrt());
+    let same_side = lb * le > 0.0;
+    // (A select the compiler keeps before the division: otherwise it splits the one division
+    // into one per arm in the branch-free lanes of `crate::batch`.)
+    let f = std::hint::select_unpredictable(same_side, le * rb + lb * re, 1.0);
+    let zf = 1.0 / (rb * re * f);
+    let z = zf * f;
+    let (inv_rb, inv_re) = (re * z, rb * z);
+    let (s_b, s_e) = (lb * inv_rb, le * inv_re);
+    let delta_s = if same_side {
+        d * d * (le - lb) * (le + lb) * zf
+    } else {
+        s_e - s_b
+    };
+    ((s_b, d * inv_rb), (s_e, d * inv_re), delta_s)
+}
+
+#[inline(always)]
+fn clamp_s(s: f64) -> f32 {
+    (s as f32).clamp(-1.0, 1.0)
 }
 
 /// The antiderivative of the projected solid angle along a line, the one implementation of the

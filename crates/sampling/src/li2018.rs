@@ -19,7 +19,7 @@
 //! bracket with the sign of the residual and takes the Newton step l − G/F'(l) if it lands strictly
 //! inside the bracket, the bracket midpoint otherwise.
 
-use crate::geometry::{unit_normal, LineFrame, Segment};
+use crate::geometry::{unit_normal, EndValues, LineFrame, Segment};
 use crate::projected_solid_angle::{ProjectedSolidAngle, DEFAULT_ITERATIONS};
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
@@ -42,9 +42,11 @@ pub struct Li2018 {
 
 impl Li2018 {
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
-        let n = unit_normal(n)?;
-        let frame = LineFrame::clipped(segment, x, n)?;
-        let exact = ProjectedSolidAngle::on_frame(frame, n, DEFAULT_ITERATIONS)?;
+        let unit = unit_normal(n)?;
+        // Clipped with the normal as given (as `ProjectedSolidAngle::prepare`).
+        let (frame, ends) = LineFrame::clipped_with_ends(segment, x, n)?;
+        let n = unit;
+        let exact = ProjectedSolidAngle::on_frame_with(frame, ends, n, DEFAULT_ITERATIONS)?;
         let (ns, nt) = frame.normal_coefficients(n);
         Some(Self {
             exact,
@@ -125,9 +127,14 @@ impl Li2018 {
     /// Prepared lane without branches (for [`crate::batch`]): the sampler and whether
     /// [`Self::prepare`] returns it.
     #[inline(always)]
-    pub(crate) fn lane(frame: LineFrame, n: Vec3) -> (Self, bool) {
-        let (exact, ok) =
-            ProjectedSolidAngle::lane(frame, n, DEFAULT_ITERATIONS, crate::trig::atan2_f64_select);
+    pub(crate) fn lane(frame: LineFrame, ends: EndValues, n: Vec3) -> (Self, bool) {
+        let (exact, ok) = ProjectedSolidAngle::lane(
+            frame,
+            ends,
+            n,
+            DEFAULT_ITERATIONS,
+            crate::trig::atan2_f64_select,
+        );
         let (ns, nt) = frame.normal_coefficients(n);
         let li = Self {
             exact,

@@ -33,17 +33,21 @@
 //! f32.
 //!
 //! Cost (the f32 hot path; `cargo bench -p linlight-sampling --bench techniques`): a sample is a
-//! chain of dependent evaluations — Δ (atan2) and C(φ_e) − C(φ_b) (sin/cos of Δ/2) in `prepare`,
-//! the start value (sqrt, atan2), two Halley steps (sin/cos of τ/2, δ − sin δ, sqrt, division)
-//! and the direction (sin/cos of τ/2) — so its latency, not its instruction count, sets the
-//! time. Hence: the f32 `atan2`/`sin_cos` of [`Real`] are short f64 polynomials without libm
-//! calls ([`crate::trig`]; a libm call also spills every live SSE register), the series of
-//! δ − sin δ is cut to the f32 precision and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1, atan2
-//! arguments are formed without divisions, the start value saves its division (atan2 is
-//! scale-invariant), and the pdf of a sample is (n·ω)/Ω⊥_R with n·ω from the rotation already at
-//! hand. The f64 instantiation keeps std's functions and the full series.
+//! chain of dependent evaluations — the frame (f64 square roots and divisions), (sin, cos) at
+//! the interval's begin and Δs, the start value (two square roots, a division), two Halley steps
+//! (sin/cos of τ/2, δ − sin δ, sqrt, division) and the direction — so its latency, not its
+//! instruction count, sets the time. Hence: the f32 `atan2`/`sin_cos` of [`Real`] are short f64
+//! polynomials without libm calls ([`crate::trig`]; a libm call also spills every live SSE
+//! register); work that only the total needs (Δ's atan2, sin/cos(Δ/2)) and the start value's own
+//! atan2 run beside the chain, not in it: Δs comes from the frame's end values
+//! ([`crate::geometry::EndValues`]), and the first Halley step takes sin/cos(τ₀/2) from the
+//! start value's bisector (`PsaCore::start_half_with`); the series of δ − sin δ is cut to the
+//! f32 precision, evaluated by Estrin's scheme, and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1;
+//! the last step rotates the values it started from instead of a further sin/cos; the pdf is
+//! (n·ω)/Ω⊥_R with n·ω from that rotation. The f64 instantiation keeps std's functions and the
+//! full series.
 
-use crate::geometry::{arc_tolerance, sin_cos_at, tau_in_arc, unit_normal, LineFrame, Segment};
+use crate::geometry::{arc_tolerance, tau_in_arc, unit_normal, EndValues, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
 use glam::{DVec3, Vec3};
@@ -74,8 +78,8 @@ pub(crate) trait Real:
     const ONE: Self;
     const TWO: Self;
     const HALF: Self;
-    /// Denominators (2k+2)(2k+3) of the series of δ − sin δ used at this precision, innermost
-    /// first (see [`delta_minus_sin`]).
+    /// Coefficients c_k of (δ − sin δ)/(δ³/6) = Σ c_k δ^(2k) = 1 − δ²/20 + δ⁴/840 − …, as many
+    /// as this precision needs for |δ| < 1 (see [`delta_minus_sin`]).
     const SERIES: &'static [f64];
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
@@ -156,23 +160,36 @@ macro_rules! impl_real {
         }
     };
 }
-// f32: atan2 and sin_cos without libm (crate::trig, f64 polynomials, ~1e-11 relative), 4
-// series terms of δ − sin δ (truncation < 1e-9 relative for |δ| < 1). f64: std, 8 terms
-// (< 1e-17).
+// f32: atan2 and sin_cos without libm (crate::trig, f64 polynomials, ~1e-11 relative), the
+// series of δ − sin δ to δ⁸ (truncation < 1e-9 relative for |δ| < 1). f64: std, to δ¹⁶
+// (< 1e-17). c_k = 6(−1)^k/(2k + 3)!.
 impl_real!(
     f32,
     |a: f32, b: f32, c: f32, d: f32| { (a as f64 * b as f64 + c as f64 * d as f64) as f32 },
     crate::trig::atan2,
     crate::trig::sin_cos,
-    &[110.0, 72.0, 42.0, 20.0]
+    SERIES.split_at(5).0
 );
 impl_real!(
     f64,
     |a: f64, b: f64, c: f64, d: f64| a.mul_add(b, c * d),
     f64::atan2,
     f64::sin_cos,
-    &[342.0, 272.0, 210.0, 156.0, 110.0, 72.0, 42.0, 20.0]
+    &SERIES
 );
+
+/// c_k = 6(−1)^k/(2k + 3)! of the series of (δ − sin δ)/(δ³/6), k = 0..8.
+const SERIES: [f64; 9] = [
+    1.0,
+    -1.0 / 20.0,
+    1.0 / 840.0,
+    -1.0 / 60_480.0,
+    1.0 / 6_652_800.0,
+    -1.0 / 1_037_836_800.0,
+    1.0 / 217_945_728_000.0,
+    -1.0 / 59_281_238_016_000.0,
+    1.0 / 20_274_183_401_472_000.0,
+];
 
 /// δ − sin δ without cancellation: Taylor series for |δ| < 1 (truncated where the remainder is
 /// below the precision: < 1e-17 relative in f64, < 1e-9 in f32, see [`Real::SERIES`]),
@@ -183,17 +200,31 @@ pub(crate) fn delta_minus_sin<T: Real>(x: T) -> T {
 }
 
 /// [`delta_minus_sin`] with sin δ already known (used only for |δ| ≥ 1): no sin call on the hot
-/// path, where sin τ = 2 sin(τ/2) cos(τ/2) is at hand.
-#[inline]
+/// path, where sin τ = 2 sin(τ/2) cos(τ/2) is at hand. The series
+/// δ³/6 · (1 − δ²/20 + δ⁴/840 − …) is evaluated by Estrin's scheme (pairs of terms, then powers
+/// of δ⁴): half the dependency chain of Horner's, which sat on the sampler's critical path.
+#[inline(always)]
 pub(crate) fn delta_minus_sin_given<T: Real>(x: T, sin_x: T) -> T {
+    let x2 = x * x;
+    let c = |k: usize| T::from_f64(T::SERIES[k]);
+    let x4 = x2 * x2;
+    // Σ c_k x^(2k), k = 0..SERIES.len(): pairs c_k + c_(k+1) x², combined in powers of x⁴.
+    let mut acc = T::ZERO;
+    let mut power = T::ONE;
+    let mut k = 0;
+    while k < T::SERIES.len() {
+        let pair = if k + 1 < T::SERIES.len() {
+            c(k) + c(k + 1) * x2
+        } else {
+            c(k)
+        };
+        acc = acc + pair * power;
+        power = power * x4;
+        k += 2;
+    }
+    let series = x * x2 * T::from_f64(1.0 / 6.0) * acc;
     if x.abs() < T::ONE {
-        let x2 = x * x;
-        let mut acc = T::ONE;
-        // Coefficient ratios −x²/((2k+2)(2k+3)) of the series x³/3! − x⁵/5! + …
-        for &den in T::SERIES {
-            acc = T::ONE - x2 * T::from_f64(1.0 / den) * acc;
-        }
-        x * x2 * T::from_f64(1.0 / 6.0) * acc
+        series
     } else {
         x - sin_x
     }
@@ -307,6 +338,12 @@ impl<T: Real> PsaCore<T> {
     #[inline(always)]
     pub fn eval(&self, tau: T) -> Eval<T> {
         let (sh, ch) = (tau * T::HALF).sin_cos();
+        self.eval_half(tau, sh, ch)
+    }
+
+    /// [`Self::eval`] given (sin, cos) of τ/2.
+    #[inline(always)]
+    fn eval_half(&self, tau: T, sh: T, ch: T) -> Eval<T> {
         let sin_tau = T::TWO * sh * ch;
         let cos_tau = T::ONE - T::TWO * sh * sh;
         let delta_c = self.delta_c_half(tau, sh, ch);
@@ -354,8 +391,21 @@ impl<T: Real> PsaCore<T> {
     /// with bitwise the same results), itself without branches.
     #[inline(always)]
     pub(crate) fn start_with(&self, xi: T, atan2: impl Fn(T, T) -> T) -> T {
+        self.start_half_with(xi, atan2).0
+    }
+
+    /// [`Self::start_with`] and (sin, cos) of τ/2 for ξ ∈ (0, 1), which the first Halley step
+    /// evaluates: from the start value's own quantities, not from τ (the atan2 of the start
+    /// value and a sin/cos of its half were one after the other on the critical path; now the
+    /// atan2 runs beside). The unit vectors at φ_b and φ = φ_b + τ sum to
+    /// w = (c_b + c, s_b + sin φ) = (`denom`, 2s_b + y), |w| = 2 cos(τ/2), and their cross
+    /// product is sin τ, so cos(τ/2) = |w|/2 and sin(τ/2) = sin τ/|w| (a sum of squares: no
+    /// cancellation; where w → 0, τ → π, its first component dominates).
+    #[inline(always)]
+    pub(crate) fn start_half_with(&self, xi: T, atan2: impl Fn(T, T) -> T) -> (T, T, T) {
         let y = xi * self.delta_s;
-        let q = y * (T::TWO * self.s_b + y);
+        let wy = T::TWO * self.s_b + y;
+        let q = y * wy;
         let c = (self.c_b * self.c_b - q).max(T::ZERO).sqrt();
         let denom = self.c_b + c;
         let cos_tau = c * self.c_b + (self.s_b + y) * self.s_b;
@@ -370,23 +420,27 @@ impl<T: Real> PsaCore<T> {
         let cos_tau = if scaled { cos_tau * denom } else { cos_tau };
         let tau = atan2(sin_tau, cos_tau).clamp(T::ZERO, self.width);
         // Exact ends (also for ξ outside [0, 1]).
-        if xi <= T::ZERO {
+        let tau = if xi <= T::ZERO {
             T::ZERO
         } else if xi >= T::ONE {
             self.width
         } else {
             tau
-        }
+        };
+        let w = (denom * denom + wy * wy).sqrt();
+        // denom = 0: c_b = c = 0, τ ∈ {0, π}.
+        let sh = if scaled {
+            sin_tau / (denom * w)
+        } else if cos_tau < T::ZERO {
+            T::ONE
+        } else {
+            T::ZERO
+        };
+        (tau, sh, T::HALF * w)
     }
 
-    /// One step of Halley's irrational formula on G(τ) = C(φ_b + τ) − C(φ_b) − ξ·total, clamped
-    /// to [0, Δ].
-    #[inline]
-    pub fn halley_step(&self, tau: T, xi: T) -> T {
-        self.halley_from(tau, xi, &self.eval(tau))
-    }
-
-    /// [`Self::halley_step`] from the values `e` = `eval(τ)`.
+    /// One step of Halley's irrational formula on G(τ) = C(φ_b + τ) − C(φ_b) − ξ·total from
+    /// the values `e` = `eval(τ)`, clamped to [0, Δ].
     #[inline(always)]
     fn halley_from(&self, tau: T, xi: T, e: &Eval<T>) -> T {
         let g = e.delta_c - xi * self.total;
@@ -410,14 +464,26 @@ impl<T: Real> PsaCore<T> {
     /// τ of the sample for ξ ∈ [0, 1] after `iterations` Halley steps.
     #[inline]
     pub fn solve(&self, xi: T, iterations: u32) -> T {
-        let mut tau = self.start(xi);
-        if Self::in_guard(xi) {
-            return tau;
+        if iterations == 0 || Self::in_guard(xi) {
+            return self.start(xi);
         }
-        for _ in 0..iterations {
-            tau = self.halley_step(tau, xi);
+        let (_, tau, e) = self.iterate(xi, iterations, T::atan2);
+        self.halley_from(tau, xi, &e)
+    }
+
+    /// The first `iterations − 1` Halley steps (`iterations` ≥ 1) from the start value (whose
+    /// half-angle values the first evaluation takes, see [`Self::start_half_with`]): the start
+    /// value, τ before the last step and the values there.
+    #[inline(always)]
+    fn iterate(&self, xi: T, iterations: u32, atan2: impl Fn(T, T) -> T) -> (T, T, Eval<T>) {
+        let (start, sh, ch) = self.start_half_with(xi, atan2);
+        let mut e = self.eval_half(start, sh, ch);
+        let mut tau = start;
+        for _ in 1..iterations {
+            tau = self.halley_from(tau, xi, &e);
+            e = self.eval(tau);
         }
-        tau
+        (start, tau, e)
     }
 
     /// (sin φ, cos φ, n·ω) at φ = φ_b + τ, τ ∈ [0, Δ] ⊂ [0, π]: (sin, cos) τ from the half
@@ -436,14 +502,11 @@ impl<T: Real> PsaCore<T> {
     /// further sin/cos.
     #[inline(always)]
     pub fn solve_with_values(&self, xi: T, iterations: u32) -> (T, (T, T, T)) {
-        let mut tau = self.start(xi);
         if iterations == 0 || Self::in_guard(xi) {
+            let tau = self.start(xi);
             return (tau, self.at(tau));
         }
-        for _ in 1..iterations {
-            tau = self.halley_step(tau, xi);
-        }
-        let e = self.eval(tau);
+        let (_, tau, e) = self.iterate(xi, iterations, T::atan2);
         let next = self.halley_from(tau, xi, &e);
         let h = next - tau;
         if h.abs() > T::from_f64(ROTATION_STEP) {
@@ -461,12 +524,7 @@ impl<T: Real> PsaCore<T> {
         iterations: u32,
         atan2: impl Fn(T, T) -> T,
     ) -> (T, T, T) {
-        let start = self.start_with(xi, atan2);
-        let mut tau = start;
-        for _ in 1..iterations {
-            tau = self.halley_step(tau, xi);
-        }
-        let e = self.eval(tau);
+        let (start, tau, e) = self.iterate(xi, iterations.max(1), atan2);
         let next = self.halley_from(tau, xi, &e);
         let h = next - tau;
         let guard = iterations == 0 || Self::in_guard(xi);
@@ -602,15 +660,28 @@ impl ProjectedSolidAngle {
         n: Vec3,
         iterations: u32,
     ) -> Option<Self> {
-        let n = unit_normal(n)?;
-        let frame = LineFrame::clipped(segment, x, n)?;
-        Self::on_frame(frame, n, iterations)
+        let unit = unit_normal(n)?;
+        // Clipped with the normal as given: the horizon depends on its direction only, and the
+        // clipping then need not wait for the normalisation (a square root and a division).
+        let (frame, ends) = LineFrame::clipped_with_ends(segment, x, n)?;
+        Self::on_frame_with(frame, ends, unit, iterations)
     }
 
     /// On an already clipped frame (n unit, frame clipped to its horizon).
     #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
-        let (sampler, valid) = Self::lane(frame, n, iterations, atan2_f64);
+        Self::on_frame_with(frame, EndValues::of(&frame), n, iterations)
+    }
+
+    /// [`Self::on_frame`] with the frame's [`EndValues`] from its constructor.
+    #[inline]
+    pub(crate) fn on_frame_with(
+        frame: LineFrame,
+        ends: EndValues,
+        n: Vec3,
+        iterations: u32,
+    ) -> Option<Self> {
+        let (sampler, valid) = Self::lane(frame, ends, n, iterations, atan2_f64);
         valid.then_some(sampler)
     }
 
@@ -619,6 +690,7 @@ impl ProjectedSolidAngle {
     #[inline(always)]
     pub(crate) fn lane(
         frame: LineFrame,
+        ends: EndValues,
         n: Vec3,
         iterations: u32,
         atan2: impl Fn(f64, f64) -> f64,
@@ -635,7 +707,10 @@ impl ProjectedSolidAngle {
             frame.l_end as f64,
         );
         let (ns, nt) = (n64.dot(frame.u.as_dvec3()), n64.dot(frame.c_hat.as_dvec3()));
-        let (s_b, c_b) = sin_cos_at(frame.l_begin, frame.d);
+        // (s_b, c_b) and Δs as the frame's constructor computed them ([`EndValues`]); Δs for
+        // the start value from there, not from sin/cos(Δ/2) after Δ's atan2: the start value no
+        // longer waits for that chain (only the total, needed one evaluation later, does).
+        let EndValues { s_b, c_b, delta_s } = ends;
         let width = atan2((le - lb) * d, d * d + lb * le);
         let (core, valid) = PsaCore::new_lane(
             ns as f32,
@@ -646,6 +721,10 @@ impl ProjectedSolidAngle {
             (ns * s_b + nt * c_b) as f32,
             (ns * c_b - nt * s_b) as f32,
         );
+        let core = PsaCore {
+            delta_s: delta_s as f32,
+            ..core
+        };
         let inv_psa = frame.d / core.total;
         let sampler = Self {
             frame,

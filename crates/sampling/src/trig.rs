@@ -100,7 +100,10 @@ pub fn atan2_f64_select(y: f64, x: f64) -> f64 {
     let num = if swap { ax } else { ay };
     let den = if swap { ay } else { ax };
     let reduce = num > TAN_PI_8 * den;
-    let t = if reduce { num - den } else { num } / if reduce { num + den } else { den };
+    // One division and one polynomial for both arms: without the hint the compiler computes
+    // both arms (two divisions, two polynomials) and selects after them.
+    let t = std::hint::select_unpredictable(reduce, num - den, num)
+        / std::hint::select_unpredictable(reduce, num + den, den);
     let small = atan_small(t);
     let mut r = if reduce { FRAC_PI_4 + small } else { small };
     // t = NaN: 0/0 (x = y = 0, result 0), inf/inf (π/4) or a NaN input (NaN).
