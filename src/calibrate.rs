@@ -23,6 +23,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use crate::certify::budget::{Budget, BudgetRule};
+use crate::certify::planned;
 use crate::certify::{pilot_seed, Unusable};
 
 /// A scene family: a name, the committed scene that stands for it and the method its renders
@@ -135,7 +136,7 @@ impl Rate {
 pub struct BudgetRow {
     /// "certify" or "256 spp".
     pub budget: String,
-    /// Median spp of A over the pairs.
+    /// Median over the pairs of A's samples per pixel (its mean over the pixels).
     pub median_spp: u32,
     pub different: Rate,
     pub inconclusive: Rate,
@@ -272,13 +273,29 @@ fn calibrate_family(
             &quiet,
         )
         .map_err(|e| render_error("pilot", e))?;
-        let Budget { spp, .. } = opts
+        let (
+            Budget {
+                spp,
+                pixel_spp_mean,
+                ..
+            },
+            pixel_spp,
+        ) = opts
             .budget
-            .choose(&pilot, &b, &opts.compare)
+            .plan(&pilot, &b, &opts.compare)
             .map_err(|e| Unusable(format!("budget of {}: {e}", family.name)))?;
-        let a = render(scene, &options(family.method, spp, 1, seed), &quiet)
-            .map_err(|e| render_error("certify budget", e))?;
-        at_budget.add(&a, &b, spp, &opts.compare)?;
+        // As certify renders: per-tile counts where the plan has them.
+        let a = planned::render(
+            &|s, o, p| render(s, o, p),
+            scene,
+            &options(family.method, spp, 1, seed),
+            pixel_spp.as_deref(),
+            &quiet,
+        )
+        .map_err(|e| render_error("certify budget", e))?;
+        // The samples a render costs: per pixel on average (the per-tile budget gives the
+        // pixels of hard tiles more than `spp`).
+        at_budget.add(&a, &b, pixel_spp_mean.round() as u32, &opts.compare)?;
         let low = render(scene, &options(family.method, LOW_SPP, 1, base + 2), &quiet)
             .map_err(|e| render_error("256 spp", e))?;
         at_low.add(&low, &b, LOW_SPP, &opts.compare)?;
@@ -384,7 +401,7 @@ pub fn markdown(report: &Report) -> String {
     for f in &report.families {
         for r in &f.rows {
             s += &format!(
-                "| {} ({}) | {} (median {} spp) | {} | {} |",
+                "| {} ({}) | {} (median {} spp per pixel) | {} | {} |",
                 f.family.name,
                 f.family.scene,
                 r.budget,

@@ -107,10 +107,10 @@ fn glossy_certification_of_a_representative_subset() {
     let runs: [(&str, &[&str], usize); 2] = [
         ("glossy-blend", &[], 2 * 14),
         (
-            "glossy-conductor-rough,glossy-principled,glossy-cornell",
+            "glossy-conductor-sharp,glossy-conductor-rough,glossy-principled,glossy-cornell",
             &["--techniques", "mis"],
-            // rough is unoccluded: also against the quadrature
-            2 + 1 + 1,
+            // sharp and rough are unoccluded: also against the quadrature
+            2 + 2 + 1 + 1,
         ),
     ];
     for (i, (scenes, extra, comparisons)) in runs.into_iter().enumerate() {

@@ -162,11 +162,21 @@ impl Subject for TileScaled {
     ) -> Result<Image, RenderError> {
         let mut img = self.technique.render(scene, opts, progress)?;
         let (r, k) = (self.region, self.factor);
-        for y in r.y..r.y + r.height {
-            for x in r.x..r.x + r.width {
-                let i = y * img.width + x;
-                img.mean[i] = img.mean[i].map(|c| c * k);
-                img.var[i] = img.var[i].map(|c| c * k * k);
+        // Certify renders the cells of tiles that need more samples as crop windows of the
+        // (uncropped) scene: the region is in film coordinates.
+        let (ox, oy) = scene
+            .sensor
+            .film
+            .crop
+            .map_or((0, 0), |c| (c.offset_x as usize, c.offset_y as usize));
+        for y in 0..img.height {
+            for x in 0..img.width {
+                let (fx, fy) = (ox + x, oy + y);
+                if (r.x..r.x + r.width).contains(&fx) && (r.y..r.y + r.height).contains(&fy) {
+                    let i = y * img.width + x;
+                    img.mean[i] = img.mean[i].map(|c| c * k);
+                    img.var[i] = img.var[i].map(|c| c * k * k);
+                }
             }
         }
         Ok(img)

@@ -18,7 +18,8 @@ ROOT = Path(__file__).resolve().parents[2]
 SCENES = ROOT / "references" / "scenes"
 REFS = ROOT / "references" / "mitsuba"
 ALL = ["floor-tube", "floor-crossing", "two-tubes", "cornell-tube", "mesh-occluder",
-       "glossy-conductor-rough", "glossy-blend", "glossy-principled", "glossy-cornell"]
+       "glossy-conductor-sharp", "glossy-conductor-rough", "glossy-blend", "glossy-principled",
+       "glossy-cornell"]
 CLOSED_FORM = ["floor-tube", "floor-crossing", "two-tubes"]
 Z_MAX = 4.3  # two-sided, 1 - (1 - 1e-4)^(1/9) per test ~ 1.1e-5 -> z ~ 4.4; rounded down
 

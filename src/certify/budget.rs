@@ -45,6 +45,11 @@ pub enum Target {
         power: f64,
         /// Relative bias of one full tile that must be rejected.
         tile_bias: f64,
+        /// Every pixel gets what the global test needs, and the pixels of a tile that needs
+        /// more get that tile's need (rendered again at that count, [`super::planned`]);
+        /// false: the whole image gets the largest need.
+        #[serde(default)]
+        per_tile: bool,
     },
     /// At least as precise as the reference in the `quantile` of the pixels.
     Parity { quantile: f64 },
@@ -71,6 +76,7 @@ impl Default for BudgetRule {
             target: Target::Tests {
                 power: 0.99,
                 tile_bias: 0.01,
+                per_tile: true,
             },
         }
     }
@@ -96,12 +102,31 @@ impl BudgetRule {
             self.granularity, self.min_spp, self.max_spp
         );
         match self.target {
-            Target::Tests { power, tile_bias } => format!(
-                "{common}; the render gets the smallest spp at which the global test rejects a \
-                 bias of ±δ, ±δ equivalence of an unbiased render is shown, and the tile test \
-                 rejects a {}% bias of any full tile, each with probability {} \
-                 (docs/budget.md), {clamp}",
+            Target::Tests {
+                power,
+                tile_bias,
+                per_tile,
+            } => format!(
+                "{common}; {} the smallest spp at which the global test rejects a \
+                 bias of ±δ and ±δ equivalence of an unbiased render is shown, {} the tile \
+                 test rejects a {}% bias of {}, each with probability {} (docs/budget.md), \
+                 {clamp}",
+                if per_tile {
+                    "every pixel gets"
+                } else {
+                    "the render gets"
+                },
+                if per_tile {
+                    "and the pixels of each full tile as many as"
+                } else {
+                    "and at which"
+                },
                 100.0 * tile_bias,
+                if per_tile {
+                    "that tile"
+                } else {
+                    "any full tile"
+                },
                 power
             ),
             Target::Parity { quantile } => format!(
@@ -153,7 +178,14 @@ pub struct TestBudget {
 /// Why a budget came out as it did.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct Budget {
+    /// Samples of every pixel (with a per-tile budget, the pixels of tiles that need more get
+    /// more: `pixel_spp_max`, `pixel_spp_mean`).
     pub spp: u32,
+    /// Largest and mean samples per pixel (= `spp` for a uniform budget).
+    #[serde(default)]
+    pub pixel_spp_max: u32,
+    #[serde(default)]
+    pub pixel_spp_mean: f64,
     /// The spp the rule asked for before rounding and clamping (None: nothing to match).
     pub required_spp: Option<f64>,
     /// The rule asked for more than `max_spp`.
@@ -276,9 +308,10 @@ struct Constraints {
     required: f64,
     bound: Bound,
     plan: TestBudget,
-    /// Per channel sums of the whole image (contacts left out) and of every covered tile.
+    /// Per channel sums of the whole image (contacts left out) and of every covered tile,
+    /// with the tile's region and need.
     global: [SetSums; 3],
-    covered: Vec<[SetSums; 3]>,
+    covered: Vec<([SetSums; 3], Region, f64)>,
     tile_bias: f64,
 }
 
@@ -350,7 +383,7 @@ impl Constraints {
                 tile_spp = n;
                 hardest_tile = Some(*r);
             }
-            covered.push(s);
+            covered.push((s, *r, n));
         }
         let (required, bound) = match hardest_tile {
             Some(r) if tile_spp > global_spp => (tile_spp, Bound::Tile(r)),
@@ -378,22 +411,22 @@ impl Constraints {
         })
     }
 
-    /// The plan with what `spp` delivers filled in.
-    fn delivered(&self, spp: u32) -> TestBudget {
-        let n = spp as f64;
-        let worst = |sets: &[SetSums; 3], k: f64, only_resolvable: bool| {
+    /// The plan with what `spp` (every pixel) delivers filled in; `tile_spp(region)`: the
+    /// fewest samples of a pixel of that tile (≥ `spp`).
+    fn delivered(&self, spp: u32, tile_spp: impl Fn(&Region) -> u32) -> TestBudget {
+        let worst = |sets: &[SetSums; 3], n: u32, k: f64, only_resolvable: bool| {
             sets.iter()
                 .filter(|c| !only_resolvable || matches!(need(c, self.tile_bias, k), Need::Spp(_)))
-                .filter_map(|c| detectable(c, n, k))
+                .filter_map(|c| detectable(c, n as f64, k))
                 .fold(0.0, f64::max)
         };
         TestBudget {
-            predicted_rel_se: worst(&self.global, 1.0, false),
-            detectable_global_bias: worst(&self.global, self.plan.k_global, false),
+            predicted_rel_se: worst(&self.global, spp, 1.0, false),
+            detectable_global_bias: worst(&self.global, spp, self.plan.k_global, false),
             detectable_tile_bias: self
                 .covered
                 .iter()
-                .map(|s| worst(s, self.plan.k_tile, true))
+                .map(|(s, r, _)| worst(s, tile_spp(r), self.plan.k_tile, true))
                 .reduce(f64::max),
             ..self.plan
         }
@@ -403,13 +436,24 @@ impl Constraints {
 impl BudgetRule {
     /// Budget from a pilot render of `self.pilot_spp` samples in one pass, for a comparison
     /// with `cfg` against `reference`. Errors when the two images cannot be compared (the
-    /// comparison would refuse them too).
+    /// comparison would refuse them too). A per-tile budget's pixel counts: [`Self::plan`].
     pub fn choose(
         &self,
         pilot: &Image,
         reference: &Image,
         cfg: &CompareConfig,
     ) -> Result<Budget, CompareError> {
+        Ok(self.plan(pilot, reference, cfg)?.0)
+    }
+
+    /// [`Self::choose`], with the samples of every pixel (row-major) where they differ between
+    /// pixels (None: every pixel gets the budget's spp).
+    pub fn plan(
+        &self,
+        pilot: &Image,
+        reference: &Image,
+        cfg: &CompareConfig,
+    ) -> Result<(Budget, Option<Vec<u32>>), CompareError> {
         let g = self.granularity.max(1) as f64;
         let clamp = |required: Option<f64>| {
             let spp = match required {
@@ -426,26 +470,76 @@ impl BudgetRule {
             Target::Parity { quantile: q } => {
                 let required = quantile(parity_ratios(pilot, self.pilot_spp, reference), q);
                 let (spp, capped) = clamp(required);
-                Ok(Budget {
-                    spp,
-                    required_spp: required,
-                    capped,
-                    bound: Bound::Parity,
-                    tests: None,
-                })
+                Ok((
+                    Budget {
+                        spp,
+                        pixel_spp_max: spp,
+                        pixel_spp_mean: spp as f64,
+                        required_spp: required,
+                        capped,
+                        bound: Bound::Parity,
+                        tests: None,
+                    },
+                    None,
+                ))
             }
-            Target::Tests { power, tile_bias } => {
+            Target::Tests {
+                power,
+                tile_bias,
+                per_tile,
+            } => {
                 let c =
                     Constraints::measure(pilot, self.pilot_spp, reference, cfg, power, tile_bias)?;
-                let (spp, capped) = clamp(Some(c.required));
-                let at_minimum = spp == self.min_spp && (self.min_spp as f64) >= c.required;
-                Ok(Budget {
+                let at_minimum = clamp(Some(c.required)).0 == self.min_spp
+                    && (self.min_spp as f64) >= c.required;
+                let bound = if at_minimum { Bound::Minimum } else { c.bound };
+                if !per_tile {
+                    let (spp, capped) = clamp(Some(c.required));
+                    let budget = Budget {
+                        spp,
+                        pixel_spp_max: spp,
+                        pixel_spp_mean: spp as f64,
+                        required_spp: Some(c.required),
+                        capped,
+                        bound,
+                        tests: Some(c.delivered(spp, |_| spp)),
+                    };
+                    return Ok((budget, None));
+                }
+                // Every pixel: the global need; the pixels of a covered tile: at least its own.
+                let (spp, global_capped) = clamp(Some(c.plan.global_spp));
+                let (w, h) = (reference.width, reference.height);
+                let mut pixels = vec![spp; w * h];
+                let mut capped = global_capped;
+                for (_, r, n) in &c.covered {
+                    let (n, tile_capped) = clamp(Some(*n));
+                    capped |= tile_capped;
+                    for y in r.y..(r.y + r.height).min(h) {
+                        for p in &mut pixels[y * w + r.x..y * w + (r.x + r.width).min(w)] {
+                            *p = (*p).max(n);
+                        }
+                    }
+                }
+                let tile_spp = |r: &Region| {
+                    (r.y..(r.y + r.height).min(h))
+                        .flat_map(|y| (r.x..(r.x + r.width).min(w)).map(move |x| y * w + x))
+                        .map(|i| pixels[i])
+                        .min()
+                        .unwrap_or(spp)
+                };
+                let tests = c.delivered(spp, tile_spp);
+                let max = pixels.iter().copied().max().unwrap_or(spp);
+                let mean = pixels.iter().map(|&n| n as f64).sum::<f64>() / pixels.len() as f64;
+                let budget = Budget {
                     spp,
+                    pixel_spp_max: max,
+                    pixel_spp_mean: mean,
                     required_spp: Some(c.required),
                     capped,
-                    bound: if at_minimum { Bound::Minimum } else { c.bound },
-                    tests: Some(c.delivered(spp)),
-                })
+                    bound,
+                    tests: Some(tests),
+                };
+                Ok((budget, (max > spp).then_some(pixels)))
             }
         }
     }

@@ -1,6 +1,6 @@
 //! `linlight certify`: the whole certification in one run (docs/statistics.md §1 and §2).
 //!
-//! 1. The sampler chi-square suite (`linlight samplers`).
+//! 1. The sampler chi-square suite (`linlight samplers`), alongside step 2 on the same threads.
 //! 2. For every selected scene: its committed Mitsuba reference (or a live Mitsuba render), and
 //!    for every subject (by default [`matrix::default_subjects`]: every unbiased technique, and
 //!    on glossy scenes also the glossy-only configurations) a Rust render at a budget from
@@ -22,6 +22,7 @@ pub mod budget;
 pub mod closed_form;
 pub mod matrix;
 pub mod oracle;
+pub mod planned;
 pub mod report;
 pub mod report_html;
 pub mod sampler_suite;
@@ -227,7 +228,7 @@ impl Options {
 
 /// Progress notifications (the command line turns them into a progress bar and lines).
 pub enum Event<'a> {
-    /// The run has this many steps (suite + renders).
+    /// The run has this many steps (renders; the sampler suite runs alongside them).
     Plan {
         steps: usize,
     },
@@ -523,143 +524,148 @@ fn run_plan(
     let scene_runs = |si: usize| (0..scene_subjects[si].len()).any(|k| mine(first[si] + k));
     let run_suite = opts.sampler_suite && opts.shard.is_none_or(|s| s.runs_suite());
     events(Event::Plan {
-        steps: usize::from(run_suite)
-            + (0..plan.len()).filter(|&j| mine(j)).count()
+        steps: (0..plan.len()).filter(|&j| mine(j)).count()
             + usize::from(opts.oracle == Oracle::Live)
                 * (0..chosen.len()).filter(|&si| scene_runs(si)).count(),
     });
 
-    let sampler_suite = if run_suite {
-        events(Event::Step {
-            label: "sampler chi-square suite".into(),
-        });
-        let s = sampler_suite::run();
-        events(Event::SuiteDone(&s));
-        Some(s)
-    } else {
-        None
+    // The sampler suite runs alongside the renders (both are data-parallel on the same pool:
+    // each fills the other's serial stretches — a suite subject's first configuration, a
+    // render's last tiles, the comparisons).
+    let suite = || {
+        run_suite.then(|| {
+            let s = sampler_suite::run();
+            events(Event::SuiteDone(&s));
+            s
+        })
     };
-
     let tiles = |done: usize, total: usize| events(Event::Tiles { done, total });
-    let mut scene_reports = Vec::new();
-    for (si, s) in chosen.iter().enumerate() {
-        if !scene_runs(si) {
-            continue;
-        }
-        let mut live_oracle_seconds = None;
-        let reference = match opts.oracle {
-            Oracle::Committed => s.reference.clone(),
-            Oracle::Live => {
-                events(Event::Step {
-                    label: format!("{}: live Mitsuba render", s.name),
-                });
-                let t = Instant::now();
-                let dir = opts
-                    .report_dir
-                    .clone()
-                    .unwrap_or_else(std::env::temp_dir)
-                    .join("mitsuba");
-                let img = oracle::render_live(&opts.root, s, &dir)?;
-                live_oracle_seconds = Some(t.elapsed().as_secs_f64());
-                img
-            }
-        };
-        let exact = if matrix::has_exact_oracle(&s.name) {
-            let subsamples = if matrix::is_glossy(&s.scene) {
-                opts.quadrature_subsamples
-            } else {
-                opts.closed_form_subsamples
-            };
-            closed_form::image(&s.scene, subsamples)
-                .map_err(|e| Unusable(format!("exact image of {}: {e}", s.name)))?
-        } else {
-            None
-        };
-        let mut rows = Vec::new();
-        for (k, &subject) in scene_subjects[si].iter().enumerate() {
-            if !mine(first[si] + k) {
+    let render_all = || -> Result<Vec<SceneReport>, Unusable> {
+        let mut scene_reports = Vec::new();
+        for (si, s) in chosen.iter().enumerate() {
+            if !scene_runs(si) {
                 continue;
             }
-            let name = subject.name();
-            events(Event::Step {
-                label: format!("{}: {name}", s.name),
-            });
-            let base = RenderOptions {
-                spp: opts.budget.pilot_spp.max(2),
-                passes: 1,
-                seed: pilot_seed(opts.seed),
-                method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
-                light_samples: 1,
-                noise: Default::default(),
+            let mut live_oracle_seconds = None;
+            let reference = match opts.oracle {
+                Oracle::Committed => s.reference.clone(),
+                Oracle::Live => {
+                    events(Event::Step {
+                        label: format!("{}: live Mitsuba render", s.name),
+                    });
+                    let t = Instant::now();
+                    let dir = opts
+                        .report_dir
+                        .clone()
+                        .unwrap_or_else(std::env::temp_dir)
+                        .join("mitsuba");
+                    let img = oracle::render_live(&opts.root, s, &dir)?;
+                    live_oracle_seconds = Some(t.elapsed().as_secs_f64());
+                    img
+                }
             };
-            let t = Instant::now();
-            let pilot = subject
-                .render(&s.scene, &base, &|_, _| {})
-                .map_err(|e| render_error(&s.name, &name, e))?;
-            let pilot_seconds = t.elapsed().as_secs_f64();
-            let budget = opts.budget.choose(&pilot, &reference, &cfg).map_err(|e| {
-                Unusable(format!(
-                    "cannot choose the budget of {} / {name}: {e}",
-                    s.name
-                ))
-            })?;
-            let t = Instant::now();
-            let mut image = subject
-                .render(
+            let exact = if matrix::has_exact_oracle(&s.name) {
+                let subsamples = if matrix::is_glossy(&s.scene) {
+                    opts.quadrature_subsamples
+                } else {
+                    opts.closed_form_subsamples
+                };
+                closed_form::image(&s.scene, subsamples)
+                    .map_err(|e| Unusable(format!("exact image of {}: {e}", s.name)))?
+            } else {
+                None
+            };
+            let mut rows = Vec::new();
+            for (k, &subject) in scene_subjects[si].iter().enumerate() {
+                if !mine(first[si] + k) {
+                    continue;
+                }
+                let name = subject.name();
+                events(Event::Step {
+                    label: format!("{}: {name}", s.name),
+                });
+                let base = RenderOptions {
+                    spp: opts.budget.pilot_spp.max(2),
+                    passes: 1,
+                    seed: pilot_seed(opts.seed),
+                    method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
+                    light_samples: 1,
+                    noise: Default::default(),
+                };
+                let t = Instant::now();
+                let pilot = subject
+                    .render(&s.scene, &base, &|_, _| {})
+                    .map_err(|e| render_error(&s.name, &name, e))?;
+                let pilot_seconds = t.elapsed().as_secs_f64();
+                let (budget, pixel_spp) =
+                    opts.budget.plan(&pilot, &reference, &cfg).map_err(|e| {
+                        Unusable(format!(
+                            "cannot choose the budget of {} / {name}: {e}",
+                            s.name
+                        ))
+                    })?;
+                let t = Instant::now();
+                let mut image = planned::render(
+                    &|scene, o, p| subject.render(scene, o, p),
                     &s.scene,
                     &RenderOptions {
                         spp: budget.spp,
                         seed: opts.seed,
                         ..base
                     },
+                    pixel_spp.as_deref(),
                     &tiles,
                 )
                 .map_err(|e| render_error(&s.name, &name, e))?;
-            let render_seconds = t.elapsed().as_secs_f64();
-            record_inputs(&mut image.meta, &s.scene_file, &s.overrides);
-            let mut oracles = vec![("mitsuba", &reference)];
-            if let Some(c) = &exact {
-                oracles.push((closed_form::oracle_name(c), c));
-            }
-            for (oracle_name, b) in oracles {
-                let cmp = compare(&image, b, &cfg).map_err(|e| {
-                    Unusable(format!(
-                        "cannot compare {} / {name} with the {oracle_name} image: {e}",
-                        s.name
-                    ))
-                })?;
-                let (rel_diff, rel_ci, worst_tile_p) = summarise(&cmp);
-                let mut row = Row {
-                    scene: s.name.clone(),
-                    subject: name.clone(),
-                    oracle: oracle_name.to_string(),
-                    verdict: cmp.verdict,
-                    budget,
-                    seed: opts.seed,
-                    pilot_seconds,
-                    render_seconds,
-                    precision: budget::precision(&image, b),
-                    rel_diff,
-                    rel_ci,
-                    worst_tile_p,
-                    files: Vec::new(),
-                    comparison: cmp,
-                };
-                if let Some(dir) = &opts.report_dir {
-                    row.files = report::write_row_images(dir, &row, &image, b)?;
+                let render_seconds = t.elapsed().as_secs_f64();
+                record_inputs(&mut image.meta, &s.scene_file, &s.overrides);
+                let mut oracles = vec![("mitsuba", &reference)];
+                if let Some(c) = &exact {
+                    oracles.push((closed_form::oracle_name(c), c));
                 }
-                events(Event::RowDone(&row));
-                rows.push(row);
+                for (oracle_name, b) in oracles {
+                    let cmp = compare(&image, b, &cfg).map_err(|e| {
+                        Unusable(format!(
+                            "cannot compare {} / {name} with the {oracle_name} image: {e}",
+                            s.name
+                        ))
+                    })?;
+                    let (rel_diff, rel_ci, worst_tile_p) = summarise(&cmp);
+                    let mut row = Row {
+                        scene: s.name.clone(),
+                        subject: name.clone(),
+                        oracle: oracle_name.to_string(),
+                        verdict: cmp.verdict,
+                        budget,
+                        seed: opts.seed,
+                        pilot_seconds,
+                        render_seconds,
+                        precision: budget::precision(&image, b),
+                        rel_diff,
+                        rel_ci,
+                        worst_tile_p,
+                        files: Vec::new(),
+                        comparison: cmp,
+                    };
+                    if let Some(dir) = &opts.report_dir {
+                        row.files = report::write_row_images(dir, &row, &image, b)?;
+                    }
+                    events(Event::RowDone(&row));
+                    rows.push(row);
+                }
             }
+            scene_reports.push(SceneReport {
+                name: s.name.clone(),
+                scene_file: s.scene_file.clone(),
+                reference: reference_info(s),
+                live_oracle_seconds,
+                rows,
+            });
         }
-        scene_reports.push(SceneReport {
-            name: s.name.clone(),
-            scene_file: s.scene_file.clone(),
-            reference: reference_info(s),
-            live_oracle_seconds,
-            rows,
-        });
-    }
+        Ok(scene_reports)
+    };
+    let (sampler_suite, scene_reports) = rayon::join(suite, render_all);
+    let scene_reports = scene_reports?;
 
     let suite_ok = sampler_suite.as_ref().is_none_or(|s| s.passed);
     let rows = || scene_reports.iter().flat_map(|s| &s.rows);

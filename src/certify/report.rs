@@ -82,12 +82,18 @@ fn p_cell(p: Option<f64>) -> String {
     p.map_or_else(|| "-".into(), |p| format!("{p:.2e}"))
 }
 
+/// The samples per pixel of a row: `N`, or `N–M` when the tiles that need more got up to M.
+pub fn spp_text(b: &super::budget::Budget) -> String {
+    let range = if b.pixel_spp_max > b.spp {
+        format!("{}–{}", b.spp, b.pixel_spp_max)
+    } else {
+        b.spp.to_string()
+    };
+    format!("{range}{}", if b.capped { " (cap)" } else { "" })
+}
+
 fn spp_cell(row: &Row) -> String {
-    format!(
-        "{}{}",
-        row.budget.spp,
-        if row.budget.capped { " (cap)" } else { "" }
-    )
+    spp_text(&row.budget)
 }
 
 /// One line per row, for the terminal.

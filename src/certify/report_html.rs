@@ -443,7 +443,7 @@ pub fn html(dir: &Path, report: &Report) -> String {
             );
             let _ = write!(
                 s,
-                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{rel}</td><td>{}</td><td>{}{}</td><td>{:.1} s</td><td>{eff}</td><td>{ratio}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{rel}</td><td>{}</td><td>{}</td><td>{:.1} s</td><td>{eff}</td><td>{ratio}</td></tr>",
                 esc(&row.subject),
                 esc(&oracle_label(&row.oracle)),
                 if row.passed() {
@@ -452,8 +452,7 @@ pub fn html(dir: &Path, report: &Report) -> String {
                     format!("<span class=\"fail\">{:?}</span>", row.verdict)
                 },
                 fmt_p(tile),
-                row.budget.spp,
-                if row.budget.capped { " (cap)" } else { "" },
+                super::report::spp_text(&row.budget),
                 row.render_seconds
             );
         }

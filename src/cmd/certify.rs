@@ -17,9 +17,9 @@ use std::sync::Mutex;
 pub const AFTER_HELP: &str = "\
 Examples:
   linlight certify                          everything: sampler suite + every scene × technique
-                                            (≈ 400 CPU-seconds, ≈ 3.5 min on 2 idle cores)
+                                            (≈ 740 CPU-seconds, ≈ 6 min on 2 idle cores)
   linlight certify --full                   the exhaustive budget (as precise as the reference
-                                            in 99 % of the pixels; 5× the samples, ≈ 19 min)
+                                            in 99 % of the pixels; 5× the samples and more)
   linlight certify --scenes 'floor-*' --techniques projected-solid-angle,li2018
   linlight certify --shard 1/4 --report-dir shard-1   one part of a CI matrix (1/4 … 4/4)
   linlight certify --merge shard-*/report.json        one verdict from all parts

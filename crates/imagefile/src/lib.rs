@@ -45,6 +45,12 @@ pub struct Image {
     /// variance; 0 where that sum is 0. In [0, (n − 1)/n]. Large values mean the variance
     /// estimate rests on one term.
     pub tail: Option<Vec<[f32; 3]>>,
+    /// Optional samples per pixel (channel `spp`, stored as u32) of an image whose pixels
+    /// differ in sample count (`linlight certify` renders the 16×16 tiles its tests need to
+    /// resolve with more samples than the rest). The header's `spp` and `dof` then hold the
+    /// smallest count, so a reader that ignores this channel is conservative. None: every
+    /// pixel has the header's `spp`.
+    pub pixel_spp: Option<Vec<u32>>,
     pub meta: Metadata,
 }
 
@@ -70,6 +76,8 @@ pub const MEAN_CHANNELS: [&str; 3] = ["R", "G", "B"];
 pub const VAR_CHANNELS: [&str; 3] = ["var.R", "var.G", "var.B"];
 /// Channel names of the optional heavy-tail share ([`Image::tail`]), in RGB order.
 pub const TAIL_CHANNELS: [&str; 3] = ["tail.R", "tail.G", "tail.B"];
+/// Channel name of the optional per-pixel sample count ([`Image::pixel_spp`]).
+pub const SPP_CHANNEL: &str = "spp";
 
 const KEY_DOF: &str = "dof";
 const KEY_SPP: &str = "spp";
@@ -140,6 +148,7 @@ impl Image {
             mean: vec![[0.0; 3]; width * height],
             var: vec![[0.0; 3]; width * height],
             tail: None,
+            pixel_spp: None,
             meta: Metadata::default(),
         }
     }
@@ -208,6 +217,21 @@ impl Image {
                         i / self.width
                     )));
                 }
+            }
+        }
+        if let Some(spp) = &self.pixel_spp {
+            if spp.len() != n {
+                return Err(ImageError::Format(format!(
+                    "spp buffer length {} does not match {n} pixels",
+                    spp.len()
+                )));
+            }
+            if let Some(i) = spp.iter().position(|&s| s == 0) {
+                return Err(ImageError::Format(format!(
+                    "channel {SPP_CHANNEL} must be at least 1, is 0 at pixel ({}, {})",
+                    i % self.width,
+                    i / self.width
+                )));
             }
         }
         if !(self.meta.dof.is_finite() && self.meta.dof >= 0.0) {
@@ -332,6 +356,28 @@ impl Image {
                 )))
             }
         }
+        if has(SPP_CHANNEL) {
+            let spp: Vec<u32> = match &layer
+                .channel_data
+                .list
+                .iter()
+                .find(|c| c.name.eq(SPP_CHANNEL))
+                .map(|c| &c.sample_data)
+            {
+                Some(FlatSamples::U32(v)) => v.clone(),
+                _ => channel(SPP_CHANNEL)?
+                    .into_iter()
+                    .map(|x| x.max(0.0).round() as u32)
+                    .collect(),
+            };
+            if spp.len() != n {
+                return Err(ctx(format!(
+                    "channel {SPP_CHANNEL} holds {} values, expected {n}",
+                    spp.len()
+                )));
+            }
+            img.pixel_spp = Some(spp);
+        }
 
         let attrs = &layer.attributes.other;
         let get = |key: &str| attrs.iter().find(|(k, _)| Text::eq(k, key)).map(|(_, v)| v);
@@ -385,6 +431,9 @@ impl Image {
         if let Some(tail) = self.tail.take() {
             push_planes(&mut channels, &TAIL_CHANNELS, &tail);
         }
+        if let Some(spp) = self.pixel_spp.take() {
+            channels.push(AnyChannel::new(SPP_CHANNEL, FlatSamples::U32(spp)));
+        }
         write_layer(self.layer_with(channels)?, path)
     }
 
@@ -409,6 +458,9 @@ impl Image {
         push_planes(&mut channels, &VAR_CHANNELS, &self.var);
         if let Some(tail) = &self.tail {
             push_planes(&mut channels, &TAIL_CHANNELS, tail);
+        }
+        if let Some(spp) = &self.pixel_spp {
+            channels.push(AnyChannel::new(SPP_CHANNEL, FlatSamples::U32(spp.clone())));
         }
         self.layer_with(channels)
     }
@@ -983,6 +1035,24 @@ mod tests {
             Err(ImageError::Format(m)) => assert!(m.contains(needle), "{m:?} lacks {needle:?}"),
             other => panic!("expected a format error mentioning {needle:?}, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn pixel_spp_is_optional_and_round_trips_exactly() {
+        let mut img = sample_image(5, 3);
+        let path = tmp("pixel-spp.exr");
+        img.write(&path).unwrap();
+        assert_eq!(Image::read(&path).unwrap().pixel_spp, None);
+        // Counts above 2^24 would not survive an f32 channel.
+        img.pixel_spp = Some((0..15).map(|i| 256 + (1 << 24) * (i % 3) + i).collect());
+        img.write(&path).unwrap();
+        assert_eq!(Image::read(&path).unwrap().pixel_spp, img.pixel_spp);
+        img.clone().into_exr_file(&path).unwrap();
+        assert_eq!(Image::read(&path).unwrap(), img);
+        let mut bad = img.clone();
+        bad.pixel_spp.as_mut().unwrap()[7] = 0;
+        let err = bad.write(&path).unwrap_err().to_string();
+        assert!(err.contains("spp must be at least 1"), "{err}");
     }
 
     #[test]

@@ -116,10 +116,10 @@ fn truth(i: usize, dark: bool) -> (f64, f64) {
     }
 }
 
-/// An image of `spp` samples whose pixel means are normal around the truth (× `scale` where
-/// `biased`), with exact variances of the mean.
+/// An image of `spp` samples per pixel (None: a reference) whose pixel means are normal around
+/// the truth (× `scale` where `biased`), with exact variances of the mean.
 fn image(
-    spp: Option<u32>,
+    spp: Option<&[u32]>,
     ref_var: f64,
     dark: bool,
     rng: &mut Normal,
@@ -129,28 +129,38 @@ fn image(
     let mut img = Image::new(SIZE, SIZE);
     for i in 0..SIZE * SIZE {
         let (mu, s2) = truth(i, dark);
-        let v = spp.map_or(ref_var * mu * mu, |n| s2 / n as f64);
+        let v = spp.map_or(ref_var * mu * mu, |n| s2 / n[i] as f64);
         let k = if biased(i) { scale } else { 1.0 };
         for c in 0..3 {
             img.mean[i][c] = (k * (mu + v.sqrt() * rng.next())) as f32;
             img.var[i][c] = (k * k * v) as f32;
         }
     }
-    img.meta.spp = spp.map_or(32_768, u64::from);
-    img.meta.dof = spp.map_or(31.0, |n| n as f64 - 1.0);
+    let fewest = spp.map(|n| *n.iter().min().unwrap());
+    img.meta.spp = fewest.map_or(32_768, u64::from);
+    img.meta.dof = fewest.map_or(31.0, |n| n as f64 - 1.0);
+    img.pixel_spp = spp
+        .filter(|n| n.iter().any(|&x| Some(x) != fewest))
+        .map(<[u32]>::to_vec);
     img
+}
+
+/// The samples of every pixel at a budget, scaled by `scale`.
+fn counts(budget: &(Budget, Option<Vec<u32>>), scale: f64) -> Vec<u32> {
+    let plan = budget.1.clone().unwrap_or(vec![budget.0.spp; SIZE * SIZE]);
+    plan.iter().map(|&n| (n as f64 * scale) as u32).collect()
 }
 
 /// Verdicts of `draws` renders at the budget against fresh references.
 fn verdicts(
-    spp: u32,
+    spp: &[u32],
     dark: bool,
     scale: f64,
     biased: impl Fn(usize) -> bool + Copy,
     draws: usize,
 ) -> (usize, usize) {
     let cfg = CompareConfig::default();
-    let mut rng = Normal(spp as u64 * 7919 + draws as u64);
+    let mut rng = Normal(spp.iter().map(|&n| n as u64).sum::<u64>() * 7919 + draws as u64);
     let (mut different, mut inconclusive) = (0, 0);
     for _ in 0..draws {
         let b = image(None, 1e-6, dark, &mut rng, 1.0, |_| false);
@@ -166,30 +176,37 @@ fn verdicts(
 
 /// The test-power rule with a 5 % tile target (certify's default is 1 %; at 5 % the synthetic
 /// scenes have a global-bound and a tile-bound case).
-fn rule() -> BudgetRule {
+fn rule(per_tile: bool) -> BudgetRule {
     BudgetRule {
         min_spp: 64,
         target: Target::Tests {
             power: 0.99,
             tile_bias: 0.05,
+            per_tile,
         },
         ..BudgetRule::default()
     }
 }
 
-fn budget_of(dark: bool) -> Budget {
+fn plan_of(dark: bool, per_tile: bool) -> (Budget, Option<Vec<u32>>) {
     let mut rng = Normal(1);
     // Noise-free pilot and reference means (the budget's sums are then exact): the pilot's
     // variances are the per-sample variances over 256, the reference's 1e-6 relative.
     let mut reference = image(None, 1e-6, dark, &mut rng, 1.0, |_| false);
-    let mut pilot = image(Some(256), 0.0, dark, &mut rng, 1.0, |_| false);
+    let mut pilot = image(Some(&[256; SIZE * SIZE]), 0.0, dark, &mut rng, 1.0, |_| {
+        false
+    });
     for i in 0..SIZE * SIZE {
         pilot.mean[i] = [truth(i, dark).0 as f32; 3];
         reference.mean[i] = pilot.mean[i];
     }
-    rule()
-        .choose(&pilot, &reference, &CompareConfig::default())
+    rule(per_tile)
+        .plan(&pilot, &reference, &CompareConfig::default())
         .unwrap()
+}
+
+fn budget_of(dark: bool) -> Budget {
+    plan_of(dark, true).0
 }
 
 /// The global constraint binds on a uniform image: V_A = 4/4096 per sample, V_B ≈ 1e-6/4096,
@@ -213,15 +230,31 @@ fn the_global_test_sets_the_budget_of_a_uniform_image() {
     assert_eq!((t.tiles, t.tiles_covered), (25, 25));
 }
 
-/// A dark, noisy tile sets the budget when its constraint is the largest.
+/// A dark, noisy tile sets the budget when its constraint is the largest: per tile, only its
+/// pixels get its need (the rest what the global test needs); uniformly, every pixel.
 #[test]
 fn a_dark_tile_sets_the_budget() {
-    let b = budget_of(true);
+    let (b, pixels) = plan_of(true, true);
     let t = b.tests.unwrap();
     assert_eq!(b.bound, Bound::Tile(DARK), "{b:?}");
     assert_eq!(t.hardest_tile, Some(DARK));
     assert!(t.tile_spp > t.global_spp);
     assert!(t.detectable_tile_bias.unwrap() <= 0.05);
+    assert!(t.detectable_global_bias <= 0.005);
+    let pixels = pixels.expect("per-pixel counts");
+    let tile = (t.tile_spp / 64.0).ceil() as u32 * 64;
+    assert_eq!(b.spp, (t.global_spp / 64.0).ceil() as u32 * 64);
+    for (i, &n) in pixels.iter().enumerate() {
+        assert_eq!(n, if in_dark(i) { tile } else { b.spp }, "pixel {i}");
+    }
+    assert_eq!(b.pixel_spp_max, tile);
+    let mean = (256.0 * tile as f64 + (4096.0 - 256.0) * b.spp as f64) / 4096.0;
+    assert!((b.pixel_spp_mean - mean).abs() < 1e-9);
+
+    let (u, none) = plan_of(true, false);
+    assert_eq!(none, None);
+    assert_eq!((u.spp, u.pixel_spp_max), (tile, tile));
+    assert_eq!(u.bound, Bound::Tile(DARK));
 }
 
 /// The budget delivers what it promises: at its spp a 0.5 % global bias and a 5 % bias of the
@@ -235,30 +268,42 @@ fn a_dark_tile_sets_the_budget() {
 #[test]
 fn the_budget_has_the_power_it_promises() {
     let draws = 100;
-    let uniform = budget_of(false).spp;
-    let (d, i) = verdicts(uniform, false, 1.0, |_| false, draws);
+    let plan = plan_of(false, true);
+    let uniform = counts(&plan, 1.0);
+    let spp = plan.0.spp;
+    let (d, i) = verdicts(&uniform, false, 1.0, |_| false, draws);
     assert!(
         d <= 3 && i <= 4,
-        "unbiased at {uniform} spp: {d} different, {i} inconclusive"
+        "unbiased at {spp} spp: {d} different, {i} inconclusive"
     );
-    let (d, _) = verdicts(uniform, false, 1.005, |_| true, draws);
+    let (d, _) = verdicts(&uniform, false, 1.005, |_| true, draws);
     assert!(
         d >= 96,
-        "0.5 % global bias at {uniform} spp: {d}/{draws} rejected"
+        "0.5 % global bias at {spp} spp: {d}/{draws} rejected"
     );
-    let (d, _) = verdicts(uniform / 8, false, 1.005, |_| true, draws);
+    let (d, _) = verdicts(&counts(&plan, 0.125), false, 1.005, |_| true, draws);
     assert!(
         d <= 50,
         "0.5 % global bias at an eighth: {d}/{draws} rejected"
     );
 
-    let dark = budget_of(true).spp;
-    let (d, _) = verdicts(dark, true, 1.05, in_dark, draws);
+    // Per tile: the dark tile's pixels at its need, the others at the global need.
+    let plan = plan_of(true, true);
+    let dark = counts(&plan, 1.0);
+    let (d, i) = verdicts(&dark, true, 1.0, |_| false, draws);
+    assert!(
+        d <= 3 && i <= 4,
+        "unbiased per tile: {d} different, {i} inconclusive"
+    );
+    let (d, _) = verdicts(&dark, true, 1.005, |_| true, draws);
+    assert!(d >= 96, "0.5 % global bias per tile: {d}/{draws} rejected");
+    let (d, _) = verdicts(&dark, true, 1.05, in_dark, draws);
     assert!(
         d >= 96,
-        "5 % bias of the dark tile at {dark} spp: {d}/{draws} rejected"
+        "5 % bias of the dark tile at {} spp: {d}/{draws} rejected",
+        plan.0.pixel_spp_max
     );
-    let (d, _) = verdicts(dark / 8, true, 1.05, in_dark, draws);
+    let (d, _) = verdicts(&counts(&plan, 0.125), true, 1.05, in_dark, draws);
     assert!(d <= 50, "5 % tile bias at an eighth: {d}/{draws} rejected");
 }
 
@@ -270,8 +315,10 @@ fn a_reference_limited_tile_is_not_covered() {
     for i in (0..SIZE * SIZE).filter(|&i| in_dark(i)) {
         reference.var[i] = [1e-2; 3];
     }
-    let pilot = image(Some(256), 0.0, true, &mut rng, 1.0, |_| false);
-    let b = rule()
+    let pilot = image(Some(&[256; SIZE * SIZE]), 0.0, true, &mut rng, 1.0, |_| {
+        false
+    });
+    let b = rule(true)
         .choose(&pilot, &reference, &CompareConfig::default())
         .unwrap();
     let t = b.tests.unwrap();

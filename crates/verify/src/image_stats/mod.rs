@@ -64,7 +64,7 @@ use serde::{Deserialize, Serialize};
 
 use contacts::{contact_allowance, contact_pixels, contact_tests, ContactTally};
 use global::{global_tests, GlobalLevels};
-use pixels::{classify, pixel_tests, Side, ZTally};
+use pixels::{classify, pixel_tests, PixelSides, ZTally};
 use sums::Sums;
 use tiles::{tile_tests, TileGrids};
 
@@ -518,7 +518,7 @@ struct ChannelScan {
 struct ScanContext<'a> {
     cfg: &'a CompareConfig,
     grids: &'a TileGrids,
-    sides: (Side, Side),
+    sides: (PixelSides, PixelSides),
     /// Per pixel: near a contact.
     contact: &'a [bool],
     allowance: f64,
@@ -550,12 +550,13 @@ fn scan_channel(
             let i = y * w + x;
             let (ma, mb) = (a.mean[i][c] as f64, b.mean[i][c] as f64);
             let (va, vb) = (a.var[i][c] as f64, b.var[i][c] as f64);
+            let ((sa, nu_a), (sb, nu_b)) = (ctx.sides.0.at(a, i), ctx.sides.1.at(b, i));
             let k = classify(
                 (ma, mb),
                 (va, vb),
                 (tail(a, i), tail(b, i)),
-                &ctx.sides,
-                nu,
+                &(sa, sb),
+                (nu_a, nu_b),
                 ctx.cfg,
             );
             if let Some(z) = k.z {
@@ -565,7 +566,8 @@ fn scan_channel(
                 zero.report.count += 1;
             } else if va == 0.0 || vb == 0.0 {
                 zero.report.one_sided += usize::from(
-                    (va == 0.0 && !ctx.sides.0.exact) || (vb == 0.0 && !ctx.sides.1.exact),
+                    (va == 0.0 && !ctx.sides.0.base().exact)
+                        || (vb == 0.0 && !ctx.sides.1.base().exact),
                 );
             }
             if ctx.contact[i] {
@@ -672,8 +674,8 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
         cfg,
         grids: &grids,
         sides: (
-            Side::of(a, cfg.heavy_tail_alpha),
-            Side::of(b, cfg.heavy_tail_alpha),
+            PixelSides::of(a, cfg.heavy_tail_alpha),
+            PixelSides::of(b, cfg.heavy_tail_alpha),
         ),
         contact: &contact,
         allowance,

@@ -27,14 +27,17 @@ pub(super) struct Side {
 
 impl Side {
     pub fn of(img: &Image, heavy_tail_alpha: f64) -> Self {
-        let n = img.meta.spp;
+        // The tail share is over dof + 1 terms (samples of one pass, or pass means).
+        Self::with(img, img.meta.spp, img.meta.dof + 1.0, heavy_tail_alpha)
+    }
+
+    /// The side of an image with `n` samples per pixel whose tail share is over `terms` terms.
+    fn with(img: &Image, n: u64, terms: f64, heavy_tail_alpha: f64) -> Self {
         let zero_bound = if n == 0 {
             1.0 / 3.0
         } else {
             (1.0 / 3.0 - 1.0 / n as f64).max(0.0)
         };
-        // The tail share is over dof + 1 terms (samples of one pass, or pass means).
-        let terms = img.meta.dof + 1.0;
         Self {
             exact: is_exact(img),
             samples: n as f64,
@@ -43,6 +46,54 @@ impl Side {
                 .tail
                 .as_ref()
                 .and_then(|_| tail_share_critical(terms, heavy_tail_alpha)),
+        }
+    }
+}
+
+/// The side and dof of every pixel of an image. Without per-pixel sample counts
+/// ([`Image::pixel_spp`]) every pixel has the image's; with them, a pixel of n samples has
+/// n samples, and in a one-pass image n − 1 dof and a tail share over n terms (a multi-pass
+/// image keeps its passes − 1 dof and terms).
+pub(super) struct PixelSides {
+    base: (Side, f64),
+    /// Per distinct count: its side and dof (few distinct counts: one per budget level).
+    by_count: Vec<(u32, Side, f64)>,
+}
+
+impl PixelSides {
+    pub fn of(img: &Image, heavy_tail_alpha: f64) -> Self {
+        let base = (Side::of(img, heavy_tail_alpha), img.meta.dof);
+        let mut counts: Vec<u32> = img.pixel_spp.clone().unwrap_or_default();
+        counts.sort_unstable();
+        counts.dedup();
+        let one_pass = img.meta.passes <= 1;
+        let by_count = counts
+            .into_iter()
+            .map(|n| {
+                let (terms, dof) = if one_pass {
+                    (n as f64, n.saturating_sub(1) as f64)
+                } else {
+                    (img.meta.dof + 1.0, img.meta.dof)
+                };
+                (n, Side::with(img, n as u64, terms, heavy_tail_alpha), dof)
+            })
+            .collect();
+        Self { base, by_count }
+    }
+
+    /// The image-wide side (the header's).
+    pub fn base(&self) -> &Side {
+        &self.base.0
+    }
+
+    /// Side and dof of pixel `i` of `img` (the image this was made of).
+    pub fn at(&self, img: &Image, i: usize) -> (Side, f64) {
+        let Some(n) = img.pixel_spp.as_ref().and_then(|s| s.get(i)) else {
+            return self.base;
+        };
+        match self.by_count.binary_search_by_key(n, |e| e.0) {
+            Ok(k) => (self.by_count[k].1, self.by_count[k].2),
+            Err(_) => self.base,
         }
     }
 }

@@ -496,6 +496,33 @@ fn heavy_tailed_pixels_are_flagged_and_left_to_tiles() {
     assert!(failed(&cmp, TestKind::PixelMax), "trusted, it fails");
 }
 
+/// A one-pass image whose pixels differ in sample count (certify's per-tile budget): each
+/// pixel is judged with its own count — here the tail share's critical value, 0.08 for 256
+/// terms but far lower for 4096, so a share of 0.05 flags a 4096-sample pixel only.
+#[test]
+fn pixels_are_judged_with_their_own_sample_count() {
+    let mut a = render(4500, NOISE, |_, _| 1.0);
+    let b = render(4501, NOISE, |_, _| 1.0);
+    (a.meta.spp, a.meta.dof, a.meta.passes) = (256, 255.0, 1);
+    a.tail = Some(vec![[1e-3; 3]; W * H]);
+    let i = 40 * W + 40;
+    a.tail.as_mut().unwrap()[i] = [0.05; 3];
+    let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
+    assert_eq!(cmp.maps.state[i][0], PixelState::Tested);
+    let mut counts = vec![256; W * H];
+    counts[i] = 4096;
+    a.pixel_spp = Some(counts);
+    let cmp = compare(&a, &b, &CompareConfig::default()).unwrap();
+    assert_eq!(cmp.maps.state[i][0], PixelState::HeavyTail);
+    assert_eq!(cmp.pixel_classes.heavy_tail_a, 3);
+    // Every pixel at the header's count: the same comparison as without the channel.
+    a.pixel_spp = Some(vec![256; W * H]);
+    let same = compare(&a, &b, &CompareConfig::default()).unwrap();
+    a.pixel_spp = None;
+    let none = compare(&a, &b, &CompareConfig::default()).unwrap();
+    assert_eq!(format!("{same:?}"), format!("{none:?}"));
+}
+
 #[test]
 fn contact_pixels_are_tested_apart_against_the_finite_radius_allowance() {
     let a0 = render(4500, NOISE, |_, _| 1.0);

@@ -1,0 +1,291 @@
+//! Rendering at a per-tile budget ([`super::budget::BudgetRule::plan`]): the whole image at the
+//! budget's spp, then every cell of [`CELL`]² pixels whose pixels need more rendered again as
+//! a crop window at that count, and pasted over it.
+//!
+//! The random stream of a pixel sample depends only on (seed, pass, full-film pixel index,
+//! sample index), not on the spp or the window (`linlight_render::render`), so with white noise
+//! a pasted pixel *is* the pixel of a full render at its count: its first samples are those of
+//! the base render, and nothing of the base pixel is mixed in. (A blue-noise render's mask
+//! depends on its spp; its pasted pixels are then an independent render of those pixels, which
+//! is just as unbiased.) The image records the samples of every pixel ([`Image::pixel_spp`]);
+//! its header keeps the base spp and dof, the smallest.
+
+use linlight_imagefile::Image;
+use linlight_render::scene::{CropWindow, Scene};
+use linlight_render::{RenderError, RenderOptions};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Side of the square cells rendered again. The comparison's tiles (16×16, and the grid
+/// shifted by 8) are unions of 8×8 cells, so the budget's counts are constant on a cell.
+pub const CELL: usize = 8;
+
+/// How a subject renders a scene (its `render`).
+pub type RenderFn<'a> = dyn Fn(&Scene, &RenderOptions, &(dyn Fn(usize, usize) + Sync)) -> Result<Image, RenderError>
+    + Sync
+    + 'a;
+
+/// One crop to render again: a run of cells of one cell row that all need `spp`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Strip {
+    x: usize,
+    y: usize,
+    width: usize,
+    height: usize,
+    spp: u32,
+}
+
+/// The strips of cells whose largest count exceeds `base`, in row-major order.
+fn strips(pixel_spp: &[u32], width: usize, height: usize, base: u32) -> Vec<Strip> {
+    let mut out: Vec<Strip> = Vec::new();
+    for cy in (0..height).step_by(CELL) {
+        let ch = CELL.min(height - cy);
+        let mut run: Option<Strip> = None;
+        for cx in (0..width).step_by(CELL) {
+            let cw = CELL.min(width - cx);
+            let n = (cy..cy + ch)
+                .flat_map(|y| pixel_spp[y * width + cx..y * width + cx + cw].iter())
+                .copied()
+                .max()
+                .unwrap_or(base);
+            match &mut run {
+                Some(r) if r.spp == n && r.x + r.width == cx => r.width += cw,
+                _ => {
+                    out.extend(run.take().filter(|r| r.spp > base));
+                    run = Some(Strip {
+                        x: cx,
+                        y: cy,
+                        width: cw,
+                        height: ch,
+                        spp: n,
+                    });
+                }
+            }
+        }
+        out.extend(run.filter(|r| r.spp > base));
+    }
+    out
+}
+
+/// `scene` cropped to the window `s` (window coordinates of `scene`'s own window).
+fn cropped(scene: &Scene, s: &Strip) -> Scene {
+    let (x0, y0) = scene
+        .sensor
+        .film
+        .crop
+        .map_or((0, 0), |c| (c.offset_x, c.offset_y));
+    let mut scene = scene.clone();
+    scene.sensor.film.crop = Some(CropWindow {
+        offset_x: x0 + s.x as u32,
+        offset_y: y0 + s.y as u32,
+        width: s.width as u32,
+        height: s.height as u32,
+    });
+    scene
+}
+
+/// Render with `render` at `opts.spp` (one pass), then the cells whose pixels need more of
+/// `pixel_spp` (row-major over the scene's window; None: nothing more) at that count.
+/// `progress(done, total)` counts camera samples of all of it.
+pub fn render(
+    render: &RenderFn,
+    scene: &Scene,
+    opts: &RenderOptions,
+    pixel_spp: Option<&[u32]>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    let Some(plan) = pixel_spp else {
+        return render(scene, opts, progress);
+    };
+    let film = &scene.sensor.film;
+    let (w, h) = film
+        .crop
+        .map_or((film.width, film.height), |c| (c.width, c.height));
+    let (w, h) = (w as usize, h as usize);
+    if plan.len() != w * h {
+        return Err(RenderError::Options(format!(
+            "per-pixel budget of {} pixels for a {w}×{h} window",
+            plan.len()
+        )));
+    }
+    let base_spp = opts.spp;
+    let strips = strips(plan, w, h, base_spp);
+    let unit = |spp: u32| spp as usize * opts.passes as usize;
+    let total = w * h * unit(base_spp)
+        + strips
+            .iter()
+            .map(|s| s.width * s.height * unit(s.spp))
+            .sum::<usize>();
+    let done = AtomicUsize::new(0);
+    // Each render reports its own running count; the sum goes to `progress`.
+    let tracked = |last: &AtomicUsize, d: usize| {
+        let step = d.saturating_sub(last.swap(d, Ordering::Relaxed));
+        progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
+    };
+    let last = AtomicUsize::new(0);
+    let mut image = render(scene, opts, &|d, _| tracked(&last, d))?;
+    let crops: Vec<(Strip, Image)> = strips
+        .par_iter()
+        .map(|s| {
+            let last = AtomicUsize::new(0);
+            let img = render(
+                &cropped(scene, s),
+                &RenderOptions {
+                    spp: s.spp,
+                    ..*opts
+                },
+                &|d, _| tracked(&last, d),
+            )?;
+            Ok((*s, img))
+        })
+        .collect::<Result<_, RenderError>>()?;
+    let mut counts = vec![image.meta.spp.min(u32::MAX as u64) as u32; w * h];
+    let mut dropped: u64 = image
+        .meta
+        .extra
+        .get("nonfinite_dropped")
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0);
+    for (s, img) in &crops {
+        if (img.width, img.height) != (s.width, s.height) {
+            return Err(RenderError::Options(format!(
+                "a crop of {}×{} rendered {}×{} pixels",
+                s.width, s.height, img.width, img.height
+            )));
+        }
+        let n = img.meta.spp.min(u32::MAX as u64) as u32;
+        for y in 0..s.height {
+            for x in 0..s.width {
+                let (i, k) = ((s.y + y) * w + s.x + x, y * s.width + x);
+                image.mean[i] = img.mean[k];
+                image.var[i] = img.var[k];
+                if let (Some(t), Some(u)) = (&mut image.tail, &img.tail) {
+                    t[i] = u[k];
+                }
+                counts[i] = n;
+            }
+        }
+        dropped += img
+            .meta
+            .extra
+            .get("nonfinite_dropped")
+            .and_then(|v| v.parse::<u64>().ok())
+            .unwrap_or(0);
+    }
+    if dropped > 0 {
+        image
+            .meta
+            .extra
+            .insert("nonfinite_dropped".into(), dropped.to_string());
+    }
+    if let Some(max) = counts.iter().max() {
+        image.meta.extra.insert("spp_max".into(), max.to_string());
+    }
+    image.pixel_spp = Some(counts);
+    Ok(image)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use linlight_render::xml::load_scene;
+    use linlight_sampling::Technique;
+
+    /// A pasted pixel is the pixel of a uniform render at its count (same seed), the others
+    /// those of the base render; the image records every pixel's count.
+    #[test]
+    fn pasted_cells_equal_a_uniform_render_at_their_count() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("references/scenes/cornell-tube.xml");
+        let scene = load_scene(&path, &[("res".into(), "24".into())]).unwrap();
+        let opts = RenderOptions {
+            spp: 8,
+            seed: 5,
+            method: Technique::ProjectedSolidAngle.into(),
+            ..Default::default()
+        };
+        let (w, h) = (24, 24);
+        let mut plan = vec![8u32; w * h];
+        for y in 8..16 {
+            for x in 8..24 {
+                plan[y * w + x] = 32;
+            }
+        }
+        plan[20 * w + 3] = 16; // sets the cell (0, 16)
+        let render_fn = |s: &Scene, o: &RenderOptions, p: &(dyn Fn(usize, usize) + Sync)| {
+            linlight_render::render(s, o, p)
+        };
+        let last = std::sync::Mutex::new((0, 0));
+        let img = render(&render_fn, &scene, &opts, Some(&plan), &|d, t| {
+            *last.lock().unwrap() = (d, t);
+        })
+        .unwrap();
+        let at = |spp| linlight_render::render(&scene, &RenderOptions { spp, ..opts }, &|_, _| {});
+        let (u8_, u16_, u32_) = (at(8).unwrap(), at(16).unwrap(), at(32).unwrap());
+        let counts = img.pixel_spp.as_ref().unwrap();
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                let (want, n) = if (8..16).contains(&y) && x >= 8 {
+                    (&u32_, 32)
+                } else if y >= 16 && x < 8 {
+                    (&u16_, 16)
+                } else {
+                    (&u8_, 8)
+                };
+                assert_eq!(counts[i], n, "({x}, {y})");
+                assert_eq!(
+                    (img.mean[i], img.var[i]),
+                    (want.mean[i], want.var[i]),
+                    "({x}, {y})"
+                );
+            }
+        }
+        assert_eq!((img.meta.spp, img.meta.dof), (8, 7.0));
+        let (d, t) = *last.lock().unwrap();
+        let total = w * h * 8 + 128 * 32 + 64 * 16;
+        assert_eq!((d, t), (total, total));
+    }
+
+    #[test]
+    fn strips_join_equal_neighbouring_cells_above_the_base() {
+        // 24×16: cells (0,0) (8,0) need 512, (16,0) 256 (base), second cell row: (8,8) 1024.
+        let (w, h) = (24, 16);
+        let mut plan = vec![256; w * h];
+        for y in 0..8 {
+            for x in 0..16 {
+                plan[y * w + x] = 512;
+            }
+        }
+        plan[12 * w + 9] = 1024; // one pixel sets its cell's count
+        let s = strips(&plan, w, h, 256);
+        assert_eq!(
+            s,
+            vec![
+                Strip {
+                    x: 0,
+                    y: 0,
+                    width: 16,
+                    height: 8,
+                    spp: 512
+                },
+                Strip {
+                    x: 8,
+                    y: 8,
+                    width: 8,
+                    height: 8,
+                    spp: 1024
+                },
+            ]
+        );
+        // Partial cells at the right and bottom edges.
+        let (w, h) = (20, 12);
+        let s = strips(&vec![300; w * h], w, h, 256);
+        assert_eq!(s.len(), 2);
+        assert_eq!(
+            (s[0].width, s[0].height, s[1].y, s[1].height),
+            (20, 8, 8, 4)
+        );
+        assert!(strips(&vec![256; w * h], w, h, 256).is_empty());
+    }
+}
