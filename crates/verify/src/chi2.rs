@@ -99,6 +99,17 @@ const MIN_EDGE_GAP: f64 = 1e-12;
 /// Cells of the start table per bin.
 const START_CELLS_PER_BIN: usize = 4;
 
+/// |(|w| − 1)| ≤ [`DIRECTION_TOLERANCE`] for a finite w, with the square root only near the
+/// bounds: |w|² inside the squared bounds by a relative margin of 1e-9 (far above the rounding
+/// of |w|² and of the square root) decides the same as the square root would.
+#[inline]
+fn unit_within_tolerance(w: DVec3) -> bool {
+    const LOW: f64 = (1.0 - DIRECTION_TOLERANCE) * (1.0 - DIRECTION_TOLERANCE) * (1.0 + 1e-9);
+    const HIGH: f64 = (1.0 + DIRECTION_TOLERANCE) * (1.0 + DIRECTION_TOLERANCE) * (1.0 - 1e-9);
+    let len2 = w.length_squared();
+    (len2 > LOW && len2 < HIGH) || !((w.length() - 1.0).abs() > DIRECTION_TOLERANCE)
+}
+
 /// The pseudo-angle a/(|a| + b) of a direction with b > 0 (monotone in φ = atan2(a, b)).
 #[inline]
 fn pseudo_angle(a: f64, b: f64) -> f64 {
@@ -251,7 +262,7 @@ impl PhiBinning {
     pub fn lookup(&self, dir: Vec3) -> BinLookup {
         let w = dir.as_dvec3();
         if !w.is_finite()
-            || (w.length() - 1.0).abs() > DIRECTION_TOLERANCE
+            || !unit_within_tolerance(w)
             || w.dot(self.plane_normal).abs() > DIRECTION_TOLERANCE
             || w.dot(self.c_hat) < -DIRECTION_TOLERANCE
         {
@@ -651,6 +662,27 @@ mod tests {
             }
         }
         assert!(checked > binnings.len() * 2000, "{checked}");
+    }
+
+    /// The squared-length shortcut decides as |(|w| − 1)| ≤ tolerance does, around both bounds.
+    #[test]
+    fn unit_check_equals_the_square_root() {
+        let mut rng = CounterRng::new(3, [1, 0, 0]);
+        for bound in [1.0 - DIRECTION_TOLERANCE, 1.0 + DIRECTION_TOLERANCE, 1.0] {
+            for i in 0..20_000 {
+                let v = DVec3::new(
+                    rng.next_f32() as f64 - 0.5,
+                    rng.next_f32() as f64 - 0.5,
+                    rng.next_f32() as f64 - 0.5,
+                )
+                .normalize();
+                // Lengths from 1e-3 relative down to a few ulps around the bound.
+                let rel = (rng.next_f32() as f64 - 0.5) * 10f64.powi(-3 - (i % 14));
+                let w = v * (bound * (1.0 + rel));
+                let want = !((w.length() - 1.0).abs() > DIRECTION_TOLERANCE);
+                assert_eq!(unit_within_tolerance(w), want, "{w:?}");
+            }
+        }
     }
 
     #[test]
