@@ -107,7 +107,7 @@ fn unit_within_tolerance(w: DVec3) -> bool {
     const LOW: f64 = (1.0 - DIRECTION_TOLERANCE) * (1.0 - DIRECTION_TOLERANCE) * (1.0 + 1e-9);
     const HIGH: f64 = (1.0 + DIRECTION_TOLERANCE) * (1.0 + DIRECTION_TOLERANCE) * (1.0 - 1e-9);
     let len2 = w.length_squared();
-    (len2 > LOW && len2 < HIGH) || !((w.length() - 1.0).abs() > DIRECTION_TOLERANCE)
+    (len2 > LOW && len2 < HIGH) || (w.length() - 1.0).abs() <= DIRECTION_TOLERANCE
 }
 
 /// The pseudo-angle a/(|a| + b) of a direction with b > 0 (monotone in φ = atan2(a, b)).
@@ -679,7 +679,7 @@ mod tests {
                 // Lengths from 1e-3 relative down to a few ulps around the bound.
                 let rel = (rng.next_f32() as f64 - 0.5) * 10f64.powi(-3 - (i % 14));
                 let w = v * (bound * (1.0 + rel));
-                let want = !((w.length() - 1.0).abs() > DIRECTION_TOLERANCE);
+                let want = (w.length() - 1.0).abs() <= DIRECTION_TOLERANCE;
                 assert_eq!(unit_within_tolerance(w), want, "{w:?}");
             }
         }
