@@ -63,6 +63,57 @@ pub struct PhiBinning {
     /// (sin, cos) of the M + 1 edges: a direction with plane coordinates (a, b) = (u·ω, ĉ·ω)
     /// lies at or past edge k iff a·cos φ_k − b·sin φ_k ≥ 0 (the sign of sin(φ − φ_k)).
     edge_sin_cos: Vec<(f64, f64)>,
+    /// u × ĉ: the normal of the plane of the line and the shading point.
+    plane_normal: DVec3,
+    /// Where the bin search starts, if the edge test is monotone in k for every direction with
+    /// b ≥ 0 (see [`StartTable`]).
+    start: Option<StartTable>,
+}
+
+/// A guess of a direction's bin from its pseudo-angle x = a/(|a| + b) (b > 0; monotone in φ,
+/// dx/dφ ∈ [1/2, 1] · its value at φ = 0, so cells of equal x hold about equally many bins):
+/// `first[g]` is the number of inner edges whose own x lies below cell g of a uniform grid over
+/// [x(φ_begin), x(φ_end)]. The guess only decides where the exact edge test starts; the bin is
+/// still the number of inner edges the direction lies at or past, found by stepping to where
+/// that test changes — the same bin as the binary search wherever the test is monotone in k.
+///
+/// Monotone: the computed a·cos φ_k − b·sin φ_k has the sign of r·sin(φ − θ_k) (θ_k the angle
+/// of the rounded (sin, cos) of edge k, r = |(a, b)| ≈ 1) unless |r·sin(φ − θ_k)| is below its
+/// rounding error, ~4e-16. For b ≥ 0 and every edge at least [`MIN_EDGE_GAP`] from ±π/2,
+/// |φ − θ_k| ≤ π − 1e-12, so that happens only for φ within ~1e-15 of θ_k; with consecutive
+/// edges at least [`MIN_EDGE_GAP`] apart it happens for at most one k, next to the sign change:
+/// the computed sequence of tests is monotone. Otherwise (b < 0, or a binning whose edges are
+/// closer than that) the lookup keeps the binary search.
+#[derive(Clone, Debug)]
+struct StartTable {
+    x_begin: f64,
+    /// Cells per unit of x.
+    scale: f64,
+    first: Vec<u32>,
+}
+
+/// Smallest gap between consecutive bin edges (and between an edge and ±π/2), in radians, for
+/// which [`StartTable`] is used.
+const MIN_EDGE_GAP: f64 = 1e-12;
+
+/// Cells of the start table per bin.
+const START_CELLS_PER_BIN: usize = 4;
+
+/// |(|w| − 1)| ≤ [`DIRECTION_TOLERANCE`] for a finite w, with the square root only near the
+/// bounds: |w|² inside the squared bounds by a relative margin of 1e-9 (far above the rounding
+/// of |w|² and of the square root) decides the same as the square root would.
+#[inline]
+fn unit_within_tolerance(w: DVec3) -> bool {
+    const LOW: f64 = (1.0 - DIRECTION_TOLERANCE) * (1.0 - DIRECTION_TOLERANCE) * (1.0 + 1e-9);
+    const HIGH: f64 = (1.0 + DIRECTION_TOLERANCE) * (1.0 + DIRECTION_TOLERANCE) * (1.0 - 1e-9);
+    let len2 = w.length_squared();
+    (len2 > LOW && len2 < HIGH) || (w.length() - 1.0).abs() <= DIRECTION_TOLERANCE
+}
+
+/// The pseudo-angle a/(|a| + b) of a direction with b > 0 (monotone in φ = atan2(a, b)).
+#[inline]
+fn pseudo_angle(a: f64, b: f64) -> f64 {
+    a / (a.abs() + b)
 }
 
 /// Where a sampled direction falls.
@@ -90,13 +141,54 @@ impl PhiBinning {
             phi_end,
             bins: bins.max(1),
             edge_sin_cos: Vec::new(),
+            plane_normal: frame.u.as_dvec3().cross(frame.c_hat.as_dvec3()),
+            start: None,
         }
         .with_edge_directions()
     }
 
     fn with_edge_directions(mut self) -> Self {
         self.edge_sin_cos = (0..=self.bins).map(|i| self.edge(i).sin_cos()).collect();
+        self.start = self.start_table();
         self
+    }
+
+    /// The [`StartTable`], if its preconditions hold (at least two bins, edges at least
+    /// [`MIN_EDGE_GAP`] apart and from ±π/2, every edge direction with b > 0).
+    fn start_table(&self) -> Option<StartTable> {
+        let edges = self.edges();
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        let spaced = edges.windows(2).all(|e| e[1] - e[0] >= MIN_EDGE_GAP)
+            && edges.iter().all(|e| half_pi - e.abs() >= MIN_EDGE_GAP);
+        if self.bins < 2 || !spaced || self.edge_sin_cos.iter().any(|&(_, c)| c <= 0.0) {
+            return None;
+        }
+        let x: Vec<f64> = self
+            .edge_sin_cos
+            .iter()
+            .map(|&(s, c)| pseudo_angle(s, c))
+            .collect();
+        let (x_begin, x_end) = (x[0], x[self.bins]);
+        let cells = self.bins * START_CELLS_PER_BIN;
+        let scale = cells as f64 / (x_end - x_begin);
+        if !(scale.is_finite() && scale > 0.0) {
+            return None;
+        }
+        // Inner edges 1..M − 1 below the lower boundary of each cell.
+        let mut first = Vec::with_capacity(cells);
+        let mut k = 0usize;
+        for g in 0..cells {
+            let lower = x_begin + g as f64 / scale;
+            while k + 1 < self.bins && x[k + 1] < lower {
+                k += 1;
+            }
+            first.push(k as u32);
+        }
+        Some(StartTable {
+            x_begin,
+            scale,
+            first,
+        })
     }
 
     /// φ_begin, φ_end.
@@ -170,8 +262,8 @@ impl PhiBinning {
     pub fn lookup(&self, dir: Vec3) -> BinLookup {
         let w = dir.as_dvec3();
         if !w.is_finite()
-            || (w.length() - 1.0).abs() > DIRECTION_TOLERANCE
-            || w.dot(self.u.cross(self.c_hat)).abs() > DIRECTION_TOLERANCE
+            || !unit_within_tolerance(w)
+            || w.dot(self.plane_normal).abs() > DIRECTION_TOLERANCE
             || w.dot(self.c_hat) < -DIRECTION_TOLERANCE
         {
             return BinLookup::NotTowardLine;
@@ -188,21 +280,44 @@ impl PhiBinning {
                 return BinLookup::OutsideSupport;
             }
         }
-        // The bin is the number of inner edges the direction lies at or past (binary search
-        // by the sign of sin(φ − φ_k), no atan2): the same bin as ⌊(φ − φ_b)/(φ_e − φ_b)·M⌋
-        // up to f64 rounding; directions before the first edge or past the last go to the end
-        // bins.
+        // The bin is the number of inner edges the direction lies at or past (by the sign of
+        // sin(φ − φ_k), no atan2): the same bin as ⌊(φ − φ_b)/(φ_e − φ_b)·M⌋ up to f64
+        // rounding; directions before the first edge or past the last go to the end bins.
+        let inner = &self.edge_sin_cos[1..self.bins];
+        let past = |k: usize| {
+            let (sin, cos) = inner[k];
+            a * cos - b * sin >= 0.0
+        };
+        match &self.start {
+            Some(t) if b > 0.0 => {
+                // Where the (monotone) test changes sign, from the table's guess.
+                let cell = ((pseudo_angle(a, b) - t.x_begin) * t.scale).max(0.0) as usize;
+                let mut k = t.first[cell.min(t.first.len() - 1)] as usize;
+                while k < inner.len() && past(k) {
+                    k += 1;
+                }
+                while k > 0 && !past(k - 1) {
+                    k -= 1;
+                }
+                BinLookup::Bin(k)
+            }
+            _ => BinLookup::Bin(self.search(a, b)),
+        }
+    }
+
+    /// The number of inner edges that (a, b) lies at or past, by binary search (correct for any
+    /// direction where the edge test is monotone in k; the reference of the table lookup).
+    fn search(&self, a: f64, b: f64) -> usize {
         let inner = &self.edge_sin_cos[1..self.bins];
         let (mut lo, mut size) = (0usize, inner.len());
         while size > 0 {
-            // Branch-free step (a sample's bin is unpredictable).
             let half = size / 2;
             let (sin, cos) = inner[lo + half];
             let past = a * cos - b * sin >= 0.0;
             lo = if past { lo + half + 1 } else { lo };
             size = if past { size - half - 1 } else { half };
         }
-        BinLookup::Bin(lo)
+        lo
     }
 
     /// The M + 1 bin edges in φ.
@@ -378,6 +493,7 @@ pub fn pooled_chi_square(observed: &[u64], expected: &[f64]) -> Chi2Outcome {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::suite::Settings;
     use linlight_sampling::philox::CounterRng;
     use linlight_sampling::solid_angle::SolidAngle;
     use linlight_sampling::Segment;
@@ -478,6 +594,95 @@ mod tests {
             assert_eq!(w[0].end, w[1].start);
         }
         assert!(cells.contains(&(0..3)), "{cells:?}");
+    }
+
+    /// Every frame of the suite (each configuration's line, whole and clipped to its horizon),
+    /// at the counting and the fine binning.
+    fn suite_binnings() -> Vec<PhiBinning> {
+        let configs = crate::configs::suite_configs(Settings::default().seed, 40);
+        let mut out = Vec::new();
+        for c in configs.iter().chain(&crate::configs::ltc_table_configs()) {
+            let Some(frame) = LineFrame::new(&c.segment(), c.x()) else {
+                continue;
+            };
+            let clipped = frame.clip_to_horizon(c.n().normalize());
+            for f in [Some(frame), clipped].into_iter().flatten() {
+                for bins in [255, 51] {
+                    out.push(PhiBinning::new(&f, bins));
+                }
+            }
+        }
+        out
+    }
+
+    /// The lookup's bin is the binary search's: the start table only decides where the exact
+    /// edge test starts. Checked on random directions over (and beyond) the support, on the
+    /// f32 directions of every bin edge and their neighbours one f32 ulp away in each
+    /// component, and at the ends' support tolerances.
+    #[test]
+    fn lookup_equals_the_binary_search() {
+        let binnings = suite_binnings();
+        let with_table = binnings.iter().filter(|b| b.start.is_some()).count();
+        assert!(with_table > binnings.len() / 2, "{with_table}");
+        let mut rng = CounterRng::new(7, [9, 0, 0]);
+        let mut checked = 0usize;
+        for b in &binnings {
+            let (pb, pe) = b.phi_range();
+            let mut dirs = Vec::new();
+            for _ in 0..2000 {
+                let t = rng.next_f32() as f64 * 1.2 - 0.1;
+                dirs.push(b.direction(pb + t * (pe - pb)));
+            }
+            for k in 0..=b.bins() {
+                let d = b.direction(b.edge(k));
+                dirs.push(d);
+                for i in 0..3 {
+                    for step in [f32::next_up, f32::next_down] {
+                        let mut e = d;
+                        e[i] = step(e[i]);
+                        dirs.push(e);
+                    }
+                }
+            }
+            for phi in [
+                pb - SUPPORT_TOLERANCE_PHI,
+                pe + SUPPORT_TOLERANCE_PHI,
+                pb - 0.5 * SUPPORT_TOLERANCE_PHI,
+                pe + 0.5 * SUPPORT_TOLERANCE_PHI,
+            ] {
+                dirs.push(b.direction(phi));
+            }
+            for dir in dirs {
+                if let BinLookup::Bin(k) = b.lookup(dir) {
+                    let w = dir.as_dvec3();
+                    let (a, bb) = (w.dot(b.u), w.dot(b.c_hat));
+                    assert_eq!(k, b.search(a, bb), "{dir:?} in {:?}", b.phi_range());
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > binnings.len() * 2000, "{checked}");
+    }
+
+    /// The squared-length shortcut decides as |(|w| − 1)| ≤ tolerance does, around both bounds.
+    #[test]
+    fn unit_check_equals_the_square_root() {
+        let mut rng = CounterRng::new(3, [1, 0, 0]);
+        for bound in [1.0 - DIRECTION_TOLERANCE, 1.0 + DIRECTION_TOLERANCE, 1.0] {
+            for i in 0..20_000 {
+                let v = DVec3::new(
+                    rng.next_f32() as f64 - 0.5,
+                    rng.next_f32() as f64 - 0.5,
+                    rng.next_f32() as f64 - 0.5,
+                )
+                .normalize();
+                // Lengths from 1e-3 relative down to a few ulps around the bound.
+                let rel = (rng.next_f32() as f64 - 0.5) * 10f64.powi(-3 - (i % 14));
+                let w = v * (bound * (1.0 + rel));
+                let want = (w.length() - 1.0).abs() <= DIRECTION_TOLERANCE;
+                assert_eq!(unit_within_tolerance(w), want, "{w:?}");
+            }
+        }
     }
 
     #[test]
