@@ -147,6 +147,20 @@ impl Subject for Technique {
     }
 }
 
+/// The verdict of a whole certification: DIFFERENT if the sampler suite failed or any comparison
+/// is DIFFERENT, else INCONCLUSIVE if any is, else CONSISTENT (a run without the suite is judged
+/// on its comparisons alone). Shared by a run and by `--merge` of its shards.
+pub(crate) fn overall_verdict(suite: Option<&SuiteSummary>, scenes: &[SceneReport]) -> Verdict {
+    let rows = || scenes.iter().flat_map(|s| &s.rows);
+    if !suite.is_none_or(|s| s.passed) || rows().any(|r| r.verdict == Verdict::Different) {
+        Verdict::Different
+    } else if rows().any(|r| r.verdict == Verdict::Inconclusive) {
+        Verdict::Inconclusive
+    } else {
+        Verdict::Consistent
+    }
+}
+
 /// A method (single technique, LTC, MIS with a heuristic) as a subject, named as in reports
 /// (`mis:clamped-optimal=0.5`).
 impl Subject for Method {
@@ -667,15 +681,7 @@ fn run_plan(
     let (sampler_suite, scene_reports) = rayon::join(suite, render_all);
     let scene_reports = scene_reports?;
 
-    let suite_ok = sampler_suite.as_ref().is_none_or(|s| s.passed);
-    let rows = || scene_reports.iter().flat_map(|s| &s.rows);
-    let verdict = if !suite_ok || rows().any(|r| r.verdict == Verdict::Different) {
-        Verdict::Different
-    } else if rows().any(|r| r.verdict == Verdict::Inconclusive) {
-        Verdict::Inconclusive
-    } else {
-        Verdict::Consistent
-    };
+    let verdict = overall_verdict(sampler_suite.as_ref(), &scene_reports);
     let report = Report {
         passed: verdict == Verdict::Consistent,
         verdict,

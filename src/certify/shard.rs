@@ -281,15 +281,7 @@ pub fn merge(shards: Vec<(PathBuf, Report)>) -> Result<Report, Unusable> {
         )));
     }
     let sampler_suite = suites.first().and_then(|(_, r)| r.sampler_suite.clone());
-    let suite_ok = sampler_suite.as_ref().is_none_or(|s| s.passed);
-    let rows = || scenes.iter().flat_map(|s| &s.rows);
-    let verdict = if !suite_ok || rows().any(|r| r.verdict == Verdict::Different) {
-        Verdict::Different
-    } else if rows().any(|r| r.verdict == Verdict::Inconclusive) {
-        Verdict::Inconclusive
-    } else {
-        Verdict::Consistent
-    };
+    let verdict = super::overall_verdict(sampler_suite.as_ref(), &scenes);
     Ok(Report {
         passed: verdict == Verdict::Consistent,
         verdict,
