@@ -24,23 +24,11 @@ const M1: u64 = 0xCD9E_8D57;
 const W0: u32 = 0x9E37_79B9;
 const W1: u32 = 0xBB67_AE85;
 
-/// Philox4x32 with 10 rounds: a bijection of `counter` for every `key`.
+/// Philox4x32 with 10 rounds: a bijection of `counter` for every `key` (one lane of
+/// [`philox4x32_10_lanes`]).
 #[inline]
 pub fn philox4x32_10(counter: [u32; 4], key: [u32; 2]) -> [u32; 4] {
-    let [mut x0, mut x1, mut x2, mut x3] = counter;
-    let [mut k0, mut k1] = key;
-    for round in 0..10 {
-        if round > 0 {
-            k0 = k0.wrapping_add(W0);
-            k1 = k1.wrapping_add(W1);
-        }
-        let p0 = M0 * x0 as u64;
-        let p1 = M1 * x2 as u64;
-        let (hi0, lo0) = ((p0 >> 32) as u32, p0 as u32);
-        let (hi1, lo1) = ((p1 >> 32) as u32, p1 as u32);
-        (x0, x1, x2, x3) = (hi1 ^ x1 ^ k0, lo1, hi0 ^ x3 ^ k1, lo0);
-    }
-    [x0, x1, x2, x3]
+    philox4x32_10_lanes(counter.map(|c| [c]), key).map(|[x]| x)
 }
 
 /// [`philox4x32_10`] of N counters at once: lane i's counter is `counter[·][i]`, its result
