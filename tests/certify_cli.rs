@@ -1,26 +1,19 @@
 //! `linlight certify` end to end through the binary: the full certification on the committed
 //! references passes (exit 0) and leaves its report; unusable input exits 2 with a clear message.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
+use common::{root, scratch};
+use std::path::PathBuf;
+use std::process::Output;
 
+/// Runs the binary in the repository root (certify's default `--root`).
 fn linlight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linlight"))
+    common::command()
         .args(args)
         .current_dir(root())
         .output()
         .expect("run linlight")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("linlight-certify-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// A project root holding only floor-tube and its committed reference.
@@ -238,7 +231,7 @@ fn an_unknown_technique_is_unusable_input() {
 #[test]
 fn a_live_oracle_without_its_venv_is_unusable_input() {
     let d = mini_project("live");
-    let o = Command::new(env!("CARGO_BIN_EXE_linlight"))
+    let o = common::command()
         .args(["certify", "--oracle", "live", "--no-sampler-suite"])
         .arg("--root")
         .arg(&d)

@@ -2,16 +2,16 @@
 //! verdict and the comparisons of the unsharded run; bad merges are refused with exit 2.
 
 use serde_json::Value;
+mod common;
+
+use common::root;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::OnceLock;
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
+/// Runs the binary in the repository root (certify's default `--root`).
 fn linlight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linlight"))
+    common::command()
         .args(args)
         .current_dir(root())
         .output()
@@ -20,12 +20,7 @@ fn linlight(args: &[&str]) -> Output {
 
 fn scratch() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let d = std::env::temp_dir().join(format!("linlight-shard-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
-    })
+    DIR.get_or_init(|| common::scratch("shards"))
 }
 
 /// A small certification: one scene with a closed form (two comparisons per technique) and

@@ -2,21 +2,18 @@
 //! error heat map; `--check` re-fits columns and passes on that table (and on the compiled-in
 //! one), fails (exit 1) on a tampered table, and rejects unusable input with exit 2.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use common::scratch;
+use std::path::Path;
+use std::process::Output;
 
 fn linlight(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_linlight"))
+    common::command()
         .arg("fit-ltc")
         .args(args)
         .output()
         .expect("run linlight")
-}
-
-fn scratch() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("linlight-fit-ltc-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 fn text(out: &Output) -> String {
@@ -33,7 +30,7 @@ fn s(p: &Path) -> &str {
 
 #[test]
 fn fit_writes_table_report_and_heatmap_and_check_agrees() {
-    let dir = scratch();
+    let dir = scratch("fit");
     let (table, json) = (dir.join("small.bin"), dir.join("small.json"));
     let out = linlight(&[
         "--size",
@@ -107,7 +104,7 @@ fn check_of_the_compiled_in_table_passes() {
 
 #[test]
 fn unusable_input_exits_2() {
-    let dir = scratch().join("unusable");
+    let dir = scratch("unusable");
     std::fs::create_dir_all(&dir).unwrap();
     let garbage = dir.join("garbage.bin");
     std::fs::write(&garbage, b"not a table").unwrap();

@@ -17,28 +17,18 @@
 //! mean −0.03 % and spread 0.065 % (the expected standard error), two with p ≈ 4e-3 (seeds 11
 //! and 20); 8 seed pairs of projected-solid-angle vs area were all within ±0.09 %.
 
+mod common;
+
+use common::root;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 fn scene() -> PathBuf {
     root().join("crates/render/tests/scenes/glossy_floor_tube.xml")
 }
 
-fn scratch() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("linlight-glossy-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 fn linlight(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_linlight"))
-        .args(args)
-        .output()
-        .unwrap();
+    let out = common::command().args(args).output().unwrap();
     (
         out.status.code().unwrap_or(-1),
         format!(
@@ -81,7 +71,7 @@ fn compare(a: &Path, b: &Path) -> (i32, String) {
 
 #[test]
 fn glossy_floor_is_consistent_across_techniques_and_with_mitsuba() {
-    let dir = scratch();
+    let dir = common::scratch("glossy");
     let psa = dir.join("psa.exr");
     let area = dir.join("area.exr");
     render(&psa, "projected-solid-angle", 128, 2, &[]);
