@@ -170,6 +170,21 @@ mod tests {
         }
     }
 
+    /// Brute force: the midpoint rule with `n` nodes over the line position t of
+    /// ∫ f(ω) dΩ_R, dΩ_R = 2 |u × ω| dt / r² (f includes the cosine).
+    fn midpoint_rule(x: DVec3, p0: DVec3, p1: DVec3, n: usize, f: impl Fn(DVec3) -> f64) -> f64 {
+        let (len, u) = ((p1 - p0).length(), (p1 - p0).normalize());
+        let mut sum = 0.0;
+        for i in 0..n {
+            let t = (i as f64 + 0.5) / n as f64 * len;
+            let q = p0 + t * u - x;
+            let r = q.length();
+            let w = q / r;
+            sum += f(w) * 2.0 * u.cross(w).length() / (r * r);
+        }
+        sum * len / n as f64
+    }
+
     /// A Lambertian plane lit by a segment that crosses its horizon, against a brute-force
     /// midpoint rule with 2·10⁶ nodes.
     #[test]
@@ -182,17 +197,9 @@ mod tests {
         let (p0, p1) = (DVec3::new(-1.0, 0.4, 0.6), DVec3::new(0.8, 0.9, -0.3));
         let (got, ok) = unshadowed_line_integral(&lambert(0.5), &sp, p0, p1);
         assert!(ok);
-        let n = 2_000_000;
-        let (len, u) = ((p1 - p0).length(), (p1 - p0).normalize());
-        let mut want = 0.0;
-        for i in 0..n {
-            let t = (i as f64 + 0.5) / n as f64 * len;
-            let q = p0 + t * u - sp.x;
-            let r = q.length();
-            let w = q / r;
-            want += 0.5 / std::f64::consts::PI * w.z.max(0.0) * 2.0 * u.cross(w).length() / (r * r);
-        }
-        want *= len / n as f64;
+        let want = midpoint_rule(sp.x, p0, p1, 2_000_000, |w| {
+            0.5 / std::f64::consts::PI * w.z.max(0.0)
+        });
         assert!(((got.x - want) / want).abs() < 1e-9, "{} vs {want}", got.x);
     }
 
@@ -212,17 +219,9 @@ mod tests {
         let sp = ShadingPoint::new(x, DVec3::Z, v);
         let (got, ok) = unshadowed_line_integral(&bsdf, &sp, p0, p1);
         assert!(ok);
-        let n = 4_000_000;
-        let (len, u) = ((p1 - p0).length(), (p1 - p0).normalize());
-        let mut want = 0.0;
-        for i in 0..n {
-            let t = (i as f64 + 0.5) / n as f64 * len;
-            let q = p0 + t * u - x;
-            let r = q.length();
-            let w = q / r;
-            want += bsdf.eval(sp.v_local, sp.local(w)).x * 2.0 * u.cross(w).length() / (r * r);
-        }
-        want *= len / n as f64;
+        let want = midpoint_rule(x, p0, p1, 4_000_000, |w| {
+            bsdf.eval(sp.v_local, sp.local(w)).x
+        });
         assert!(got.x > 1.0, "the lobe is hit: {}", got.x);
         assert!(((got.x - want) / want).abs() < 1e-8, "{} vs {want}", got.x);
     }
