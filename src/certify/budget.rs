@@ -106,29 +106,28 @@ impl BudgetRule {
                 power,
                 tile_bias,
                 per_tile,
-            } => format!(
-                "{common}; {} the smallest spp at which the global test rejects a \
-                 bias of ±δ and ±δ equivalence of an unbiased render is shown, {} the tile \
-                 test rejects a {}% bias of {}, each with probability {} (docs/budget.md), \
-                 {clamp}",
-                if per_tile {
-                    "every pixel gets"
+            } => {
+                let (who, tiles) = if per_tile {
+                    (
+                        "every pixel gets",
+                        "and the pixels of each full tile as many as the tile",
+                    )
                 } else {
-                    "the render gets"
-                },
-                if per_tile {
-                    "and the pixels of each full tile as many as"
-                } else {
-                    "and at which"
-                },
-                100.0 * tile_bias,
-                if per_tile {
+                    ("the render gets", "and at which the tile")
+                };
+                let which = if per_tile {
                     "that tile"
                 } else {
                     "any full tile"
-                },
-                power
-            ),
+                };
+                format!(
+                    "{common}; {who} the smallest spp at which the global test rejects a \
+                     bias of ±δ and ±δ equivalence of an unbiased render is shown, {tiles} \
+                     test rejects a {}% bias of {which}, each with probability {power} \
+                     (docs/budget.md), {clamp}",
+                    100.0 * tile_bias,
+                )
+            }
             Target::Parity { quantile } => format!(
                 "{common}; the render gets the {quantile}-quantile over pixels of σ̂²/v_B spp \
                  (as precise as the reference in that share of the pixels), {clamp}"
