@@ -3,18 +3,9 @@
 
 mod common;
 
-use common::{root, scratch};
+use common::{linlight_in_root as linlight, root, scratch};
 use std::path::PathBuf;
 use std::process::Output;
-
-/// Runs the binary in the repository root (certify's default `--root`).
-fn linlight(args: &[&str]) -> Output {
-    common::command()
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run linlight")
-}
 
 /// A project root holding only floor-tube and its committed reference.
 fn mini_project(name: &str) -> PathBuf {

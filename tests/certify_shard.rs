@@ -1,22 +1,13 @@
 //! `linlight certify --shard i/N` and `--merge` through the binary: two shards merged give the
 //! verdict and the comparisons of the unsharded run; bad merges are refused with exit 2.
 
-use serde_json::Value;
 mod common;
 
-use common::root;
+use common::linlight_in_root as linlight;
+use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 use std::sync::OnceLock;
-
-/// Runs the binary in the repository root (certify's default `--root`).
-fn linlight(args: &[&str]) -> Output {
-    common::command()
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run linlight")
-}
 
 fn scratch() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();

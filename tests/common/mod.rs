@@ -37,6 +37,16 @@ pub fn linlight<S: AsRef<OsStr>>(args: &[S]) -> Run {
     }
 }
 
+/// One run of the binary in the repository root (where `certify` finds references/ by
+/// default), with its raw output.
+pub fn linlight_in_root(args: &[&str]) -> std::process::Output {
+    command()
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("the linlight binary runs")
+}
+
 /// A fresh scratch directory, unique per test crate, process and `name`.
 pub fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!(
