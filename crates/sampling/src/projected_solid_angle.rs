@@ -515,27 +515,30 @@ impl<T: Real> PsaCore<T> {
         (next, Self::rotate_by(&e, h))
     }
 
-    /// [`Self::solve_with_values`] without branches (both ways of every decision computed,
-    /// then selected; bitwise the same results), for the lanes of [`crate::batch`].
+    /// [`Self::solve_with_values`] without branches up to its last decision (both ways of every
+    /// earlier decision computed, then selected; bitwise the same results): the values rotated
+    /// by the last step, the τ at which the lane needs them evaluated afresh instead (with
+    /// [`Self::at`]), and whether it does
+    /// (in the ξ guard, or after a last step longer than [`ROTATION_STEP`]; rare). The lanes of
+    /// [`crate::batch`] evaluate `at(τ)` only when some lane of the batch needs it (one sin/cos
+    /// of the chain's length per lane saved in almost every batch).
     #[inline(always)]
-    pub(crate) fn solve_with_values_lane(
+    pub(crate) fn solve_rotated_lane(
         &self,
         xi: T,
         iterations: u32,
         atan2: impl Fn(T, T) -> T,
-    ) -> (T, T, T) {
+    ) -> ((T, T, T), T, bool) {
         let (start, tau, e) = self.iterate(xi, iterations.max(1), atan2);
         let next = self.halley_from(tau, xi, &e);
         let h = next - tau;
         let guard = iterations == 0 || Self::in_guard(xi);
         let fresh = guard || h.abs() > T::from_f64(ROTATION_STEP);
-        let (s, t, n_dot_w) = self.at(if guard { start } else { next });
-        let rotated = Self::rotate_by(&e, h);
-        if fresh {
-            (s, t, n_dot_w)
-        } else {
-            rotated
-        }
+        (
+            Self::rotate_by(&e, h),
+            if guard { start } else { next },
+            fresh,
+        )
     }
 
     /// (sin φ, cos φ, n·ω) of `e` rotated by a small angle h (|h| ≤ [`ROTATION_STEP`]).
@@ -795,17 +798,17 @@ impl ProjectedSolidAngle {
         (dir, n_dot_w)
     }
 
-    /// [`LineSampler::sample_with_pdf`] without branches (bitwise the same), for the lanes of
-    /// [`crate::batch`].
+    /// [`LineSampler::sample_with_pdf`] without branches, up to the direction, for the lanes of
+    /// [`crate::batch`] (see [`PsaCore::solve_rotated_lane`]): (sin φ, cos φ, n·ω) rotated by
+    /// the last step, the τ to evaluate instead, and whether. The direction is then
+    /// s·u + max(t, 0)·ĉ and the density max(n·ω, 0)/Ω⊥_R, as in `sample_with_pdf`.
     #[inline(always)]
-    pub(crate) fn sample_with_pdf_lane(
+    pub(crate) fn sample_rotated_lane(
         &self,
         xi: f32,
         atan2: impl Fn(f32, f32) -> f32,
-    ) -> (Vec3, f32) {
-        let (s, t, n_dot_w) = self.core.solve_with_values_lane(xi, self.iterations, atan2);
-        let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
-        (dir, n_dot_w.max(0.0) * self.inv_psa)
+    ) -> ((f32, f32, f32), f32, bool) {
+        self.core.solve_rotated_lane(xi, self.iterations, atan2)
     }
 
     /// Density of a direction known to lie in the support (no support test): (n·ω)⁺/Ω⊥_R.
