@@ -2,13 +2,16 @@
 //! Mitsuba's LLVM variants do with their wavefronts — random numbers and camera rays of all
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
 //! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
-//! rays, then Lambertian shading.
+//! rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes' arrays, lanes on
+//! other surfaces (rough conductor, principled, blends) with the scalar path's BSDF evaluation
+//! lane by lane ([`ShadingPoint::new`], [`single_contribution`]); a packet may mix both.
 //!
 //! It applies ([`applies`]) to the projected-solid-angle and Li et al. techniques (the ones
-//! with batch kernels) on scenes whose every surface is Lambertian (`diffuse` and blends of
-//! it); [`crate::render::render`] renders everything else (glossy BSDFs, other techniques) with
-//! the scalar path. Visible lines (`hide_emitters=false`) are added lane by lane with the
-//! scalar code.
+//! with batch kernels) on every scene, and to LTC and MIS (which sample Lambertian surfaces
+//! with the projected solid angle) on scenes whose every surface is Lambertian;
+//! [`crate::render::render`] renders everything else (other techniques, LTC and MIS on glossy
+//! surfaces, several light samples, blue noise) with the scalar path. Visible lines
+//! (`hide_emitters=false`) are added lane by lane with the scalar code.
 //!
 //! Same estimator, same numbers, same image: lane k is camera sample (pixel, sample) of the
 //! tile in the scalar path's order, draws the numbers of its own Philox stream in the scalar
@@ -27,12 +30,14 @@
 
 use crate::bvh::{PacketHits, RayLanes, PACKET};
 use crate::film::Welford;
+use crate::hooks::SceneBsdf;
 use crate::integrator::{offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON};
+use crate::method::Method;
 use crate::render::{
     check_options, metadata, pixel_entries, render_in_tiles, window, RenderError, RenderOptions,
 };
 use crate::scene::Scene;
-use crate::shading::lambert_technique;
+use crate::shading::{lambert_technique, single_contribution, ShadingPoint};
 use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
@@ -45,18 +50,24 @@ use linlight_sampling::{Segment, Technique};
 pub const LANES: usize = PACKET;
 const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet");
 
-/// Whether the batched renderer can render `scene` with `opts`: only Lambertian surfaces, one
-/// light sample per camera sample, and a diffuse technique with a batch kernel — the method's
-/// own, or the projected solid angle that LTC and MIS use on Lambertian surfaces
-/// ([`lambert_technique`]).
+/// Whether the batched renderer can render `scene` with `opts`: one light sample per camera
+/// sample, white noise, and a technique with a batch kernel — either the single technique
+/// projected solid angle or Li et al. on any surfaces (glossy ones evaluate their BSDF lane by
+/// lane), or LTC and MIS on scenes whose every surface is Lambertian, where they sample with
+/// the projected solid angle ([`lambert_technique`]).
 pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
+    let surfaces = match opts.method {
+        Method::Technique(_) => true,
+        // The two-technique estimators on glossy surfaces take the scalar path.
+        Method::Ltc | Method::Mis(_) => scene.shapes.iter().all(|s| s.bsdf.lambertian().is_some()),
+    };
     matches!(
         lambert_technique(opts.method),
         Technique::ProjectedSolidAngle | Technique::Li2018
     ) && opts.light_samples == 1
         // Its lanes draw the white stream directly; blue noise takes the scalar path.
         && opts.noise == linlight_sampling::noise::Noise::White
-        && scene.shapes.iter().all(|s| s.bsdf.lambertian().is_some())
+        && surfaces
 }
 
 /// Render `scene` with the batched renderer (see the module documentation); the same
@@ -79,8 +90,9 @@ pub fn render_isa(
     check_options(opts)?;
     if !applies(scene, opts) {
         return Err(RenderError::Options(format!(
-            "the batched renderer needs the projected solid angle or Li et al. technique, one \
-             light sample and Lambertian surfaces (method {}, {} light samples)",
+            "the batched renderer needs the projected solid angle or Li et al. technique (LTC \
+             and MIS on Lambertian surfaces only), one light sample and white noise (method {}, \
+             {} light samples)",
             opts.method, opts.light_samples
         )));
     }
@@ -131,15 +143,19 @@ fn set3(v: &mut Lanes3, k: usize, x: Vec3) {
 
 /// The shading points of a packet, lane k from camera sample k (structure of arrays). Lanes
 /// outside `active` (no hit, or a surface that does not reflect toward the camera) hold zeros.
-struct ShadingLanes {
+struct ShadingLanes<'a> {
     active: u32,
     p: Lanes3,
     /// Geometric normal (offsets shadow-ray origins).
     ng: Lanes3,
     /// Normal of the side that reflects ([`reflecting_normal`]).
     n: Lanes3,
-    /// f = ρ/π (zero outside `active`).
+    /// f = ρ/π on Lambertian lanes (zero on the others and outside `active`).
     lambert: Lanes3,
+    /// The active lanes on non-Lambertian surfaces: `glossy[k]` is the scalar path's shading
+    /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere.
+    glossy_mask: u32,
+    glossy: [Option<ShadingPoint<'a>>; LANES],
 }
 
 /// The light samples of a packet for one light: direction, density, distance to the line
@@ -299,8 +315,9 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         let (shadow, mask) = shadow_rays(&shading, &samples);
         let occluded = rs.bvh.occluded_lanes(&shadow, mask);
         let lit = mask & !occluded;
-        // K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R), and only finite contributions (adding
-        // +0 elsewhere leaves a sum that starts at +0 bitwise unchanged).
+        // Lambertian lanes: K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R), and only finite
+        // contributions (adding +0 elsewhere leaves a sum that starts at +0 bitwise unchanged).
+        let lambert_lit = lit & !shading.glossy_mask;
         let mut lambert_dropped = 0u32;
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
         for k in 0..LANES {
@@ -311,7 +328,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             let s = cos / samples.pdf[k];
             let c: [f32; 3] = std::array::from_fn(|a| k_light[a] * f[a][k] * s);
             let finite = c.iter().all(|x| x.is_finite());
-            let lambert = lit >> k & 1 == 1;
+            let lambert = lambert_lit >> k & 1 == 1;
             let add = lambert & finite;
             lambert_dropped |= ((lambert & !finite) as u32) << k;
             for a in 0..3 {
@@ -319,6 +336,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             }
         }
         dropped += lambert_dropped.count_ones() as u64;
+        dropped += glossy_contributions(&shading, &samples, lit, *k_light, &mut total);
     }
     if dropped > 0 {
         rs.dropped
@@ -339,13 +357,15 @@ const MAX_BLOCKS: usize = 4;
 /// scalar integrator's `surface_point` and `reflecting_normal`, lane by lane (every surface
 /// is Lambertian: [`applies`]).
 #[inline(always)]
-fn shading_points(rs: &RenderScene, rays: &RayLanes, hits: &PacketHits) -> ShadingLanes {
+fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -> ShadingLanes<'a> {
     let mut out = ShadingLanes {
         active: 0,
         p: [[0.0; LANES]; 3],
         ng: [[0.0; LANES]; 3],
         n: [[0.0; LANES]; 3],
         lambert: [[0.0; LANES]; 3],
+        glossy_mask: 0,
+        glossy: [None; LANES],
     };
     // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
     // all lanes at once below, other primitives with their own `surface_point`.
@@ -384,17 +404,62 @@ fn shading_points(rs: &RenderScene, rays: &RayLanes, hits: &PacketHits) -> Shadi
         m &= m - 1;
         let shape = shape_of[k];
         let wi = -get3(&rays.d, k);
-        let Some(n) = reflecting_normal(&rs.surfaces[shape].0, get3(&ns, k), wi) else {
+        let bsdf = &rs.surfaces[shape].0;
+        let Some(n) = reflecting_normal(bsdf, get3(&ns, k), wi) else {
             continue;
         };
         out.active |= 1 << k;
-        set3(&mut out.p, k, get3(&p, k));
+        let pk = get3(&p, k);
+        set3(&mut out.p, k, pk);
         set3(&mut out.ng, k, get3(&ng, k));
         set3(&mut out.n, k, n);
-        debug_assert!(rs.lambert[shape].is_some(), "only Lambertian surfaces");
-        set3(&mut out.lambert, k, rs.lambert[shape].unwrap_or(Vec3::ZERO));
+        match rs.lambert[shape] {
+            Some(f) => set3(&mut out.lambert, k, f),
+            None => {
+                // The scalar integrator's shading point (its n() is `n`, bit for bit).
+                out.glossy_mask |= 1 << k;
+                out.glossy[k] = Some(ShadingPoint::new(&SceneBsdf, bsdf, pk, n, wi));
+            }
+        }
     }
     out
+}
+
+/// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for one light
+/// (K = `k_light`) to `total`: the scalar single-technique contribution
+/// ([`single_contribution`]) lane by lane, finite ones only; returns how many were dropped.
+#[inline(always)]
+fn glossy_contributions(
+    shading: &ShadingLanes,
+    samples: &SampleLanes,
+    lit: u32,
+    k_light: Vec3,
+    total: &mut Lanes3,
+) -> u64 {
+    let mut dropped = 0;
+    let mut m = lit & shading.glossy_mask;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let Some(point) = &shading.glossy[k] else {
+            continue;
+        };
+        let c = single_contribution(
+            &SceneBsdf,
+            point,
+            k_light,
+            get3(&samples.dir, k),
+            samples.pdf[k],
+        );
+        if c.is_finite() {
+            for (a, t) in total.iter_mut().enumerate() {
+                t[k] += c[a];
+            }
+        } else {
+            dropped += 1;
+        }
+    }
+    dropped
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
@@ -579,8 +644,8 @@ mod tests {
             .collect()
     }
 
-    /// Every committed scene the batched renderer applies to, both batch techniques, every
-    /// kernel the CPU runs: the image equals the scalar path's bit for bit (means, variances,
+    /// Every committed scene (Lambertian, glossy, mixed), both batch techniques (and LTC and
+    /// MIS where every surface is Lambertian), every kernel the CPU runs: the image equals the scalar path's bit for bit (means, variances,
     /// tail shares, header), with spp not a multiple of the packet (packets span pixels) and
     /// with passes.
     #[test]
@@ -633,11 +698,19 @@ mod tests {
                 }
             }
         }
-        // The Lambertian scenes (cornell-tube at least) take the batched path.
-        assert!(rendered >= 16, "{rendered} batched renders");
+        // The Lambertian scenes take the batched path with all four methods, the glossy ones
+        // (every committed glossy scene: rough conductor, principled, blend, glossy and
+        // Lambertian shapes mixed) with the two batch techniques.
+        let glossy = names.iter().filter(|n| n.starts_with("glossy-")).count();
+        assert!(glossy >= 4, "{names:?}");
+        assert!(
+            rendered >= 8 * (names.len() - glossy) + 4 * glossy,
+            "{rendered} batched renders"
+        );
     }
 
-    /// Glossy scenes and techniques without a batch kernel take the scalar path.
+    /// Techniques without a batch kernel, and LTC and MIS on glossy scenes, take the scalar
+    /// path.
     #[test]
     fn applies_only_where_it_can() {
         let opts = |technique: Technique| RenderOptions {
@@ -681,6 +754,18 @@ mod tests {
             fresnel: linlight_brdf::ConductorFresnel::One,
             specular_reflectance: [1.0; 3],
         });
-        assert!(!applies(&glossy, &opts(Technique::ProjectedSolidAngle)));
+        // Glossy surfaces: the batch techniques with their BSDF evaluated lane by lane; the
+        // two-technique estimators and the techniques without a batch kernel take the scalar
+        // path.
+        assert!(applies(&glossy, &opts(Technique::ProjectedSolidAngle)));
+        assert!(applies(&glossy, &opts(Technique::Li2018)));
+        assert!(!applies(&glossy, &opts(Technique::ClippedSolidAngle)));
+        for method in [Method::default(), Method::Ltc] {
+            let o = RenderOptions {
+                method,
+                ..opts(Technique::ProjectedSolidAngle)
+            };
+            assert!(!applies(&glossy, &o), "{method}");
+        }
     }
 }

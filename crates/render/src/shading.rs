@@ -154,6 +154,20 @@ fn distance_to_line<L: LineSampler>(sampler: &L, w: Vec3) -> Option<f32> {
     (t > 0.0 && dist.is_finite()).then_some(dist)
 }
 
+/// The contribution K·f(v, ω)·cos θ/p(ω) of one sample ω (density `pdf`) of a single
+/// technique at a non-Lambertian shading point, not yet tested for finiteness: the expression
+/// of [`estimate_resolved`], which the batched renderer evaluates lane by lane.
+#[inline]
+pub fn single_contribution<B: BsdfModel>(
+    model: &B,
+    sp: &ShadingPoint,
+    k: Vec3,
+    w: Vec3,
+    pdf: f32,
+) -> Vec3 {
+    k * sp.eval(model, w) / pdf
+}
+
 /// One technique, `samples` iterations: Σ contribution(ω, cos θ, p) over the visible samples
 /// with p > 0 and cos θ > 0 (not divided by `samples`). `contribution` returns
 /// K·f·cos/p; non-finite ones are counted in `dropped` and left out.
@@ -314,7 +328,7 @@ pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             samples,
             rng,
             visible,
-            |w: Vec3, _cos: f32, pdf: f32| k * eval(w) / pdf,
+            |w: Vec3, _cos: f32, pdf: f32| single_contribution(pieces.bsdf, sp, k, w, pdf),
             dropped,
         ),
         Some(combination) => {
