@@ -35,7 +35,7 @@ use crate::integrator::{offset_origin, reflecting_normal, RenderScene, SHADOW_EP
 use crate::render::{
     check_options, metadata, pixel_entries, render_in_tiles, window, RenderError, RenderOptions,
 };
-use crate::scene::Scene;
+use crate::scene::{Bsdf, Scene};
 use crate::shading::{
     lambert_technique, single_contribution, single_sample, Combination, ShadingPoint,
     TwoTechniqueLight,
@@ -456,17 +456,24 @@ fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -
             None => {
                 // The scalar integrator's shading point (its n() is `n`, bit for bit).
                 out.glossy_mask |= 1 << k;
-                out.glossy[k] = Some(ShadingPoint::new(&SceneBsdf, bsdf, pk, n, wi));
+                out.glossy[k] = Some(glossy_point(bsdf, pk, n, wi));
             }
         }
     }
     out
 }
 
+/// The scalar integrator's shading point; not inlined, as [`Context::scalar_samples`].
+#[inline(never)]
+fn glossy_point(bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> ShadingPoint<'_> {
+    ShadingPoint::new(&SceneBsdf, bsdf, p, n, wi)
+}
+
 /// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for one light
 /// (K = `k_light`) to `total`: the scalar single-technique contribution
 /// ([`single_contribution`]) lane by lane, finite ones only; returns how many were dropped.
-#[inline(always)]
+/// Not inlined, as [`Context::scalar_samples`].
+#[inline(never)]
 fn glossy_contributions(
     shading: &ShadingLanes,
     samples: &SampleLanes,
@@ -653,52 +660,11 @@ impl<'a> Context<'a> {
         number: &impl Fn(usize) -> [f32; LANES],
         total: &mut Lanes3,
     ) -> u64 {
-        let mut samples = [CandidateLanes::default(), CandidateLanes::default()];
-        let mut m = lanes;
-        match self.combination {
-            None => {
-                let xi = number(2 + j);
-                while m != 0 {
-                    let k = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    let (p, n) = (get3(&shading.p, k), get3(&shading.n, k));
-                    let Some(sampler) = LightSampling::prepare(&self.technique, segment, p, n)
-                    else {
-                        continue;
-                    };
-                    let Some(s) = single_sample(&sampler, n, xi[k]) else {
-                        continue;
-                    };
-                    // The integrator's contributions: full BSDF, or K·(ρ/π)·(cos θ/p).
-                    let c = match &shading.glossy[k] {
-                        Some(point) => single_contribution(&SceneBsdf, point, k_light, s.w, s.pdf),
-                        None => k_light * get3(&shading.lambert, k) * (s.cos / s.pdf),
-                    };
-                    samples[0].set(k, s.w, s.dist, c);
-                }
-            }
-            Some(combination) => {
-                let (xi_d, xi_s) = (number(2 + 2 * j), number(3 + 2 * j));
-                while m != 0 {
-                    let k = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    let Some(point) = &shading.glossy[k] else {
-                        continue;
-                    };
-                    let Some(light) = TwoTechniqueLight::prepare(&Ltc, point, segment) else {
-                        continue;
-                    };
-                    let eval = |w: Vec3| point.eval(&SceneBsdf, w);
-                    let candidates =
-                        light.candidates(combination, k_light, (xi_d[k], xi_s[k]), eval);
-                    for (lanes, c) in samples.iter_mut().zip(candidates) {
-                        if let Some(c) = c {
-                            lanes.set(k, c.w, c.dist, c.c);
-                        }
-                    }
-                }
-            }
-        }
+        let xi = match self.combination {
+            None => [number(2 + j), [0.0; LANES]],
+            Some(_) => [number(2 + 2 * j), number(3 + 2 * j)],
+        };
+        let samples = self.scalar_samples(shading, lanes, (segment, k_light), &xi);
         let visible = samples.each_ref().map(|s| s.visible(self.rs, shading));
         let mut dropped = 0;
         let mut m = lanes;
@@ -721,6 +687,67 @@ impl<'a> Context<'a> {
             set3(total, k, get3(total, k) + light);
         }
         dropped
+    }
+
+    /// The samples of [`Self::scalar_light`] before visibility, lane by lane; ξ of lane k:
+    /// `xi[0][k]` (single techniques) or (`xi[0][k]`, `xi[1][k]`) (LTC, MIS). Not inlined:
+    /// scalar code, compiled once for the target's baseline rather than into every ISA's
+    /// packet kernel.
+    #[inline(never)]
+    fn scalar_samples(
+        &self,
+        shading: &ShadingLanes,
+        lanes: u32,
+        (segment, k_light): (&Segment, Vec3),
+        xi: &[[f32; LANES]; 2],
+    ) -> [CandidateLanes; 2] {
+        let mut samples = [CandidateLanes::default(), CandidateLanes::default()];
+        let mut m = lanes;
+        match self.combination {
+            None => {
+                let xi = &xi[0];
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let (p, n) = (get3(&shading.p, k), get3(&shading.n, k));
+                    let Some(sampler) = LightSampling::prepare(&self.technique, segment, p, n)
+                    else {
+                        continue;
+                    };
+                    let Some(s) = single_sample(&sampler, n, xi[k]) else {
+                        continue;
+                    };
+                    // The integrator's contributions: full BSDF, or K·(ρ/π)·(cos θ/p).
+                    let c = match &shading.glossy[k] {
+                        Some(point) => single_contribution(&SceneBsdf, point, k_light, s.w, s.pdf),
+                        None => k_light * get3(&shading.lambert, k) * (s.cos / s.pdf),
+                    };
+                    samples[0].set(k, s.w, s.dist, c);
+                }
+            }
+            Some(combination) => {
+                let [xi_d, xi_s] = xi;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let Some(point) = &shading.glossy[k] else {
+                        continue;
+                    };
+                    let Some(light) = TwoTechniqueLight::prepare(&Ltc, point, segment) else {
+                        continue;
+                    };
+                    let eval = |w: Vec3| point.eval(&SceneBsdf, w);
+                    let candidates =
+                        light.candidates(combination, k_light, (xi_d[k], xi_s[k]), eval);
+                    for (lanes, c) in samples.iter_mut().zip(candidates) {
+                        if let Some(c) = c {
+                            lanes.set(k, c.w, c.dist, c.c);
+                        }
+                    }
+                }
+            }
+        }
+        samples
     }
 }
 
