@@ -6,20 +6,26 @@
 //! other surfaces (rough conductor, principled, blends) with the scalar path's BSDF evaluation
 //! lane by lane ([`ShadingPoint::new`], [`single_contribution`]); a packet may mix both.
 //!
-//! It applies ([`applies`]) to the projected-solid-angle and Li et al. techniques (the ones
-//! with batch kernels) on every scene, and to LTC and MIS (which sample Lambertian surfaces
-//! with the projected solid angle) on scenes whose every surface is Lambertian;
-//! [`crate::render::render`] renders everything else (other techniques, LTC and MIS on glossy
-//! surfaces, several light samples, blue noise) with the scalar path. Visible lines
-//! (`hide_emitters=false`) are added lane by lane with the scalar code.
+//! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle,
+//! clipped solid angle, Hart), LTC and MIS on non-Lambertian surfaces — take their samples lane
+//! by lane with the scalar code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and
+//! trace them in packet walks (LTC and MIS: one for the diffuse, one for the specular samples).
+//!
+//! [`render_isa`] renders every scene and method with one light sample and white noise;
+//! [`crate::render::render`] uses it where it pays ([`applies`]): the batch techniques on every
+//! scene, the other methods on scenes with Lambertian surfaces. Everything else (several
+//! light samples, blue noise, the methods without a batch kernel on all-glossy scenes) takes
+//! the scalar path. Visible lines (`hide_emitters=false`) are added lane by lane with the
+//! scalar code.
 //!
 //! Same estimator, same numbers, same image: lane k is camera sample (pixel, sample) of the
 //! tile in the scalar path's order, draws the numbers of its own Philox stream in the scalar
-//! order (film position, then one per light, then the visible lines'), and every step is the
-//! scalar step's arithmetic (the batch kernels and packet walks equal their scalar forms bit
-//! for bit, ties of the closest hit included), so an image equals the one of the scalar
-//! reference path ([`crate::render::render_with`] with the same technique) bit for bit — tests
-//! below check it on every committed scene and technique. Pixels accumulate their samples in
+//! order (film position, then one per light — two on non-Lambertian surfaces under LTC and
+//! MIS —, then the visible lines'), and every step is the scalar step's arithmetic (the batch
+//! kernels and packet walks equal their scalar forms bit for bit, ties of the closest hit
+//! included; a light's samples are summed per lane as the scalar estimator sums them), so an
+//! image equals the one of the scalar reference path ([`crate::render::render_with`] with the
+//! same method) bit for bit — tests below check it on every committed scene and method. Pixels accumulate their samples in
 //! the same order (Welford in f64).
 //!
 //! Cost: `scripts/bench-render` (M samples/s against Mitsuba 3 on every committed scene);

@@ -1,7 +1,9 @@
 //! Direct light of one linear light at one shading point: the estimators of every
-//! [`Method`], written once as scalar code that the integrator calls per light (and that a
-//! batched renderer can reproduce lane by lane: per light prepare both samplers, sample, eval,
-//! shadow rays).
+//! [`Method`], written once as scalar code that the integrator calls per light. Each
+//! iteration is split at the shadow ray — [`single_sample`] and [`TwoTechniqueLight::candidates`]
+//! return the samples that can contribute before visibility is known — so that the batched
+//! renderer (`crate::batched`) runs the same code lane by lane and traces the shadow rays of
+//! all lanes in one packet walk, with the same bits.
 //!
 //! Measure: densities per radius (dΩ_R); a contribution is K·f(v, ω)·cos θ·V(ω)·w(ω)/p(ω) with
 //! K = radiance × radius and f·cos from the BSDF model, averaged over `samples` iterations.
