@@ -713,9 +713,9 @@ impl Bvh {
     /// unresolved (as intervals when the packet is coherent, else ray by ray, see
     /// [`RayPacket`]), a subtree is entered with the rays that may meet its box, a leaf tests
     /// its triangles against all of them at once (vectorised) and other primitives ray by ray,
-    /// and the walk ends when every ray is occluded. A tree of at most [`TINY`] triangles is not
-    /// walked: each triangle is tested against all rays not yet occluded. Compiled for the best
-    /// vector extension of the CPU (chosen at run time, as `linlight_sampling::batch` does).
+    /// and the walk ends when every ray is occluded. A tree of at most `TINY` (12) triangles is
+    /// not walked: each triangle is tested against all rays not yet occluded. Compiled for the
+    /// best vector extension of the CPU (chosen at run time, as `linlight_sampling::batch` does).
     pub fn occluded_lanes(&self, lanes: &RayLanes, active: u32) -> u32 {
         let active = active & ((1u64 << PACKET) - 1) as u32;
         if self.nodes.is_empty() || active == 0 {
@@ -817,7 +817,7 @@ impl Bvh {
     /// rays), boxes tested as in [`Self::occluded_lanes`]; a pending subtree is checked again
     /// against the rays' current closest distances when it is popped; a leaf's triangles are
     /// tested against all its rays at once (vectorised), other primitives ray by ray. A tree of
-    /// at most [`TINY`] triangles is not walked: each triangle is tested against all rays.
+    /// at most `TINY` (12) triangles is not walked: each triangle is tested against all rays.
     pub fn intersect_lanes(&self, lanes: &RayLanes, active: u32) -> PacketHits {
         let active = active & ((1u64 << PACKET) - 1) as u32;
         let mut out = PacketHits {
