@@ -631,36 +631,45 @@ fn run_plan(
                     light_samples: 1,
                     noise: Default::default(),
                 };
-                let planned = |base: &RenderOptions| {
+                let planned = |rule: &BudgetRule, base: &RenderOptions| {
                     let t = Instant::now();
                     let pilot = subject
                         .render(&s.scene, base, &|_, _| {})
                         .map_err(|e| render_error(&s.name, &name, e))?;
                     let seconds = t.elapsed().as_secs_f64();
-                    let (budget, pixel_spp) =
-                        opts.budget.plan(&pilot, &reference, &cfg).map_err(|e| {
-                            Unusable(format!(
-                                "cannot choose the budget of {} / {name}: {e}",
-                                s.name
-                            ))
-                        })?;
+                    let (budget, pixel_spp) = rule.plan(&pilot, &reference, &cfg).map_err(|e| {
+                        Unusable(format!(
+                            "cannot choose the budget of {} / {name}: {e}",
+                            s.name
+                        ))
+                    })?;
                     Ok::<_, Unusable>((budget, pixel_spp, seconds))
                 };
-                let (mut budget, mut pixel_spp, mut pilot_seconds) = planned(&base)?;
+                let (mut budget, mut pixel_spp, mut pilot_seconds) = planned(&opts.budget, &base)?;
                 // Several light samples per camera sample where they are cheaper than camera
-                // samples (docs/budget.md, "Light samples"), planned again from their own pilot.
-                let light_samples = opts
+                // samples (docs/budget.md, "Light samples"): planned again from a pilot of as
+                // many light samples at N per camera sample, kept if the cost model says so.
+                let mut light_samples = 1;
+                let n = opts
                     .budget
                     .light_samples(budget.spp, subject.renders_in_packets(&s.scene, &base));
+                if n > 1 {
+                    let rule = opts.budget.light_sample_pilot(n);
+                    let trial = RenderOptions {
+                        light_samples: n,
+                        spp: rule.pilot_spp,
+                        ..base
+                    };
+                    let (b, p, seconds) = planned(&rule, &trial)?;
+                    pilot_seconds += seconds;
+                    if BudgetRule::light_samples_pay(&budget, &b, n) {
+                        (budget, pixel_spp, light_samples) = (b, p, n);
+                    }
+                }
                 let base = RenderOptions {
                     light_samples,
                     ..base
                 };
-                if light_samples > 1 {
-                    let seconds;
-                    (budget, pixel_spp, seconds) = planned(&base)?;
-                    pilot_seconds += seconds;
-                }
                 let t = Instant::now();
                 let mut image = planned::render(
                     &|scene, o, p| subject.render(scene, o, p),
