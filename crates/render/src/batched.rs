@@ -2,7 +2,8 @@
 //! Mitsuba's LLVM variants do with their wavefronts — random numbers and camera rays of all
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
 //! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
-//! rays, then Lambertian shading.
+//! rays, then Lambertian shading — per light (`--lights every`), or once with each lane's own
+//! chosen light (`--lights one`, [`crate::light_choice`]: per-lane segments in the batch).
 //!
 //! It applies ([`applies`]) to the projected-solid-angle and Li et al. techniques (the ones
 //! with batch kernels) on scenes whose every surface is Lambertian (`diffuse` and blends of
@@ -12,7 +13,8 @@
 //!
 //! Same estimator, same numbers, same image: lane k is camera sample (pixel, sample) of the
 //! tile in the scalar path's order, draws the numbers of its own Philox stream in the scalar
-//! order (film position, then one per light, then the visible lines'), and every step is the
+//! order (film position, then one per light — or, choosing one light per light sample, the
+//! choice ξ_c and the chosen light's ξ — then the visible lines'), and every step is the
 //! scalar step's arithmetic (the batch kernels and packet walks equal their scalar forms bit
 //! for bit, ties of the closest hit included), so an image equals the one of the scalar
 //! reference path ([`crate::render::render_with`] with the same technique) bit for bit — tests
@@ -27,7 +29,9 @@
 
 use crate::bvh::{PacketHits, RayLanes, PACKET};
 use crate::film::Welford;
-use crate::integrator::{offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON};
+use crate::integrator::{
+    chosen_light, offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON,
+};
 use crate::render::{
     check_options, metadata, pixel_entries, render_in_tiles, window, RenderError, RenderOptions,
 };
@@ -37,9 +41,9 @@ use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
+use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
-use linlight_sampling::{Segment, Technique};
+use linlight_sampling::Technique;
 
 /// Camera samples rendered together: one ray packet.
 pub const LANES: usize = PACKET;
@@ -142,8 +146,16 @@ struct ShadingLanes {
     lambert: Lanes3,
 }
 
-/// The light samples of a packet for one light: direction, density, distance to the line
-/// along the direction; `mask`: lanes with a sample.
+/// The light each lane samples in one packet shadow walk: the light's index, its K (divided by
+/// the lane's choice probability when one light is chosen) and the lane's ξ.
+struct LightLanes {
+    light: [usize; LANES],
+    k: Lanes3,
+    xi: [f32; LANES],
+}
+
+/// The light samples of a packet for one [`LightLanes`]: direction, density, distance to the
+/// line along the direction; `mask`: lanes with a sample.
 #[derive(Default)]
 struct SampleLanes {
     mask: u32,
@@ -214,7 +226,7 @@ impl<'a> Context<'a> {
             let mut rng =
                 CounterRng::camera_sample(self.opts.seed, pass, packet.index[k], packet.sample[k]);
             let used = 2 + if radiance.shaded >> k & 1 == 1 {
-                rs.lights.len()
+                rs.light_numbers(self.opts.lights, self.opts.light_samples, 1)
             } else {
                 0
             };
@@ -243,7 +255,7 @@ struct Packet {
 }
 
 /// Radiance of each lane of a packet, and the lanes whose camera ray reached a reflecting
-/// surface (they used one number per light).
+/// surface (they used the lights' numbers, [`RenderScene::light_numbers`]).
 struct Radiance {
     total: Lanes3,
     shaded: u32,
@@ -260,9 +272,10 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let rs = ctx.rs;
     let lights = &rs.lights;
     let active = ((1u64 << packet.len) - 1) as u32;
-    // Film position (2 numbers) and one number per light, from the lanes' own streams.
+    // Film position (2 numbers) and the lights' numbers, from the lanes' own streams.
     let mut words = [[[0u32; LANES]; 4]; MAX_BLOCKS];
-    let blocks = (2 + lights.len()).div_ceil(4);
+    let one = rs.chooses_one(ctx.opts.lights);
+    let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, 1)).div_ceil(4);
     for (b, w) in words.iter_mut().enumerate().take(blocks.min(MAX_BLOCKS)) {
         *w = CounterRng::camera_sample_block(
             ctx.opts.seed,
@@ -294,8 +307,10 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
 
     let mut total = [[0.0f32; LANES]; 3];
     let mut dropped = 0u64;
-    for (j, (segment, k_light)) in lights.iter().enumerate() {
-        let samples = ctx.light_samples(segment, &shading, &number(2 + j));
+    // One packet shadow walk per light (`every`), or one for the lanes' chosen lights (`one`).
+    for walk in 0..if one { 1 } else { lights.len() } {
+        let light = ctx.light_lanes(walk, one, &number);
+        let samples = ctx.light_samples(&light, &shading);
         let (shadow, mask) = shadow_rays(&shading, &samples);
         let occluded = rs.bvh.occluded_lanes(&shadow, mask);
         let lit = mask & !occluded;
@@ -309,7 +324,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             let (n, dir, f) = (&shading.n, &samples.dir, &shading.lambert);
             let cos = n[0][k] * dir[0][k] + n[1][k] * dir[1][k] + n[2][k] * dir[2][k];
             let s = cos / samples.pdf[k];
-            let c: [f32; 3] = std::array::from_fn(|a| k_light[a] * f[a][k] * s);
+            let c: [f32; 3] = std::array::from_fn(|a| light.k[a][k] * f[a][k] * s);
             let finite = c.iter().all(|x| x.is_finite());
             let lambert = lit >> k & 1 == 1;
             let add = lambert & finite;
@@ -331,8 +346,8 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     }
 }
 
-/// Blocks of four numbers per lane drawn together (2 + lights ≤ 16); further dimensions are
-/// drawn lane by lane.
+/// Blocks of four numbers per lane drawn together (2 + the lights' numbers ≤ 16); further
+/// dimensions are drawn lane by lane.
 const MAX_BLOCKS: usize = 4;
 
 /// The shading points of the lanes that hit a surface reflecting toward the camera: the
@@ -489,15 +504,42 @@ fn shadow_rays(shading: &ShadingLanes, samples: &SampleLanes) -> (RayLanes, u32)
 }
 
 impl<'a> Context<'a> {
-    /// One sample of the light `segment` for every lane with a shading point (the lanes of
-    /// `mask` in the result), ξ of lane k = `xi[k]`.
+    /// The lights of packet shadow walk `walk` and their ξ, `number(d)` being dimension d of
+    /// the lanes: light `walk` in every lane with ξ of dimension 2 + `walk` (`every`); or
+    /// (`one`) each lane's light chosen by its ξ_c (dimension 2; the scalar [`chosen_light`]
+    /// lane by lane) with K/p, and ξ of dimension 3.
     #[inline(always)]
-    fn light_samples(
+    fn light_lanes(
         &self,
-        segment: &Segment,
-        shading: &ShadingLanes,
-        xi: &[f32; LANES],
-    ) -> SampleLanes {
+        walk: usize,
+        one: bool,
+        number: &impl Fn(usize) -> [f32; LANES],
+    ) -> LightLanes {
+        let rs = self.rs;
+        if !one {
+            return LightLanes {
+                light: [walk; LANES],
+                k: rs.lights[walk].1.to_array().map(|c| [c; LANES]),
+                xi: number(2 + walk),
+            };
+        }
+        let mut out = LightLanes {
+            light: [0; LANES],
+            k: [[0.0; LANES]; 3],
+            xi: number(3),
+        };
+        for (k, &c) in number(2).iter().enumerate() {
+            let (j, k_over_p) = chosen_light(&rs.lights, &rs.choice, c);
+            out.light[k] = j;
+            set3(&mut out.k, k, k_over_p);
+        }
+        out
+    }
+
+    /// One sample of lane k's light `lights.light[k]` with ξ = `lights.xi[k]` for every lane
+    /// with a shading point (the lanes of `mask` in the result).
+    #[inline(always)]
+    fn light_samples(&self, lights: &LightLanes, shading: &ShadingLanes) -> SampleLanes {
         let technique = lambert_technique(self.opts.method);
         // `applies` admits projected solid angle and Li et al. only.
         debug_assert!(matches!(
@@ -507,14 +549,15 @@ impl<'a> Context<'a> {
         let mut out = SampleLanes::default();
         let mut inputs = [PsaBatchInput::default(); 2];
         for (b, input) in inputs.iter_mut().enumerate() {
-            input.begin = Vec3x8::splat(segment.begin);
-            input.end = Vec3x8::splat(segment.end);
             for i in 0..BATCH {
                 let k = b * BATCH + i;
+                let segment = &self.rs.lights[lights.light[k]].0;
+                input.begin.set(i, segment.begin);
+                input.end.set(i, segment.end);
                 // Lanes without a shading point have a zero normal: no contribution.
                 input.x.set(i, get3(&shading.p, k));
                 input.n.set(i, get3(&shading.n, k));
-                input.xi[i] = xi[k];
+                input.xi[i] = lights.xi[k];
             }
         }
         let mut outputs = [PsaBatchOutput::default(); 2];
@@ -559,6 +602,7 @@ fn shadow_ray_lane(p: Vec3, ng: Vec3, target: Vec3) -> (Ray, bool) {
 mod tests {
     use super::*;
     use crate::hooks::Hooks;
+    use crate::light_choice::LightSelection;
     use crate::method::Method;
     use crate::render::render_with;
     use crate::xml;
@@ -579,10 +623,10 @@ mod tests {
             .collect()
     }
 
-    /// Every committed scene the batched renderer applies to, both batch techniques, every
-    /// kernel the CPU runs: the image equals the scalar path's bit for bit (means, variances,
-    /// tail shares, header), with spp not a multiple of the packet (packets span pixels) and
-    /// with passes.
+    /// Every committed scene the batched renderer applies to, both batch techniques, both light
+    /// selections, every kernel the CPU runs: the image equals the scalar path's bit for bit
+    /// (means, variances, tail shares, header), with spp not a multiple of the packet (packets
+    /// span pixels) and with passes.
     #[test]
     fn images_equal_the_scalar_path() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../references/scenes");
@@ -595,7 +639,7 @@ mod tests {
             .collect();
         names.sort();
         assert!(names.len() >= 5, "{names:?}");
-        let mut rendered = 0;
+        let (mut rendered, mut two_light_renders) = (0, 0);
         for name in &names {
             let scene = scene(name, 24);
             // The two batch techniques, and the default MIS and LTC, which shade Lambertian
@@ -606,7 +650,10 @@ mod tests {
                 Method::default(),
                 Method::Ltc,
             ];
-            for technique in methods {
+            for (technique, lights) in methods
+                .into_iter()
+                .flat_map(|m| LightSelection::ALL.map(|l| (m, l)))
+            {
                 for (spp, passes) in [(5, 1), (16, 2)] {
                     let opts = RenderOptions {
                         spp,
@@ -614,6 +661,7 @@ mod tests {
                         seed: 3,
                         method: technique,
                         light_samples: 1,
+                        lights,
                         noise: Default::default(),
                     };
                     if !applies(&scene, &opts) {
@@ -625,16 +673,51 @@ mod tests {
                         let batched = render_isa(&scene, &opts, isa, &|_, _| {}).unwrap();
                         assert!(
                             bits(&batched) == bits(&scalar),
-                            "{name}, {technique}, {isa:?}, {spp} spp × {passes}"
+                            "{name}, {technique}, {lights}, {isa:?}, {spp} spp × {passes}"
                         );
                         assert_eq!(batched.meta, scalar.meta, "{name}, {technique}");
                     }
                     rendered += 1;
+                    if lights == LightSelection::One {
+                        two_light_renders += usize::from(scene.lights.len() == 2);
+                    }
                 }
             }
         }
-        // The Lambertian scenes (cornell-tube at least) take the batched path.
-        assert!(rendered >= 16, "{rendered} batched renders");
+        // The Lambertian scenes (cornell-tube at least) take the batched path, and one with two
+        // lights (two-tubes) lets the lanes choose different lights.
+        assert!(rendered >= 32, "{rendered} batched renders");
+        assert!(
+            two_light_renders >= 8,
+            "{two_light_renders} two-light renders"
+        );
+    }
+
+    /// A scene with one light draws no choice number: `one` and `every` render the same pixels
+    /// bit for bit, on the scalar path (glossy scenes, several light samples, the two-technique
+    /// estimator) and the batched one; only the header's `light_selection` differs.
+    #[test]
+    fn one_light_scenes_render_the_same_image_under_both_selections() {
+        for (name, light_samples) in [("cornell-tube", 1), ("glossy-conductor-rough", 3)] {
+            let scene = scene(name, 16);
+            assert_eq!(scene.lights.len(), 1);
+            let opts = |lights| RenderOptions {
+                spp: 4,
+                seed: 7,
+                light_samples,
+                lights,
+                ..Default::default()
+            };
+            let one = opts(LightSelection::One);
+            let every = opts(LightSelection::Every);
+            let (a, b) = (
+                crate::render::render(&scene, &one, &|_, _| {}).unwrap(),
+                crate::render::render(&scene, &every, &|_, _| {}).unwrap(),
+            );
+            assert!(bits(&a) == bits(&b), "{name}");
+            assert_eq!(a.meta.extra["light_selection"], "one");
+            assert_eq!(b.meta.extra["light_selection"], "every");
+        }
     }
 
     /// Glossy scenes and techniques without a batch kernel take the scalar path.
@@ -646,6 +729,7 @@ mod tests {
             seed: 0,
             method: technique.into(),
             light_samples: 1,
+            lights: LightSelection::One,
             noise: Default::default(),
         };
         let cornell = scene("cornell-tube", 8);
