@@ -30,7 +30,7 @@
 use crate::bvh::{PacketHits, RayLanes, PACKET};
 use crate::film::Welford;
 use crate::integrator::{
-    chosen_light, offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON,
+    k_over_probability, offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON,
 };
 use crate::render::{
     check_options, metadata, pixel_entries, render_in_tiles, window, RenderError, RenderOptions,
@@ -41,7 +41,7 @@ use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, LANES as BATCH};
+use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::Technique;
 
@@ -147,9 +147,11 @@ struct ShadingLanes {
 }
 
 /// The light each lane samples in one packet shadow walk: the light's index, its K (divided by
-/// the lane's choice probability when one light is chosen) and the lane's ξ.
+/// the lane's choice probability when one light is chosen) and the lane's ξ; `uniform`: the
+/// light of every lane, when they share one (`every`).
 struct LightLanes {
-    light: [usize; LANES],
+    uniform: Option<usize>,
+    light: [u32; LANES],
     k: Lanes3,
     xi: [f32; LANES],
 }
@@ -506,8 +508,8 @@ fn shadow_rays(shading: &ShadingLanes, samples: &SampleLanes) -> (RayLanes, u32)
 impl<'a> Context<'a> {
     /// The lights of packet shadow walk `walk` and their ξ, `number(d)` being dimension d of
     /// the lanes: light `walk` in every lane with ξ of dimension 2 + `walk` (`every`); or
-    /// (`one`) each lane's light chosen by its ξ_c (dimension 2; the scalar [`chosen_light`]
-    /// lane by lane) with K/p, and ξ of dimension 3.
+    /// (`one`) each lane's light chosen by its ξ_c (dimension 2; the scalar path's
+    /// `chosen_light` on the lanes) with K/p, and ξ of dimension 3.
     #[inline(always)]
     fn light_lanes(
         &self,
@@ -518,22 +520,27 @@ impl<'a> Context<'a> {
         let rs = self.rs;
         if !one {
             return LightLanes {
-                light: [walk; LANES],
+                uniform: Some(walk),
+                light: [walk as u32; LANES],
                 k: rs.lights[walk].1.to_array().map(|c| [c; LANES]),
                 xi: number(2 + walk),
             };
         }
-        let mut out = LightLanes {
-            light: [0; LANES],
-            k: [[0.0; LANES]; 3],
-            xi: number(3),
-        };
-        for (k, &c) in number(2).iter().enumerate() {
-            let (j, k_over_p) = chosen_light(&rs.lights, &rs.choice, c);
-            out.light[k] = j;
-            set3(&mut out.k, k, k_over_p);
+        let light = rs.choice.pick_lanes(&number(2));
+        let mut k = [[0.0; LANES]; 3];
+        for (lane, &j) in light.iter().enumerate() {
+            set3(
+                &mut k,
+                lane,
+                k_over_probability(&rs.lights, &rs.choice, j as usize),
+            );
         }
-        out
+        LightLanes {
+            uniform: None,
+            light,
+            k,
+            xi: number(3),
+        }
     }
 
     /// One sample of lane k's light `lights.light[k]` with ξ = `lights.xi[k]` for every lane
@@ -549,11 +556,18 @@ impl<'a> Context<'a> {
         let mut out = SampleLanes::default();
         let mut inputs = [PsaBatchInput::default(); 2];
         for (b, input) in inputs.iter_mut().enumerate() {
+            if let Some(j) = lights.uniform {
+                let segment = &self.rs.lights[j].0;
+                input.begin = Vec3x8::splat(segment.begin);
+                input.end = Vec3x8::splat(segment.end);
+            }
             for i in 0..BATCH {
                 let k = b * BATCH + i;
-                let segment = &self.rs.lights[lights.light[k]].0;
-                input.begin.set(i, segment.begin);
-                input.end.set(i, segment.end);
+                if lights.uniform.is_none() {
+                    let segment = &self.rs.lights[lights.light[k] as usize].0;
+                    input.begin.set(i, segment.begin);
+                    input.end.set(i, segment.end);
+                }
                 // Lanes without a shading point have a zero normal: no contribution.
                 input.x.set(i, get3(&shading.p, k));
                 input.n.set(i, get3(&shading.n, k));

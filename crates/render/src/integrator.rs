@@ -157,8 +157,14 @@ impl RenderScene {
 /// The light chosen by ξ_c under [`LightSelection::One`]: its index, and its K/p.
 #[inline]
 pub fn chosen_light(lights: &[(Segment, Vec3)], choice: &LightChoice, xi: f32) -> (usize, Vec3) {
-    let (j, inverse_probability) = choice.pick(xi);
-    (j, lights[j].1 * inverse_probability)
+    let (j, _) = choice.pick(xi);
+    (j, k_over_probability(lights, choice, j))
+}
+
+/// K_j/p_j of light j (the same operation on both render paths).
+#[inline(always)]
+pub fn k_over_probability(lights: &[(Segment, Vec3)], choice: &LightChoice, j: usize) -> Vec3 {
+    lights[j].1 * choice.inverse_probability(j)
 }
 
 /// Σ estimate(segment, K, iterations, rng) over the lights of the light samples: every light

@@ -111,13 +111,30 @@ impl LightChoice {
     /// The light chosen by ξ (a uniform in [0, 1)) and 1/p of that light.
     #[inline]
     pub fn pick(&self, xi: f32) -> (usize, f32) {
-        debug_assert!(!self.thresholds.is_empty(), "no light to choose");
-        let k = (xi * LATTICE as f32) as u32;
-        let j = self
-            .thresholds
-            .partition_point(|&t| t <= k)
-            .min(self.thresholds.len() - 1);
+        let j = self.pick_lanes(&[xi])[0] as usize;
         (j, self.inverse_probability[j])
+    }
+
+    /// The light [`pick`](Self::pick) chooses for each ξ of `xi`, without a search: light j is
+    /// the number of thresholds T_0 … T_{N−2} at or below k = ξ·2²⁴ (a loop over lanes per
+    /// threshold, which vectorises).
+    #[inline(always)]
+    pub fn pick_lanes<const L: usize>(&self, xi: &[f32; L]) -> [u32; L] {
+        debug_assert!(!self.thresholds.is_empty(), "no light to choose");
+        let k: [u32; L] = xi.map(|x| (x * LATTICE as f32) as u32);
+        let mut j = [0u32; L];
+        for &t in &self.thresholds[..self.thresholds.len().saturating_sub(1)] {
+            for (j, k) in j.iter_mut().zip(&k) {
+                *j += (*k >= t) as u32;
+            }
+        }
+        j
+    }
+
+    /// 1/p_j, rounded to f32.
+    #[inline(always)]
+    pub fn inverse_probability(&self, j: usize) -> f32 {
+        self.inverse_probability[j]
     }
 
     /// p_j, exactly (the share of lattice points choosing light j).
@@ -168,7 +185,9 @@ mod tests {
                 ks.extend([t.saturating_sub(1), t.min(LATTICE - 1)]);
             }
             for k in ks {
-                let (j, inv) = c.pick(k as f32 / LATTICE as f32);
+                let xi = k as f32 / LATTICE as f32;
+                let (j, inv) = c.pick(xi);
+                assert_eq!(c.pick_lanes(&[0.0, xi]), [0, j as u32]);
                 let lo = if j == 0 { 0 } else { c.thresholds[j - 1] };
                 assert!(lo <= k && k < c.thresholds[j], "{weights:?}: k {k} → {j}");
                 assert_eq!(inv, (1.0 / c.probability(j)) as f32);
