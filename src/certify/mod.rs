@@ -9,6 +9,10 @@
 //!    same render is also compared with the exact R → 0 image (closed form on Lambertian
 //!    surfaces, quadrature along the line on glossy ones).
 //!
+//! 3. Besides them, the renders of [`NOISE_RENDERS`] (blue noise) and
+//!    [`LIGHT_SELECTION_RENDERS`] (one light chosen per light sample, on the two-light scenes;
+//!    the technique matrix samples every light) on their scenes, against the same oracles.
+//!
 //! Multiple testing: every comparison runs at the Šidák level α_c = 1 − (1 − α)^(1/m), m the
 //! number of comparisons of the *full default* certification (every scene with a reference ×
 //! its default subjects × its oracles), so that the family-wise false alarm rate of the image
@@ -73,7 +77,7 @@ pub const NOISE_RENDERS: [NoiseRender; 2] = [
     },
 ];
 
-/// The renders with one light chosen per light sample (`linlight render`'s default) on the
+/// The renders with one light chosen per light sample (`linlight render --lights one`) on the
 /// committed scenes with two lights: the diffuse room on the batched path (lanes choosing
 /// different lights in one packet), the glossy scene on the scalar path (full BSDF). White
 /// noise, one pass, like the matrix's renders.
@@ -649,8 +653,8 @@ fn run_plan(
                     seed: pilot_seed(opts.seed),
                     method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
                     light_samples: 1,
-                    // Every light: the matrix certifies the per-light techniques; the choice
-                    // of one light is certified by the renders of `LIGHT_SELECTION_RENDERS`.
+                    // Every light (`linlight render`'s default); the choice of one light is
+                    // certified by the renders of `LIGHT_SELECTION_RENDERS`.
                     lights: LightSelection::Every,
                     noise: Default::default(),
                 };

@@ -242,8 +242,7 @@ impl Ctx<'_> {
             seed,
             method,
             light_samples: 1,
-            // Every light per light sample, as the figures were rendered before the choice of
-            // one light existed (lamps and room have several lights).
+            // Every light per light sample (lamps and room have several lights).
             lights: LightSelection::Every,
             noise,
         };

@@ -9,10 +9,10 @@
 //! [`crate::method`] and [`crate::shading`]). Each camera sample takes `light_samples` light
 //! samples and their mean (Mitsuba's `emitter_samples`); what one light sample is depends on
 //! the [`LightSelection`] of the render ([`crate::light_choice`]):
-//! - `one` (default, Mitsuba's estimator): one light j, chosen with probability p_j from an
-//!   extra number ξ_c drawn first, estimated with K_j/p_j in place of K_j. A scene with one light
-//!   draws no ξ_c (p = 1).
-//! - `every`: every light, one after the other, each estimated with its own K.
+//! - `every` (default): every light, one after the other, each estimated with its own K.
+//! - `one` (Mitsuba's estimator): one light j, chosen with probability p_j from an extra number
+//!   ξ_c drawn first, estimated with K_j/p_j in place of K_j. A scene with one light draws no ξ_c
+//!   (p = 1).
 //!
 //! Numbers of a camera sample that reaches a reflecting surface, after its film position:
 //! `every`: light by light, each light's `light_samples` iterations ([`crate::shading`]: one

@@ -41,8 +41,8 @@ pub struct RenderOptions {
     /// pairs of a diffuse and a specular sample; the light's estimate is their mean. The CLI's
     /// default is the scene's `emitter_samples` (see `linlight render --help`).
     pub light_samples: u32,
-    /// Which lights each light sample samples: one chosen at random (Mitsuba's estimator, the
-    /// default) or every light ([`crate::light_choice`]).
+    /// Which lights each light sample samples: every light (the default) or one chosen at
+    /// random (Mitsuba's estimator; [`crate::light_choice`]).
     pub lights: LightSelection,
     /// Where the primary samples come from (white by default; see [`linlight_sampling::noise`]).
     pub noise: Noise,
@@ -50,7 +50,7 @@ pub struct RenderOptions {
 
 impl Default for RenderOptions {
     /// 1 spp, 1 pass, seed 0, the default method (MIS, clamped optimal, v = 0.5), 1 light
-    /// sample of one light chosen at random, white noise.
+    /// sample of every light, white noise.
     fn default() -> Self {
         Self {
             spp: 1,
@@ -58,7 +58,7 @@ impl Default for RenderOptions {
             seed: 0,
             method: Method::default(),
             light_samples: 1,
-            lights: LightSelection::One,
+            lights: LightSelection::Every,
             noise: Noise::White,
         }
     }
