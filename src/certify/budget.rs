@@ -63,6 +63,13 @@ pub struct BudgetRule {
     /// The budget is a multiple of this.
     pub granularity: u32,
     pub target: Target,
+    /// Most light samples per light and camera sample ([`Self::light_samples`]); 1: always one.
+    #[serde(default = "one")]
+    pub max_light_samples: u32,
+}
+
+fn one() -> u32 {
+    1
 }
 
 impl Default for BudgetRule {
@@ -78,6 +85,7 @@ impl Default for BudgetRule {
                 tile_bias: 0.01,
                 per_tile: true,
             },
+            max_light_samples: 8,
         }
     }
 }
@@ -91,14 +99,43 @@ impl BudgetRule {
         }
     }
 
+    /// Light samples per light and camera sample for a subject whose budget at one light sample
+    /// is `spp` (docs/budget.md, "Light samples"): the largest power of two N ≤
+    /// `max_light_samples` with N·`min_spp` ≤ `spp`, or 1 when the subject renders in packets
+    /// (the batched renderer takes one light sample). On the scalar path a camera sample's ray,
+    /// shading point and sampler preparation are shared by its N light samples, so where the
+    /// light sample's variance dominates (a glossy lobe sampled by a diffuse technique) N
+    /// samples cost far less than N camera samples; the budget is then planned again from a
+    /// pilot at N light samples, so the tests keep their power whatever the variance split.
+    pub fn light_samples(&self, spp: u32, packets: bool) -> u32 {
+        if packets {
+            return 1;
+        }
+        let mut n = 1;
+        while 2 * n <= self.max_light_samples && 2 * n * self.min_spp.max(1) <= spp {
+            n *= 2;
+        }
+        n
+    }
+
     /// One sentence for reports.
     pub fn describe(&self) -> String {
         let common = format!(
             "a pilot of {} spp (own seed) estimates the per-sample variance of every pixel",
             self.pilot_spp
         );
+        let light = if self.max_light_samples > 1 {
+            format!(
+                "; a subject on the scalar path whose budget allows N·{} spp takes N ≤ {} light \
+                 samples per camera sample (N a power of two, budget planned again from a pilot \
+                 at N)",
+                self.min_spp, self.max_light_samples
+            )
+        } else {
+            String::new()
+        };
         let clamp = format!(
-            "rounded up to {}, within [{}, {}]",
+            "rounded up to {}, within [{}, {}]{light}",
             self.granularity, self.min_spp, self.max_spp
         );
         match self.target {

@@ -171,6 +171,12 @@ pub trait Subject: Sync {
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError>;
+    /// Whether [`Self::render`] with `opts` takes the batched renderer, which renders one light
+    /// sample per camera sample (the budget then keeps one: [`BudgetRule::light_samples`]).
+    /// False unless a subject says so.
+    fn renders_in_packets(&self, _scene: &Scene, _opts: &RenderOptions) -> bool {
+        false
+    }
 }
 
 /// A single technique: the [`Method`] subject of that technique.
@@ -185,6 +191,9 @@ impl Subject for Technique {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
         Method::from(*self).render(scene, opts, progress)
+    }
+    fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
+        Method::from(*self).renders_in_packets(scene, opts)
     }
 }
 
@@ -221,6 +230,15 @@ impl Subject for Method {
                 ..*opts
             },
             progress,
+        )
+    }
+    fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
+        linlight_render::batched::applies(
+            scene,
+            &RenderOptions {
+                method: *self,
+                ..*opts
+            },
         )
     }
 }
@@ -326,6 +344,9 @@ pub struct Row {
     pub oracle: String,
     pub verdict: Verdict,
     pub budget: Budget,
+    /// Light samples per light and camera sample of the render ([`BudgetRule::light_samples`]).
+    #[serde(default = "one_light_sample")]
+    pub light_samples: u32,
     pub seed: u64,
     pub pilot_seconds: f64,
     pub render_seconds: f64,
@@ -339,6 +360,10 @@ pub struct Row {
     /// Files written for this row, relative to the report directory.
     pub files: Vec<String>,
     pub comparison: Comparison,
+}
+
+fn one_light_sample() -> u32 {
+    1
 }
 
 impl Row {
@@ -658,18 +683,36 @@ fn run_plan(
                     lights: LightSelection::Every,
                     noise: Default::default(),
                 };
-                let t = Instant::now();
-                let pilot = subject
-                    .render(&s.scene, &base, &|_, _| {})
-                    .map_err(|e| render_error(&s.name, &name, e))?;
-                let pilot_seconds = t.elapsed().as_secs_f64();
-                let (budget, pixel_spp) =
-                    opts.budget.plan(&pilot, &reference, &cfg).map_err(|e| {
-                        Unusable(format!(
-                            "cannot choose the budget of {} / {name}: {e}",
-                            s.name
-                        ))
-                    })?;
+                let planned = |base: &RenderOptions| {
+                    let t = Instant::now();
+                    let pilot = subject
+                        .render(&s.scene, base, &|_, _| {})
+                        .map_err(|e| render_error(&s.name, &name, e))?;
+                    let seconds = t.elapsed().as_secs_f64();
+                    let (budget, pixel_spp) =
+                        opts.budget.plan(&pilot, &reference, &cfg).map_err(|e| {
+                            Unusable(format!(
+                                "cannot choose the budget of {} / {name}: {e}",
+                                s.name
+                            ))
+                        })?;
+                    Ok::<_, Unusable>((budget, pixel_spp, seconds))
+                };
+                let (mut budget, mut pixel_spp, mut pilot_seconds) = planned(&base)?;
+                // Several light samples per camera sample where they are cheaper than camera
+                // samples (docs/budget.md, "Light samples"), planned again from their own pilot.
+                let light_samples = opts
+                    .budget
+                    .light_samples(budget.spp, subject.renders_in_packets(&s.scene, &base));
+                let base = RenderOptions {
+                    light_samples,
+                    ..base
+                };
+                if light_samples > 1 {
+                    let seconds;
+                    (budget, pixel_spp, seconds) = planned(&base)?;
+                    pilot_seconds += seconds;
+                }
                 let t = Instant::now();
                 let mut image = planned::render(
                     &|scene, o, p| subject.render(scene, o, p),
@@ -703,6 +746,7 @@ fn run_plan(
                         oracle: oracle_name.to_string(),
                         verdict: cmp.verdict,
                         budget,
+                        light_samples,
                         seed: opts.seed,
                         pilot_seconds,
                         render_seconds,

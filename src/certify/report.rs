@@ -92,8 +92,14 @@ pub fn spp_text(b: &super::budget::Budget) -> String {
     format!("{range}{}", if b.capped { " (cap)" } else { "" })
 }
 
-fn spp_cell(row: &Row) -> String {
-    spp_text(&row.budget)
+/// [`spp_text`], and `×N` when the render took N light samples per camera sample.
+pub fn spp_cell(row: &Row) -> String {
+    let spp = spp_text(&row.budget);
+    if row.light_samples > 1 {
+        format!("{spp} ×{}", row.light_samples)
+    } else {
+        spp
+    }
 }
 
 /// One line per row, for the terminal.

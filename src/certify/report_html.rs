@@ -452,7 +452,7 @@ pub fn html(dir: &Path, report: &Report) -> String {
                     format!("<span class=\"fail\">{:?}</span>", row.verdict)
                 },
                 fmt_p(tile),
-                super::report::spp_text(&row.budget),
+                super::report::spp_cell(row),
                 row.render_seconds
             );
         }

@@ -5,7 +5,7 @@
 //! direction, and a mask of the lanes that contribute). Lane i is exactly what the scalar
 //! `Technique::ProjectedSolidAngle.prepare(..)` + `sample_with_pdf(ξ)` return for the same
 //! inputs — bit for bit, since both run the same branch-free building blocks
-//! ([`LineFrame::lane`], [`ProjectedSolidAngle::lane`], `PsaCore::solve_with_values_lane`; the
+//! ([`LineFrame::lane`], [`ProjectedSolidAngle::lane`], `PsaCore::solve_rotated_lane`; the
 //! scalar path takes cheap early branches in front of them where a branch pays) with the same
 //! operations (no fused multiply-adds are formed by the compiler). A lane whose scalar
 //! preparation returns `None` has its bit cleared in [`PsaBatchOutput::mask`] and zero outputs.
@@ -363,18 +363,91 @@ fn prepare_kernel(input: &PsaBatchInput) -> PreparedBatch {
 
 #[inline(always)]
 fn psa_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput {
-    let mut out = PsaBatchOutput::default();
-    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)]
+    let mut pending = Pending::default();
     #[allow(clippy::needless_range_loop)]
     for i in 0..LANES {
-        let p = prepared.psa(i);
-        let (dir, pdf) = p.sample_with_pdf_lane(clamp_xi(xi[i]), atan2_select);
-        let f = &p.frame;
-        let ok = prepared.mask & (1 << i) != 0;
-        valid[i] = store(&mut out, i, (dir, pdf, f.d / f.c_hat.dot(dir), ok));
+        pending.set(i, &prepared.psa(i), xi[i], prepared.mask & (1 << i) != 0);
     }
-    out.mask = pack(valid);
-    out
+    pending.finish()
+}
+
+/// The samples of a batch before their directions: the lane loop is split where a lane may need
+/// a fresh sin/cos of its sample (`PsaCore::solve_rotated_lane`: in the ξ guard or after a long
+/// last step, rare), which is then evaluated only if some lane of the batch needs it, instead of
+/// in every lane (it was one of the longest pieces of a lane's work). Bitwise what
+/// the scalar [`LineSampler::sample_with_pdf`] returns.
+#[derive(Clone, Copy, Default)]
+struct Pending {
+    /// sin φ, cos φ, n·ω at the sample (rotated by the last step).
+    s: [f32; LANES],
+    t: [f32; LANES],
+    n_dot_w: [f32; LANES],
+    /// τ to evaluate afresh where `fresh`.
+    tau: [f32; LANES],
+    fresh: [bool; LANES],
+    // What `PsaCore::at` and the direction need.
+    s_b: [f32; LANES],
+    c_b: [f32; LANES],
+    p0: [f32; LANES],
+    p1: [f32; LANES],
+    u: Vec3x8,
+    c_hat: Vec3x8,
+    d: [f32; LANES],
+    inv_psa: [f32; LANES],
+    ok: [bool; LANES],
+}
+
+impl Pending {
+    #[inline(always)]
+    fn set(&mut self, i: usize, p: &ProjectedSolidAngle, xi: f32, ok: bool) {
+        let ((s, t, n_dot_w), tau, fresh) = p.sample_rotated_lane(clamp_xi(xi), atan2_select);
+        (self.s[i], self.t[i], self.n_dot_w[i]) = (s, t, n_dot_w);
+        (self.tau[i], self.fresh[i], self.ok[i]) = (tau, fresh, ok);
+        let c = &p.core;
+        (self.s_b[i], self.c_b[i], self.p0[i], self.p1[i]) = (c.s_b, c.c_b, c.p0, c.p1);
+        self.u.set(i, p.frame.u);
+        self.c_hat.set(i, p.frame.c_hat);
+        (self.d[i], self.inv_psa[i]) = (p.frame.d, p.inv_psa);
+    }
+
+    #[inline(always)]
+    fn finish(mut self) -> PsaBatchOutput {
+        if self.fresh.contains(&true) {
+            #[allow(clippy::needless_range_loop)]
+            for i in 0..LANES {
+                // `at` reads the begin's (sin, cos) and p0, p1 only.
+                let core = PsaCore {
+                    ns: 0.0,
+                    nt: 0.0,
+                    s_b: self.s_b[i],
+                    c_b: self.c_b[i],
+                    delta_s: 0.0,
+                    width: 0.0,
+                    p0: self.p0[i],
+                    p1: self.p1[i],
+                    total: 0.0,
+                };
+                let (s, t, n_dot_w) = core.at(self.tau[i]);
+                if self.fresh[i] {
+                    (self.s[i], self.t[i], self.n_dot_w[i]) = (s, t, n_dot_w);
+                }
+            }
+        }
+        let mut out = PsaBatchOutput::default();
+        let mut valid = [false; LANES];
+        #[allow(clippy::needless_range_loop)]
+        for i in 0..LANES {
+            // As the scalar `ProjectedSolidAngle::sample_with_pdf`.
+            let (u, c_hat) = (self.u.get(i), self.c_hat.get(i));
+            let dir = self.s[i] * u + self.t[i].max(0.0) * c_hat;
+            let pdf = self.n_dot_w[i].max(0.0) * self.inv_psa[i];
+            let distance = self.d[i] / c_hat.dot(dir);
+            valid[i] = store(&mut out, i, (dir, pdf, distance, self.ok[i]));
+        }
+        out.mask = pack(valid);
+        out
+    }
 }
 
 #[inline(always)]
@@ -434,18 +507,13 @@ pub fn sample_li2018_with(isa: Isa, input: &PsaBatchInput) -> (PsaBatchOutput, u
 /// stream).
 #[inline(always)]
 fn kernel2(a: &PsaBatchInput, b: &PsaBatchInput) -> (PsaBatchOutput, PsaBatchOutput) {
-    let (mut out_a, mut out_b) = (PsaBatchOutput::default(), PsaBatchOutput::default());
-    let (mut valid_a, mut valid_b) = ([false; LANES], [false; LANES]);
+    let (mut pending_a, mut pending_b) = (Pending::default(), Pending::default());
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
     for i in 0..LANES {
-        let ra = lane(a, i);
-        let rb = lane(b, i);
-        valid_a[i] = store(&mut out_a, i, ra);
-        valid_b[i] = store(&mut out_b, i, rb);
+        lane(a, i, &mut pending_a);
+        lane(b, i, &mut pending_b);
     }
-    out_a.mask = pack(valid_a);
-    out_b.mask = pack(valid_b);
-    (out_a, out_b)
+    (pending_a.finish(), pending_b.finish())
 }
 
 /// Write lane i's results (zeros where it does not contribute); returns whether it does.
@@ -474,20 +542,18 @@ fn pack(valid: [bool; LANES]) -> u8 {
 /// One loop over the lanes of branch-free code (vectorised by the compiler).
 #[inline(always)]
 fn kernel(input: &PsaBatchInput) -> PsaBatchOutput {
-    let mut out = PsaBatchOutput::default();
-    let mut valid = [false; LANES];
+    let mut pending = Pending::default();
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
     for i in 0..LANES {
-        valid[i] = store(&mut out, i, lane(input, i));
+        lane(input, i, &mut pending);
     }
-    out.mask = pack(valid);
-    out
+    pending.finish()
 }
 
-/// Lane i: (direction, density, distance, contributes), every value computed (garbage where
-/// the lane does not contribute).
+/// Lane i up to its direction (every value computed, garbage where the lane does not
+/// contribute), into `pending`.
 #[inline(always)]
-fn lane(input: &PsaBatchInput, i: usize) -> (Vec3, f32, f32, bool) {
+fn lane(input: &PsaBatchInput, i: usize, pending: &mut Pending) {
     let (n, normal_ok) = unit_normal_lane(input.n.get(i));
     let (frame, ends, frame_ok) = LineFrame::lane(
         input.begin.get(i),
@@ -497,9 +563,12 @@ fn lane(input: &PsaBatchInput, i: usize) -> (Vec3, f32, f32, bool) {
     );
     let (sampler, sampler_ok) =
         ProjectedSolidAngle::lane(frame, ends, n, DEFAULT_ITERATIONS, atan2_f64_select);
-    let (dir, pdf) = sampler.sample_with_pdf_lane(clamp_xi(input.xi[i]), atan2_select);
-    let distance = frame.d / frame.c_hat.dot(dir);
-    (dir, pdf, distance, normal_ok && frame_ok && sampler_ok)
+    pending.set(
+        i,
+        &sampler,
+        input.xi[i],
+        normal_ok && frame_ok && sampler_ok,
+    );
 }
 
 #[cfg(test)]
@@ -530,7 +599,14 @@ mod tests {
                     scale * Vec3::new(r(-0.1, 0.1), r(-0.1, 0.1), r(-0.01, 0.01)),
                 );
                 b.n.set(i, Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-0.2, 1.0)));
-                b.xi[i] = [r(0.0, 1.0), 0.0, 1.0, 3e-6, 1.0 - 3e-6, -1.0, f32::NAN][i % 7];
+                // Every other batch with interior ξ only, so that (almost always) no lane needs
+                // the fresh evaluation of `Pending::finish`; the others with ends, guard band
+                // and invalid ξ in some lanes, so that it runs next to rotated lanes.
+                b.xi[i] = if k % 2 == 1 {
+                    r(0.0, 1.0)
+                } else {
+                    [r(0.0, 1.0), 0.0, 1.0, 3e-6, 1.0 - 3e-6, -1.0, f32::NAN][i % 7]
+                };
             }
             out.push(b);
         }

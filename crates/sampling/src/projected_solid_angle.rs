@@ -28,6 +28,19 @@
 //! iteration backward error as f64 (see `linlight backward-error`); with n·ω evaluated as
 //! n_s s + n_t t it was 1.5e-3 on 1e-4-rad intervals at the horizon.
 //!
+//! Accuracy (the measure: the backward error of a sample, |CDF(τ̂) − ξ| in units of ξ, with
+//! CDF the exact per-radius CDF of p_R on the problem as the sampler represents it, evaluated in
+//! f64; `linlight backward-error` sweeps normals, sub-intervals down to 1e-4 rad and ξ): with
+//! [`DEFAULT_ITERATIONS`] = 2 the f32 sampler's worst case is 1.585e-5 outside the ξ guard and
+//! 1.991e-5 including it (the start value returned for ξ within [`XI_GUARD`] of 0 or 1), within
+//! the bound 2e-5 (the paper: 1.6e-5); one step leaves 1.548e-2, three 6.2e-7. One step from
+//! a better start value was studied and not adopted (docs/performance.md, "One Halley step"):
+//! where the density vanishes to second order at an end (n towards the line's closest point,
+//! interval reaching φ = ±π/2) the inverse CDF behaves like a cube root, which no start value
+//! of one square root and one division follows closely enough (best found: 1.3e-2 after one
+//! step). The exact density (n·ω)/Ω⊥_R is what `pdf` reports; the samples follow it up to that
+//! backward error.
+//!
 //! The inversion core is generic over f32/f64 ([`Real`]) so that the backward-error sweep
 //! ([`crate::backward_error`]) can run both precisions through the same code; the sampler uses
 //! f32.
@@ -43,9 +56,10 @@
 //! ([`crate::geometry::EndValues`]), and the first Halley step takes sin/cos(τ₀/2) from the
 //! start value's bisector (`PsaCore::start_half_with`); the series of δ − sin δ is cut to the
 //! f32 precision, evaluated by Estrin's scheme, and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1;
-//! the last step rotates the values it started from instead of a further sin/cos; the pdf is
-//! (n·ω)/Ω⊥_R with n·ω from that rotation. The f64 instantiation keeps std's functions and the
-//! full series.
+//! the last step rotates the values it started from instead of a further sin/cos (the lanes of
+//! [`crate::batch`] evaluate that sin/cos only when some lane of the batch needs it, see
+//! `PsaCore::solve_rotated_lane`); the pdf is (n·ω)/Ω⊥_R with n·ω from that rotation. The f64
+//! instantiation keeps std's functions and the full series.
 
 use crate::geometry::{arc_tolerance, tau_in_arc, unit_normal, EndValues, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
@@ -515,27 +529,30 @@ impl<T: Real> PsaCore<T> {
         (next, Self::rotate_by(&e, h))
     }
 
-    /// [`Self::solve_with_values`] without branches (both ways of every decision computed,
-    /// then selected; bitwise the same results), for the lanes of [`crate::batch`].
+    /// [`Self::solve_with_values`] without branches up to its last decision (both ways of every
+    /// earlier decision computed, then selected; bitwise the same results): the values rotated
+    /// by the last step, the τ at which the lane needs them evaluated afresh instead (with
+    /// [`Self::at`]), and whether it does
+    /// (in the ξ guard, or after a last step longer than [`ROTATION_STEP`]; rare). The lanes of
+    /// [`crate::batch`] evaluate `at(τ)` only when some lane of the batch needs it (one sin/cos
+    /// of the chain's length per lane saved in almost every batch).
     #[inline(always)]
-    pub(crate) fn solve_with_values_lane(
+    pub(crate) fn solve_rotated_lane(
         &self,
         xi: T,
         iterations: u32,
         atan2: impl Fn(T, T) -> T,
-    ) -> (T, T, T) {
+    ) -> ((T, T, T), T, bool) {
         let (start, tau, e) = self.iterate(xi, iterations.max(1), atan2);
         let next = self.halley_from(tau, xi, &e);
         let h = next - tau;
         let guard = iterations == 0 || Self::in_guard(xi);
         let fresh = guard || h.abs() > T::from_f64(ROTATION_STEP);
-        let (s, t, n_dot_w) = self.at(if guard { start } else { next });
-        let rotated = Self::rotate_by(&e, h);
-        if fresh {
-            (s, t, n_dot_w)
-        } else {
-            rotated
-        }
+        (
+            Self::rotate_by(&e, h),
+            if guard { start } else { next },
+            fresh,
+        )
     }
 
     /// (sin φ, cos φ, n·ω) of `e` rotated by a small angle h (|h| ≤ [`ROTATION_STEP`]).
@@ -795,17 +812,17 @@ impl ProjectedSolidAngle {
         (dir, n_dot_w)
     }
 
-    /// [`LineSampler::sample_with_pdf`] without branches (bitwise the same), for the lanes of
-    /// [`crate::batch`].
+    /// [`LineSampler::sample_with_pdf`] without branches, up to the direction, for the lanes of
+    /// [`crate::batch`] (see [`PsaCore::solve_rotated_lane`]): (sin φ, cos φ, n·ω) rotated by
+    /// the last step, the τ to evaluate instead, and whether. The direction is then
+    /// s·u + max(t, 0)·ĉ and the density max(n·ω, 0)/Ω⊥_R, as in `sample_with_pdf`.
     #[inline(always)]
-    pub(crate) fn sample_with_pdf_lane(
+    pub(crate) fn sample_rotated_lane(
         &self,
         xi: f32,
         atan2: impl Fn(f32, f32) -> f32,
-    ) -> (Vec3, f32) {
-        let (s, t, n_dot_w) = self.core.solve_with_values_lane(xi, self.iterations, atan2);
-        let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
-        (dir, n_dot_w.max(0.0) * self.inv_psa)
+    ) -> ((f32, f32, f32), f32, bool) {
+        self.core.solve_rotated_lane(xi, self.iterations, atan2)
     }
 
     /// Density of a direction known to lie in the support (no support test): (n·ω)⁺/Ω⊥_R.

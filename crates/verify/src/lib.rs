@@ -6,6 +6,7 @@ pub mod configs;
 pub mod heatmap;
 pub mod image_stats;
 pub mod quadrature;
+pub mod quiet_panic;
 pub mod subjects;
 pub mod suite;
 pub mod z_score;

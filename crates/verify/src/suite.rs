@@ -31,6 +31,7 @@ use crate::chi2::{
 };
 use crate::configs::{suite_configs, Config, ConfigClass};
 use crate::quadrature::Adaptive;
+use crate::quiet_panic::catch_quietly;
 use crate::subjects::{Coverage, Partner, Rejection, Role, SamplerUnderTest};
 use linlight_sampling::philox::CounterRng;
 use linlight_sampling::{unit_normal, LineFrame, LineSampler};
@@ -38,7 +39,6 @@ use rayon::prelude::*;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal};
 use std::collections::BTreeMap;
-use std::panic::{catch_unwind, AssertUnwindSafe};
 
 /// Settings of a suite run.
 #[derive(Clone, Debug, Serialize)]
@@ -712,17 +712,8 @@ fn check_sampler(
     }
 }
 
-fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
-    if let Some(s) = payload.downcast_ref::<&str>() {
-        s.to_string()
-    } else if let Some(s) = payload.downcast_ref::<String>() {
-        s.clone()
-    } else {
-        "panic".to_string()
-    }
-}
-
-/// One subject on one configuration (never panics: panics become `Outcome::Panicked`).
+/// One subject on one configuration (never panics: panics become `Outcome::Panicked`, and
+/// print nothing: [`catch_quietly`]).
 pub fn certify_config(
     subject: &SamplerUnderTest,
     config: &Config,
@@ -730,7 +721,7 @@ pub fn certify_config(
     levels: (f64, f64),
     stream: [u32; 3],
 ) -> ConfigResult {
-    let run = catch_unwind(AssertUnwindSafe(|| {
+    let run = catch_quietly(|| {
         let prepared = (subject.prepare)(config);
         match prepared {
             None => {
@@ -762,10 +753,10 @@ pub fn certify_config(
                 r
             }
         }
-    }));
-    run.unwrap_or_else(|payload| {
+    });
+    run.unwrap_or_else(|message| {
         let mut r = ConfigResult::new(config, Outcome::Panicked);
-        r.fail(Check::Panic, panic_message(payload));
+        r.fail(Check::Panic, message);
         r
     })
 }

@@ -325,3 +325,35 @@ fn a_reference_limited_tile_is_not_covered() {
     assert_eq!(t.tiles_covered, t.tiles - 1, "{t:?}");
     assert_ne!(t.hardest_tile, Some(DARK));
 }
+
+/// Light samples per camera sample: the largest power of two up to the rule's maximum that
+/// leaves at least `min_spp` camera samples; one in packets or when the rule says so.
+#[test]
+fn light_samples_leave_min_spp_camera_samples() {
+    let rule = BudgetRule::default();
+    assert_eq!((rule.min_spp, rule.max_light_samples), (256, 8));
+    for (spp, n) in [
+        (0, 1),
+        (256, 1),
+        (511, 1),
+        (512, 2),
+        (1023, 2),
+        (1024, 4),
+        (2048, 8),
+    ] {
+        assert_eq!(rule.light_samples(spp, false), n, "{spp} spp");
+    }
+    assert_eq!(rule.light_samples(65_536, false), 8);
+    assert_eq!(rule.light_samples(65_536, true), 1, "packets take one");
+    let single = BudgetRule {
+        max_light_samples: 1,
+        ..rule
+    };
+    assert_eq!(single.light_samples(65_536, false), 1);
+    // Old reports without the field read as one light sample.
+    let json = serde_json::to_value(rule).unwrap();
+    let mut old = json.clone();
+    old.as_object_mut().unwrap().remove("max_light_samples");
+    let read: BudgetRule = serde_json::from_value(old).unwrap();
+    assert_eq!(read.max_light_samples, 1);
+}
