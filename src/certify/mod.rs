@@ -79,8 +79,9 @@ pub const NOISE_RENDERS: [NoiseRender; 2] = [
 
 /// The renders with one light chosen per light sample (`linlight render --lights one`) on the
 /// committed scenes with two lights: the diffuse room on the batched path (lanes choosing
-/// different lights in one packet), the glossy scene on the scalar path (full BSDF). White
-/// noise, one pass, like the matrix's renders.
+/// different lights in one packet), the glossy scene on the scalar path (full BSDF; with the
+/// budget's light samples, several chosen lights per camera sample). White noise, one pass,
+/// like the matrix's renders.
 pub const LIGHT_SELECTION_RENDERS: [NoiseRender; 2] = [
     NoiseRender {
         scene: "two-tubes",
@@ -136,6 +137,19 @@ impl Subject for NoiseRender {
                 ..*opts
             },
             progress,
+        )
+    }
+    /// White-noise renders of a batch technique on Lambertian scenes take the packets (the
+    /// one-light render of two-tubes: lanes choosing different lights in one packet).
+    fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
+        linlight_render::batched::applies(
+            scene,
+            &RenderOptions {
+                method: self.technique.into(),
+                noise: self.noise,
+                lights: self.lights,
+                ..*opts
+            },
         )
     }
 }
