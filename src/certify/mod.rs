@@ -78,10 +78,10 @@ pub const NOISE_RENDERS: [NoiseRender; 2] = [
 ];
 
 /// The renders with one light chosen per light sample (`linlight render --lights one`) on the
-/// committed scenes with two lights: the diffuse room on the batched path (lanes choosing
-/// different lights in one packet), the glossy scene on the scalar path (full BSDF; with the
-/// budget's light samples, several chosen lights per camera sample). White noise, one pass,
-/// like the matrix's renders.
+/// committed scenes with two lights: the diffuse room (lanes choosing different lights in one
+/// packet) and the glossy scene (full BSDF, evaluated lane by lane in the packets), both on the
+/// batched path with one light sample and on the scalar path where the budget gives several
+/// (several chosen lights per camera sample). White noise, one pass, like the matrix's renders.
 pub const LIGHT_SELECTION_RENDERS: [NoiseRender; 2] = [
     NoiseRender {
         scene: "two-tubes",
@@ -139,8 +139,8 @@ impl Subject for NoiseRender {
             progress,
         )
     }
-    /// White-noise renders of a batch technique on Lambertian scenes take the packets (the
-    /// one-light render of two-tubes: lanes choosing different lights in one packet).
+    /// White-noise renders of a batch technique with one light sample take the packets (the
+    /// one-light renders: lanes choosing different lights in one packet).
     fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
         linlight_render::batched::applies(
             scene,
@@ -697,36 +697,45 @@ fn run_plan(
                     lights: LightSelection::Every,
                     noise: Default::default(),
                 };
-                let planned = |base: &RenderOptions| {
+                let planned = |rule: &BudgetRule, base: &RenderOptions| {
                     let t = Instant::now();
                     let pilot = subject
                         .render(&s.scene, base, &|_, _| {})
                         .map_err(|e| render_error(&s.name, &name, e))?;
                     let seconds = t.elapsed().as_secs_f64();
-                    let (budget, pixel_spp) =
-                        opts.budget.plan(&pilot, &reference, &cfg).map_err(|e| {
-                            Unusable(format!(
-                                "cannot choose the budget of {} / {name}: {e}",
-                                s.name
-                            ))
-                        })?;
+                    let (budget, pixel_spp) = rule.plan(&pilot, &reference, &cfg).map_err(|e| {
+                        Unusable(format!(
+                            "cannot choose the budget of {} / {name}: {e}",
+                            s.name
+                        ))
+                    })?;
                     Ok::<_, Unusable>((budget, pixel_spp, seconds))
                 };
-                let (mut budget, mut pixel_spp, mut pilot_seconds) = planned(&base)?;
+                let (mut budget, mut pixel_spp, mut pilot_seconds) = planned(&opts.budget, &base)?;
                 // Several light samples per camera sample where they are cheaper than camera
-                // samples (docs/budget.md, "Light samples"), planned again from their own pilot.
-                let light_samples = opts
+                // samples (docs/budget.md, "Light samples"): planned again from a pilot of as
+                // many light samples at N per camera sample, kept if the cost model says so.
+                let mut light_samples = 1;
+                let n = opts
                     .budget
                     .light_samples(budget.spp, subject.renders_in_packets(&s.scene, &base));
+                if n > 1 {
+                    let rule = opts.budget.light_sample_pilot(n);
+                    let trial = RenderOptions {
+                        light_samples: n,
+                        spp: rule.pilot_spp,
+                        ..base
+                    };
+                    let (b, p, seconds) = planned(&rule, &trial)?;
+                    pilot_seconds += seconds;
+                    if BudgetRule::light_samples_pay(&budget, &b, n) {
+                        (budget, pixel_spp, light_samples) = (b, p, n);
+                    }
+                }
                 let base = RenderOptions {
                     light_samples,
                     ..base
                 };
-                if light_samples > 1 {
-                    let seconds;
-                    (budget, pixel_spp, seconds) = planned(&base)?;
-                    pilot_seconds += seconds;
-                }
                 let t = Instant::now();
                 let mut image = planned::render(
                     &|scene, o, p| subject.render(scene, o, p),

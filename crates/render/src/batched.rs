@@ -2,24 +2,39 @@
 //! Mitsuba's LLVM variants do with their wavefronts — random numbers and camera rays of all
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
 //! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
-//! rays, then Lambertian shading — per light (`--lights every`), or once with each lane's own
-//! chosen light (`--lights one`, [`crate::light_choice`]: per-lane segments in the batch).
+//! rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes' arrays, lanes on
+//! other surfaces (rough conductor, principled, blends) with the scalar path's BSDF evaluation
+//! lane by lane ([`ShadingPoint::new`], [`single_contribution`]); a packet may mix both.
 //!
-//! It applies ([`applies`]) to the projected-solid-angle and Li et al. techniques (the ones
-//! with batch kernels) on scenes whose every surface is Lambertian (`diffuse` and blends of
-//! it); [`crate::render::render`] renders everything else (glossy BSDFs, other techniques) with
+//! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle,
+//! clipped solid angle, Hart), LTC and MIS on non-Lambertian surfaces — take their samples lane
+//! by lane with the scalar code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and
+//! trace them in packet walks (LTC and MIS: one for the diffuse, one for the specular samples).
+//!
+//! The lights: with `--lights every` one pass per light, every lane sampling that light; with
+//! `--lights one` ([`crate::light_choice`], two or more lights) a single pass in which each
+//! lane samples the light its ξ_c chose, with K/p — per-lane segments in the 8-wide batch for
+//! the batch lanes, each lane's own light for the lanes sampled with the scalar code — so one
+//! packet shadow walk per kind of sample and light sample.
+//!
+//! [`render_isa`] renders every scene and method with one light sample and white noise;
+//! [`crate::render::render`] uses it where it pays ([`applies`]): the batch techniques on every
+//! scene, the other methods on scenes with Lambertian surfaces. Everything else (several
+//! light samples, blue noise, the methods without a batch kernel on all-glossy scenes) takes
 //! the scalar path. Visible lines (`hide_emitters=false`) are added lane by lane with the
 //! scalar code.
 //!
 //! Same estimator, same numbers, same image: lane k is camera sample (pixel, sample) of the
 //! tile in the scalar path's order, draws the numbers of its own Philox stream in the scalar
-//! order (film position, then one per light — or, choosing one light per light sample, the
-//! choice ξ_c and the chosen light's ξ — then the visible lines'), and every step is the
-//! scalar step's arithmetic (the batch kernels and packet walks equal their scalar forms bit
-//! for bit, ties of the closest hit included), so an image equals the one of the scalar
-//! reference path ([`crate::render::render_with`] with the same technique) bit for bit — tests
-//! below check it on every committed scene and technique. Pixels accumulate their samples in
-//! the same order (Welford in f64).
+//! order (film position, then one per light — two on non-Lambertian surfaces under LTC and
+//! MIS — or, choosing one light per light sample, the choice ξ_c and the chosen light's one or
+//! two; then the visible lines'), and every step is the scalar step's arithmetic (the batch
+//! kernels and packet walks equal their scalar forms bit for bit, ties of the closest hit
+//! included; a light's samples are summed per lane as the scalar estimator sums them), so an
+//! image equals the one of the scalar reference path ([`crate::render::render_with`] with the
+//! same method and light selection) bit for bit — tests below check it on every committed
+//! scene, method and light selection. Pixels accumulate their samples in the same order
+//! (Welford in f64).
 //!
 //! Cost: `scripts/bench-render` (M samples/s against Mitsuba 3 on every committed scene);
 //! instruction counts per sample with `valgrind --tool=callgrind` (see docs/performance.md).
@@ -29,42 +44,58 @@
 
 use crate::bvh::{PacketHits, RayLanes, PACKET};
 use crate::film::Welford;
+use crate::hooks::{LightSampling, Ltc, SceneBsdf};
 use crate::integrator::{
     k_over_probability, offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON,
 };
+use crate::method::Method;
 use crate::render::{
     check_options, metadata, pixel_entries, render_in_tiles, window, RenderError, RenderOptions,
 };
-use crate::scene::Scene;
-use crate::shading::lambert_technique;
+use crate::scene::{Bsdf, Scene};
+use crate::shading::{
+    lambert_technique, single_contribution, single_sample, Combination, ShadingPoint,
+    TwoTechniqueLight,
+};
 use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
 use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
-use linlight_sampling::Technique;
+use linlight_sampling::{Segment, Technique};
 
 /// Camera samples rendered together: one ray packet.
 pub const LANES: usize = PACKET;
 const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet");
 
-/// Whether the batched renderer can render `scene` with `opts`: only Lambertian surfaces, one
-/// light sample per camera sample, and a diffuse technique with a batch kernel — the method's
-/// own, or the projected solid angle that LTC and MIS use on Lambertian surfaces
-/// ([`lambert_technique`]).
+/// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
+/// light sample per camera sample, white noise, and either a technique with a batch kernel
+/// (projected solid angle, Li et al.) or a scene with Lambertian surfaces. The other methods
+/// sample lane by lane with the scalar code, which pays in packets only where Lambertian lanes
+/// share them (measured: 15–28 % less CPU time on cornell-tube and mesh-occluder, half on
+/// glossy-cornell for MIS, but 5–20 % more on the scenes without a Lambertian surface; see
+/// docs/performance.md). Both light selections (`every`, `one`) take the same decision.
+/// [`render_isa`] renders any scene, method and light selection with one light sample and
+/// white noise.
 pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
-    matches!(
-        lambert_technique(opts.method),
-        Technique::ProjectedSolidAngle | Technique::Li2018
-    ) && opts.light_samples == 1
+    let batch_kernel = matches!(
+        opts.method,
+        Method::Technique(Technique::ProjectedSolidAngle | Technique::Li2018)
+    );
+    renders(opts) && (batch_kernel || scene.shapes.iter().any(|s| s.bsdf.lambertian().is_some()))
+}
+
+/// Whether the batched renderer can render with `opts` at all: one light sample per camera
+/// sample and white noise (every scene and method).
+fn renders(opts: &RenderOptions) -> bool {
+    opts.light_samples == 1
         // Its lanes draw the white stream directly; blue noise takes the scalar path.
         && opts.noise == linlight_sampling::noise::Noise::White
-        && scene.shapes.iter().all(|s| s.bsdf.lambertian().is_some())
 }
 
 /// Render `scene` with the batched renderer (see the module documentation); the same
-/// contract as [`crate::render::render`]. An error when it does not [`apply`](applies).
+/// contract as [`crate::render::render`]. An error with several light samples or blue noise.
 pub fn render(
     scene: &Scene,
     opts: &RenderOptions,
@@ -81,20 +112,35 @@ pub fn render_isa(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
     check_options(opts)?;
-    if !applies(scene, opts) {
+    if !renders(opts) {
         return Err(RenderError::Options(format!(
-            "the batched renderer needs the projected solid angle or Li et al. technique, one \
-             light sample and Lambertian surfaces (method {}, {} light samples)",
-            opts.method, opts.light_samples
+            "the batched renderer needs one light sample and white noise (method {}, {} light \
+             samples, {} noise)",
+            opts.method,
+            opts.light_samples,
+            opts.noise.name()
         )));
     }
     let (x0, y0, w, h) = window(scene)?;
     let rs = RenderScene::new(scene)?;
+    let technique = lambert_technique(opts.method);
+    let combination = Combination::of(opts.method);
     let ctx = Context {
         rs: &rs,
         opts,
         isa: if isa.supported() { isa } else { Isa::Baseline },
         full_width: scene.sensor.film.width,
+        technique,
+        batch: matches!(
+            technique,
+            Technique::ProjectedSolidAngle | Technique::Li2018
+        ),
+        combination,
+        per_light: if combination.is_some() && rs.lambert.iter().any(Option::is_none) {
+            2
+        } else {
+            1
+        },
     };
     let mut image = render_in_tiles(
         &rs,
@@ -118,6 +164,17 @@ struct Context<'a> {
     opts: &'a RenderOptions,
     isa: Isa,
     full_width: u32,
+    /// The single technique, or the projected solid angle of LTC and MIS on Lambertian
+    /// surfaces ([`lambert_technique`]).
+    technique: Technique,
+    /// Whether `technique` has a batch kernel (projected solid angle, Li et al.).
+    batch: bool,
+    /// LTC's and MIS's combination (two samples per light on non-Lambertian lanes); `None`
+    /// for single techniques.
+    combination: Option<Combination>,
+    /// The most numbers a lane draws per light: 2 for LTC and MIS on a scene with
+    /// non-Lambertian surfaces, else 1.
+    per_light: usize,
 }
 
 /// Eight-lane ([`BATCH`]) halves of sixteen-lane arrays.
@@ -135,25 +192,40 @@ fn set3(v: &mut Lanes3, k: usize, x: Vec3) {
 
 /// The shading points of a packet, lane k from camera sample k (structure of arrays). Lanes
 /// outside `active` (no hit, or a surface that does not reflect toward the camera) hold zeros.
-struct ShadingLanes {
+struct ShadingLanes<'a> {
     active: u32,
     p: Lanes3,
     /// Geometric normal (offsets shadow-ray origins).
     ng: Lanes3,
     /// Normal of the side that reflects ([`reflecting_normal`]).
     n: Lanes3,
-    /// f = ρ/π (zero outside `active`).
+    /// f = ρ/π on Lambertian lanes (zero on the others and outside `active`).
     lambert: Lanes3,
+    /// The active lanes on non-Lambertian surfaces: `glossy[k]` is the scalar path's shading
+    /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere.
+    glossy_mask: u32,
+    glossy: [Option<ShadingPoint<'a>>; LANES],
 }
 
-/// The light each lane samples in one packet shadow walk: the light's index, its K (divided by
-/// the lane's choice probability when one light is chosen) and the lane's ξ; `uniform`: the
-/// light of every lane, when they share one (`every`).
+/// The light each lane samples in one pass over the lights: the light's index, its K (divided
+/// by the lane's choice probability when one light is chosen) and the lane's numbers — `xi`
+/// for the batch lanes (one per light), `scalar_xi` for the lanes sampled with the scalar code
+/// (one, or two for LTC and MIS on non-Lambertian surfaces; the second is 0 otherwise);
+/// `uniform`: the light of every lane, when they share one (`every`).
 struct LightLanes {
     uniform: Option<usize>,
     light: [u32; LANES],
     k: Lanes3,
     xi: [f32; LANES],
+    scalar_xi: [[f32; LANES]; 2],
+}
+
+impl LightLanes {
+    /// Lane k's light segment and K.
+    #[inline(always)]
+    fn of<'s>(&self, rs: &'s RenderScene, k: usize) -> (&'s Segment, Vec3) {
+        (&rs.lights[self.light[k] as usize].0, get3(&self.k, k))
+    }
 }
 
 /// The light samples of a packet for one [`LightLanes`]: direction, density, distance to the
@@ -228,7 +300,8 @@ impl<'a> Context<'a> {
             let mut rng =
                 CounterRng::camera_sample(self.opts.seed, pass, packet.index[k], packet.sample[k]);
             let used = 2 + if radiance.shaded >> k & 1 == 1 {
-                rs.light_numbers(self.opts.lights, self.opts.light_samples, 1)
+                let per_light = 1 + (radiance.two_per_light >> k & 1) as usize;
+                rs.light_numbers(self.opts.lights, 1, per_light)
             } else {
                 0
             };
@@ -256,11 +329,13 @@ struct Packet {
     sample: [u32; LANES],
 }
 
-/// Radiance of each lane of a packet, and the lanes whose camera ray reached a reflecting
-/// surface (they used the lights' numbers, [`RenderScene::light_numbers`]).
+/// Radiance of each lane of a packet, the lanes whose camera ray reached a reflecting
+/// surface (they used one number per light), and among them those that used two (LTC and MIS
+/// on non-Lambertian surfaces).
 struct Radiance {
     total: Lanes3,
     shaded: u32,
+    two_per_light: u32,
 }
 
 linlight_sampling::isa_variants! {
@@ -274,10 +349,11 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let rs = ctx.rs;
     let lights = &rs.lights;
     let active = ((1u64 << packet.len) - 1) as u32;
-    // Film position (2 numbers) and the lights' numbers, from the lanes' own streams.
+    // Film position (2 numbers) and the lights' numbers (one or two per light, or the choice
+    // ξ_c and the chosen light's one or two), from the lanes' own streams.
     let mut words = [[[0u32; LANES]; 4]; MAX_BLOCKS];
     let one = rs.chooses_one(ctx.opts.lights);
-    let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, 1)).div_ceil(4);
+    let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, ctx.per_light)).div_ceil(4);
     for (b, w) in words.iter_mut().enumerate().take(blocks.min(MAX_BLOCKS)) {
         *w = CounterRng::camera_sample_block(
             ctx.opts.seed,
@@ -306,18 +382,38 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     rs.camera.ray_lanes(&px, &py, &mut rays);
     let hits = rs.bvh.intersect_lanes(&rays, active);
     let shading = shading_points(rs, &rays, &hits);
+    // Lanes sampled by a batch kernel, lanes sampled with the scalar code lane by lane (a
+    // technique without a batch kernel; LTC and MIS on non-Lambertian surfaces).
+    let (batch_lanes, scalar_lanes, two_per_light) = match (ctx.combination, ctx.batch) {
+        (Some(_), _) => (
+            shading.active & !shading.glossy_mask,
+            shading.glossy_mask,
+            shading.glossy_mask,
+        ),
+        (None, true) => (shading.active, 0, 0),
+        (None, false) => (0, shading.active, 0),
+    };
 
     let mut total = [[0.0f32; LANES]; 3];
     let mut dropped = 0u64;
-    // One packet shadow walk per light (`every`), or one for the lanes' chosen lights (`one`).
+    // One pass per light (`every`), or one with each lane's chosen light (`one`): the scalar
+    // lanes' samples lane by lane, the batch lanes' in the batch kernels, one packet shadow
+    // walk per kind of sample.
     for walk in 0..if one { 1 } else { lights.len() } {
-        let light = ctx.light_lanes(walk, one, &number);
-        let samples = ctx.light_samples(&light, &shading);
+        let light = ctx.light_lanes(walk, one, &number, batch_lanes != 0, scalar_lanes != 0);
+        if scalar_lanes != 0 {
+            dropped += ctx.scalar_light(&shading, scalar_lanes, &light, &mut total);
+        }
+        if batch_lanes == 0 {
+            continue;
+        }
+        let samples = ctx.light_samples(&light, &shading, batch_lanes);
         let (shadow, mask) = shadow_rays(&shading, &samples);
         let occluded = rs.bvh.occluded_lanes(&shadow, mask);
         let lit = mask & !occluded;
-        // K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R), and only finite contributions (adding
-        // +0 elsewhere leaves a sum that starts at +0 bitwise unchanged).
+        // Lambertian lanes: K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R), and only finite
+        // contributions (adding +0 elsewhere leaves a sum that starts at +0 bitwise unchanged).
+        let lambert_lit = lit & !shading.glossy_mask;
         let mut lambert_dropped = 0u32;
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
         for k in 0..LANES {
@@ -328,7 +424,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             let s = cos / samples.pdf[k];
             let c: [f32; 3] = std::array::from_fn(|a| light.k[a][k] * f[a][k] * s);
             let finite = c.iter().all(|x| x.is_finite());
-            let lambert = lit >> k & 1 == 1;
+            let lambert = lambert_lit >> k & 1 == 1;
             let add = lambert & finite;
             lambert_dropped |= ((lambert & !finite) as u32) << k;
             for a in 0..3 {
@@ -336,6 +432,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             }
         }
         dropped += lambert_dropped.count_ones() as u64;
+        dropped += glossy_contributions(&shading, &samples, lit, &light.k, &mut total);
     }
     if dropped > 0 {
         rs.dropped
@@ -345,6 +442,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     Radiance {
         total,
         shaded: shading.active,
+        two_per_light,
     }
 }
 
@@ -356,13 +454,15 @@ const MAX_BLOCKS: usize = 4;
 /// scalar integrator's `surface_point` and `reflecting_normal`, lane by lane (every surface
 /// is Lambertian: [`applies`]).
 #[inline(always)]
-fn shading_points(rs: &RenderScene, rays: &RayLanes, hits: &PacketHits) -> ShadingLanes {
+fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -> ShadingLanes<'a> {
     let mut out = ShadingLanes {
         active: 0,
         p: [[0.0; LANES]; 3],
         ng: [[0.0; LANES]; 3],
         n: [[0.0; LANES]; 3],
         lambert: [[0.0; LANES]; 3],
+        glossy_mask: 0,
+        glossy: [None; LANES],
     };
     // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
     // all lanes at once below, other primitives with their own `surface_point`.
@@ -401,17 +501,69 @@ fn shading_points(rs: &RenderScene, rays: &RayLanes, hits: &PacketHits) -> Shadi
         m &= m - 1;
         let shape = shape_of[k];
         let wi = -get3(&rays.d, k);
-        let Some(n) = reflecting_normal(&rs.surfaces[shape].0, get3(&ns, k), wi) else {
+        let bsdf = &rs.surfaces[shape].0;
+        let Some(n) = reflecting_normal(bsdf, get3(&ns, k), wi) else {
             continue;
         };
         out.active |= 1 << k;
-        set3(&mut out.p, k, get3(&p, k));
+        let pk = get3(&p, k);
+        set3(&mut out.p, k, pk);
         set3(&mut out.ng, k, get3(&ng, k));
         set3(&mut out.n, k, n);
-        debug_assert!(rs.lambert[shape].is_some(), "only Lambertian surfaces");
-        set3(&mut out.lambert, k, rs.lambert[shape].unwrap_or(Vec3::ZERO));
+        match rs.lambert[shape] {
+            Some(f) => set3(&mut out.lambert, k, f),
+            None => {
+                // The scalar integrator's shading point (its n() is `n`, bit for bit).
+                out.glossy_mask |= 1 << k;
+                out.glossy[k] = Some(glossy_point(bsdf, pk, n, wi));
+            }
+        }
     }
     out
+}
+
+/// The scalar integrator's shading point; not inlined, as [`Context::scalar_samples`].
+#[inline(never)]
+fn glossy_point(bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> ShadingPoint<'_> {
+    ShadingPoint::new(&SceneBsdf, bsdf, p, n, wi)
+}
+
+/// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for their light
+/// (lane k's K = `k_light[·][k]`) to `total`: the scalar single-technique contribution
+/// ([`single_contribution`]) lane by lane, finite ones only; returns how many were dropped.
+/// Not inlined, as [`Context::scalar_samples`].
+#[inline(never)]
+fn glossy_contributions(
+    shading: &ShadingLanes,
+    samples: &SampleLanes,
+    lit: u32,
+    k_light: &Lanes3,
+    total: &mut Lanes3,
+) -> u64 {
+    let mut dropped = 0;
+    let mut m = lit & shading.glossy_mask;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let Some(point) = &shading.glossy[k] else {
+            continue;
+        };
+        let c = single_contribution(
+            &SceneBsdf,
+            point,
+            get3(k_light, k),
+            get3(&samples.dir, k),
+            samples.pdf[k],
+        );
+        if c.is_finite() {
+            for (a, t) in total.iter_mut().enumerate() {
+                t[k] += c[a];
+            }
+        } else {
+            dropped += 1;
+        }
+    }
+    dropped
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
@@ -506,24 +658,52 @@ fn shadow_rays(shading: &ShadingLanes, samples: &SampleLanes) -> (RayLanes, u32)
 }
 
 impl<'a> Context<'a> {
-    /// The lights of packet shadow walk `walk` and their ξ, `number(d)` being dimension d of
-    /// the lanes: light `walk` in every lane with ξ of dimension 2 + `walk` (`every`); or
-    /// (`one`) each lane's light chosen by its ξ_c (dimension 2; the scalar path's
-    /// `chosen_light` on the lanes) with K/p, and ξ of dimension 3.
+    /// The lights of pass `walk` over the lights and their numbers, `number(d)` being
+    /// dimension d of the lanes (only the batch lanes' ξ when `batch`, the scalar lanes' when
+    /// `scalar`): light `walk` in every lane, ξ of dimension 2 + `walk` for the batch lanes and
+    /// 2 + `walk` or (2 + 2·`walk`, 3 + 2·`walk`) for the scalar lanes (`every`); or (`one`)
+    /// each lane's light chosen by its ξ_c (dimension 2; the scalar path's `chosen_light` on
+    /// the lanes) with K/p, and its numbers from dimension 3 on.
     #[inline(always)]
     fn light_lanes(
         &self,
         walk: usize,
         one: bool,
         number: &impl Fn(usize) -> [f32; LANES],
+        batch: bool,
+        scalar: bool,
     ) -> LightLanes {
         let rs = self.rs;
+        // First dimension of the light's numbers, and how many a scalar lane draws per light.
+        let (first, scalar_per_light) = match (one, self.combination) {
+            (false, None) => (2 + walk, 1),
+            (false, Some(_)) => (2 + 2 * walk, 2),
+            (true, None) => (3, 1),
+            (true, Some(_)) => (3, 2),
+        };
+        let zero = [0.0; LANES];
+        let scalar_xi = if !scalar {
+            [zero; 2]
+        } else if scalar_per_light == 1 {
+            [number(first), zero]
+        } else {
+            [number(first), number(first + 1)]
+        };
+        // Batch lanes draw one number per light.
+        let xi = if !batch {
+            zero
+        } else if one {
+            number(3)
+        } else {
+            number(2 + walk)
+        };
         if !one {
             return LightLanes {
                 uniform: Some(walk),
                 light: [walk as u32; LANES],
                 k: rs.lights[walk].1.to_array().map(|c| [c; LANES]),
-                xi: number(2 + walk),
+                xi,
+                scalar_xi,
             };
         }
         let light = rs.choice.pick_lanes(&number(2));
@@ -539,20 +719,22 @@ impl<'a> Context<'a> {
             uniform: None,
             light,
             k,
-            xi: number(3),
+            xi,
+            scalar_xi,
         }
     }
 
     /// One sample of lane k's light `lights.light[k]` with ξ = `lights.xi[k]` for every lane
-    /// with a shading point (the lanes of `mask` in the result).
+    /// with a shading point (the lanes of `lanes` and with a sample in the result's `mask`).
     #[inline(always)]
-    fn light_samples(&self, lights: &LightLanes, shading: &ShadingLanes) -> SampleLanes {
-        let technique = lambert_technique(self.opts.method);
-        // `applies` admits projected solid angle and Li et al. only.
-        debug_assert!(matches!(
-            technique,
-            Technique::ProjectedSolidAngle | Technique::Li2018
-        ));
+    fn light_samples(
+        &self,
+        lights: &LightLanes,
+        shading: &ShadingLanes,
+        lanes: u32,
+    ) -> SampleLanes {
+        let technique = self.technique;
+        debug_assert!(self.batch, "{technique:?} has no batch kernel");
         let mut out = SampleLanes::default();
         let mut inputs = [PsaBatchInput::default(); 2];
         for (b, input) in inputs.iter_mut().enumerate() {
@@ -591,8 +773,152 @@ impl<'a> Context<'a> {
             }
             out.mask |= (o.mask as u32) << (b * BATCH);
         }
-        out.mask &= shading.active;
+        out.mask &= lanes;
         out
+    }
+
+    /// Each lane's light of `lights` at the lanes of `lanes`, sampled lane by lane
+    /// with the scalar code — a single technique's sample ([`single_sample`]), or LTC's and
+    /// MIS's diffuse and specular samples ([`TwoTechniqueLight::candidates`]) —, each kind of
+    /// sample's shadow rays in one packet walk, the lanes' contributions of this light summed
+    /// as the scalar path sums them, then added to `total`. Returns the number of non-finite
+    /// contributions left out.
+    #[inline(always)]
+    fn scalar_light(
+        &self,
+        shading: &ShadingLanes,
+        lanes: u32,
+        lights: &LightLanes,
+        total: &mut Lanes3,
+    ) -> u64 {
+        let samples = self.scalar_samples(shading, lanes, lights);
+        let visible = samples.each_ref().map(|s| s.visible(self.rs, shading));
+        let mut dropped = 0;
+        let mut m = lanes;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            // This light's estimate at lane k: its visible samples in the scalar order, summed
+            // from +0 (a lane without one adds +0, which leaves the total's bits unchanged).
+            let mut light = Vec3::ZERO;
+            for (s, visible) in samples.iter().zip(visible) {
+                if visible >> k & 1 == 1 {
+                    let c = get3(&s.c, k);
+                    if c.is_finite() {
+                        light += c;
+                    } else {
+                        dropped += 1;
+                    }
+                }
+            }
+            set3(total, k, get3(total, k) + light);
+        }
+        dropped
+    }
+
+    /// The samples of [`Self::scalar_light`] before visibility, lane by lane; ξ of lane k:
+    /// `lights.scalar_xi[0][k]` (single techniques) or both (LTC, MIS). Not inlined:
+    /// scalar code, compiled once for the target's baseline rather than into every ISA's
+    /// packet kernel.
+    #[inline(never)]
+    fn scalar_samples(
+        &self,
+        shading: &ShadingLanes,
+        lanes: u32,
+        lights: &LightLanes,
+    ) -> [CandidateLanes; 2] {
+        let xi = &lights.scalar_xi;
+        let mut samples = [CandidateLanes::default(), CandidateLanes::default()];
+        let mut m = lanes;
+        match self.combination {
+            None => {
+                let xi = &xi[0];
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let (segment, k_light) = lights.of(self.rs, k);
+                    let (p, n) = (get3(&shading.p, k), get3(&shading.n, k));
+                    let Some(sampler) = LightSampling::prepare(&self.technique, segment, p, n)
+                    else {
+                        continue;
+                    };
+                    let Some(s) = single_sample(&sampler, n, xi[k]) else {
+                        continue;
+                    };
+                    // The integrator's contributions: full BSDF, or K·(ρ/π)·(cos θ/p).
+                    let c = match &shading.glossy[k] {
+                        Some(point) => single_contribution(&SceneBsdf, point, k_light, s.w, s.pdf),
+                        None => k_light * get3(&shading.lambert, k) * (s.cos / s.pdf),
+                    };
+                    samples[0].set(k, s.w, s.dist, c);
+                }
+            }
+            Some(combination) => {
+                let [xi_d, xi_s] = xi;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let Some(point) = &shading.glossy[k] else {
+                        continue;
+                    };
+                    let (segment, k_light) = lights.of(self.rs, k);
+                    let Some(light) = TwoTechniqueLight::prepare(&Ltc, point, segment) else {
+                        continue;
+                    };
+                    let eval = |w: Vec3| point.eval(&SceneBsdf, w);
+                    let candidates =
+                        light.candidates(combination, k_light, (xi_d[k], xi_s[k]), eval);
+                    for (lanes, c) in samples.iter_mut().zip(candidates) {
+                        if let Some(c) = c {
+                            lanes.set(k, c.w, c.dist, c.c);
+                        }
+                    }
+                }
+            }
+        }
+        samples
+    }
+}
+
+/// Samples found lane by lane with the scalar code: lane k (in `mask`) adds `c[k]` when the
+/// line point along `dir[k]` at `distance[k]` is visible.
+#[derive(Default)]
+struct CandidateLanes {
+    mask: u32,
+    dir: Lanes3,
+    distance: [f32; LANES],
+    c: Lanes3,
+}
+
+impl CandidateLanes {
+    #[inline(always)]
+    fn set(&mut self, k: usize, dir: Vec3, distance: f32, c: Vec3) {
+        self.mask |= 1 << k;
+        set3(&mut self.dir, k, dir);
+        self.distance[k] = distance;
+        set3(&mut self.c, k, c);
+    }
+
+    /// The lanes whose line point is visible: the scalar integrator's shadow rays
+    /// (`shadow_ray_to`), in one packet walk.
+    #[inline(always)]
+    fn visible(&self, rs: &RenderScene, shading: &ShadingLanes) -> u32 {
+        if self.mask == 0 {
+            return 0;
+        }
+        let mut rays = RayLanes::default();
+        let mut mask = 0u32;
+        let mut m = self.mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let p = get3(&shading.p, k);
+            let target = p + self.distance[k] * get3(&self.dir, k);
+            let (ray, ok) = shadow_ray_lane(p, get3(&shading.ng, k), target);
+            rays.set(k, &ray);
+            mask |= (ok as u32) << k;
+        }
+        mask & !rs.bvh.occluded_lanes(&rays, mask)
     }
 }
 
@@ -620,6 +946,7 @@ mod tests {
     use crate::method::Method;
     use crate::render::render_with;
     use crate::xml;
+    use linlight_sampling::mis::Heuristic;
 
     fn scene(name: &str, res: u32) -> Scene {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -637,10 +964,9 @@ mod tests {
             .collect()
     }
 
-    /// Every committed scene the batched renderer applies to, both batch techniques, both light
-    /// selections, every kernel the CPU runs: the image equals the scalar path's bit for bit
-    /// (means, variances, tail shares, header), with spp not a multiple of the packet (packets
-    /// span pixels) and with passes.
+    /// Every committed scene (Lambertian, glossy, mixed), every method, every kernel the CPU
+    /// runs: the image equals the scalar path's bit for bit (means, variances, tail shares,
+    /// header), with spp not a multiple of the packet (packets span pixels) and with passes.
     #[test]
     fn images_equal_the_scalar_path() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../references/scenes");
@@ -653,20 +979,62 @@ mod tests {
             .collect();
         names.sort();
         assert!(names.len() >= 5, "{names:?}");
-        let (mut rendered, mut two_light_renders) = (0, 0);
-        for name in &names {
-            let scene = scene(name, 24);
-            // The two batch techniques, and the default MIS and LTC, which shade Lambertian
-            // surfaces with the projected solid angle.
-            let methods = [
-                Technique::ProjectedSolidAngle.into(),
-                Technique::Li2018.into(),
-                Method::default(),
-                Method::Ltc,
-            ];
+        // Every method: the techniques with a batch kernel, those sampled lane by lane, LTC
+        // and MIS with every heuristic.
+        let methods: Vec<Method> = Technique::ALL
+            .into_iter()
+            .map(Method::from)
+            .chain([Method::Ltc])
+            .chain(
+                [
+                    Heuristic::Balance,
+                    Heuristic::Power,
+                    Heuristic::Weighted,
+                    Heuristic::ClampedOptimal(0.5),
+                ]
+                .map(Method::Mis),
+            )
+            .collect();
+        let mut rendered = 0;
+        // The committed scenes hide the lights from the camera: also tests/scenes/visible-tube
+        // (a sphere hides part of the visible line, so the lines' numbers, drawn after the
+        // lights' one or two per light, matter), as is and with a rough conductor sphere.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/scenes/visible-tube.xml");
+        let tube = xml::load_scene(&path, &[("res".into(), "24".into())]).unwrap();
+        let mut glossy_tube = tube.clone();
+        for shape in glossy_tube.shapes.iter_mut().skip(1) {
+            shape.bsdf = crate::scene::Bsdf::RoughConductor(linlight_brdf::RoughConductor {
+                alpha: 0.2,
+                fresnel: linlight_brdf::ConductorFresnel::One,
+                specular_reflectance: [1.0; 3],
+            });
+        }
+        // Two lights on a surface that is not Lambertian: `one` with lanes sampled with the
+        // scalar code (and LTC's and MIS's two numbers) choosing different lights.
+        let mut glossy_two = scene("two-tubes", 24);
+        assert_eq!(glossy_two.lights.len(), 2);
+        for shape in glossy_two.shapes.iter_mut().step_by(2) {
+            shape.bsdf = crate::scene::Bsdf::RoughConductor(linlight_brdf::RoughConductor {
+                alpha: 0.3,
+                fresnel: linlight_brdf::ConductorFresnel::One,
+                specular_reflectance: [1.0; 3],
+            });
+        }
+        let extra = [
+            ("visible-tube".to_string(), tube),
+            ("visible-tube, glossy sphere".to_string(), glossy_tube),
+            ("two-tubes, glossy".to_string(), glossy_two),
+        ];
+        let scenes = names
+            .iter()
+            .map(|name| (name.clone(), scene(name, 24)))
+            .chain(extra);
+        let mut two_light_renders = 0;
+        for (name, scene) in scenes {
             for (technique, lights) in methods
-                .into_iter()
-                .flat_map(|m| LightSelection::ALL.map(|l| (m, l)))
+                .iter()
+                .flat_map(|&m| LightSelection::ALL.map(|l| (m, l)))
             {
                 for (spp, passes) in [(5, 1), (16, 2)] {
                     let opts = RenderOptions {
@@ -678,9 +1046,6 @@ mod tests {
                         lights,
                         noise: Default::default(),
                     };
-                    if !applies(&scene, &opts) {
-                        continue;
-                    }
                     let scalar = render_with(&scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
                     // Every kernel this CPU runs (the baseline always: CPUs without AVX).
                     for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
@@ -692,18 +1057,21 @@ mod tests {
                         assert_eq!(batched.meta, scalar.meta, "{name}, {technique}");
                     }
                     rendered += 1;
-                    if lights == LightSelection::One {
-                        two_light_renders += usize::from(scene.lights.len() == 2);
+                    if lights == LightSelection::One && scene.lights.len() == 2 {
+                        two_light_renders += 1;
                     }
                 }
             }
         }
-        // The Lambertian scenes (cornell-tube at least) take the batched path, and one with two
-        // lights (two-tubes) lets the lanes choose different lights.
-        assert!(rendered >= 32, "{rendered} batched renders");
+        // Every scene, method and light selection, whether `render` takes the batched path or
+        // not; the glossy scenes (rough conductor, principled, blend, glossy and Lambertian
+        // shapes mixed) are among them, and those with two lights (two-tubes as is and glossy at
+        // least) let the lanes choose different lights.
+        assert!(names.iter().filter(|n| n.starts_with("glossy-")).count() >= 4);
+        assert_eq!(rendered, 2 * 2 * (names.len() + 3) * methods.len());
         assert!(
-            two_light_renders >= 8,
-            "{two_light_renders} two-light renders"
+            two_light_renders >= 2 * 2 * methods.len(),
+            "{two_light_renders}"
         );
     }
 
@@ -734,51 +1102,46 @@ mod tests {
         }
     }
 
-    /// Glossy scenes and techniques without a batch kernel take the scalar path.
+    /// Several light samples per camera sample and blue noise take the scalar path, and so do
+    /// methods without a batch kernel on scenes without Lambertian surfaces.
     #[test]
     fn applies_only_where_it_can() {
-        let opts = |technique: Technique| RenderOptions {
+        let opts = RenderOptions {
             spp: 1,
             passes: 1,
             seed: 0,
-            method: technique.into(),
+            method: Technique::Area.into(),
             light_samples: 1,
             lights: LightSelection::One,
             noise: Default::default(),
         };
         let cornell = scene("cornell-tube", 8);
-        assert!(applies(&cornell, &opts(Technique::ProjectedSolidAngle)));
-        assert!(applies(&cornell, &opts(Technique::Li2018)));
-        assert!(!applies(&cornell, &opts(Technique::Area)));
-        // Blue noise reaches the light samples through the scalar path only.
-        assert!(!applies(
-            &cornell,
-            &RenderOptions {
+        let mixed = scene("glossy-cornell", 8);
+        let glossy = scene("glossy-conductor-rough", 8);
+        let psa = RenderOptions {
+            method: Technique::ProjectedSolidAngle.into(),
+            ..opts
+        };
+        // Without a Lambertian surface only the batch techniques pay in packets.
+        assert!(applies(&glossy, &psa));
+        for method in [Technique::Area.into(), Method::Ltc, Method::default()] {
+            assert!(!applies(&glossy, &RenderOptions { method, ..opts }));
+            assert!(applies(&mixed, &RenderOptions { method, ..opts }));
+        }
+        for scene in [&cornell, &mixed] {
+            assert!(applies(scene, &opts));
+            // Blue noise reaches the light samples through the scalar path only.
+            let blue = RenderOptions {
                 noise: linlight_sampling::noise::Noise::Blue,
-                ..opts(Technique::ProjectedSolidAngle)
-            }
-        ));
-        assert!(applies(
-            &cornell,
-            &RenderOptions {
-                method: Method::default(),
-                ..opts(Technique::Area)
-            }
-        ));
-        assert!(!applies(
-            &cornell,
-            &RenderOptions {
+                ..opts
+            };
+            assert!(!applies(scene, &blue));
+            assert!(render(scene, &blue, &|_, _| {}).is_err());
+            let two = RenderOptions {
                 light_samples: 2,
-                ..opts(Technique::ProjectedSolidAngle)
-            }
-        ));
-        assert!(render(&cornell, &opts(Technique::Area), &|_, _| {}).is_err());
-        let mut glossy = cornell.clone();
-        glossy.shapes[0].bsdf = crate::scene::Bsdf::RoughConductor(linlight_brdf::RoughConductor {
-            alpha: 0.2,
-            fresnel: linlight_brdf::ConductorFresnel::One,
-            specular_reflectance: [1.0; 3],
-        });
-        assert!(!applies(&glossy, &opts(Technique::ProjectedSolidAngle)));
+                ..opts
+            };
+            assert!(!applies(scene, &two));
+        }
     }
 }

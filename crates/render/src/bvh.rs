@@ -51,6 +51,12 @@ struct Node {
 
 const WIDTH: usize = 4;
 
+/// Most primitives (all triangles) for which the packet walks skip the tree and test every
+/// triangle against every ray of the packet. Measured (docs/performance.md): a triangle costs
+/// such a walk ~13 instructions per ray (AVX2), the tree walk of cornell-tube's 34 triangles
+/// ~170–190, so the crossover is at 12–13 triangles (and 34 were slower also with AVX-512).
+const TINY: usize = 12;
+
 impl Node {
     const EMPTY: Node = Node {
         b: [[[f32::INFINITY; WIDTH]; 3], [[f32::NEG_INFINITY; WIDTH]; 3]],
@@ -118,6 +124,10 @@ pub struct Bvh {
     prims: Vec<Primitive>,
     isect: Vec<Isect>,
     nodes: Vec<Node>,
+    /// A tree of at most [`TINY`] primitives, all triangles: (v0, e1, e2) of each, in BVH
+    /// order, which the packet walks test against every ray without traversal (see
+    /// [`Bvh::intersect_lanes`]); empty otherwise.
+    tiny: Vec<[Vec3; 3]>,
     /// The packet walks' kernel, detected once at build (detection per walk cost ~70
     /// instructions per packet): AVX-512 (with BW), AVX2 + FMA, or the target's baseline.
     walk_isa: linlight_sampling::batch::Isa,
@@ -589,7 +599,7 @@ impl Bvh {
             .iter()
             .map(|it| prims[it.index as usize].clone())
             .collect();
-        let isect = ordered
+        let isect: Vec<Isect> = ordered
             .iter()
             .map(|p| match *p {
                 Primitive::Triangle { v, .. } => Isect::Triangle {
@@ -600,10 +610,23 @@ impl Bvh {
                 _ => Isect::Other,
             })
             .collect();
+        let tiny = if ordered.len() <= TINY {
+            isect
+                .iter()
+                .map(|t| match *t {
+                    Isect::Triangle { v0, e1, e2 } => Some([v0, e1, e2]),
+                    Isect::Other => None,
+                })
+                .collect::<Option<Vec<_>>>()
+                .unwrap_or_default()
+        } else {
+            Vec::new()
+        };
         Self {
             prims: ordered,
             isect,
             nodes,
+            tiny,
             walk_isa: detect_walk_isa(),
         }
     }
@@ -690,8 +713,9 @@ impl Bvh {
     /// unresolved (as intervals when the packet is coherent, else ray by ray, see
     /// [`RayPacket`]), a subtree is entered with the rays that may meet its box, a leaf tests
     /// its triangles against all of them at once (vectorised) and other primitives ray by ray,
-    /// and the walk ends when every ray is occluded. Compiled for the best vector extension of
-    /// the CPU (chosen at run time, as `linlight_sampling::batch` does).
+    /// and the walk ends when every ray is occluded. A tree of at most `TINY` (12) triangles is
+    /// not walked: each triangle is tested against all rays not yet occluded. Compiled for the
+    /// best vector extension of the CPU (chosen at run time, as `linlight_sampling::batch` does).
     pub fn occluded_lanes(&self, lanes: &RayLanes, active: u32) -> u32 {
         let active = active & ((1u64 << PACKET) - 1) as u32;
         if self.nodes.is_empty() || active == 0 {
@@ -721,6 +745,9 @@ impl Bvh {
 
     #[inline(always)]
     fn occluded_lanes_n<const N: usize>(&self, lanes: &RayLanes, active: u32) -> u32 {
+        if !self.tiny.is_empty() {
+            return self.occluded_tiny::<N>(lanes, active);
+        }
         let packet = RayPacket::<N>::new(lanes, active);
         let mut occluded = 0u32;
         let mut stack = stack::<PacketEntry, 64>();
@@ -789,7 +816,8 @@ impl Bvh {
     /// The packet walks the tree once, nearest box first (by the smallest entry distance of its
     /// rays), boxes tested as in [`Self::occluded_lanes`]; a pending subtree is checked again
     /// against the rays' current closest distances when it is popped; a leaf's triangles are
-    /// tested against all its rays at once (vectorised), other primitives ray by ray.
+    /// tested against all its rays at once (vectorised), other primitives ray by ray. A tree of
+    /// at most `TINY` (12) triangles is not walked: each triangle is tested against all rays.
     pub fn intersect_lanes(&self, lanes: &RayLanes, active: u32) -> PacketHits {
         let active = active & ((1u64 << PACKET) - 1) as u32;
         let mut out = PacketHits {
@@ -838,6 +866,9 @@ impl Bvh {
         active: u32,
         out: &mut PacketHits,
     ) {
+        if !self.tiny.is_empty() {
+            return self.intersect_tiny::<N>(lanes, active, out);
+        }
         let mut packet = RayPacket::<N>::new(lanes, active);
         let (mut best_t, mut best_prim) = ([0.0f32; N], [u32::MAX; N]);
         let (mut best_b1, mut best_b2) = ([0.0f32; N], [0.0f32; N]);
@@ -936,6 +967,76 @@ impl Bvh {
             out.mask |= ((prim != u32::MAX) as u32) << k;
         }
     }
+    /// [`Self::occluded_lanes`] of a tiny tree ([`Bvh::tiny`]): every triangle against all
+    /// active rays at once, until every ray is occluded.
+    #[inline(always)]
+    fn occluded_tiny<const N: usize>(&self, lanes: &RayLanes, active: u32) -> u32 {
+        let on: [bool; N] = std::array::from_fn(|k| active >> k & 1 == 1);
+        // Rays outside the packet count as done: they never hit (t < −∞ is false).
+        let t_max: [f32; N] = std::array::from_fn(|k| {
+            if on[k] {
+                lanes.t_max[k]
+            } else {
+                f32::NEG_INFINITY
+            }
+        });
+        let mut done: [bool; N] = on.map(|a| !a);
+        for &[v0, e1, e2] in &self.tiny {
+            for k in 0..N {
+                let o = Vec3::new(lanes.o[0][k], lanes.o[1][k], lanes.o[2][k]);
+                let d = Vec3::new(lanes.d[0][k], lanes.d[1][k], lanes.d[2][k]);
+                let hit = intersect_triangle_lane(o, d, lanes.t_min[k], t_max[k], v0, e1, e2).3;
+                done[k] |= hit;
+            }
+            if done.iter().fold(true, |all, &x| all & x) {
+                break;
+            }
+        }
+        let mut occluded = 0u32;
+        for k in 0..N {
+            occluded |= ((done[k] & on[k]) as u32) << k;
+        }
+        occluded
+    }
+
+    /// [`Self::intersect_lanes`] of a tiny tree ([`Bvh::tiny`]): every triangle against all
+    /// active rays at once. In increasing primitive index, a hit replaces the best one only if
+    /// it is strictly closer, so a ray ends with its smallest t and, among hits at that t, the
+    /// smallest index: what [`Self::intersect`] returns.
+    #[inline(always)]
+    fn intersect_tiny<const N: usize>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
+        // The current closest distance of each ray; −∞ outside the packet (nothing is hit).
+        let mut t_max: [f32; N] = std::array::from_fn(|k| {
+            if active >> k & 1 == 1 {
+                lanes.t_max[k]
+            } else {
+                f32::NEG_INFINITY
+            }
+        });
+        let mut prim = [u32::MAX; N];
+        let (mut b1, mut b2) = ([0.0f32; N], [0.0f32; N]);
+        for (i, &[v0, e1, e2]) in self.tiny.iter().enumerate() {
+            for k in 0..N {
+                let o = Vec3::new(lanes.o[0][k], lanes.o[1][k], lanes.o[2][k]);
+                let d = Vec3::new(lanes.d[0][k], lanes.d[1][k], lanes.d[2][k]);
+                let (t, u, v, hit) =
+                    intersect_triangle_lane(o, d, lanes.t_min[k], t_max[k], v0, e1, e2);
+                t_max[k] = if hit { t } else { t_max[k] };
+                prim[k] = if hit { i as u32 } else { prim[k] };
+                b1[k] = if hit { u } else { b1[k] };
+                b2[k] = if hit { v } else { b2[k] };
+            }
+        }
+        let n = N.min(PACKET);
+        out.t[..n].copy_from_slice(&t_max[..n]);
+        out.prim[..n].copy_from_slice(&prim[..n]);
+        out.b1[..n].copy_from_slice(&b1[..n]);
+        out.b2[..n].copy_from_slice(&b2[..n]);
+        for (k, &p) in prim[..n].iter().enumerate() {
+            out.mask |= ((p != u32::MAX) as u32) << k;
+        }
+    }
+
     /// Visit leaves front to back (nearest box entry first, subtrees entered beyond the
     /// current t_max skipped); `visit` returns true to stop.
     #[inline(always)]
@@ -1134,6 +1235,19 @@ mod tests {
     use super::*;
     use linlight_sampling::rng::Pcg32;
 
+    /// The BVH once per packet-walk kernel this CPU runs (the baseline always).
+    fn walk_variants(bvh: &Bvh) -> Vec<Bvh> {
+        use linlight_sampling::batch::Isa;
+        Isa::ALL
+            .into_iter()
+            .filter(|isa| isa.supported())
+            .map(|walk_isa| Bvh {
+                walk_isa,
+                ..bvh.clone()
+            })
+            .collect()
+    }
+
     /// `count` triangles in the cube [0, 10]³, each spanning about `size`, shape i.
     fn triangle_soup(r3: &mut impl FnMut() -> Vec3, count: u32, size: f32) -> Vec<Primitive> {
         (0..count)
@@ -1228,6 +1342,8 @@ mod tests {
             shape: 400,
         });
         let bvh = Bvh::build(prims);
+        assert!(bvh.tiny.is_empty());
+        let variants = walk_variants(&bvh);
         let (mut occluded, mut total) = (0, 0);
         for k in 0..900 {
             let size = 1 + k % PACKET;
@@ -1255,6 +1371,9 @@ mod tests {
                 total += 1;
             }
             assert_eq!(mask >> size, 0);
+            for b in &variants {
+                assert_eq!(b.occluded_packet(&rays), mask, "{:?}", b.walk_isa);
+            }
         }
         assert!(
             occluded > total / 5 && occluded < total * 4 / 5,
@@ -1300,6 +1419,8 @@ mod tests {
             });
         }
         let bvh = Bvh::build(prims);
+        assert!(bvh.tiny.is_empty());
+        let variants = walk_variants(&bvh);
         let (mut hits, mut total, mut coherent) = (0, 0, 0);
         for k in 0..1200 {
             let size = 1 + k % PACKET;
@@ -1333,6 +1454,14 @@ mod tests {
                 total += 1;
             }
             assert_eq!(packet.mask >> size, 0);
+            for b in &variants {
+                let other = b.intersect_packet(&rays);
+                assert_eq!(other.mask, packet.mask, "{:?}", b.walk_isa);
+                for i in 0..size {
+                    let same = |p: &PacketHits| p.get(i).map(|h| (h.t, h.prim, h.b1, h.b2));
+                    assert_eq!(same(&other), same(&packet), "{:?}", b.walk_isa);
+                }
+            }
         }
         assert!(hits > total / 5 && hits < total * 9 / 10, "{hits}/{total}");
         // Both box tests ran: intervals (coherent packets) and ray by ray.
@@ -1341,6 +1470,91 @@ mod tests {
             "{coherent} coherent packets"
         );
         assert_eq!(Bvh::build(Vec::new()).intersect_packet(&[]).mask, 0);
+    }
+
+    /// Trees of at most `TINY` triangles (walked without the tree, every triangle against every
+    /// ray): packets of 1–16 rays, with every kernel, give exactly what `intersect` and
+    /// `occluded` give ray by ray, ties included (every triangle has a coincident twin), and
+    /// rays outside the packet's mask neither hit nor count as occluded.
+    #[test]
+    fn tiny_trees_match_single_rays() {
+        let mut rng = Pcg32::new(11, 4);
+        let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let mut prims = triangle_soup(&mut r3, (TINY / 2) as u32, 6.0);
+        let twins: Vec<Primitive> = prims
+            .iter()
+            .map(|p| match p {
+                Primitive::Triangle { v, n, shape } => Primitive::Triangle {
+                    v: *v,
+                    n: *n,
+                    shape: 100 + shape,
+                },
+                _ => unreachable!("the soup holds triangles"),
+            })
+            .collect();
+        prims.extend(twins);
+        let bvh = Bvh::build(prims.clone());
+        assert_eq!(bvh.tiny.len(), TINY);
+        // A sphere among the triangles: the tree is walked.
+        prims.push(Primitive::Sphere {
+            center: Vec3::splat(5.0),
+            radius: 1.0,
+            shape: 999,
+        });
+        assert!(Bvh::build(prims).tiny.is_empty());
+        let (mut hits, mut occluded, mut total) = (0, 0, 0);
+        for k in 0..600 {
+            let size = 1 + k % PACKET;
+            let origin = r3() * 12.0 - 1.0;
+            let rays: Vec<Ray> = (0..size)
+                .map(|_| {
+                    let o = if k % 2 == 0 {
+                        origin
+                    } else {
+                        r3() * 12.0 - 1.0
+                    };
+                    // Toward a point of a triangle, stopping short of it or beyond it.
+                    let [v0, e1, e2] = bvh.tiny[k % TINY];
+                    let w = r3() * 0.5;
+                    let target = v0 + e1 * w.x + e2 * w.y;
+                    Ray {
+                        o,
+                        d: (target - o).normalize_or(Vec3::X),
+                        t_min: 0.01,
+                        t_max: (target - o).length() * (0.6 + 1.6 * w.z),
+                    }
+                })
+                .collect();
+            // Every other ray of the packet switched off.
+            let lanes = RayLanes::from_rays(&rays);
+            let half = 0x5555 & ((1u32 << size) - 1);
+            for b in walk_variants(&bvh) {
+                let packet = b.intersect_packet(&rays);
+                let shadows = b.occluded_packet(&rays);
+                for (i, ray) in rays.iter().enumerate() {
+                    let single = bvh.intersect(ray).map(|h| (h.t, h.prim, h.b1, h.b2));
+                    let got = packet.get(i).map(|h| (h.t, h.prim, h.b1, h.b2));
+                    assert_eq!(got, single, "{:?}, packet {k}, ray {i}", b.walk_isa);
+                    assert_eq!(
+                        shadows >> i & 1 == 1,
+                        bvh.occluded(ray),
+                        "packet {k}, ray {i}"
+                    );
+                    hits += single.is_some() as usize;
+                    occluded += bvh.occluded(ray) as usize;
+                    total += 1;
+                }
+                assert_eq!(packet.mask >> size, 0);
+                assert_eq!(shadows >> size, 0);
+                assert_eq!(b.intersect_lanes(&lanes, half).mask, packet.mask & half);
+                assert_eq!(b.occluded_lanes(&lanes, half), shadows & half);
+            }
+        }
+        assert!(hits > total / 5 && hits < total * 9 / 10, "{hits}/{total}");
+        assert!(
+            occluded > total / 5 && occluded < total * 9 / 10,
+            "{occluded}/{total}"
+        );
     }
 
     /// Coincident triangles: the closest hit is the one with the smallest primitive index,

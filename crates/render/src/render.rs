@@ -274,8 +274,9 @@ pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> Counte
 /// each tile, in camera samples: `total` = pixels × spp × passes.
 /// Runs on the current rayon pool (use `ThreadPool::install` to choose the thread count).
 ///
-/// Where it applies ([`crate::batched::applies`]) the batched renderer renders, whose images
-/// equal those of the scalar path [`render_with`]`(scene, opts, &opts.technique, …)` bit for
+/// Where it applies ([`crate::batched::applies`]: one light sample, white noise, and a batch
+/// technique or a scene with Lambertian surfaces) the batched renderer renders, whose images
+/// equal those of the scalar path [`render_with`]`(scene, opts, &Hooks::new(), …)` bit for
 /// bit; the scalar path renders everything else.
 pub fn render(
     scene: &Scene,

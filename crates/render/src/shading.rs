@@ -1,7 +1,9 @@
 //! Direct light of one linear light at one shading point: the estimators of every
-//! [`Method`], written once as scalar code that the integrator calls per light (and that a
-//! batched renderer can reproduce lane by lane: per light prepare both samplers, sample, eval,
-//! shadow rays).
+//! [`Method`], written once as scalar code that the integrator calls per light. Each
+//! iteration is split at the shadow ray — [`single_sample`] and [`TwoTechniqueLight::candidates`]
+//! return the samples that can contribute before visibility is known — so that the batched
+//! renderer (`crate::batched`) runs the same code lane by lane and traces the shadow rays of
+//! all lanes in one packet walk, with the same bits.
 //!
 //! Measure: densities per radius (dΩ_R); a contribution is K·f(v, ω)·cos θ·V(ω)·w(ω)/p(ω) with
 //! K = radiance × radius and f·cos from the BSDF model, averaged over `samples` iterations.
@@ -158,6 +160,44 @@ fn distance_to_line<L: LineSampler>(sampler: &L, w: Vec3) -> Option<f32> {
     (t > 0.0 && dist.is_finite()).then_some(dist)
 }
 
+/// The contribution K·f(v, ω)·cos θ/p(ω) of one sample ω (density `pdf`) of a single
+/// technique at a non-Lambertian shading point, not yet tested for finiteness: the expression
+/// of [`estimate_resolved`], which the batched renderer evaluates lane by lane.
+#[inline]
+pub fn single_contribution<B: BsdfModel>(
+    model: &B,
+    sp: &ShadingPoint,
+    k: Vec3,
+    w: Vec3,
+    pdf: f32,
+) -> Vec3 {
+    k * sp.eval(model, w) / pdf
+}
+
+/// A sample of a single technique that can contribute: direction ω, cos θ = n·ω > 0, density
+/// p > 0 (finite, per radius) and the finite distance along ω to the line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SingleSample {
+    pub w: Vec3,
+    pub cos: f32,
+    pub pdf: f32,
+    pub dist: f32,
+}
+
+/// The sample of `sampler` for ξ = `xi` seen from a point with normal `n`, where it can
+/// contribute (before visibility): one iteration of [`single_technique`], which the batched
+/// renderer runs lane by lane for techniques without a batch kernel.
+#[inline(always)]
+pub fn single_sample<L: LineSampler>(sampler: &L, n: Vec3, xi: f32) -> Option<SingleSample> {
+    let (w, pdf) = sampler.sample_with_pdf(xi);
+    let cos = n.dot(w);
+    if !(pdf > 0.0 && pdf.is_finite() && cos > 0.0) {
+        return None;
+    }
+    let dist = distance_to_line(sampler, w)?;
+    Some(SingleSample { w, cos, pdf, dist })
+}
+
 /// One technique, `samples` iterations: Σ contribution(ω, cos θ, p) over the visible samples
 /// with p > 0 and cos θ > 0 (not divided by `samples`). `contribution` returns
 /// K·f·cos/p; non-finite ones are counted in `dropped` and left out.
@@ -179,12 +219,8 @@ pub fn single_technique<L: LineSampler>(
         return total;
     };
     for _ in 0..samples {
-        let (w, pdf) = sampler.sample_with_pdf(rng.next_f32());
-        let cos = n.dot(w);
-        if !(pdf > 0.0 && pdf.is_finite() && cos > 0.0) {
-            continue;
-        }
-        let Some(dist) = distance_to_line(sampler, w) else {
+        let Some(SingleSample { w, cos, pdf, dist }) = single_sample(sampler, n, rng.next_f32())
+        else {
             continue;
         };
         if !visible(w, dist) {
@@ -200,16 +236,124 @@ pub fn single_technique<L: LineSampler>(
     total
 }
 
+/// A sample of the two-technique estimator before visibility: it adds `c` (K·f·w/p, not yet
+/// tested for finiteness) when the line point along `w`, at distance `dist`, is visible.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    pub w: Vec3,
+    pub dist: f32,
+    pub c: Vec3,
+}
+
+/// The samplers of the two-technique estimator for one light at one shading point: the
+/// diffuse technique (projected solid angle on the line clipped at the horizon), the
+/// specular one with its technique weight W_s (`None`: diffuse only), the diffuse technique
+/// weight W_d.
+pub struct TwoTechniqueLight<S> {
+    pub diffuse: ProjectedSolidAngle,
+    pub specular: Option<(S, Vec3)>,
+    pub w_d: Vec3,
+}
+
+impl<S: SpecularSampler> TwoTechniqueLight<S> {
+    /// Steps 1–3 of the module documentation for `segment` at `sp`; `None` when the diffuse
+    /// technique cannot sample (no contribution; the estimator still draws its numbers).
+    #[inline]
+    pub fn prepare<P: SpecularSampling<Sampler = S>>(
+        specular: &P,
+        sp: &ShadingPoint,
+        segment: &Segment,
+    ) -> Option<Self> {
+        let diffuse = ProjectedSolidAngle::prepare(segment, sp.x, sp.n())?;
+        let k_s = sp
+            .lobes
+            .specular
+            .map_or(DVec3::ZERO, |l| l.weight)
+            .as_vec3();
+        let specular = sp.ltc.and_then(|(a, rho)| {
+            let s = specular.prepare(segment, sp.x, sp.frame, a)?;
+            let w_s = k_s * (rho * s.weight_scale());
+            Some((s, w_s))
+        });
+        let w_d = sp
+            .lobes
+            .diffuse
+            .as_vec3()
+            .max(Vec3::splat(MIN_DIFFUSE_WEIGHT))
+            * diffuse.projected_solid_angle();
+        Some(Self {
+            diffuse,
+            specular,
+            w_d,
+        })
+    }
+
+    /// Step 4 before visibility: the diffuse sample of ξ_d, then the specular sample of ξ_s,
+    /// each `None` where it cannot contribute (zero density, weight or f·cos, no finite
+    /// distance to the line). `eval`: f·cos of a world direction. [`two_techniques`] traces
+    /// them one after the other; the batched renderer traces each in a packet walk.
+    #[inline]
+    pub fn candidates(
+        &self,
+        combination: Combination,
+        k: Vec3,
+        (xi_d, xi_s): (f32, f32),
+        eval: impl Fn(Vec3) -> Vec3,
+    ) -> [Option<Candidate>; 2] {
+        let mut out = [None, None];
+        let diffuse = &self.diffuse;
+        // The diffuse sample.
+        let (w, p_d) = diffuse.sample_with_pdf(xi_d);
+        if p_d > 0.0 && p_d.is_finite() {
+            let weight = match &self.specular {
+                None => Vec3::ONE,
+                Some((s, w_s)) => {
+                    let p_s = s.density_on_clipped_line(w);
+                    combination.weight(false, p_d, p_s, self.w_d, *w_s)
+                }
+            };
+            if weight != Vec3::ZERO {
+                if let Some(dist) = distance_to_line(diffuse, w) {
+                    let f = eval(w);
+                    if f != Vec3::ZERO {
+                        let c = k * f * weight / p_d;
+                        out[0] = Some(Candidate { w, dist, c });
+                    }
+                }
+            }
+        }
+        // The specular sample.
+        let Some((s, w_s)) = &self.specular else {
+            return out;
+        };
+        let (w, p_s) = s.sample_with_pdf(xi_s);
+        if !(p_s > 0.0 && p_s.is_finite()) {
+            return out;
+        }
+        let p_d = diffuse.density_in_support(w);
+        let weight = combination.weight(true, p_s, p_d, *w_s, self.w_d);
+        if weight == Vec3::ZERO {
+            return out;
+        }
+        let Some(dist) = distance_to_line(s, w) else {
+            return out;
+        };
+        let f = eval(w);
+        if f != Vec3::ZERO {
+            let c = k * f * weight / p_s;
+            out[1] = Some(Candidate { w, dist, c });
+        }
+        out
+    }
+}
+
 /// The two-technique estimator (module documentation), `samples` iterations, not divided by
-/// `samples`. `specular`: the prepared specular sampler and its technique weight W_s, `None`
-/// for the diffuse-only fallback; `w_d`: the diffuse technique weight. `eval`: f·cos of a
-/// world direction.
+/// `samples`: per iteration ξ_d, ξ_s, the [`TwoTechniqueLight::candidates`], each added
+/// when visible (non-finite ones counted in `dropped`).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn two_techniques<S: SpecularSampler>(
-    diffuse: &ProjectedSolidAngle,
-    specular: Option<(&S, Vec3)>,
-    w_d: Vec3,
+    light: &TwoTechniqueLight<S>,
     combination: Combination,
     k: Vec3,
     samples: u32,
@@ -219,53 +363,20 @@ pub fn two_techniques<S: SpecularSampler>(
     dropped: &mut u32,
 ) -> Vec3 {
     let mut total = Vec3::ZERO;
-    let mut add = |c: Vec3| {
-        if c.is_finite() {
-            total += c;
-        } else {
-            *dropped += 1;
-        }
-    };
     for _ in 0..samples {
-        let (xi_d, xi_s) = (rng.next_f32(), rng.next_f32());
-        // The diffuse sample.
-        let (w, p_d) = diffuse.sample_with_pdf(xi_d);
-        if p_d > 0.0 && p_d.is_finite() {
-            let weight = match specular {
-                None => Vec3::ONE,
-                Some((s, w_s)) => {
-                    let p_s = s.density_on_clipped_line(w);
-                    combination.weight(false, p_d, p_s, w_d, w_s)
-                }
-            };
-            if weight != Vec3::ZERO {
-                if let Some(dist) = distance_to_line(diffuse, w) {
-                    let f = eval(w);
-                    if f != Vec3::ZERO && visible(w, dist) {
-                        add(k * f * weight / p_d);
-                    }
+        let xi = (rng.next_f32(), rng.next_f32());
+        for candidate in light
+            .candidates(combination, k, xi, &eval)
+            .into_iter()
+            .flatten()
+        {
+            if visible(candidate.w, candidate.dist) {
+                if candidate.c.is_finite() {
+                    total += candidate.c;
+                } else {
+                    *dropped += 1;
                 }
             }
-        }
-        // The specular sample.
-        let Some((s, w_s)) = specular else {
-            continue;
-        };
-        let (w, p_s) = s.sample_with_pdf(xi_s);
-        if !(p_s > 0.0 && p_s.is_finite()) {
-            continue;
-        }
-        let p_d = diffuse.density_in_support(w);
-        let weight = combination.weight(true, p_s, p_d, w_s, w_d);
-        if weight == Vec3::ZERO {
-            continue;
-        }
-        let Some(dist) = distance_to_line(s, w) else {
-            continue;
-        };
-        let f = eval(w);
-        if f != Vec3::ZERO && visible(w, dist) {
-            add(k * f * weight / p_s);
         }
     }
     total
@@ -318,44 +429,17 @@ pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             samples,
             rng,
             visible,
-            |w: Vec3, _cos: f32, pdf: f32| k * eval(w) / pdf,
+            |w: Vec3, _cos: f32, pdf: f32| single_contribution(pieces.bsdf, sp, k, w, pdf),
             dropped,
         ),
         Some(combination) => {
-            let Some(diffuse) = ProjectedSolidAngle::prepare(segment, sp.x, n) else {
+            let Some(light) = TwoTechniqueLight::prepare(pieces.specular, sp, segment) else {
                 for _ in 0..2 * samples {
                     rng.next_f32();
                 }
                 return Vec3::ZERO;
             };
-            let specular = sp.ltc.and_then(|(a, rho)| {
-                Some((pieces.specular.prepare(segment, sp.x, sp.frame, a)?, rho))
-            });
-            let w_d = sp
-                .lobes
-                .diffuse
-                .as_vec3()
-                .max(Vec3::splat(MIN_DIFFUSE_WEIGHT))
-                * diffuse.projected_solid_angle();
-            let k_s = sp
-                .lobes
-                .specular
-                .map_or(DVec3::ZERO, |l| l.weight)
-                .as_vec3();
-            two_techniques(
-                &diffuse,
-                specular
-                    .as_ref()
-                    .map(|(s, rho)| (s, k_s * (rho * s.weight_scale()))),
-                w_d,
-                combination,
-                k,
-                samples,
-                rng,
-                visible,
-                eval,
-                dropped,
-            )
+            two_techniques(&light, combination, k, samples, rng, visible, eval, dropped)
         }
     };
     total / samples as f32

@@ -350,10 +350,41 @@ fn light_samples_leave_min_spp_camera_samples() {
         ..rule
     };
     assert_eq!(single.light_samples(65_536, false), 1);
+    // The pilot at N has as many light samples as the first, at least 32 camera samples.
+    assert_eq!(rule.light_sample_pilot(8).pilot_spp, 32);
+    assert_eq!(rule.light_sample_pilot(4).pilot_spp, 64);
+    let small = BudgetRule {
+        pilot_spp: 64,
+        ..rule
+    };
+    assert_eq!(small.light_sample_pilot(8).pilot_spp, 32);
     // Old reports without the field read as one light sample.
     let json = serde_json::to_value(rule).unwrap();
     let mut old = json.clone();
     old.as_object_mut().unwrap().remove("max_light_samples");
     let read: BudgetRule = serde_json::from_value(old).unwrap();
     assert_eq!(read.max_light_samples, 1);
+}
+
+/// N light samples are kept only when their budget, at (1 + N)/2 the cost per camera sample,
+/// costs less than one light sample's: not where the pixel footprint's variance dominates.
+#[test]
+fn light_samples_are_kept_only_where_they_pay() {
+    let at = |mean: f64| {
+        let mut b = budget_of(false);
+        (b.spp, b.pixel_spp_mean) = (256, mean);
+        b
+    };
+    let one = at(27_776.0);
+    // Light-sample variance only: N = 8 needs 1/8 of the camera samples (cost 4.5/8).
+    assert!(BudgetRule::light_samples_pay(&one, &at(3_472.0), 8));
+    // Half of the variance from the pixel footprint: 8 light samples cut it to 9/16 (cost 5/2).
+    assert!(!BudgetRule::light_samples_pay(&one, &at(15_624.0), 8));
+    // Break-even at N = 2: 1.5 × the camera samples' cost.
+    assert!(!BudgetRule::light_samples_pay(&one, &at(27_776.0 / 1.5), 2));
+    assert!(BudgetRule::light_samples_pay(
+        &one,
+        &at(27_776.0 / 1.5 - 64.0),
+        2
+    ));
 }
