@@ -13,7 +13,7 @@
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::xml::load_scene;
-use linlight_render::{render, Method, RenderOptions};
+use linlight_render::{render, LightSelection, Method, RenderOptions};
 use linlight_sampling::mis::Heuristic;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Verdict};
@@ -239,6 +239,9 @@ fn options(method: Method, spp: u32, passes: u32, seed: u64) -> RenderOptions {
         seed,
         method,
         light_samples: 1,
+        // As calibrated (the calibration's scenes have one light, where both selections are
+        // the same image).
+        lights: LightSelection::Every,
         noise: Default::default(),
     }
 }

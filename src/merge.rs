@@ -21,7 +21,7 @@
 //! for the whole image, as the format has).
 //!
 //! Images that cannot be combined are refused: different sizes, scenes (`scene_sha256`),
-//! renderers, methods (technique, MIS heuristic and v, light samples), overrides, Mitsuba
+//! renderers, methods (technique, MIS heuristic and v, light samples and selection), overrides, Mitsuba
 //! variants, radii or K; and images that are not
 //! independent (the same seed, or identical pixels).
 
@@ -29,11 +29,12 @@ use linlight_imagefile::{Image, Metadata};
 use std::collections::BTreeMap;
 
 /// Header keys that must agree between merged images (when any image has them).
-pub const MUST_AGREE: [&str; 8] = [
+pub const MUST_AGREE: [&str; 9] = [
     "technique",
     "mis",
     "mis_v",
     "light_samples",
+    "light_selection",
     "overrides",
     "variant",
     "radius",

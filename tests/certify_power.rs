@@ -9,7 +9,7 @@ use glam::Vec3;
 use linlight::certify::{self, Subject};
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{Hooks, LightSampling, RenderError, RenderOptions};
+use linlight_render::{Hooks, LightSampling, LightSelection, RenderError, RenderOptions};
 use linlight_sampling::area::Area;
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::{LineFrame, LineSampler, Segment, Technique};
@@ -208,6 +208,7 @@ fn rejects_a_five_percent_tile_bias_in_every_scene() {
                 seed: certify::pilot_seed(opts.seed),
                 method: Technique::ProjectedSolidAngle.into(),
                 light_samples: 1,
+                lights: LightSelection::Every,
                 noise: Default::default(),
             },
             &|_, _| {},
@@ -253,6 +254,7 @@ fn renders_differing_only_in_seed_pass_compare() {
             seed,
             method: Technique::ProjectedSolidAngle.into(),
             light_samples: 1,
+            lights: LightSelection::Every,
             noise: Default::default(),
         };
         let a = linlight_render::render(&s.scene, &opts(11), &|_, _| {}).unwrap();

@@ -37,6 +37,7 @@ fn render_with_seed(sc: &Scene, seed: u64) -> Image {
         seed,
         method: Technique::ProjectedSolidAngle.into(),
         light_samples: 1,
+        lights: Default::default(),
         noise: Default::default(),
     };
     render(sc, &opts, &|_, _| {}).unwrap()

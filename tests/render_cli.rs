@@ -277,7 +277,8 @@ fn noise_choices() {
 }
 
 /// The method flags reach the header: --technique, --mis (with v for clamped optimal) and
-/// --light-samples (default: the scene's emitter_samples); `--help` lists every method.
+/// --light-samples (default: the scene's emitter_samples) and --lights (default every); `--help`
+/// lists every method.
 #[test]
 fn method_flags_are_recorded_in_the_header() {
     let dir = scratch("methods");
@@ -290,7 +291,7 @@ fn method_flags_are_recorded_in_the_header() {
         ),
     );
     type Case<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)]);
-    let cases: [Case; 5] = [
+    let cases: [Case; 6] = [
         (
             &[],
             &[
@@ -298,8 +299,10 @@ fn method_flags_are_recorded_in_the_header() {
                 ("mis", "clamped-optimal"),
                 ("mis_v", "0.5"),
                 ("light_samples", "3"),
+                ("light_selection", "every"),
             ],
         ),
+        (&["--lights", "one"], &[("light_selection", "one")]),
         (
             &["--mis", "power", "--light-samples", "2"],
             &[
@@ -357,6 +360,8 @@ fn method_flags_are_recorded_in_the_header() {
         "clamped-optimal",
         "--light-samples",
         "emitter_samples",
+        "--lights one",
+        "sampling_weight",
     ] {
         assert!(
             help.stdout.contains(name),
@@ -364,5 +369,13 @@ fn method_flags_are_recorded_in_the_header() {
             help.stdout
         );
     }
+    // An unknown selection is bad usage, named.
+    let r = linlight(&["render", &scene, "-q", "--lights", "all"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(
+        r.stderr.contains("--lights") && r.stderr.contains("one or every"),
+        "{}",
+        r.stderr
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -9,6 +9,10 @@
 //!    same render is also compared with the exact R → 0 image (closed form on Lambertian
 //!    surfaces, quadrature along the line on glossy ones).
 //!
+//! 3. Besides them, the renders of [`NOISE_RENDERS`] (blue noise) and
+//!    [`LIGHT_SELECTION_RENDERS`] (one light chosen per light sample, on the two-light scenes;
+//!    the technique matrix samples every light) on their scenes, against the same oracles.
+//!
 //! Multiple testing: every comparison runs at the Šidák level α_c = 1 − (1 − α)^(1/m), m the
 //! number of comparisons of the *full default* certification (every scene with a reference ×
 //! its default subjects × its oracles), so that the family-wise false alarm rate of the image
@@ -31,7 +35,7 @@ pub mod shard;
 
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{record_inputs, render, Method, RenderError, RenderOptions};
+use linlight_render::{record_inputs, render, LightSelection, Method, RenderError, RenderOptions};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
@@ -44,13 +48,16 @@ use budget::{Budget, BudgetRule, Precision};
 use sampler_suite::SuiteSummary;
 use scenes::ReferencedScene;
 
-/// A render with blue noise, certified besides the white-noise renders of the techniques, so
-/// that the noise's unbiasedness across passes is part of the main job.
+/// A render with other primary samples (blue noise) or another light selection (one light per
+/// light sample) than the technique matrix's white-noise, every-light renders, certified besides
+/// them, so that the noise's unbiasedness across passes and the light choice's are part of the
+/// main job.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct NoiseRender {
     pub scene: &'static str,
     pub technique: Technique,
     pub noise: Noise,
+    pub lights: LightSelection,
 }
 
 /// At least one blue-noise render per scene family: the occluded diffuse box with the paper's
@@ -60,11 +67,33 @@ pub const NOISE_RENDERS: [NoiseRender; 2] = [
         scene: "cornell-tube",
         technique: Technique::ProjectedSolidAngle,
         noise: Noise::BlueJittered,
+        lights: LightSelection::Every,
     },
     NoiseRender {
         scene: "floor-crossing",
         technique: Technique::ProjectedSolidAngle,
         noise: Noise::Blue,
+        lights: LightSelection::Every,
+    },
+];
+
+/// The renders with one light chosen per light sample (`linlight render --lights one`) on the
+/// committed scenes with two lights: the diffuse room (lanes choosing different lights in one
+/// packet) and the glossy scene (full BSDF, evaluated lane by lane in the packets), both on the
+/// batched path with one light sample and on the scalar path where the budget gives several
+/// (several chosen lights per camera sample). White noise, one pass, like the matrix's renders.
+pub const LIGHT_SELECTION_RENDERS: [NoiseRender; 2] = [
+    NoiseRender {
+        scene: "two-tubes",
+        technique: Technique::ProjectedSolidAngle,
+        noise: Noise::White,
+        lights: LightSelection::One,
+    },
+    NoiseRender {
+        scene: "glossy-principled",
+        technique: Technique::ProjectedSolidAngle,
+        noise: Noise::White,
+        lights: LightSelection::One,
     },
 ];
 
@@ -74,9 +103,17 @@ pub const NOISE_PASSES: u32 = 16;
 
 impl Subject for NoiseRender {
     fn name(&self) -> String {
-        format!("{} ({} noise)", self.technique.name(), self.noise.name())
+        if self.noise == Noise::White {
+            format!(
+                "{} ({} light per sample)",
+                self.technique.name(),
+                self.lights
+            )
+        } else {
+            format!("{} ({} noise)", self.technique.name(), self.noise.name())
+        }
     }
-    /// `opts.spp` samples in total, split over [`NOISE_PASSES`] passes.
+    /// With blue noise `opts.spp` samples in total, split over [`NOISE_PASSES`] passes.
     fn render(
         &self,
         scene: &Scene,
@@ -84,17 +121,35 @@ impl Subject for NoiseRender {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
         let total = opts.spp as u64 * opts.passes as u64;
-        let passes = NOISE_PASSES;
+        let passes = if self.noise == Noise::White {
+            opts.passes
+        } else {
+            NOISE_PASSES
+        };
         render(
             scene,
             &RenderOptions {
                 method: self.technique.into(),
                 noise: self.noise,
+                lights: self.lights,
                 passes,
                 spp: total.div_ceil(passes as u64).clamp(1, u32::MAX as u64) as u32,
                 ..*opts
             },
             progress,
+        )
+    }
+    /// White-noise renders of a batch technique with one light sample take the packets (the
+    /// one-light renders: lanes choosing different lights in one packet).
+    fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
+        linlight_render::batched::applies(
+            scene,
+            &RenderOptions {
+                method: self.technique.into(),
+                noise: self.noise,
+                lights: self.lights,
+                ..*opts
+            },
         )
     }
 }
@@ -230,8 +285,8 @@ pub struct Options {
     pub quadrature_subsamples: u32,
     /// Run only this part of the scene × technique list (`--shard i/N`, [`shard`]).
     pub shard: Option<shard::Shard>,
-    /// The blue-noise renders of [`NOISE_RENDERS`] whose scene is selected (and whose technique
-    /// the command line selected).
+    /// The renders of [`NOISE_RENDERS`] and [`LIGHT_SELECTION_RENDERS`] whose scene is
+    /// selected (and whose technique the command line selected).
     pub noise_renders: Vec<NoiseRender>,
 }
 
@@ -253,7 +308,10 @@ impl Options {
             closed_form_subsamples: 16,
             quadrature_subsamples: 8,
             shard: None,
-            noise_renders: NOISE_RENDERS.to_vec(),
+            noise_renders: NOISE_RENDERS
+                .into_iter()
+                .chain(LIGHT_SELECTION_RENDERS)
+                .collect(),
         }
     }
 }
@@ -383,13 +441,18 @@ fn family_size(opts: &Options) -> Result<usize, Unusable> {
         }
         let s = scenes::load_referenced(&path, &opts.references_dir, false)?;
         m += matrix::default_comparisons(&name, &s.scene);
-        // The scene's blue-noise renders, against each of its oracles.
+        // The scene's blue-noise and light-selection renders, against each of its oracles.
         let oracles = if matrix::has_exact_oracle(&name) {
             2
         } else {
             1
         };
-        m += NOISE_RENDERS.iter().filter(|r| r.scene == name).count() * oracles;
+        m += NOISE_RENDERS
+            .iter()
+            .chain(&LIGHT_SELECTION_RENDERS)
+            .filter(|r| r.scene == name)
+            .count()
+            * oracles;
     }
     Ok(m.max(1))
 }
@@ -629,6 +692,9 @@ fn run_plan(
                     seed: pilot_seed(opts.seed),
                     method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
                     light_samples: 1,
+                    // Every light (`linlight render`'s default); the choice of one light is
+                    // certified by the renders of `LIGHT_SELECTION_RENDERS`.
+                    lights: LightSelection::Every,
                     noise: Default::default(),
                 };
                 let planned = |rule: &BudgetRule, base: &RenderOptions| {

@@ -108,7 +108,7 @@ pub fn run(args: Args) -> ExitCode {
     let subjects: Vec<&dyn Subject> = methods.iter().map(|m| m as &dyn Subject).collect();
     let mut opts = Options::new(&args.root);
     opts.scenes = args.scenes.clone();
-    // The blue-noise renders of the selected techniques (all of them by default).
+    // The blue-noise and light-selection renders of the selected techniques (all by default).
     if !methods.is_empty() {
         opts.noise_renders
             .retain(|r| methods.contains(&Method::Technique(r.technique)));

@@ -29,7 +29,7 @@ use crate::certify::scenes::load_referenced;
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::xml::load_scene;
-use linlight_render::{render, Method, RenderOptions};
+use linlight_render::{render, LightSelection, Method, RenderOptions};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use linlight_verify::heatmap::Rgb8;
@@ -242,6 +242,8 @@ impl Ctx<'_> {
             seed,
             method,
             light_samples: 1,
+            // Every light per light sample (lamps and room have several lights).
+            lights: LightSelection::Every,
             noise,
         };
         let t = Instant::now();

@@ -38,6 +38,7 @@ fn main() {
             seed: 1,
             method: technique.into(),
             light_samples: 1,
+            lights: Default::default(),
             noise: Default::default(),
         };
         let samples = 256.0 * 256.0 * opts.spp as f64;

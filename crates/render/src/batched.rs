@@ -11,6 +11,12 @@
 //! by lane with the scalar code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and
 //! trace them in packet walks (LTC and MIS: one for the diffuse, one for the specular samples).
 //!
+//! The lights: with `--lights every` one pass per light, every lane sampling that light; with
+//! `--lights one` ([`crate::light_choice`], two or more lights) a single pass in which each
+//! lane samples the light its ξ_c chose, with K/p — per-lane segments in the 8-wide batch for
+//! the batch lanes, each lane's own light for the lanes sampled with the scalar code — so one
+//! packet shadow walk per kind of sample and light sample.
+//!
 //! [`render_isa`] renders every scene and method with one light sample and white noise;
 //! [`crate::render::render`] uses it where it pays ([`applies`]): the batch techniques on every
 //! scene, the other methods on scenes with Lambertian surfaces. Everything else (several
@@ -21,12 +27,14 @@
 //! Same estimator, same numbers, same image: lane k is camera sample (pixel, sample) of the
 //! tile in the scalar path's order, draws the numbers of its own Philox stream in the scalar
 //! order (film position, then one per light — two on non-Lambertian surfaces under LTC and
-//! MIS —, then the visible lines'), and every step is the scalar step's arithmetic (the batch
+//! MIS — or, choosing one light per light sample, the choice ξ_c and the chosen light's one or
+//! two; then the visible lines'), and every step is the scalar step's arithmetic (the batch
 //! kernels and packet walks equal their scalar forms bit for bit, ties of the closest hit
 //! included; a light's samples are summed per lane as the scalar estimator sums them), so an
 //! image equals the one of the scalar reference path ([`crate::render::render_with`] with the
-//! same method) bit for bit — tests below check it on every committed scene and method. Pixels accumulate their samples in
-//! the same order (Welford in f64).
+//! same method and light selection) bit for bit — tests below check it on every committed
+//! scene, method and light selection. Pixels accumulate their samples in the same order
+//! (Welford in f64).
 //!
 //! Cost: `scripts/bench-render` (M samples/s against Mitsuba 3 on every committed scene);
 //! instruction counts per sample with `valgrind --tool=callgrind` (see docs/performance.md).
@@ -37,7 +45,9 @@
 use crate::bvh::{PacketHits, RayLanes, PACKET};
 use crate::film::Welford;
 use crate::hooks::{LightSampling, Ltc, SceneBsdf};
-use crate::integrator::{offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON};
+use crate::integrator::{
+    k_over_probability, offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON,
+};
 use crate::method::Method;
 use crate::render::{
     check_options, metadata, pixel_entries, render_in_tiles, window, RenderError, RenderOptions,
@@ -65,8 +75,9 @@ const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet")
 /// sample lane by lane with the scalar code, which pays in packets only where Lambertian lanes
 /// share them (measured: 15–28 % less CPU time on cornell-tube and mesh-occluder, half on
 /// glossy-cornell for MIS, but 5–20 % more on the scenes without a Lambertian surface; see
-/// docs/performance.md). [`render_isa`] renders any scene and method with one light sample
-/// and white noise.
+/// docs/performance.md). Both light selections (`every`, `one`) take the same decision.
+/// [`render_isa`] renders any scene, method and light selection with one light sample and
+/// white noise.
 pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
     let batch_kernel = matches!(
         opts.method,
@@ -196,8 +207,29 @@ struct ShadingLanes<'a> {
     glossy: [Option<ShadingPoint<'a>>; LANES],
 }
 
-/// The light samples of a packet for one light: direction, density, distance to the line
-/// along the direction; `mask`: lanes with a sample.
+/// The light each lane samples in one pass over the lights: the light's index, its K (divided
+/// by the lane's choice probability when one light is chosen) and the lane's numbers — `xi`
+/// for the batch lanes (one per light), `scalar_xi` for the lanes sampled with the scalar code
+/// (one, or two for LTC and MIS on non-Lambertian surfaces; the second is 0 otherwise);
+/// `uniform`: the light of every lane, when they share one (`every`).
+struct LightLanes {
+    uniform: Option<usize>,
+    light: [u32; LANES],
+    k: Lanes3,
+    xi: [f32; LANES],
+    scalar_xi: [[f32; LANES]; 2],
+}
+
+impl LightLanes {
+    /// Lane k's light segment and K.
+    #[inline(always)]
+    fn of<'s>(&self, rs: &'s RenderScene, k: usize) -> (&'s Segment, Vec3) {
+        (&rs.lights[self.light[k] as usize].0, get3(&self.k, k))
+    }
+}
+
+/// The light samples of a packet for one [`LightLanes`]: direction, density, distance to the
+/// line along the direction; `mask`: lanes with a sample.
 #[derive(Default)]
 struct SampleLanes {
     mask: u32,
@@ -267,8 +299,12 @@ impl<'a> Context<'a> {
             }
             let mut rng =
                 CounterRng::camera_sample(self.opts.seed, pass, packet.index[k], packet.sample[k]);
-            let per_light = (radiance.shaded >> k & 1) + (radiance.two_per_light >> k & 1);
-            let used = 2 + per_light as usize * rs.lights.len();
+            let used = 2 + if radiance.shaded >> k & 1 == 1 {
+                let per_light = 1 + (radiance.two_per_light >> k & 1) as usize;
+                rs.light_numbers(self.opts.lights, 1, per_light)
+            } else {
+                0
+            };
             for _ in 0..used {
                 rng.next_u32();
             }
@@ -313,9 +349,11 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let rs = ctx.rs;
     let lights = &rs.lights;
     let active = ((1u64 << packet.len) - 1) as u32;
-    // Film position (2 numbers) and one or two numbers per light, from the lanes' own streams.
+    // Film position (2 numbers) and the lights' numbers (one or two per light, or the choice
+    // ξ_c and the chosen light's one or two), from the lanes' own streams.
     let mut words = [[[0u32; LANES]; 4]; MAX_BLOCKS];
-    let blocks = (2 + ctx.per_light * lights.len()).div_ceil(4);
+    let one = rs.chooses_one(ctx.opts.lights);
+    let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, ctx.per_light)).div_ceil(4);
     for (b, w) in words.iter_mut().enumerate().take(blocks.min(MAX_BLOCKS)) {
         *w = CounterRng::camera_sample_block(
             ctx.opts.seed,
@@ -358,20 +396,18 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
 
     let mut total = [[0.0f32; LANES]; 3];
     let mut dropped = 0u64;
-    for (j, (segment, k_light)) in lights.iter().enumerate() {
+    // One pass per light (`every`), or one with each lane's chosen light (`one`): the scalar
+    // lanes' samples lane by lane, the batch lanes' in the batch kernels, one packet shadow
+    // walk per kind of sample.
+    for walk in 0..if one { 1 } else { lights.len() } {
+        let light = ctx.light_lanes(walk, one, &number, batch_lanes != 0, scalar_lanes != 0);
         if scalar_lanes != 0 {
-            dropped += ctx.scalar_light(
-                &shading,
-                scalar_lanes,
-                (j, segment, *k_light),
-                &number,
-                &mut total,
-            );
+            dropped += ctx.scalar_light(&shading, scalar_lanes, &light, &mut total);
         }
         if batch_lanes == 0 {
             continue;
         }
-        let samples = ctx.light_samples(segment, &shading, batch_lanes, &number(2 + j));
+        let samples = ctx.light_samples(&light, &shading, batch_lanes);
         let (shadow, mask) = shadow_rays(&shading, &samples);
         let occluded = rs.bvh.occluded_lanes(&shadow, mask);
         let lit = mask & !occluded;
@@ -386,7 +422,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             let (n, dir, f) = (&shading.n, &samples.dir, &shading.lambert);
             let cos = n[0][k] * dir[0][k] + n[1][k] * dir[1][k] + n[2][k] * dir[2][k];
             let s = cos / samples.pdf[k];
-            let c: [f32; 3] = std::array::from_fn(|a| k_light[a] * f[a][k] * s);
+            let c: [f32; 3] = std::array::from_fn(|a| light.k[a][k] * f[a][k] * s);
             let finite = c.iter().all(|x| x.is_finite());
             let lambert = lambert_lit >> k & 1 == 1;
             let add = lambert & finite;
@@ -396,7 +432,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             }
         }
         dropped += lambert_dropped.count_ones() as u64;
-        dropped += glossy_contributions(&shading, &samples, lit, *k_light, &mut total);
+        dropped += glossy_contributions(&shading, &samples, lit, &light.k, &mut total);
     }
     if dropped > 0 {
         rs.dropped
@@ -410,8 +446,8 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     }
 }
 
-/// Blocks of four numbers per lane drawn together (2 + lights ≤ 16); further dimensions are
-/// drawn lane by lane.
+/// Blocks of four numbers per lane drawn together (2 + the lights' numbers ≤ 16); further
+/// dimensions are drawn lane by lane.
 const MAX_BLOCKS: usize = 4;
 
 /// The shading points of the lanes that hit a surface reflecting toward the camera: the
@@ -492,8 +528,8 @@ fn glossy_point(bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> ShadingPoint<'_> {
     ShadingPoint::new(&SceneBsdf, bsdf, p, n, wi)
 }
 
-/// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for one light
-/// (K = `k_light`) to `total`: the scalar single-technique contribution
+/// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for their light
+/// (lane k's K = `k_light[·][k]`) to `total`: the scalar single-technique contribution
 /// ([`single_contribution`]) lane by lane, finite ones only; returns how many were dropped.
 /// Not inlined, as [`Context::scalar_samples`].
 #[inline(never)]
@@ -501,7 +537,7 @@ fn glossy_contributions(
     shading: &ShadingLanes,
     samples: &SampleLanes,
     lit: u32,
-    k_light: Vec3,
+    k_light: &Lanes3,
     total: &mut Lanes3,
 ) -> u64 {
     let mut dropped = 0;
@@ -515,7 +551,7 @@ fn glossy_contributions(
         let c = single_contribution(
             &SceneBsdf,
             point,
-            k_light,
+            get3(k_light, k),
             get3(&samples.dir, k),
             samples.pdf[k],
         );
@@ -622,29 +658,102 @@ fn shadow_rays(shading: &ShadingLanes, samples: &SampleLanes) -> (RayLanes, u32)
 }
 
 impl<'a> Context<'a> {
-    /// One sample of the light `segment` for every lane with a shading point (the lanes of
-    /// `mask` in the result), ξ of lane k = `xi[k]`.
+    /// The lights of pass `walk` over the lights and their numbers, `number(d)` being
+    /// dimension d of the lanes (only the batch lanes' ξ when `batch`, the scalar lanes' when
+    /// `scalar`): light `walk` in every lane, ξ of dimension 2 + `walk` for the batch lanes and
+    /// 2 + `walk` or (2 + 2·`walk`, 3 + 2·`walk`) for the scalar lanes (`every`); or (`one`)
+    /// each lane's light chosen by its ξ_c (dimension 2; the scalar path's `chosen_light` on
+    /// the lanes) with K/p, and its numbers from dimension 3 on.
+    #[inline(always)]
+    fn light_lanes(
+        &self,
+        walk: usize,
+        one: bool,
+        number: &impl Fn(usize) -> [f32; LANES],
+        batch: bool,
+        scalar: bool,
+    ) -> LightLanes {
+        let rs = self.rs;
+        // First dimension of the light's numbers, and how many a scalar lane draws per light.
+        let (first, scalar_per_light) = match (one, self.combination) {
+            (false, None) => (2 + walk, 1),
+            (false, Some(_)) => (2 + 2 * walk, 2),
+            (true, None) => (3, 1),
+            (true, Some(_)) => (3, 2),
+        };
+        let zero = [0.0; LANES];
+        let scalar_xi = if !scalar {
+            [zero; 2]
+        } else if scalar_per_light == 1 {
+            [number(first), zero]
+        } else {
+            [number(first), number(first + 1)]
+        };
+        // Batch lanes draw one number per light.
+        let xi = if !batch {
+            zero
+        } else if one {
+            number(3)
+        } else {
+            number(2 + walk)
+        };
+        if !one {
+            return LightLanes {
+                uniform: Some(walk),
+                light: [walk as u32; LANES],
+                k: rs.lights[walk].1.to_array().map(|c| [c; LANES]),
+                xi,
+                scalar_xi,
+            };
+        }
+        let light = rs.choice.pick_lanes(&number(2));
+        let mut k = [[0.0; LANES]; 3];
+        for (lane, &j) in light.iter().enumerate() {
+            set3(
+                &mut k,
+                lane,
+                k_over_probability(&rs.lights, &rs.choice, j as usize),
+            );
+        }
+        LightLanes {
+            uniform: None,
+            light,
+            k,
+            xi,
+            scalar_xi,
+        }
+    }
+
+    /// One sample of lane k's light `lights.light[k]` with ξ = `lights.xi[k]` for every lane
+    /// with a shading point (the lanes of `lanes` and with a sample in the result's `mask`).
     #[inline(always)]
     fn light_samples(
         &self,
-        segment: &Segment,
+        lights: &LightLanes,
         shading: &ShadingLanes,
         lanes: u32,
-        xi: &[f32; LANES],
     ) -> SampleLanes {
         let technique = self.technique;
         debug_assert!(self.batch, "{technique:?} has no batch kernel");
         let mut out = SampleLanes::default();
         let mut inputs = [PsaBatchInput::default(); 2];
         for (b, input) in inputs.iter_mut().enumerate() {
-            input.begin = Vec3x8::splat(segment.begin);
-            input.end = Vec3x8::splat(segment.end);
+            if let Some(j) = lights.uniform {
+                let segment = &self.rs.lights[j].0;
+                input.begin = Vec3x8::splat(segment.begin);
+                input.end = Vec3x8::splat(segment.end);
+            }
             for i in 0..BATCH {
                 let k = b * BATCH + i;
+                if lights.uniform.is_none() {
+                    let segment = &self.rs.lights[lights.light[k] as usize].0;
+                    input.begin.set(i, segment.begin);
+                    input.end.set(i, segment.end);
+                }
                 // Lanes without a shading point have a zero normal: no contribution.
                 input.x.set(i, get3(&shading.p, k));
                 input.n.set(i, get3(&shading.n, k));
-                input.xi[i] = xi[k];
+                input.xi[i] = lights.xi[k];
             }
         }
         let mut outputs = [PsaBatchOutput::default(); 2];
@@ -668,7 +777,7 @@ impl<'a> Context<'a> {
         out
     }
 
-    /// The light `j` (`segment`, K = `k_light`) at the lanes of `lanes`, sampled lane by lane
+    /// Each lane's light of `lights` at the lanes of `lanes`, sampled lane by lane
     /// with the scalar code — a single technique's sample ([`single_sample`]), or LTC's and
     /// MIS's diffuse and specular samples ([`TwoTechniqueLight::candidates`]) —, each kind of
     /// sample's shadow rays in one packet walk, the lanes' contributions of this light summed
@@ -679,15 +788,10 @@ impl<'a> Context<'a> {
         &self,
         shading: &ShadingLanes,
         lanes: u32,
-        (j, segment, k_light): (usize, &Segment, Vec3),
-        number: &impl Fn(usize) -> [f32; LANES],
+        lights: &LightLanes,
         total: &mut Lanes3,
     ) -> u64 {
-        let xi = match self.combination {
-            None => [number(2 + j), [0.0; LANES]],
-            Some(_) => [number(2 + 2 * j), number(3 + 2 * j)],
-        };
-        let samples = self.scalar_samples(shading, lanes, (segment, k_light), &xi);
+        let samples = self.scalar_samples(shading, lanes, lights);
         let visible = samples.each_ref().map(|s| s.visible(self.rs, shading));
         let mut dropped = 0;
         let mut m = lanes;
@@ -713,7 +817,7 @@ impl<'a> Context<'a> {
     }
 
     /// The samples of [`Self::scalar_light`] before visibility, lane by lane; ξ of lane k:
-    /// `xi[0][k]` (single techniques) or (`xi[0][k]`, `xi[1][k]`) (LTC, MIS). Not inlined:
+    /// `lights.scalar_xi[0][k]` (single techniques) or both (LTC, MIS). Not inlined:
     /// scalar code, compiled once for the target's baseline rather than into every ISA's
     /// packet kernel.
     #[inline(never)]
@@ -721,9 +825,9 @@ impl<'a> Context<'a> {
         &self,
         shading: &ShadingLanes,
         lanes: u32,
-        (segment, k_light): (&Segment, Vec3),
-        xi: &[[f32; LANES]; 2],
+        lights: &LightLanes,
     ) -> [CandidateLanes; 2] {
+        let xi = &lights.scalar_xi;
         let mut samples = [CandidateLanes::default(), CandidateLanes::default()];
         let mut m = lanes;
         match self.combination {
@@ -732,6 +836,7 @@ impl<'a> Context<'a> {
                 while m != 0 {
                     let k = m.trailing_zeros() as usize;
                     m &= m - 1;
+                    let (segment, k_light) = lights.of(self.rs, k);
                     let (p, n) = (get3(&shading.p, k), get3(&shading.n, k));
                     let Some(sampler) = LightSampling::prepare(&self.technique, segment, p, n)
                     else {
@@ -756,6 +861,7 @@ impl<'a> Context<'a> {
                     let Some(point) = &shading.glossy[k] else {
                         continue;
                     };
+                    let (segment, k_light) = lights.of(self.rs, k);
                     let Some(light) = TwoTechniqueLight::prepare(&Ltc, point, segment) else {
                         continue;
                     };
@@ -836,6 +942,7 @@ fn shadow_ray_lane(p: Vec3, ng: Vec3, target: Vec3) -> (Ray, bool) {
 mod tests {
     use super::*;
     use crate::hooks::Hooks;
+    use crate::light_choice::LightSelection;
     use crate::method::Method;
     use crate::render::render_with;
     use crate::xml;
@@ -903,16 +1010,32 @@ mod tests {
                 specular_reflectance: [1.0; 3],
             });
         }
-        let visible_lines = [
+        // Two lights on a surface that is not Lambertian: `one` with lanes sampled with the
+        // scalar code (and LTC's and MIS's two numbers) choosing different lights.
+        let mut glossy_two = scene("two-tubes", 24);
+        assert_eq!(glossy_two.lights.len(), 2);
+        for shape in glossy_two.shapes.iter_mut().step_by(2) {
+            shape.bsdf = crate::scene::Bsdf::RoughConductor(linlight_brdf::RoughConductor {
+                alpha: 0.3,
+                fresnel: linlight_brdf::ConductorFresnel::One,
+                specular_reflectance: [1.0; 3],
+            });
+        }
+        let extra = [
             ("visible-tube".to_string(), tube),
             ("visible-tube, glossy sphere".to_string(), glossy_tube),
+            ("two-tubes, glossy".to_string(), glossy_two),
         ];
         let scenes = names
             .iter()
             .map(|name| (name.clone(), scene(name, 24)))
-            .chain(visible_lines);
+            .chain(extra);
+        let mut two_light_renders = 0;
         for (name, scene) in scenes {
-            for &technique in &methods {
+            for (technique, lights) in methods
+                .iter()
+                .flat_map(|&m| LightSelection::ALL.map(|l| (m, l)))
+            {
                 for (spp, passes) in [(5, 1), (16, 2)] {
                     let opts = RenderOptions {
                         spp,
@@ -920,6 +1043,7 @@ mod tests {
                         seed: 3,
                         method: technique,
                         light_samples: 1,
+                        lights,
                         noise: Default::default(),
                     };
                     let scalar = render_with(&scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
@@ -928,19 +1052,54 @@ mod tests {
                         let batched = render_isa(&scene, &opts, isa, &|_, _| {}).unwrap();
                         assert!(
                             bits(&batched) == bits(&scalar),
-                            "{name}, {technique}, {isa:?}, {spp} spp × {passes}"
+                            "{name}, {technique}, {lights}, {isa:?}, {spp} spp × {passes}"
                         );
                         assert_eq!(batched.meta, scalar.meta, "{name}, {technique}");
                     }
                     rendered += 1;
+                    if lights == LightSelection::One && scene.lights.len() == 2 {
+                        two_light_renders += 1;
+                    }
                 }
             }
         }
-        // Every scene and method, whether `render` takes the batched path or not; the glossy
-        // scenes (rough conductor, principled, blend, glossy and Lambertian shapes mixed) are
-        // among them.
+        // Every scene, method and light selection, whether `render` takes the batched path or
+        // not; the glossy scenes (rough conductor, principled, blend, glossy and Lambertian
+        // shapes mixed) are among them, and those with two lights (two-tubes as is and glossy at
+        // least) let the lanes choose different lights.
         assert!(names.iter().filter(|n| n.starts_with("glossy-")).count() >= 4);
-        assert_eq!(rendered, 2 * (names.len() + 2) * methods.len());
+        assert_eq!(rendered, 2 * 2 * (names.len() + 3) * methods.len());
+        assert!(
+            two_light_renders >= 2 * 2 * methods.len(),
+            "{two_light_renders}"
+        );
+    }
+
+    /// A scene with one light draws no choice number: `one` and `every` render the same pixels
+    /// bit for bit, on the scalar path (glossy scenes, several light samples, the two-technique
+    /// estimator) and the batched one; only the header's `light_selection` differs.
+    #[test]
+    fn one_light_scenes_render_the_same_image_under_both_selections() {
+        for (name, light_samples) in [("cornell-tube", 1), ("glossy-conductor-rough", 3)] {
+            let scene = scene(name, 16);
+            assert_eq!(scene.lights.len(), 1);
+            let opts = |lights| RenderOptions {
+                spp: 4,
+                seed: 7,
+                light_samples,
+                lights,
+                ..Default::default()
+            };
+            let one = opts(LightSelection::One);
+            let every = opts(LightSelection::Every);
+            let (a, b) = (
+                crate::render::render(&scene, &one, &|_, _| {}).unwrap(),
+                crate::render::render(&scene, &every, &|_, _| {}).unwrap(),
+            );
+            assert!(bits(&a) == bits(&b), "{name}");
+            assert_eq!(a.meta.extra["light_selection"], "one");
+            assert_eq!(b.meta.extra["light_selection"], "every");
+        }
     }
 
     /// Several light samples per camera sample and blue noise take the scalar path, and so do
@@ -953,6 +1112,7 @@ mod tests {
             seed: 0,
             method: Technique::Area.into(),
             light_samples: 1,
+            lights: LightSelection::One,
             noise: Default::default(),
         };
         let cornell = scene("cornell-tube", 8);

@@ -80,6 +80,7 @@ pub fn light(begin: Vec3, end: Vec3, k: Rgb) -> LinearLight {
         end,
         radius: 0.0,
         radiance_times_radius: k,
+        sampling_weight: 1.0,
         location: SourceLocation::default(),
     }
 }

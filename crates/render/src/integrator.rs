@@ -5,17 +5,27 @@
 //! where p is a technique's density per radius (dΩ_R), K = radiance × radius (the radius cancels
 //! between the tube's solid angle R·Ω_R and its radiance K/R), f the surface's full BSDF
 //! (`linlight_brdf::Bsdf::eval`, which includes the cosine) in the shading frame of the side
-//! facing the viewer, and w the weight of the render's [`Method`] (1 for single techniques; see
-//! [`crate::method`] and [`crate::shading`]). Every light is sampled `light_samples` times per
-//! camera sample and the mean taken (Mitsuba's `emitter_samples`, but Mitsuba picks one emitter
-//! per emitter sample while this integrator samples every light). Lambertian surfaces take the
-//! fast path f = ρ/π with one diffuse technique (the single technique, or projected solid angle
-//! for the two-technique methods).
+//! facing the viewer, and w the weight of the render's [`Method`](crate::method::Method) (1 for single techniques; see
+//! [`crate::method`] and [`crate::shading`]). Each camera sample takes `light_samples` light
+//! samples and their mean (Mitsuba's `emitter_samples`); what one light sample is depends on
+//! the [`LightSelection`] of the render ([`crate::light_choice`]):
+//! - `every` (default): every light, one after the other, each estimated with its own K.
+//! - `one` (Mitsuba's estimator): one light j, chosen with probability p_j from an extra number
+//!   ξ_c drawn first, estimated with K_j/p_j in place of K_j. A scene with one light draws no ξ_c
+//!   (p = 1).
+//!
+//! Numbers of a camera sample that reaches a reflecting surface, after its film position:
+//! `every`: light by light, each light's `light_samples` iterations ([`crate::shading`]: one
+//! number per iteration, two for the two-technique methods on non-Lambertian surfaces);
+//! `one`: per light sample ξ_c (scenes with two or more lights), then the chosen light's
+//! numbers of one iteration. Lambertian surfaces take the fast path f = ρ/π with one diffuse
+//! technique (the single technique, or projected solid angle for the two-technique methods).
 
 use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::hooks::{BsdfModel, LightSampling, Resolved, SpecularSampling};
-use crate::method::Method;
+use crate::light_choice::{LightChoice, LightSelection};
+use crate::render::RenderOptions;
 use crate::scene::{Bsdf, Rgb};
 use crate::shading::{estimate_resolved, single_technique, ShadingPoint};
 use crate::shapes::{Ray, SurfacePoint};
@@ -41,6 +51,8 @@ pub struct RenderScene {
     pub lambert: Vec<Option<Vec3>>,
     /// Segment and K = radiance × radius per light.
     pub lights: Vec<(Segment, Vec3)>,
+    /// The distribution of the light chosen per light sample under [`LightSelection::One`].
+    pub choice: LightChoice,
     /// The lights as the camera sees them (empty when the scene hides emitters).
     pub visible: VisibleLines,
     /// Light contributions dropped because they were not finite (reported by the renderer).
@@ -117,14 +129,76 @@ pub fn diffuse_lobe(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
     Some((n, bsdf.lambertian()?.as_vec3()))
 }
 
-/// One camera sample through film position (px, py) in pixels: direct lighting from every
-/// light by `method` with `light_samples` iterations each. Draws from `rng` (the camera
-/// sample's own stream, after the caller's pixel-position numbers) the numbers documented in
-/// [`crate::shading`], light by light (none for misses and black surfaces).
+impl RenderScene {
+    /// Whether light samples choose one light ([`LightSelection::One`] with two or more
+    /// lights); otherwise every light is sampled (with one light the two are the same).
+    #[inline]
+    pub fn chooses_one(&self, selection: LightSelection) -> bool {
+        selection == LightSelection::One && self.lights.len() > 1
+    }
+
+    /// Numbers a camera sample that reaches a reflecting surface draws for its lights, with
+    /// `numbers` per iteration of one light (1 on Lambertian surfaces).
+    pub fn light_numbers(
+        &self,
+        selection: LightSelection,
+        light_samples: u32,
+        numbers: usize,
+    ) -> usize {
+        let samples = light_samples as usize;
+        if self.chooses_one(selection) {
+            samples * (1 + numbers)
+        } else {
+            samples * self.lights.len() * numbers
+        }
+    }
+}
+
+/// The light chosen by ξ_c under [`LightSelection::One`]: its index, and its K/p.
+#[inline]
+pub fn chosen_light(lights: &[(Segment, Vec3)], choice: &LightChoice, xi: f32) -> (usize, Vec3) {
+    let (j, _) = choice.pick(xi);
+    (j, k_over_probability(lights, choice, j))
+}
+
+/// K_j/p_j of light j (the same operation on both render paths).
+#[inline(always)]
+pub fn k_over_probability(lights: &[(Segment, Vec3)], choice: &LightChoice, j: usize) -> Vec3 {
+    lights[j].1 * choice.inverse_probability(j)
+}
+
+/// Σ estimate(segment, K, iterations, rng) over the lights of the light samples: every light
+/// with `opts.light_samples` iterations, or ([`RenderScene::chooses_one`]) `opts.light_samples`
+/// times the light chosen by ξ_c, with K/p and one iteration.
+#[inline(always)]
+fn sum_over_light_samples(
+    scene: &RenderScene,
+    opts: &RenderOptions,
+    rng: &mut SampleStream,
+    mut estimate: impl FnMut(&Segment, Vec3, u32, &mut SampleStream) -> Vec3,
+) -> Vec3 {
+    let mut total = Vec3::ZERO;
+    if scene.chooses_one(opts.lights) {
+        for _ in 0..opts.light_samples {
+            let xi = rng.next_f32_unstratified();
+            let (j, k) = chosen_light(&scene.lights, &scene.choice, xi);
+            total += estimate(&scene.lights[j].0, k, 1, rng);
+        }
+    } else {
+        for (segment, k) in &scene.lights {
+            total += estimate(segment, *k, opts.light_samples, rng);
+        }
+    }
+    total
+}
+
+/// One camera sample along `ray`: direct lighting by `opts.method` with `opts.light_samples`
+/// light samples of the lights `opts.lights` selects (module documentation). Draws from `rng`
+/// (the camera sample's own stream, after the caller's pixel-position numbers) the numbers
+/// documented above and in [`crate::shading`] (none for misses and black surfaces).
 pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &RenderScene,
-    method: Method,
-    light_samples: u32,
+    opts: &RenderOptions,
     pieces: Resolved<T, S, B>,
     ray: &Ray,
     rng: &mut SampleStream,
@@ -141,43 +215,49 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         return [0.0; 3];
     };
     let mut dropped = 0u32;
-    let mut total = Vec3::ZERO;
+    let mut total;
     let mut visible = |w: Vec3, dist: f32| {
         shadow_ray_to(&sp, sp.p + dist * w).is_some_and(|shadow| !scene.bvh.occluded(&shadow))
     };
+    let light_samples = opts.light_samples;
+    let one = scene.chooses_one(opts.lights);
     match scene.lambert[shape] {
         Some(f) => {
             // K·(ρ/π)·cos θ/p(ω), p per radius (dΩ_R).
-            for (segment, k) in &scene.lights {
-                let contribution = |_: Vec3, cos: f32, pdf: f32| *k * f * (cos / pdf);
-                total += single_technique(
+            total = sum_over_light_samples(scene, opts, rng, |segment, k, samples, rng| {
+                single_technique(
                     pieces.technique.prepare(segment, sp.p, n).as_ref(),
                     n,
-                    light_samples,
+                    samples,
                     rng,
                     &mut visible,
-                    contribution,
+                    |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
                     &mut dropped,
-                );
-            }
+                )
+            });
             if light_samples > 1 {
                 total /= light_samples as f32;
             }
         }
         None => {
             let point = ShadingPoint::new(pieces.bsdf, bsdf, sp.p, n, wi);
-            for (segment, k) in &scene.lights {
-                total += estimate_resolved(
+            // `every`: each light's estimate is its iterations' mean; `one`: the mean of the
+            // light samples is taken here.
+            total = sum_over_light_samples(scene, opts, rng, |segment, k, samples, rng| {
+                estimate_resolved(
                     pieces,
-                    method,
+                    opts.method,
                     &point,
                     segment,
-                    *k,
-                    light_samples,
+                    k,
+                    samples,
                     rng,
                     &mut visible,
                     &mut dropped,
-                );
+                )
+            });
+            if one && light_samples > 1 {
+                total /= light_samples as f32;
             }
         }
     }

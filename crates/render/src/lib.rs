@@ -13,6 +13,7 @@ pub mod contacts;
 pub mod film;
 pub mod hooks;
 pub mod integrator;
+pub mod light_choice;
 pub mod line_quadrature;
 pub mod method;
 pub mod power_controls;
@@ -25,6 +26,7 @@ pub mod visible_line;
 pub mod xml;
 
 pub use hooks::{Hooks, LightSampling};
+pub use light_choice::LightSelection;
 pub use linlight_sampling::mis::Heuristic;
 pub use method::Method;
 pub use render::{record_inputs, render, render_with, RenderError, RenderOptions};

@@ -12,6 +12,7 @@ use crate::contacts::{contact_pixels, light_contacts};
 use crate::film::Welford;
 use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
 use crate::integrator::{radiance, RenderScene};
+use crate::light_choice::{LightChoice, LightSelection};
 use crate::method::Method;
 use crate::scene::{Bsdf, Geometry, Scene};
 use crate::shapes::{transformed_normal, Primitive};
@@ -40,13 +41,16 @@ pub struct RenderOptions {
     /// pairs of a diffuse and a specular sample; the light's estimate is their mean. The CLI's
     /// default is the scene's `emitter_samples` (see `linlight render --help`).
     pub light_samples: u32,
+    /// Which lights each light sample samples: every light (the default) or one chosen at
+    /// random (Mitsuba's estimator; [`crate::light_choice`]).
+    pub lights: LightSelection,
     /// Where the primary samples come from (white by default; see [`linlight_sampling::noise`]).
     pub noise: Noise,
 }
 
 impl Default for RenderOptions {
     /// 1 spp, 1 pass, seed 0, the default method (MIS, clamped optimal, v = 0.5), 1 light
-    /// sample, white noise.
+    /// sample of every light, white noise.
     fn default() -> Self {
         Self {
             spp: 1,
@@ -54,6 +58,7 @@ impl Default for RenderOptions {
             seed: 0,
             method: Method::default(),
             light_samples: 1,
+            lights: LightSelection::Every,
             noise: Noise::White,
         }
     }
@@ -229,6 +234,13 @@ impl RenderScene {
                     )
                 })
                 .collect(),
+            choice: LightChoice::new(
+                &scene
+                    .lights
+                    .iter()
+                    .map(|l| l.sampling_weight)
+                    .collect::<Vec<_>>(),
+            ),
         })
     }
 }
@@ -251,8 +263,8 @@ fn nested_two_sided(bsdf: &Bsdf) -> bool {
 /// White-noise stream of one camera sample: Philox of (seed; sample, full-film pixel index,
 /// pass). Every pixel, pass and sample has its own counter-based stream (no state shared between
 /// pixels, so neighbouring pixels' errors are independent); its numbers are the sample's
-/// dimensions: film position (2), then the lights' numbers (`crate::shading`), then those of
-/// the visible lines. The renderer draws them through [`NoiseSource::stream`], which returns
+/// dimensions: film position (2), then the lights' numbers (`crate::shading`, and the choice of
+/// a light per light sample of [`crate::light_choice`]), then those of the visible lines. The renderer draws them through [`NoiseSource::stream`], which returns
 /// exactly these numbers for [`Noise::White`].
 pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> CounterRng {
     CounterRng::camera_sample(seed, pass, pixel_index, sample)
@@ -338,6 +350,8 @@ pub(crate) fn metadata(
     }
     meta.extra
         .insert("light_samples".into(), opts.light_samples.to_string());
+    meta.extra
+        .insert("light_selection".into(), opts.lights.name().into());
     meta.extra.insert("seed".into(), opts.seed.to_string());
     meta.extra
         .insert("spp_per_pass".into(), opts.spp.to_string());
@@ -544,7 +558,7 @@ fn render_pixel_pass<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         let mut rng = noise.stream(fx, fy, index, pass, sample);
         let (u, v) = rng.film_position();
         let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
-        let l = radiance(rs, opts.method, opts.light_samples, pieces, &ray, &mut rng);
+        let l = radiance(rs, opts, pieces, &ray, &mut rng);
         let l = if seen.is_empty() {
             l
         } else {

@@ -131,5 +131,8 @@ pub struct LinearLight {
     pub radius: f32,
     /// K = radiance × radius, per channel.
     pub radiance_times_radius: Rgb,
+    /// The emitter's `sampling_weight` (positive; 1 by default): with one light per light
+    /// sample ([`crate::light_choice`]) light j is chosen with probability w_j/Σw.
+    pub sampling_weight: f32,
     pub location: SourceLocation,
 }

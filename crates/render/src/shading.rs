@@ -20,7 +20,11 @@
 //!
 //! Random numbers: per light, `samples` numbers (one technique, or diffuse only on a
 //! Lambertian surface) or 2·`samples` (the two-technique estimators on other surfaces: ξ₀, ξ₁
-//! per iteration), drawn whether or not the light contributes.
+//! per iteration), drawn whether or not the light contributes. The integrator calls these
+//! estimators once per light with `samples` = `light_samples` (`--lights every`), or once per
+//! light sample for the light it chose, with `samples` = 1 and K/p in place of K (`--lights
+//! one`; the choice's number ξ_c comes before the light's: [`crate::integrator`],
+//! [`crate::light_choice`]).
 
 use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
 use crate::method::Method;

@@ -287,6 +287,7 @@ mod tests {
             seed: 3,
             method: Technique::ProjectedSolidAngle.into(),
             light_samples: 1,
+            lights: Default::default(),
             noise: Default::default(),
         };
         let hidden = render(&sc, &opts, &|_, _| {}).unwrap();

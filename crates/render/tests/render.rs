@@ -5,7 +5,7 @@ use linlight_imagefile::Image;
 use linlight_render::build::{cuboid, diffuse, light, scene, sensor};
 use linlight_render::camera::Camera;
 use linlight_render::scene::{Bsdf, CropWindow, Scene};
-use linlight_render::{render, RenderOptions};
+use linlight_render::{render, LightSelection, RenderOptions};
 use linlight_sampling::{LineFrame, Segment, Technique};
 
 const RHO: [f32; 3] = [0.8, 0.5, 0.2];
@@ -39,6 +39,7 @@ fn opts(spp: u32, passes: u32, seed: u64, technique: Technique) -> RenderOptions
         seed,
         method: technique.into(),
         light_samples: 1,
+        lights: Default::default(),
         noise: Default::default(),
     }
 }
@@ -141,6 +142,67 @@ fn floor_matches_closed_form_with(technique: Technique) {
     for (m, _) in img.mean.iter().zip(&img.var) {
         let r = (RHO[1] * K[1]) / (RHO[0] * K[0]);
         assert!((m[1] - r * m[0]).abs() <= 1e-5 * m[0].max(1e-30));
+    }
+}
+
+/// One light per light sample (`LightSelection::One`) on a floor lit by two lights, chosen
+/// uniformly and by `sampling_weight` 3 : 1: every pixel agrees with the sum of both lights'
+/// closed forms (the test above: 256 pixels, |z| < 4.11, Σz² < 336, each configuration at
+/// α = 0.01). Power: the expectation of choosing 3 : 1 but dividing by the uniform ½
+/// (1.5·L₁ + 0.5·L₂) is rejected.
+#[test]
+fn one_light_per_sample_matches_the_closed_form_of_both_lights() {
+    let (a, b) = (
+        tilted(),
+        Segment::new(Vec3::new(0.8, -0.9, 0.5), Vec3::new(-0.4, 0.9, 0.7)),
+    );
+    for (weights, seed) in [([1.0, 1.0], 21), ([3.0, 1.0], 22)] {
+        let mut sc = floor_scene(16, a);
+        sc.lights.push(light(b.begin, b.end, K));
+        for (l, w) in sc.lights.iter_mut().zip(weights) {
+            l.sampling_weight = w;
+        }
+        let cam = Camera::new(&sc.sensor).unwrap();
+        let o = RenderOptions {
+            lights: LightSelection::One,
+            ..opts(4096, 1, seed, Technique::ProjectedSolidAngle)
+        };
+        let img = render(&sc, &o, &quiet).unwrap();
+        assert_finite(&img);
+        assert_eq!(img.meta.extra["light_selection"], "one");
+        let z = |wa: f64, wb: f64| -> Vec<f64> {
+            let mut z = Vec::new();
+            for py in 0..16u32 {
+                for px in 0..16u32 {
+                    let k = (py * 16 + px) as usize;
+                    let e = wa * expected_pixel(&cam, &a, px, py, 16)
+                        + wb * expected_pixel(&cam, &b, px, py, 16);
+                    z.push((img.mean[k][0] as f64 - e) / (img.var[k][0] as f64).sqrt());
+                }
+            }
+            z
+        };
+        let worst = |z: &[f64]| z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let right = z(1.0, 1.0);
+        let chi2: f64 = right.iter().map(|z| z * z).sum();
+        let wrong = z(1.5, 0.5);
+        eprintln!(
+            "two lights, weights {weights:?}: worst |z| {:.2}, sum z² {chi2:.1}, worst |z| of \
+             the wrong weights {:.1}",
+            worst(&right),
+            worst(&wrong)
+        );
+        assert!(
+            worst(&right) < 4.11,
+            "{weights:?}: worst |z| {}",
+            worst(&right)
+        );
+        assert!(chi2 < 336.0, "{weights:?}: sum z² = {chi2}");
+        assert!(
+            worst(&wrong) > 4.11,
+            "{weights:?}: no power: {}",
+            worst(&wrong)
+        );
     }
 }
 

@@ -585,7 +585,9 @@ impl<'a> Builder<'a> {
     }
 
     /// `radiance` of an `area` emitter (default 1, as in Mitsuba).
-    fn area_radiance(&mut self, e: &Elem) -> Result<DVec3, SceneError> {
+    /// An `area` emitter's radiance and `sampling_weight` (Mitsuba 3's emitter property: the
+    /// relative probability of choosing it per emitter sample; default 1).
+    fn area_emitter(&mut self, e: &Elem) -> Result<(DVec3, f32), SceneError> {
         let ty = plugin_type(e)?;
         if ty != "area" {
             return err(
@@ -595,8 +597,19 @@ impl<'a> Builder<'a> {
         }
         let p = self.props(e)?;
         let r = p.color("radiance")?.unwrap_or(DVec3::ONE);
+        let weight = p.float("sampling_weight")?.unwrap_or(1.0);
         p.finish()?;
-        Ok(r)
+        if !(weight > 0.0 && weight as f32 > 0.0 && (weight as f32).is_finite()) {
+            return err(
+                &e.loc,
+                format!(
+                    "sampling_weight must be positive and finite in single precision (got \
+                     {weight}): with one light per light sample every light must be chosen \
+                     with positive probability"
+                ),
+            );
+        }
+        Ok((r, weight as f32))
     }
 
     fn shape(&mut self, e: &Elem) -> Result<Built, SceneError> {
@@ -740,7 +753,7 @@ impl<'a> Builder<'a> {
                     return err(&loc, "cylinder p0 and p1 coincide in single precision");
                 }
                 if let Some(em) = &emitter {
-                    let radiance = self.area_radiance(em)?;
+                    let (radiance, sampling_weight) = self.area_emitter(em)?;
                     if flip_normals {
                         return err(
                             &loc,
@@ -762,6 +775,7 @@ impl<'a> Builder<'a> {
                         end,
                         radius,
                         radiance_times_radius: rgb_of(k, &em.loc, "radiance × radius")?,
+                        sampling_weight,
                         location: loc,
                     }));
                 }

@@ -450,6 +450,13 @@ fn linear_light() {
         .iter()
         .all(|k| (k - 0.005).abs() < 1e-8));
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert_eq!(
+        s.lights
+            .iter()
+            .map(|l| l.sampling_weight)
+            .collect::<Vec<_>>(),
+        [1.0; 2]
+    );
 
     // A fat cylinder is reported.
     let s = load(
@@ -463,6 +470,28 @@ fn linear_light() {
         "{:?}",
         s.warnings
     );
+}
+
+/// Mitsuba's emitter `sampling_weight` is read; a weight that would never choose its light is
+/// an error at the emitter.
+#[test]
+fn emitter_sampling_weight() {
+    let tube = |w: &str| {
+        format!(
+            r#"<shape type="cylinder"><float name="radius" value="1e-4"/>
+<emitter type="area"><float name="sampling_weight" value="{w}"/></emitter></shape>"#
+        )
+    };
+    let s = load("weight", &tube("2.5"));
+    assert_eq!(s.lights[0].sampling_weight, 2.5);
+    for bad in ["0", "-1", "1e40"] {
+        expect_error(
+            "e_weight",
+            &wrap(&tube(bad)),
+            "5:1",
+            "sampling_weight must be positive and finite",
+        );
+    }
 }
 
 fn obj_scene(d: &std::path::Path, body: &str) -> Scene {

@@ -278,6 +278,17 @@ impl SampleStream<'_> {
         }
     }
 
+    /// The next dimension, uniform in [0, 1) and never stratified across the samples of a
+    /// pass (white, or plain blue noise): for a discrete choice whose outcome's own numbers are
+    /// stratified (one light per light sample), which jittering both would bias.
+    #[inline]
+    pub fn next_f32_unstratified(&mut self) -> f32 {
+        match (self.source.noise, self.source.table) {
+            (Noise::White, _) | (_, None) => self.white.next_f32(),
+            (_, Some(table)) => self.blue(table, false),
+        }
+    }
+
     /// A white number in [0, 1) with 53 bits, for auxiliary choices that are not stratified
     /// (the estimate of a line the camera sees).
     #[inline]
