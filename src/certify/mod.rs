@@ -48,12 +48,12 @@ use budget::{Budget, BudgetRule, Precision};
 use sampler_suite::SuiteSummary;
 use scenes::ReferencedScene;
 
-/// A render with other primary samples (blue noise) or another light selection (one light per
-/// light sample) than the technique matrix's white-noise, every-light renders, certified besides
-/// them, so that the noise's unbiasedness across passes and the light choice's are part of the
-/// main job.
+/// A variant render: other primary samples (blue noise) or another light selection (one light
+/// per light sample) than the technique matrix's white-noise, every-light renders, certified
+/// besides them, so that the noise's unbiasedness across passes and the light choice's are part
+/// of the main job.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct NoiseRender {
+pub struct VariantRender {
     pub scene: &'static str,
     pub technique: Technique,
     pub noise: Noise,
@@ -62,14 +62,14 @@ pub struct NoiseRender {
 
 /// At least one blue-noise render per scene family: the occluded diffuse box with the paper's
 /// jittered blue noise, the diffuse floor with a horizon-crossing light with plain blue noise.
-pub const NOISE_RENDERS: [NoiseRender; 2] = [
-    NoiseRender {
+pub const NOISE_RENDERS: [VariantRender; 2] = [
+    VariantRender {
         scene: "cornell-tube",
         technique: Technique::ProjectedSolidAngle,
         noise: Noise::BlueJittered,
         lights: LightSelection::Every,
     },
-    NoiseRender {
+    VariantRender {
         scene: "floor-crossing",
         technique: Technique::ProjectedSolidAngle,
         noise: Noise::Blue,
@@ -82,14 +82,14 @@ pub const NOISE_RENDERS: [NoiseRender; 2] = [
 /// packet) and the glossy scene (full BSDF, evaluated lane by lane in the packets), both on the
 /// batched path with one light sample and on the scalar path where the budget gives several
 /// (several chosen lights per camera sample). White noise, one pass, like the matrix's renders.
-pub const LIGHT_SELECTION_RENDERS: [NoiseRender; 2] = [
-    NoiseRender {
+pub const LIGHT_SELECTION_RENDERS: [VariantRender; 2] = [
+    VariantRender {
         scene: "two-tubes",
         technique: Technique::ProjectedSolidAngle,
         noise: Noise::White,
         lights: LightSelection::One,
     },
-    NoiseRender {
+    VariantRender {
         scene: "glossy-principled",
         technique: Technique::ProjectedSolidAngle,
         noise: Noise::White,
@@ -101,7 +101,7 @@ pub const LIGHT_SELECTION_RENDERS: [NoiseRender; 2] = [
 /// of one jittered pass are stratified, not independent).
 pub const NOISE_PASSES: u32 = 16;
 
-impl Subject for NoiseRender {
+impl Subject for VariantRender {
     fn name(&self) -> String {
         if self.noise == Noise::White {
             format!(
@@ -287,7 +287,7 @@ pub struct Options {
     pub shard: Option<shard::Shard>,
     /// The renders of [`NOISE_RENDERS`] and [`LIGHT_SELECTION_RENDERS`] whose scene is
     /// selected (and whose technique the command line selected).
-    pub noise_renders: Vec<NoiseRender>,
+    pub variant_renders: Vec<VariantRender>,
 }
 
 impl Options {
@@ -308,7 +308,7 @@ impl Options {
             closed_form_subsamples: 16,
             quadrature_subsamples: 8,
             shard: None,
-            noise_renders: NOISE_RENDERS
+            variant_renders: NOISE_RENDERS
                 .into_iter()
                 .chain(LIGHT_SELECTION_RENDERS)
                 .collect(),
@@ -604,7 +604,7 @@ fn run_plan(
             };
             own.into_iter()
                 .chain(
-                    opts.noise_renders
+                    opts.variant_renders
                         .iter()
                         .filter(|r| r.scene == s.name)
                         .map(|r| r as &dyn Subject),

@@ -110,7 +110,7 @@ pub fn run(args: Args) -> ExitCode {
     opts.scenes = args.scenes.clone();
     // The blue-noise and light-selection renders of the selected techniques (all by default).
     if !methods.is_empty() {
-        opts.noise_renders
+        opts.variant_renders
             .retain(|r| methods.contains(&Method::Technique(r.technique)));
     }
     opts.oracle = match args.oracle {

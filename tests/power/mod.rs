@@ -21,7 +21,7 @@ pub fn options(scenes: &str) -> Options {
     o.scenes = scenes.into();
     o.oracle = Oracle::Committed;
     o.sampler_suite = false;
-    o.noise_renders.clear();
+    o.variant_renders.clear();
     o
 }
 
