@@ -64,11 +64,13 @@ pub struct BudgetRule {
     pub granularity: u32,
     pub target: Target,
     /// Most light samples per light and camera sample ([`Self::light_samples`]); 1: always one.
-    #[serde(default = "one")]
+    #[serde(default = "one_light_sample")]
     pub max_light_samples: u32,
 }
 
-fn one() -> u32 {
+/// What reports written before light samples were chosen used: one (serde's default of
+/// `BudgetRule::max_light_samples` and of a row's `light_samples`).
+pub(crate) fn one_light_sample() -> u32 {
     1
 }
 

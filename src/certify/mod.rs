@@ -120,37 +120,33 @@ impl Subject for VariantRender {
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
+        render(scene, &self.options(opts), progress)
+    }
+    /// White-noise renders of a batch technique with one light sample take the packets (the
+    /// one-light renders: lanes choosing different lights in one packet).
+    fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
+        linlight_render::batched::applies(scene, &self.options(opts))
+    }
+}
+
+impl VariantRender {
+    /// The options of its render from certify's: its technique, noise and light selection;
+    /// with blue noise the same total samples split over [`NOISE_PASSES`] passes.
+    fn options(&self, opts: &RenderOptions) -> RenderOptions {
         let total = opts.spp as u64 * opts.passes as u64;
         let passes = if self.noise == Noise::White {
             opts.passes
         } else {
             NOISE_PASSES
         };
-        render(
-            scene,
-            &RenderOptions {
-                method: self.technique.into(),
-                noise: self.noise,
-                lights: self.lights,
-                passes,
-                spp: total.div_ceil(passes as u64).clamp(1, u32::MAX as u64) as u32,
-                ..*opts
-            },
-            progress,
-        )
-    }
-    /// White-noise renders of a batch technique with one light sample take the packets (the
-    /// one-light renders: lanes choosing different lights in one packet).
-    fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
-        linlight_render::batched::applies(
-            scene,
-            &RenderOptions {
-                method: self.technique.into(),
-                noise: self.noise,
-                lights: self.lights,
-                ..*opts
-            },
-        )
+        RenderOptions {
+            method: self.technique.into(),
+            noise: self.noise,
+            lights: self.lights,
+            passes,
+            spp: total.div_ceil(passes as u64).clamp(1, u32::MAX as u64) as u32,
+            ..*opts
+        }
     }
 }
 
@@ -227,6 +223,11 @@ pub(crate) fn overall_verdict(suite: Option<&SuiteSummary>, scenes: &[SceneRepor
 
 /// A method (single technique, LTC, MIS with a heuristic) as a subject, named as in reports
 /// (`mis:clamped-optimal=0.5`).
+/// `opts` rendered with `method` (the method field is the subject's business).
+fn with_method(method: Method, opts: &RenderOptions) -> RenderOptions {
+    RenderOptions { method, ..*opts }
+}
+
 impl Subject for Method {
     fn name(&self) -> String {
         Method::name(*self)
@@ -237,23 +238,10 @@ impl Subject for Method {
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        render(
-            scene,
-            &RenderOptions {
-                method: *self,
-                ..*opts
-            },
-            progress,
-        )
+        render(scene, &with_method(*self, opts), progress)
     }
     fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
-        linlight_render::batched::applies(
-            scene,
-            &RenderOptions {
-                method: *self,
-                ..*opts
-            },
-        )
+        linlight_render::batched::applies(scene, &with_method(*self, opts))
     }
 }
 
@@ -359,7 +347,7 @@ pub struct Row {
     pub verdict: Verdict,
     pub budget: Budget,
     /// Light samples per light and camera sample of the render ([`BudgetRule::light_samples`]).
-    #[serde(default = "one_light_sample")]
+    #[serde(default = "budget::one_light_sample")]
     pub light_samples: u32,
     pub seed: u64,
     pub pilot_seconds: f64,
@@ -374,10 +362,6 @@ pub struct Row {
     /// Files written for this row, relative to the report directory.
     pub files: Vec<String>,
     pub comparison: Comparison,
-}
-
-fn one_light_sample() -> u32 {
-    1
 }
 
 impl Row {
