@@ -79,11 +79,16 @@ const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet")
 /// [`render_isa`] renders any scene, method and light selection with one light sample and
 /// white noise.
 pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
-    let batch_kernel = matches!(
-        opts.method,
-        Method::Technique(Technique::ProjectedSolidAngle | Technique::Li2018)
-    );
+    let batch_kernel = matches!(opts.method, Method::Technique(t) if has_batch_kernel(t));
     renders(opts) && (batch_kernel || scene.shapes.iter().any(|s| s.bsdf.lambertian().is_some()))
+}
+
+/// The techniques with an 8-wide kernel in `linlight_sampling::batch`.
+fn has_batch_kernel(technique: Technique) -> bool {
+    matches!(
+        technique,
+        Technique::ProjectedSolidAngle | Technique::Li2018
+    )
 }
 
 /// Whether the batched renderer can render with `opts` at all: one light sample per camera
@@ -131,10 +136,7 @@ pub fn render_isa(
         isa: if isa.supported() { isa } else { Isa::Baseline },
         full_width: scene.sensor.film.width,
         technique,
-        batch: matches!(
-            technique,
-            Technique::ProjectedSolidAngle | Technique::Li2018
-        ),
+        batch: has_batch_kernel(technique),
         combination,
         per_light: if combination.is_some() && rs.lambert.iter().any(Option::is_none) {
             2
@@ -985,15 +987,7 @@ mod tests {
             .into_iter()
             .map(Method::from)
             .chain([Method::Ltc])
-            .chain(
-                [
-                    Heuristic::Balance,
-                    Heuristic::Power,
-                    Heuristic::Weighted,
-                    Heuristic::ClampedOptimal(0.5),
-                ]
-                .map(Method::Mis),
-            )
+            .chain(Heuristic::ALL.map(Method::Mis))
             .collect();
         let mut rendered = 0;
         // The committed scenes hide the lights from the camera: also tests/scenes/visible-tube
