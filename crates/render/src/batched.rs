@@ -277,9 +277,7 @@ impl<'a> Context<'a> {
             }
             let mut radiance = run_packet(self.isa, self, &packet, pass);
             self.visible_lines(&packet, seen, pass, &mut radiance);
-            for k in 0..len {
-                acc[packet.pixel[k]].push(get3(&radiance.total, k).to_array().map(|c| c as f64));
-            }
+            accumulate(self.isa, acc, &packet, &radiance.total);
             start += len;
         }
     }
@@ -342,6 +340,26 @@ struct Radiance {
 
 linlight_sampling::isa_variants! {
     fn run_packet(ctx: &Context, packet: &Packet, pass: u32) -> Radiance = packet_kernel;
+    fn accumulate(acc: &mut [Welford], packet: &Packet, total: &Lanes3) -> () = accumulate_kernel;
+}
+
+/// Pushes the lanes' radiance into their pixels' accumulators in lane order (the scalar
+/// path's order, so the same bits). A packet's lanes of one pixel are consecutive: each run
+/// of them is pushed into a copy held in registers and stored once, instead of a load and a
+/// store of the accumulator per sample (a store-to-load round trip in the serial chain of
+/// the running mean). Inlined into one function per instruction set.
+#[inline(always)]
+fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
+    let mut k = 0;
+    while k < packet.len {
+        let pixel = packet.pixel[k];
+        let mut w = acc[pixel];
+        while k < packet.len && packet.pixel[k] == pixel {
+            w.push(get3(total, k).to_array().map(|c| c as f64));
+            k += 1;
+        }
+        acc[pixel] = w;
+    }
 }
 
 /// Radiance of the camera samples of `packet` (see the module documentation), every stage
@@ -353,21 +371,26 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let active = ((1u64 << packet.len) - 1) as u32;
     // Film position (2 numbers) and the lights' numbers (one or two per light, or the choice
     // ξ_c and the chosen light's one or two), from the lanes' own streams.
-    let mut words = [[[0u32; LANES]; 4]; MAX_BLOCKS];
+    // Only the blocks the packet uses are computed, and only they are read (`number`); the
+    // others stay uninitialised rather than zeroed per packet (a 1 KiB memset).
+    let mut words = [std::mem::MaybeUninit::<[[u32; LANES]; 4]>::uninit(); MAX_BLOCKS];
     let one = rs.chooses_one(ctx.opts.lights);
     let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, ctx.per_light)).div_ceil(4);
-    for (b, w) in words.iter_mut().enumerate().take(blocks.min(MAX_BLOCKS)) {
-        *w = CounterRng::camera_sample_block(
+    let kept = blocks.min(MAX_BLOCKS);
+    for (b, w) in words.iter_mut().enumerate().take(kept) {
+        w.write(CounterRng::camera_sample_block(
             ctx.opts.seed,
             pass,
             &packet.index,
             &packet.sample,
             b as u32,
-        );
+        ));
     }
     let number = |dim: usize| -> [f32; LANES] {
-        if dim / 4 < MAX_BLOCKS {
-            words[dim / 4][dim % 4].map(unit_f32)
+        if dim / 4 < kept {
+            // SAFETY: blocks below `kept` were written above.
+            let block = unsafe { words[dim / 4].assume_init_ref() };
+            block[dim % 4].map(unit_f32)
         } else {
             // More lights than the blocks kept: this dimension lane by lane.
             std::array::from_fn(|k| {
