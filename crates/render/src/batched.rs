@@ -252,31 +252,23 @@ impl<'a> Context<'a> {
     ) {
         let spp = self.opts.spp as usize;
         let total = pixels.len() * spp;
+        // Most tiles see no line: then no lane has visible lines to add.
+        let lines = seen.iter().any(|l| !l.is_empty());
         let mut start = 0;
         let mut packet = Packet::default();
         while start < total {
             let len = LANES.min(total - start);
-            packet.len = len;
-            // Sample j = start + k is sample j % spp of pixel j / spp: one division per
-            // packet, then counting.
-            let (mut pixel, mut sample) = (start / spp, (start % spp) as u32);
-            for k in 0..LANES {
-                if k > 0 && k < len {
-                    sample += 1;
-                    if sample as usize == spp {
-                        (pixel, sample) = (pixel + 1, 0);
-                    }
-                }
-                let (fx, fy) = pixels[pixel];
-                packet.pixel[k] = pixel;
-                packet.fx[k] = fx;
-                packet.fy[k] = fy;
-                // < 2^32: checked by `window`.
-                packet.index[k] = fy.wrapping_mul(self.full_width).wrapping_add(fx);
-                packet.sample[k] = sample;
-            }
+            fill_packet(
+                self.isa,
+                &mut packet,
+                pixels,
+                (spp, self.full_width),
+                (start, len),
+            );
             let mut radiance = run_packet(self.isa, self, &packet, pass);
-            self.visible_lines(&packet, seen, pass, &mut radiance);
+            if lines {
+                self.visible_lines(&packet, seen, pass, &mut radiance);
+            }
             accumulate(self.isa, acc, &packet, &radiance.total);
             start += len;
         }
@@ -329,6 +321,57 @@ struct Packet {
     sample: [u32; LANES],
 }
 
+impl Packet {
+    /// Camera samples `start` … `start + len − 1` of a tile pass over `pixels` at `spp`
+    /// samples per pixel (sample j is sample j % spp of pixel j / spp); lanes ≥ `len` repeat
+    /// the last one.
+    #[inline(always)]
+    fn fill(
+        &mut self,
+        pixels: &[(u32, u32)],
+        spp: usize,
+        full_width: u32,
+        start: usize,
+        len: usize,
+    ) {
+        self.len = len;
+        let (pixel, sample) = (start / spp, start % spp);
+        // < 2^32: checked by `window`.
+        let index = |(fx, fy): (u32, u32)| fy.wrapping_mul(full_width).wrapping_add(fx);
+        if spp >= LANES {
+            // At most one step to the next pixel inside the packet: every lane at once.
+            let (a, b) = (pixels[pixel], pixels[(pixel + 1).min(pixels.len() - 1)]);
+            let (ia, ib) = (index(a), index(b));
+            for k in 0..LANES {
+                let s = (sample + k.min(len - 1)) as u32;
+                let next = s >= spp as u32;
+                self.sample[k] = if next { s - spp as u32 } else { s };
+                self.pixel[k] = pixel + next as usize;
+                self.fx[k] = if next { b.0 } else { a.0 };
+                self.fy[k] = if next { b.1 } else { a.1 };
+                self.index[k] = if next { ib } else { ia };
+            }
+            return;
+        }
+        // Counting, one lane after the other.
+        let (mut pixel, mut sample) = (pixel, sample as u32);
+        for k in 0..LANES {
+            if k > 0 && k < len {
+                sample += 1;
+                if sample as usize == spp {
+                    (pixel, sample) = (pixel + 1, 0);
+                }
+            }
+            let (fx, fy) = pixels[pixel];
+            self.pixel[k] = pixel;
+            self.fx[k] = fx;
+            self.fy[k] = fy;
+            self.index[k] = index((fx, fy));
+            self.sample[k] = sample;
+        }
+    }
+}
+
 /// Radiance of each lane of a packet, the lanes whose camera ray reached a reflecting
 /// surface (they used one number per light), and among them those that used two (LTC and MIS
 /// on non-Lambertian surfaces).
@@ -341,6 +384,23 @@ struct Radiance {
 linlight_sampling::isa_variants! {
     fn run_packet(ctx: &Context, packet: &Packet, pass: u32) -> Radiance = packet_kernel;
     fn accumulate(acc: &mut [Welford], packet: &Packet, total: &Lanes3) -> () = accumulate_kernel;
+    fn fill_packet(
+        packet: &mut Packet,
+        pixels: &[(u32, u32)],
+        spp_width: (usize, u32),
+        start_len: (usize, usize)
+    ) -> () = fill_kernel;
+}
+
+/// [`Packet::fill`], inlined into one function per instruction set.
+#[inline(always)]
+fn fill_kernel(
+    packet: &mut Packet,
+    pixels: &[(u32, u32)],
+    (spp, full_width): (usize, u32),
+    (start, len): (usize, usize),
+) {
+    packet.fill(pixels, spp, full_width, start, len);
 }
 
 /// Pushes the lanes' radiance into their pixels' accumulators in lane order (the scalar
