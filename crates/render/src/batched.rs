@@ -64,6 +64,7 @@ use linlight_imagefile::Image;
 use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
+use std::mem::MaybeUninit;
 
 /// Camera samples rendered together: one ray packet.
 pub const LANES: usize = PACKET;
@@ -652,11 +653,14 @@ fn glossy_contributions(
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
-/// (`normals`: lanes that have them), the sign of `flip_normals`.
+/// (`normals`: lanes that have them), the sign of `flip_normals`. The vertex and normal
+/// arrays are written lane by lane as hits come (`set`) and only then completed with zeros in
+/// the lanes left out ([`Triangles::surface_points`]) rather than zeroed whole per packet
+/// first; the normals not at all when no lane has them (they are not read then).
 struct Triangles {
     mask: u32,
-    v: [Lanes3; 3],
-    n: [Lanes3; 3],
+    v: MaybeUninit<[Lanes3; 3]>,
+    n: MaybeUninit<[Lanes3; 3]>,
     normals: u32,
     sign: [f32; LANES],
 }
@@ -665,10 +669,25 @@ impl Default for Triangles {
     fn default() -> Self {
         Self {
             mask: 0,
-            v: [[[0.0; LANES]; 3]; 3],
-            n: [[[0.0; LANES]; 3]; 3],
+            v: MaybeUninit::uninit(),
+            n: MaybeUninit::uninit(),
             normals: 0,
             sign: [1.0; LANES],
+        }
+    }
+}
+
+/// Writes the three vectors `v` into lane k of `lanes`.
+#[inline(always)]
+fn write_lane(lanes: &mut MaybeUninit<[Lanes3; 3]>, k: usize, v: &[Vec3; 3]) {
+    let lanes = lanes.as_mut_ptr();
+    for (j, vj) in v.iter().enumerate() {
+        // SAFETY: `lanes` points to a live array and the indices are in bounds (k < LANES,
+        // checked); f32 has no destructor, so an uninitialised element may be written over.
+        unsafe {
+            (*lanes)[j][0][k] = vj.x;
+            (*lanes)[j][1][k] = vj.y;
+            (*lanes)[j][2][k] = vj.z;
         }
     }
 }
@@ -677,14 +696,10 @@ impl Triangles {
     #[inline(always)]
     fn set(&mut self, k: usize, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
         self.mask |= 1 << k;
-        for (lanes, &vj) in self.v.iter_mut().zip(v) {
-            set3(lanes, k, vj);
-        }
+        write_lane(&mut self.v, k, v);
         if let Some(n) = n {
             self.normals |= 1 << k;
-            for (lanes, &nj) in self.n.iter_mut().zip(n) {
-                set3(lanes, k, nj);
-            }
+            write_lane(&mut self.n, k, n);
         }
         self.sign[k] = if flip { -1.0 } else { 1.0 };
     }
@@ -693,19 +708,65 @@ impl Triangles {
     /// the same bits), in one loop over all lanes that the compiler vectorises; other lanes
     /// are left as they are.
     #[inline(always)]
-    fn surface_points(&self, hits: &PacketHits, p: &mut Lanes3, ng: &mut Lanes3, ns: &mut Lanes3) {
+    fn surface_points(
+        &mut self,
+        hits: &PacketHits,
+        p: &mut Lanes3,
+        ng: &mut Lanes3,
+        ns: &mut Lanes3,
+    ) {
+        let full = ((1u64 << LANES) - 1) as u32;
+        let mut m = full & !self.mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            write_lane(&mut self.v, k, &[Vec3::ZERO; 3]);
+        }
+        // SAFETY: every lane was written, by `set` or just above.
+        let v = unsafe { self.v.assume_init_ref() };
+        if self.normals == 0 {
+            // Zero normals, as the lanes without them: the shading normal is the geometric.
+            self.lanes(v, None, hits, p, ng, ns);
+            return;
+        }
+        let mut m = full & !self.normals;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            write_lane(&mut self.n, k, &[Vec3::ZERO; 3]);
+        }
+        // SAFETY: as above.
+        let n = unsafe { self.n.assume_init_ref() };
+        self.lanes(v, Some(n), hits, p, ng, ns);
+    }
+
+    #[inline(always)]
+    fn lanes(
+        &self,
+        v: &[Lanes3; 3],
+        n: Option<&[Lanes3; 3]>,
+        hits: &PacketHits,
+        p: &mut Lanes3,
+        ng: &mut Lanes3,
+        ns: &mut Lanes3,
+    ) {
         for k in 0..LANES {
             let (b1, b2) = (hits.b1[k], hits.b2[k]);
             let b0 = 1.0 - b1 - b2;
-            let [v0, v1, v2] = self.v.each_ref().map(|v| get3(v, k));
-            let [n0, n1, n2] = self.n.each_ref().map(|n| get3(n, k));
+            let [v0, v1, v2] = v.each_ref().map(|v| get3(v, k));
             let pk = b0 * v0 + b1 * v1 + b2 * v2;
             let ngk = (v1 - v0).cross(v2 - v0).normalize_or_zero();
-            let nsk = (b0 * n0 + b1 * n1 + b2 * n2).normalize_or_zero();
-            let nsk = if (self.normals >> k & 1 == 1) & (nsk != Vec3::ZERO) {
-                nsk
-            } else {
-                ngk
+            let nsk = match n {
+                Some(n) => {
+                    let [n0, n1, n2] = n.each_ref().map(|n| get3(n, k));
+                    let nsk = (b0 * n0 + b1 * n1 + b2 * n2).normalize_or_zero();
+                    if (self.normals >> k & 1 == 1) & (nsk != Vec3::ZERO) {
+                        nsk
+                    } else {
+                        ngk
+                    }
+                }
+                None => ngk,
             };
             if self.mask >> k & 1 == 1 {
                 let sign = self.sign[k];
