@@ -383,7 +383,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let mut rays = RayLanes::default();
     rs.camera.ray_lanes(&px, &py, &mut rays);
     let hits = rs.bvh.intersect_lanes(&rays, active);
-    let shading = shading_points(rs, &rays, &hits);
+    let shading = shading_points(rs, ctx.opts.method, &rays, &hits);
     // Lanes sampled by a batch kernel, lanes sampled with the scalar code lane by lane (a
     // technique without a batch kernel; LTC and MIS on non-Lambertian surfaces).
     let (batch_lanes, scalar_lanes, two_per_light) = match (ctx.combination, ctx.batch) {
@@ -456,7 +456,12 @@ const MAX_BLOCKS: usize = 4;
 /// scalar integrator's `surface_point` and `reflecting_normal`, lane by lane (every surface
 /// is Lambertian: [`applies`]).
 #[inline(always)]
-fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -> ShadingLanes<'a> {
+fn shading_points<'a>(
+    rs: &'a RenderScene,
+    method: Method,
+    rays: &RayLanes,
+    hits: &PacketHits,
+) -> ShadingLanes<'a> {
     let mut out = ShadingLanes {
         active: 0,
         p: [[0.0; LANES]; 3],
@@ -517,7 +522,7 @@ fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -
             None => {
                 // The scalar integrator's shading point (its n() is `n`, bit for bit).
                 out.glossy_mask |= 1 << k;
-                out.glossy[k] = Some(glossy_point(bsdf, pk, n, wi));
+                out.glossy[k] = Some(glossy_point(method, bsdf, pk, n, wi));
             }
         }
     }
@@ -526,8 +531,8 @@ fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -
 
 /// The scalar integrator's shading point; not inlined, as [`Context::scalar_samples`].
 #[inline(never)]
-fn glossy_point(bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> ShadingPoint<'_> {
-    ShadingPoint::new(&SceneBsdf, bsdf, p, n, wi)
+fn glossy_point(method: Method, bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> ShadingPoint<'_> {
+    ShadingPoint::for_method(&SceneBsdf, method, bsdf, p, n, wi)
 }
 
 /// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for their light

@@ -63,13 +63,47 @@ pub struct ShadingPoint<'a> {
     pub lobes: Lobes,
     /// A (shading → cosine space) and ρ_s of the specular lobe from the GGX LTC table.
     pub ltc: Option<(Mat3, f32)>,
+    /// Whether `lobes` and `ltc` were computed ([`ShadingPoint::for_method`] leaves them out
+    /// for single techniques, which only evaluate the BSDF).
+    summarised: bool,
 }
 
 impl<'a> ShadingPoint<'a> {
     /// `n`: unit normal of the reflecting side, `wi`: unit direction toward the viewer.
     pub fn new<B: BsdfModel>(model: &B, bsdf: &'a Bsdf, x: Vec3, n: Vec3, wi: Vec3) -> Self {
+        Self::with_summary(model, bsdf, x, n, wi, true)
+    }
+
+    /// The shading point `method` needs: [`ShadingPoint::new`] for the two-technique methods,
+    /// without the lobe summary and LTC look-up for single techniques (which only call
+    /// [`ShadingPoint::eval`]; a third of a glossy sample's work went into them).
+    #[inline]
+    pub fn for_method<B: BsdfModel>(
+        model: &B,
+        method: Method,
+        bsdf: &'a Bsdf,
+        x: Vec3,
+        n: Vec3,
+        wi: Vec3,
+    ) -> Self {
+        Self::with_summary(model, bsdf, x, n, wi, Combination::of(method).is_some())
+    }
+
+    #[inline]
+    fn with_summary<B: BsdfModel>(
+        model: &B,
+        bsdf: &'a Bsdf,
+        x: Vec3,
+        n: Vec3,
+        wi: Vec3,
+        summarised: bool,
+    ) -> Self {
         let (frame, v) = shading_frame(n, wi);
-        let lobes = model.lobes(bsdf, v);
+        let lobes = if summarised {
+            model.lobes(bsdf, v)
+        } else {
+            Lobes::BLACK
+        };
         let ltc = lobes
             .specular
             .map(|s| GgxLtcTable::ggx().lookup(s.alpha as f32, v.z as f32));
@@ -80,6 +114,7 @@ impl<'a> ShadingPoint<'a> {
             bsdf,
             lobes,
             ltc,
+            summarised,
         }
     }
 
@@ -264,6 +299,7 @@ impl<S: SpecularSampler> TwoTechniqueLight<S> {
         sp: &ShadingPoint,
         segment: &Segment,
     ) -> Option<Self> {
+        debug_assert!(sp.summarised, "a shading point without its lobe summary");
         let diffuse = ProjectedSolidAngle::prepare(segment, sp.x, sp.n())?;
         let k_s = sp
             .lobes
