@@ -5,7 +5,9 @@
 
 /// Reflectance of a conductor with complex relative index of refraction η + i·k (Moeller's
 /// formula as in Mitsuba's `fresnel_conductor`). η = 0, k = 1 — Mitsuba's values for
-/// `material="none"` — gives exactly 1 in exact arithmetic.
+/// `material="none"` — gives exactly 1 in exact arithmetic. Branch-free (vectorises in
+/// [`crate::Bsdf::eval_lanes`]).
+#[inline(always)]
 pub fn conductor(cos_theta_i: f64, eta: f64, k: f64) -> f64 {
     let cos2 = cos_theta_i * cos_theta_i;
     let sin2 = 1.0 - cos2;
@@ -77,7 +79,7 @@ pub fn schlick_r0(eta: f64) -> f64 {
     r * r
 }
 
-#[inline]
+#[inline(always)]
 fn safe_sqrt(x: f64) -> f64 {
     x.max(0.0).sqrt()
 }

@@ -54,12 +54,13 @@ use crate::render::{
 };
 use crate::scene::{Bsdf, Scene};
 use crate::shading::{
-    lambert_technique, single_contribution, single_sample, Combination, ShadingPoint,
+    contribution, lambert_technique, single_contribution, single_sample, Combination, ShadingPoint,
     TwoTechniqueLight,
 };
 use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
+use linlight_brdf::lanes as brdf_lanes;
 use linlight_imagefile::Image;
 use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
@@ -537,9 +538,11 @@ fn glossy_point(method: Method, bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> Shad
 
 /// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for their light
 /// (lane k's K = `k_light[·][k]`) to `total`: the scalar single-technique contribution
-/// ([`single_contribution`]) lane by lane, finite ones only; returns how many were dropped.
-/// Not inlined, as [`Context::scalar_samples`].
-#[inline(never)]
+/// ([`single_contribution`]), finite ones only; returns how many were dropped. The lanes that
+/// share a BSDF are evaluated together, eight at a time ([`Bsdf::eval_lanes`]: the scalar
+/// path's arithmetic per lane, the same bits, in f64 SIMD lanes of the kernel's instruction
+/// set, into which this is inlined).
+#[inline(always)]
 fn glossy_contributions(
     shading: &ShadingLanes,
     samples: &SampleLanes,
@@ -548,29 +551,59 @@ fn glossy_contributions(
     total: &mut Lanes3,
 ) -> u64 {
     let mut dropped = 0;
-    let mut m = lit & shading.glossy_mask;
-    while m != 0 {
-        let k = m.trailing_zeros() as usize;
-        m &= m - 1;
-        let Some(point) = &shading.glossy[k] else {
+    let mut todo = lit & shading.glossy_mask;
+    while todo != 0 {
+        let Some(bsdf) = shading.glossy[todo.trailing_zeros() as usize].map(|p| p.bsdf) else {
+            todo &= todo - 1;
             continue;
         };
-        let c = single_contribution(
-            &SceneBsdf,
-            point,
-            get3(k_light, k),
-            get3(&samples.dir, k),
-            samples.pdf[k],
-        );
-        if c.is_finite() {
-            for (a, t) in total.iter_mut().enumerate() {
-                t[k] += c[a];
+        // The lanes whose surface has this BSDF.
+        let mut group = 0u32;
+        for_lanes(todo, |k| {
+            if shading.glossy[k].is_some_and(|p| std::ptr::eq(p.bsdf, bsdf)) {
+                group |= 1 << k;
             }
-        } else {
-            dropped += 1;
+        });
+        todo &= !group;
+        for half in 0..LANES / BATCH {
+            let lanes = group >> (half * BATCH) & ((1 << BATCH) - 1);
+            if lanes == 0 {
+                continue;
+            }
+            // v and l in the shading frame (ShadingPoint::eval's), zeros (f = 0) elsewhere.
+            let (mut v, mut l) = ([[0.0f64; BATCH]; 3], [[0.0f64; BATCH]; 3]);
+            for_lanes(lanes, |j| {
+                let k = half * BATCH + j;
+                if let Some(point) = &shading.glossy[k] {
+                    brdf_lanes::set(&mut v, j, point.v);
+                    brdf_lanes::set(&mut l, j, point.local(get3(&samples.dir, k)));
+                }
+            });
+            let f_cos = bsdf.eval_lanes(&v, &l);
+            for_lanes(lanes, |j| {
+                let k = half * BATCH + j;
+                let f = brdf_lanes::get(&f_cos, j).as_vec3();
+                let c = contribution(get3(k_light, k), f, samples.pdf[k]);
+                if c.is_finite() {
+                    for (a, t) in total.iter_mut().enumerate() {
+                        t[k] += c[a];
+                    }
+                } else {
+                    dropped += 1;
+                }
+            });
         }
     }
     dropped
+}
+
+/// `f(k)` for each lane k in `mask`, in increasing order.
+#[inline(always)]
+fn for_lanes(mut mask: u32, mut f: impl FnMut(usize)) {
+    while mask != 0 {
+        f(mask.trailing_zeros() as usize);
+        mask &= mask - 1;
+    }
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals

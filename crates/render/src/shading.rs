@@ -126,12 +126,18 @@ impl<'a> ShadingPoint<'a> {
     /// f(v, ω)·cos θ for a unit world direction ω.
     #[inline]
     pub fn eval<B: BsdfModel>(&self, model: &B, w: Vec3) -> Vec3 {
-        let l = DVec3::new(
+        model.eval(self.bsdf, self.v, self.local(w)).as_vec3()
+    }
+
+    /// A world direction in the shading frame, as [`ShadingPoint::eval`] passes it to the
+    /// BSDF (the batched renderer's lanes call it too).
+    #[inline(always)]
+    pub fn local(&self, w: Vec3) -> DVec3 {
+        DVec3::new(
             w.dot(self.frame.x_axis) as f64,
             w.dot(self.frame.y_axis) as f64,
             w.dot(self.frame.z_axis) as f64,
-        );
-        model.eval(self.bsdf, self.v, l).as_vec3()
+        )
     }
 }
 
@@ -206,7 +212,14 @@ pub fn single_contribution<B: BsdfModel>(
     w: Vec3,
     pdf: f32,
 ) -> Vec3 {
-    k * sp.eval(model, w) / pdf
+    contribution(k, sp.eval(model, w), pdf)
+}
+
+/// K·(f·cos)/p: the last step of [`single_contribution`] (`f_cos` from the BSDF), which the
+/// batched renderer applies to its lanes' BSDF values.
+#[inline(always)]
+pub fn contribution(k: Vec3, f_cos: Vec3, pdf: f32) -> Vec3 {
+    k * f_cos / pdf
 }
 
 /// A sample of a single technique that can contribute: direction ω, cos θ = n·ω > 0, density
