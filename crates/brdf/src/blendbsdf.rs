@@ -28,7 +28,12 @@ impl Blend {
     /// [`Blend::eval`] of N lanes from the children's values f₀·cos and f₁·cos of each lane.
     #[inline(always)]
     pub fn eval_lanes<const N: usize>(&self, f0: &Lanes3<N>, f1: &Lanes3<N>) -> Lanes3<N> {
-        each_lane(f0, f1, |a, b| self.mix(a, b))
+        each_lane(
+            f0,
+            f1,
+            #[inline(always)]
+            |a, b| self.mix(a, b),
+        )
     }
 
     #[inline(always)]

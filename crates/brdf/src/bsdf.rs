@@ -106,11 +106,19 @@ impl Bsdf {
     #[inline(always)]
     fn eval_leaf_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
         match self {
-            Bsdf::Diffuse { reflectance } => {
-                each_lane(v, l, |v, l| diffuse::eval(*reflectance, v, l))
-            }
+            Bsdf::Diffuse { reflectance } => each_lane(
+                v,
+                l,
+                #[inline(always)]
+                |v, l| diffuse::eval(*reflectance, v, l),
+            ),
             Bsdf::RoughConductor(c) => c.eval_lanes(v, l),
-            Bsdf::Principled(p) => each_lane(v, l, |v, l| p.eval(v, l)),
+            Bsdf::Principled(p) => each_lane(
+                v,
+                l,
+                #[inline(always)]
+                |v, l| p.eval(v, l),
+            ),
             // Nested blends and two-sided BSDFs: the scalar code per lane.
             Bsdf::Blend(_) | Bsdf::TwoSided(_) => each_lane(v, l, |v, l| self.eval(v, l)),
         }

@@ -65,10 +65,18 @@ impl RoughConductor {
     #[inline(always)]
     pub fn eval_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
         match &self.fresnel {
-            ConductorFresnel::One => each_lane(v, l, |v, l| self.eval_with(v, l, |_| DVec3::ONE)),
-            ConductorFresnel::Complex { eta, k } => each_lane(v, l, |v, l| {
-                self.eval_with(v, l, |cos_vh| complex_fresnel(cos_vh, eta, k))
-            }),
+            ConductorFresnel::One => each_lane(
+                v,
+                l,
+                #[inline(always)]
+                |v, l| self.eval_with(v, l, |_| DVec3::ONE),
+            ),
+            ConductorFresnel::Complex { eta, k } => each_lane(
+                v,
+                l,
+                #[inline(always)]
+                |v, l| self.eval_with(v, l, |cos_vh| complex_fresnel(cos_vh, eta, k)),
+            ),
         }
     }
 
