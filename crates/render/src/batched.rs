@@ -54,8 +54,8 @@ use crate::render::{
 };
 use crate::scene::{Bsdf, Scene};
 use crate::shading::{
-    contribution, lambert_technique, single_contribution, single_sample, Combination, ShadingPoint,
-    TwoTechniqueLight,
+    contribution, lambert_technique, shading_frame, single_contribution, single_sample, to_local,
+    Combination, ShadingPoint, TwoTechniqueLight,
 };
 use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
@@ -205,9 +205,17 @@ struct ShadingLanes<'a> {
     /// f = ρ/π on Lambertian lanes (zero on the others and outside `active`).
     lambert: Lanes3,
     /// The active lanes on non-Lambertian surfaces: `glossy[k]` is the scalar path's shading
-    /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere.
+    /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere and where
+    /// the lanes sample in a batch kernel (they need only the frames below).
     glossy_mask: u32,
     glossy: [Option<ShadingPoint<'a>>; LANES],
+    /// The BSDF of the lanes in `glossy_mask`.
+    bsdf: [Option<&'a Bsdf>; LANES],
+    /// The shading frames of all lanes ([`shading_frame`], computed at once where
+    /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
+    frame_x: Lanes3,
+    frame_y: Lanes3,
+    v: [[f64; LANES]; 2],
 }
 
 /// The light each lane samples in one pass over the lights: the light's index, its K (divided
@@ -384,7 +392,10 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let mut rays = RayLanes::default();
     rs.camera.ray_lanes(&px, &py, &mut rays);
     let hits = rs.bvh.intersect_lanes(&rays, active);
-    let shading = shading_points(rs, ctx.opts.method, &rays, &hits);
+    // Shading points for the lanes sampled with the scalar code; the batch kernels' lanes need
+    // only the frames.
+    let points = (ctx.combination.is_some() || !ctx.batch).then_some(ctx.opts.method);
+    let shading = shading_points(rs, points, &rays, &hits);
     // Lanes sampled by a batch kernel, lanes sampled with the scalar code lane by lane (a
     // technique without a batch kernel; LTC and MIS on non-Lambertian surfaces).
     let (batch_lanes, scalar_lanes, two_per_light) = match (ctx.combination, ctx.batch) {
@@ -459,7 +470,7 @@ const MAX_BLOCKS: usize = 4;
 #[inline(always)]
 fn shading_points<'a>(
     rs: &'a RenderScene,
-    method: Method,
+    points: Option<Method>,
     rays: &RayLanes,
     hits: &PacketHits,
 ) -> ShadingLanes<'a> {
@@ -471,6 +482,10 @@ fn shading_points<'a>(
         lambert: [[0.0; LANES]; 3],
         glossy_mask: 0,
         glossy: [None; LANES],
+        bsdf: [None; LANES],
+        frame_x: [[0.0; LANES]; 3],
+        frame_y: [[0.0; LANES]; 3],
+        v: [[0.0; LANES]; 2],
     };
     // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
     // all lanes at once below, other primitives with their own `surface_point`.
@@ -523,8 +538,21 @@ fn shading_points<'a>(
             None => {
                 // The scalar integrator's shading point (its n() is `n`, bit for bit).
                 out.glossy_mask |= 1 << k;
-                out.glossy[k] = Some(glossy_point(method, bsdf, pk, n, wi));
+                out.bsdf[k] = Some(bsdf);
+                if let Some(method) = points {
+                    out.glossy[k] = Some(glossy_point(method, bsdf, pk, n, wi));
+                }
             }
+        }
+    }
+    if out.glossy_mask != 0 {
+        // The scalar path's frames (ShadingPoint::new), all lanes at once (branch-free).
+        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+        for k in 0..LANES {
+            let (frame, v) = shading_frame(get3(&out.n, k), -get3(&rays.d, k));
+            set3(&mut out.frame_x, k, frame.x_axis);
+            set3(&mut out.frame_y, k, frame.y_axis);
+            (out.v[0][k], out.v[1][k]) = (v.x, v.z);
         }
     }
     out
@@ -550,17 +578,32 @@ fn glossy_contributions(
     k_light: &Lanes3,
     total: &mut Lanes3,
 ) -> u64 {
-    let mut dropped = 0;
     let mut todo = lit & shading.glossy_mask;
+    if todo == 0 {
+        return 0;
+    }
+    // ω in the shading frames (ShadingPoint::local), all lanes at once.
+    let mut l = [[0.0f64; LANES]; 3];
+    #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+    for k in 0..LANES {
+        let (x, y, n) = (
+            get3(&shading.frame_x, k),
+            get3(&shading.frame_y, k),
+            get3(&shading.n, k),
+        );
+        let lk = to_local(x, y, n, get3(&samples.dir, k));
+        (l[0][k], l[1][k], l[2][k]) = (lk.x, lk.y, lk.z);
+    }
+    let mut dropped = 0;
     while todo != 0 {
-        let Some(bsdf) = shading.glossy[todo.trailing_zeros() as usize].map(|p| p.bsdf) else {
+        let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
             todo &= todo - 1;
             continue;
         };
         // The lanes whose surface has this BSDF.
         let mut group = 0u32;
         for_lanes(todo, |k| {
-            if shading.glossy[k].is_some_and(|p| std::ptr::eq(p.bsdf, bsdf)) {
+            if shading.bsdf[k].is_some_and(|b| std::ptr::eq(b, bsdf)) {
                 group |= 1 << k;
             }
         });
@@ -570,16 +613,11 @@ fn glossy_contributions(
             if lanes == 0 {
                 continue;
             }
-            // v and l in the shading frame (ShadingPoint::eval's), zeros (f = 0) elsewhere.
-            let (mut v, mut l) = ([[0.0f64; BATCH]; 3], [[0.0f64; BATCH]; 3]);
-            for_lanes(lanes, |j| {
-                let k = half * BATCH + j;
-                if let Some(point) = &shading.glossy[k] {
-                    brdf_lanes::set(&mut v, j, point.v);
-                    brdf_lanes::set(&mut l, j, point.local(get3(&samples.dir, k)));
-                }
-            });
-            let f_cos = bsdf.eval_lanes(&v, &l);
+            // The half's eight lanes (the others' values are computed and not used).
+            let slice =
+                |a: &[f64; LANES]| -> [f64; BATCH] { std::array::from_fn(|j| a[half * BATCH + j]) };
+            let v = [slice(&shading.v[0]), [0.0; BATCH], slice(&shading.v[1])];
+            let f_cos = bsdf.eval_lanes(&v, &l.each_ref().map(slice));
             for_lanes(lanes, |j| {
                 let k = half * BATCH + j;
                 let f = brdf_lanes::get(&f_cos, j).as_vec3();

@@ -41,13 +41,27 @@ pub const MIN_DIFFUSE_WEIGHT: f32 = 0.01;
 
 /// The shading frame of the LTC tables: columns x̂, ŷ, n with x̂ = normalize(v − (n·v)n)
 /// (any unit x̂ ⊥ n when v ∥ n) and ŷ = n × x̂; and v in it. `n`, `wi` unit, n·wi > 0.
+/// Branch-free (glam's `try_normalize` written out, the fallback selected), so that the
+/// batched renderer's loop over its lanes vectorises.
+#[inline(always)]
 pub fn shading_frame(n: Vec3, wi: Vec3) -> (Mat3, DVec3) {
-    let x = (wi - n.dot(wi) * n)
-        .try_normalize()
-        .unwrap_or_else(|| n.any_orthonormal_vector());
+    let d = wi - n.dot(wi) * n;
+    let rcp = d.length_recip();
+    let x = if rcp.is_finite() && rcp > 0.0 {
+        d * rcp
+    } else {
+        n.any_orthonormal_vector()
+    };
     let frame = Mat3::from_cols(x, n.cross(x), n);
     let v = DVec3::new(wi.dot(x) as f64, 0.0, wi.dot(n) as f64);
     (frame, v)
+}
+
+/// A world direction `w` in the frame with columns `x`, `y`, `n` ([`shading_frame`]), in f64
+/// for the BSDF ([`ShadingPoint::local`]).
+#[inline(always)]
+pub fn to_local(x: Vec3, y: Vec3, n: Vec3, w: Vec3) -> DVec3 {
+    DVec3::new(w.dot(x) as f64, w.dot(y) as f64, w.dot(n) as f64)
 }
 
 /// A shading point of a non-Lambertian surface: position, frame, view and what the BSDF
@@ -133,11 +147,7 @@ impl<'a> ShadingPoint<'a> {
     /// BSDF (the batched renderer's lanes call it too).
     #[inline(always)]
     pub fn local(&self, w: Vec3) -> DVec3 {
-        DVec3::new(
-            w.dot(self.frame.x_axis) as f64,
-            w.dot(self.frame.y_axis) as f64,
-            w.dot(self.frame.z_axis) as f64,
-        )
+        to_local(self.frame.x_axis, self.frame.y_axis, self.frame.z_axis, w)
     }
 }
 
