@@ -287,6 +287,43 @@ mod tests {
         assert_eq!(ggx_cos(alpha, DVec3::new(v.x, v.y, -v.z), l), 0.0);
     }
 
+    /// The lobe as written before it was made branch-free (early returns): the same bits.
+    #[test]
+    fn branch_free_lobe_equals_the_early_returns() {
+        let reference = |alpha: f64, v: DVec3, l: DVec3| -> (f64, f64) {
+            if !(v.z > 0.0 && l.z > 0.0) {
+                return (0.0, 0.0);
+            }
+            let h = (v + l).normalize_or_zero();
+            if h == DVec3::ZERO {
+                return (0.0, 0.0);
+            }
+            let dh = d(alpha, sin2(h), h.z);
+            if dh == 0.0 {
+                return (0.0, 0.0);
+            }
+            let cos_vh = v.dot(h);
+            let g = g1(alpha, sin2(v), v.z, cos_vh) * g1(alpha, sin2(l), l.z, l.dot(h));
+            (dh * g / (4.0 * v.z), cos_vh)
+        };
+        let v0 = dir(0.7, 0.3);
+        for alpha in [1e-4, 0.01, 0.3, 1.0] {
+            for i in 0..=60 {
+                for j in 0..12 {
+                    let l = dir(i as f64 * PI / 60.0, j as f64 * 0.5);
+                    for v in [v0, dir(1.5, 2.0), DVec3::Z, -l, l] {
+                        let (a, b) = (ggx_cos_and_cos_vh(alpha, v, l), reference(alpha, v, l));
+                        assert_eq!(
+                            (a.0.to_bits(), a.1.to_bits()),
+                            (b.0.to_bits(), b.1.to_bits()),
+                            "α {alpha}, v {v}, l {l}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn alpha_is_clamped_like_mitsuba() {
         assert_eq!(clamp_alpha(0.0f64), MIN_ALPHA);

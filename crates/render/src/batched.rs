@@ -3,8 +3,10 @@
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
 //! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
 //! rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes' arrays, lanes on
-//! other surfaces (rough conductor, principled, blends) with the scalar path's BSDF evaluation
-//! lane by lane ([`ShadingPoint::new`], [`single_contribution`]); a packet may mix both.
+//! other surfaces (rough conductor, principled, blends) with the scalar path's shading frame
+//! ([`shading_frame`]) for all lanes at once and its BSDF evaluation eight lanes at a time per
+//! BSDF ([`Bsdf::eval_lanes`], f64 SIMD lanes: the scalar `Bsdf::eval` is its one-lane case)
+//! and [`single_contribution`]'s arithmetic; a packet may mix both.
 //!
 //! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle,
 //! clipped solid angle, Hart), LTC and MIS on non-Lambertian surfaces — take their samples lane
