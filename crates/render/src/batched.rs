@@ -569,9 +569,10 @@ fn glossy_point(method: Method, bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> Shad
 /// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for their light
 /// (lane k's K = `k_light[·][k]`) to `total`: the scalar single-technique contribution
 /// ([`single_contribution`]), finite ones only; returns how many were dropped. The lanes that
-/// share a BSDF are evaluated together, eight at a time ([`Bsdf::eval_lanes`]: the scalar
-/// path's arithmetic per lane, the same bits, in f64 SIMD lanes of the kernel's instruction
-/// set, into which this is inlined).
+/// share a BSDF are evaluated together, all sixteen or the half packets that hold them
+/// ([`Bsdf::eval_lanes`]: the scalar path's arithmetic per lane, the same bits, in f64 SIMD
+/// lanes of the kernel's instruction set, into which this is inlined), then K·f·cos/p on all
+/// lanes at once.
 #[inline(always)]
 fn glossy_contributions(
     shading: &ShadingLanes,
@@ -596,7 +597,8 @@ fn glossy_contributions(
         let lk = to_local(x, y, n, get3(&samples.dir, k));
         (l[0][k], l[1][k], l[2][k]) = (lk.x, lk.y, lk.z);
     }
-    let mut dropped = 0;
+    // f·cos of the lanes in `todo`, BSDF by BSDF.
+    let mut f_cos = [[0.0f32; LANES]; 3];
     while todo != 0 {
         let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
             todo &= todo - 1;
@@ -610,31 +612,56 @@ fn glossy_contributions(
             }
         });
         todo &= !group;
+        if group >> BATCH != 0 && group & ((1 << BATCH) - 1) != 0 {
+            // Both halves: all sixteen lanes at once (the others' values are not used).
+            let v = [shading.v[0], [0.0; LANES], shading.v[1]];
+            keep_lanes(&mut f_cos, &bsdf.eval_lanes(&v, &l), group, 0);
+            continue;
+        }
         for half in 0..LANES / BATCH {
             let lanes = group >> (half * BATCH) & ((1 << BATCH) - 1);
             if lanes == 0 {
                 continue;
             }
-            // The half's eight lanes (the others' values are computed and not used).
+            // The half's eight lanes.
             let slice =
                 |a: &[f64; LANES]| -> [f64; BATCH] { std::array::from_fn(|j| a[half * BATCH + j]) };
             let v = [slice(&shading.v[0]), [0.0; BATCH], slice(&shading.v[1])];
-            let f_cos = bsdf.eval_lanes(&v, &l.each_ref().map(slice));
-            for_lanes(lanes, |j| {
-                let k = half * BATCH + j;
-                let f = brdf_lanes::get(&f_cos, j).as_vec3();
-                let c = contribution(get3(k_light, k), f, samples.pdf[k]);
-                if c.is_finite() {
-                    for (a, t) in total.iter_mut().enumerate() {
-                        t[k] += c[a];
-                    }
-                } else {
-                    dropped += 1;
-                }
-            });
+            let f = bsdf.eval_lanes(&v, &l.each_ref().map(slice));
+            keep_lanes(&mut f_cos, &f, lanes, half * BATCH);
         }
     }
-    dropped
+    // K·(f·cos)/p (single_contribution's arithmetic) on all lanes, the finite ones of the lit
+    // glossy lanes added (+0 elsewhere leaves the sums, which start at +0, bitwise unchanged).
+    let glossy = lit & shading.glossy_mask;
+    let mut dropped = 0u32;
+    #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+    for k in 0..LANES {
+        let c = contribution(get3(k_light, k), get3(&f_cos, k), samples.pdf[k]);
+        let finite = c.is_finite();
+        let on = glossy >> k & 1 == 1;
+        dropped |= ((on & !finite) as u32) << k;
+        for (a, t) in total.iter_mut().enumerate() {
+            t[k] += if on & finite { c[a] } else { 0.0 };
+        }
+    }
+    dropped.count_ones() as u64
+}
+
+/// Writes lanes j of `f` (f64, as the scalar path's `as_vec3`) for j in `lanes` into lanes
+/// `offset + j` of `out`.
+#[inline(always)]
+fn keep_lanes<const N: usize>(
+    out: &mut Lanes3,
+    f: &brdf_lanes::Lanes3<N>,
+    lanes: u32,
+    offset: usize,
+) {
+    for j in 0..N {
+        if lanes >> j & 1 == 1 {
+            set3(out, offset + j, brdf_lanes::get(f, j).as_vec3());
+        }
+    }
 }
 
 /// `f(k)` for each lane k in `mask`, in increasing order.
