@@ -4,9 +4,9 @@
 //! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
 //! rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes' arrays, lanes on
 //! other surfaces (rough conductor, principled, blends) with the scalar path's shading frame
-//! ([`shading_frame`]) for all lanes at once and its BSDF evaluation eight lanes at a time per
-//! BSDF ([`Bsdf::eval_lanes`], f64 SIMD lanes: the scalar `Bsdf::eval` is its one-lane case)
-//! and [`single_contribution`]'s arithmetic; a packet may mix both.
+//! ([`shading_frame`]) for all lanes at once and its BSDF evaluation eight or sixteen lanes at
+//! a time per BSDF ([`Bsdf::eval_lanes`], f64 SIMD lanes: the scalar `Bsdf::eval` is its
+//! one-lane case) and [`single_contribution`]'s arithmetic; a packet may mix both.
 //!
 //! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle,
 //! clipped solid angle, Hart), LTC and MIS on non-Lambertian surfaces — take their samples lane
