@@ -70,7 +70,9 @@ impl Bsdf {
     /// Mitsuba's `BSDF.eval(ctx, si, wo)` returns with `si.wi = v`, `wo = l`. Both directions
     /// are unit vectors in the shading frame (z = shading normal), v toward the viewer, l toward
     /// the light. Per RGB channel, f64.
-    /// The lane code with one lane ([`Bsdf::eval_lanes`]), so that both give the same bits.
+    ///
+    /// This is the lane code with one lane ([`Bsdf::eval_lanes`]), so that both give the same
+    /// bits.
     pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
         let one = |d: DVec3| [[d.x], [d.y], [d.z]];
         lanes::get(&self.eval_lanes::<1>(&one(v), &one(l)), 0)
