@@ -184,31 +184,6 @@ pub enum Batched {
     ClippedSolidAngle,
 }
 
-/// A prepared batch of either kind (Peters and Li share theirs).
-#[allow(clippy::large_enum_variant)] // one on the stack per batch; a box would allocate per batch
-enum Prepared {
-    Psa(PreparedBatch),
-    Clipped(ClippedBatch),
-}
-
-impl Prepared {
-    #[inline(always)]
-    fn new(which: Batched, isa: Isa, input: &PsaBatchInput) -> Self {
-        match which {
-            Batched::ClippedSolidAngle => Prepared::Clipped(ClippedBatch::prepare(isa, input)),
-            _ => Prepared::Psa(PreparedBatch::prepare(isa, input)),
-        }
-    }
-
-    #[inline(always)]
-    fn mask(&self) -> u8 {
-        match self {
-            Prepared::Psa(p) => p.mask,
-            Prepared::Clipped(p) => p.mask,
-        }
-    }
-}
-
 /// Batched shading. 128 lights × 1 spp: lanes = 8 lights of a hit point, prepared and sampled
 /// once. 1 light × 128 spp: lanes = 8 samples of the one light, prepared once per hit point
 /// (every lane the same), sampled 16 times. Returns the sum and Li's iteration count.
@@ -220,19 +195,53 @@ pub fn shade_batched(
     lights: &[(Segment, Vec3)],
     spp: usize,
 ) -> (f32, u64) {
-    let mut sum = 0.0f32;
     let mut iterations = 0u64;
-    let mut sample = |prepared: &Prepared, xi: &[f32; LANES]| -> PsaBatchOutput {
-        match (which, prepared) {
-            (Batched::Li2018, Prepared::Psa(p)) => {
+    let psa = |input: &PsaBatchInput| PreparedBatch::prepare(isa, input);
+    let sum = match which {
+        Batched::ProjectedSolidAngle => shade_prepared(
+            h,
+            lights,
+            spp,
+            psa,
+            |p| p.mask,
+            |p, xi| p.sample_projected_solid_angle(isa, xi),
+        ),
+        Batched::Li2018 => shade_prepared(
+            h,
+            lights,
+            spp,
+            psa,
+            |p| p.mask,
+            |p, xi| {
                 let (out, k) = p.sample_li2018(isa, xi);
                 iterations += k as u64;
                 out
-            }
-            (_, Prepared::Psa(p)) => p.sample_projected_solid_angle(isa, xi),
-            (_, Prepared::Clipped(p)) => p.sample(isa, xi),
-        }
+            },
+        ),
+        Batched::ClippedSolidAngle => shade_prepared(
+            h,
+            lights,
+            spp,
+            |input| ClippedBatch::prepare(isa, input),
+            |p| p.mask,
+            |p, xi| p.sample(isa, xi),
+        ),
     };
+    (sum, iterations)
+}
+
+/// [`shade_batched`] for one kind of prepared batch `P` (one instance per kind, so that no
+/// per-batch dispatch or copy of the prepared state is timed).
+#[inline(always)]
+fn shade_prepared<P>(
+    h: &HitPoints,
+    lights: &[(Segment, Vec3)],
+    spp: usize,
+    prepare: impl Fn(&PsaBatchInput) -> P,
+    mask: impl Fn(&P) -> u8,
+    mut sample: impl FnMut(&P, &[f32; LANES]) -> PsaBatchOutput,
+) -> f32 {
+    let mut sum = 0.0f32;
     for i in 0..h.p.len() {
         let (p, n, v, a) = (h.p[i], h.n[i], h.v[i], h.alpha[i]);
         let mut input = PsaBatchInput {
@@ -248,8 +257,8 @@ pub fn shade_batched(
                     input.end.set(l, segment.end);
                     k[l] = radiance.x;
                 }
-                let prepared = Prepared::new(which, isa, &input);
-                if prepared.mask() == 0 {
+                let prepared = prepare(&input);
+                if mask(&prepared) == 0 {
                     continue;
                 }
                 let xi: [f32; LANES] = std::array::from_fn(|l| xi(i, g * LANES + l, 0));
@@ -259,8 +268,8 @@ pub fn shade_batched(
             let (segment, radiance) = lights[0];
             input.begin = Vec3x8::splat(segment.begin);
             input.end = Vec3x8::splat(segment.end);
-            let prepared = Prepared::new(which, isa, &input);
-            if prepared.mask() == 0 {
+            let prepared = prepare(&input);
+            if mask(&prepared) == 0 {
                 continue;
             }
             let k = [radiance.x; LANES];
@@ -270,7 +279,7 @@ pub fn shade_batched(
             }
         }
     }
-    (sum, iterations)
+    sum
 }
 
 /// What a row of the table times.
