@@ -74,7 +74,7 @@ impl SolidAngle {
         (self.arc.direction(&self.frame, tau), self.inv_solid_angle)
     }
 
-    /// The arc and 1/Ω_R (for the structure of arrays of [`crate::batch`]).
+    /// The frame, its arc and 1/Ω_R (for the structure of arrays of [`crate::batch`]).
     #[inline(always)]
     pub(crate) fn parts(&self) -> (&LineFrame, &FrameArc, f32) {
         (&self.frame, &self.arc, self.inv_solid_angle)
