@@ -8,10 +8,10 @@
 //! a time per BSDF ([`Bsdf::eval_lanes`], f64 SIMD lanes: the scalar `Bsdf::eval` is its
 //! one-lane case) and [`single_contribution`]'s arithmetic; a packet may mix both.
 //!
-//! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle,
-//! clipped solid angle, Hart), LTC and MIS on non-Lambertian surfaces — take their samples lane
-//! by lane with the scalar code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and
-//! trace them in packet walks (LTC and MIS: one for the diffuse, one for the specular samples).
+//! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle, Hart),
+//! LTC and MIS on non-Lambertian surfaces — take their samples lane by lane with the scalar
+//! code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and trace them in packet walks
+//! (LTC and MIS: one for the diffuse, one for the specular samples).
 //!
 //! The lights: with `--lights every` one pass per light, every lane sampling that light; with
 //! `--lights one` ([`crate::light_choice`], two or more lights) a single pass in which each
@@ -74,11 +74,11 @@ const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet")
 
 /// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
 /// light sample per camera sample, white noise, and either a technique with a batch kernel
-/// (projected solid angle, Li et al.) or a scene with Lambertian surfaces. The other methods
-/// sample lane by lane with the scalar code, which pays in packets only where Lambertian lanes
-/// share them (measured: 15–28 % less CPU time on cornell-tube and mesh-occluder, half on
-/// glossy-cornell for MIS, but 5–20 % more on the scenes without a Lambertian surface; see
-/// docs/performance.md). Both light selections (`every`, `one`) take the same decision.
+/// (projected solid angle, Li et al., clipped solid angle) or a scene with Lambertian surfaces.
+/// The other methods sample lane by lane with the scalar code, which pays in packets only
+/// where Lambertian lanes share them (measured: 15–28 % less CPU time on cornell-tube and
+/// mesh-occluder, half on glossy-cornell for MIS, but 5–20 % more on the scenes without a
+/// Lambertian surface; see docs/performance.md). Both light selections (`every`, `one`) take the same decision.
 /// [`render_isa`] renders any scene, method and light selection with one light sample and
 /// white noise.
 pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
@@ -90,7 +90,7 @@ pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
 fn has_batch_kernel(technique: Technique) -> bool {
     matches!(
         technique,
-        Technique::ProjectedSolidAngle | Technique::Li2018
+        Technique::ProjectedSolidAngle | Technique::Li2018 | Technique::ClippedSolidAngle
     )
 }
 
@@ -868,7 +868,12 @@ impl<'a> Context<'a> {
             batch::sample_projected_solid_angle_slice(self.isa, &inputs, &mut outputs);
         } else {
             for (input, output) in inputs.iter().zip(&mut outputs) {
-                *output = batch::sample_li2018_with(self.isa, input).0;
+                *output = match technique {
+                    Technique::ClippedSolidAngle => {
+                        batch::sample_clipped_solid_angle_with(self.isa, input)
+                    }
+                    _ => batch::sample_li2018_with(self.isa, input).0,
+                };
             }
         }
         for (b, o) in outputs.iter().enumerate() {
