@@ -3,13 +3,15 @@
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
 //! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
 //! rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes' arrays, lanes on
-//! other surfaces (rough conductor, principled, blends) with the scalar path's BSDF evaluation
-//! lane by lane ([`ShadingPoint::new`], [`single_contribution`]); a packet may mix both.
+//! other surfaces (rough conductor, principled, blends) with the scalar path's shading frame
+//! ([`shading_frame`]) for all lanes at once and its BSDF evaluation eight or sixteen lanes at
+//! a time per BSDF ([`Bsdf::eval_lanes`], f64 SIMD lanes: the scalar `Bsdf::eval` is its
+//! one-lane case) and [`single_contribution`]'s arithmetic; a packet may mix both.
 //!
-//! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle,
-//! clipped solid angle, Hart), LTC and MIS on non-Lambertian surfaces — take their samples lane
-//! by lane with the scalar code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and
-//! trace them in packet walks (LTC and MIS: one for the diffuse, one for the specular samples).
+//! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle, Hart),
+//! LTC and MIS on non-Lambertian surfaces — take their samples lane by lane with the scalar
+//! code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and trace them in packet walks
+//! (LTC and MIS: one for the diffuse, one for the specular samples).
 //!
 //! The lights: with `--lights every` one pass per light, every lane sampling that light; with
 //! `--lights one` ([`crate::light_choice`], two or more lights) a single pass in which each
@@ -54,12 +56,13 @@ use crate::render::{
 };
 use crate::scene::{Bsdf, Scene};
 use crate::shading::{
-    lambert_technique, single_contribution, single_sample, Combination, ShadingPoint,
-    TwoTechniqueLight,
+    contribution, lambert_technique, shading_frame, single_contribution, single_sample, to_local,
+    Combination, ShadingPoint, TwoTechniqueLight,
 };
 use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
+use linlight_brdf::lanes as brdf_lanes;
 use linlight_imagefile::Image;
 use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
@@ -72,11 +75,11 @@ const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet")
 
 /// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
 /// light sample per camera sample, white noise, and either a technique with a batch kernel
-/// (projected solid angle, Li et al.) or a scene with Lambertian surfaces. The other methods
-/// sample lane by lane with the scalar code, which pays in packets only where Lambertian lanes
-/// share them (measured: 15–28 % less CPU time on cornell-tube and mesh-occluder, half on
-/// glossy-cornell for MIS, but 5–20 % more on the scenes without a Lambertian surface; see
-/// docs/performance.md). Both light selections (`every`, `one`) take the same decision.
+/// (projected solid angle, Li et al., clipped solid angle) or a scene with Lambertian surfaces.
+/// The other methods sample lane by lane with the scalar code, which pays in packets only
+/// where Lambertian lanes share them (measured: 15–28 % less CPU time on cornell-tube and
+/// mesh-occluder, half on glossy-cornell for MIS, but 5–20 % more on the scenes without a
+/// Lambertian surface; see docs/performance.md). Both light selections (`every`, `one`) take the same decision.
 /// [`render_isa`] renders any scene, method and light selection with one light sample and
 /// white noise.
 pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
@@ -88,7 +91,7 @@ pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
 fn has_batch_kernel(technique: Technique) -> bool {
     matches!(
         technique,
-        Technique::ProjectedSolidAngle | Technique::Li2018
+        Technique::ProjectedSolidAngle | Technique::Li2018 | Technique::ClippedSolidAngle
     )
 }
 
@@ -205,9 +208,17 @@ struct ShadingLanes<'a> {
     /// f = ρ/π on Lambertian lanes (zero on the others and outside `active`).
     lambert: Lanes3,
     /// The active lanes on non-Lambertian surfaces: `glossy[k]` is the scalar path's shading
-    /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere.
+    /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere and where
+    /// the lanes sample in a batch kernel (they need only the frames below).
     glossy_mask: u32,
     glossy: [Option<ShadingPoint<'a>>; LANES],
+    /// The BSDF of the lanes in `glossy_mask`.
+    bsdf: [Option<&'a Bsdf>; LANES],
+    /// The shading frames of all lanes ([`shading_frame`], computed at once where
+    /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
+    frame_x: Lanes3,
+    frame_y: Lanes3,
+    v: [[f64; LANES]; 2],
 }
 
 /// The light each lane samples in one pass over the lights: the light's index, its K (divided
@@ -467,7 +478,10 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let mut rays = RayLanes::default();
     rs.camera.ray_lanes(&px, &py, &mut rays);
     let hits = rs.bvh.intersect_lanes(&rays, active);
-    let shading = shading_points(rs, &rays, &hits);
+    // Shading points for the lanes sampled with the scalar code; the batch kernels' lanes need
+    // only the frames.
+    let points = (ctx.combination.is_some() || !ctx.batch).then_some(ctx.opts.method);
+    let shading = shading_points(rs, points, &rays, &hits);
     // Lanes sampled by a batch kernel, lanes sampled with the scalar code lane by lane (a
     // technique without a batch kernel; LTC and MIS on non-Lambertian surfaces).
     let (batch_lanes, scalar_lanes, two_per_light) = match (ctx.combination, ctx.batch) {
@@ -540,7 +554,12 @@ const MAX_BLOCKS: usize = 4;
 /// scalar integrator's `surface_point` and `reflecting_normal`, lane by lane (every surface
 /// is Lambertian: [`applies`]).
 #[inline(always)]
-fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -> ShadingLanes<'a> {
+fn shading_points<'a>(
+    rs: &'a RenderScene,
+    points: Option<Method>,
+    rays: &RayLanes,
+    hits: &PacketHits,
+) -> ShadingLanes<'a> {
     let mut out = ShadingLanes {
         active: 0,
         p: [[0.0; LANES]; 3],
@@ -549,6 +568,10 @@ fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -
         lambert: [[0.0; LANES]; 3],
         glossy_mask: 0,
         glossy: [None; LANES],
+        bsdf: [None; LANES],
+        frame_x: [[0.0; LANES]; 3],
+        frame_y: [[0.0; LANES]; 3],
+        v: [[0.0; LANES]; 2],
     };
     // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
     // all lanes at once below, other primitives with their own `surface_point`.
@@ -601,8 +624,21 @@ fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -
             None => {
                 // The scalar integrator's shading point (its n() is `n`, bit for bit).
                 out.glossy_mask |= 1 << k;
-                out.glossy[k] = Some(glossy_point(bsdf, pk, n, wi));
+                out.bsdf[k] = Some(bsdf);
+                if let Some(method) = points {
+                    out.glossy[k] = Some(glossy_point(method, bsdf, pk, n, wi));
+                }
             }
+        }
+    }
+    if out.glossy_mask != 0 {
+        // The scalar path's frames (ShadingPoint::new), all lanes at once (branch-free).
+        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+        for k in 0..LANES {
+            let (frame, v) = shading_frame(get3(&out.n, k), -get3(&rays.d, k));
+            set3(&mut out.frame_x, k, frame.x_axis);
+            set3(&mut out.frame_y, k, frame.y_axis);
+            (out.v[0][k], out.v[1][k]) = (v.x, v.z);
         }
     }
     out
@@ -610,15 +646,18 @@ fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -
 
 /// The scalar integrator's shading point; not inlined, as [`Context::scalar_samples`].
 #[inline(never)]
-fn glossy_point(bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> ShadingPoint<'_> {
-    ShadingPoint::new(&SceneBsdf, bsdf, p, n, wi)
+fn glossy_point(method: Method, bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> ShadingPoint<'_> {
+    ShadingPoint::for_method(&SceneBsdf, method, bsdf, p, n, wi)
 }
 
 /// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for their light
 /// (lane k's K = `k_light[·][k]`) to `total`: the scalar single-technique contribution
-/// ([`single_contribution`]) lane by lane, finite ones only; returns how many were dropped.
-/// Not inlined, as [`Context::scalar_samples`].
-#[inline(never)]
+/// ([`single_contribution`]), finite ones only; returns how many were dropped. The lanes that
+/// share a BSDF are evaluated together, all sixteen or the half packets that hold them
+/// ([`Bsdf::eval_lanes`]: the scalar path's arithmetic per lane, the same bits, in f64 SIMD
+/// lanes of the kernel's instruction set, into which this is inlined), then K·f·cos/p on all
+/// lanes at once.
+#[inline(always)]
 fn glossy_contributions(
     shading: &ShadingLanes,
     samples: &SampleLanes,
@@ -626,30 +665,96 @@ fn glossy_contributions(
     k_light: &Lanes3,
     total: &mut Lanes3,
 ) -> u64 {
-    let mut dropped = 0;
-    let mut m = lit & shading.glossy_mask;
-    while m != 0 {
-        let k = m.trailing_zeros() as usize;
-        m &= m - 1;
-        let Some(point) = &shading.glossy[k] else {
+    let mut todo = lit & shading.glossy_mask;
+    if todo == 0 {
+        return 0;
+    }
+    // ω in the shading frames (ShadingPoint::local), all lanes at once.
+    let mut l = [[0.0f64; LANES]; 3];
+    #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+    for k in 0..LANES {
+        let (x, y, n) = (
+            get3(&shading.frame_x, k),
+            get3(&shading.frame_y, k),
+            get3(&shading.n, k),
+        );
+        let lk = to_local(x, y, n, get3(&samples.dir, k));
+        (l[0][k], l[1][k], l[2][k]) = (lk.x, lk.y, lk.z);
+    }
+    // f·cos of the lanes in `todo`, BSDF by BSDF.
+    let mut f_cos = [[0.0f32; LANES]; 3];
+    while todo != 0 {
+        let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
+            todo &= todo - 1;
             continue;
         };
-        let c = single_contribution(
-            &SceneBsdf,
-            point,
-            get3(k_light, k),
-            get3(&samples.dir, k),
-            samples.pdf[k],
-        );
-        if c.is_finite() {
-            for (a, t) in total.iter_mut().enumerate() {
-                t[k] += c[a];
+        // The lanes whose surface has this BSDF.
+        let mut group = 0u32;
+        for_lanes(todo, |k| {
+            if shading.bsdf[k].is_some_and(|b| std::ptr::eq(b, bsdf)) {
+                group |= 1 << k;
             }
-        } else {
-            dropped += 1;
+        });
+        todo &= !group;
+        if group >> BATCH != 0 && group & ((1 << BATCH) - 1) != 0 {
+            // Both halves: all sixteen lanes at once (the others' values are not used).
+            let v = [shading.v[0], [0.0; LANES], shading.v[1]];
+            keep_lanes(&mut f_cos, &bsdf.eval_lanes(&v, &l), group, 0);
+            continue;
+        }
+        for half in 0..LANES / BATCH {
+            let lanes = group >> (half * BATCH) & ((1 << BATCH) - 1);
+            if lanes == 0 {
+                continue;
+            }
+            // The half's eight lanes.
+            let slice =
+                |a: &[f64; LANES]| -> [f64; BATCH] { std::array::from_fn(|j| a[half * BATCH + j]) };
+            let v = [slice(&shading.v[0]), [0.0; BATCH], slice(&shading.v[1])];
+            let f = bsdf.eval_lanes(&v, &l.each_ref().map(slice));
+            keep_lanes(&mut f_cos, &f, lanes, half * BATCH);
         }
     }
-    dropped
+    // K·(f·cos)/p (single_contribution's arithmetic) on all lanes, the finite ones of the lit
+    // glossy lanes added (+0 elsewhere leaves the sums, which start at +0, bitwise unchanged).
+    let glossy = lit & shading.glossy_mask;
+    let mut dropped = 0u32;
+    #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+    for k in 0..LANES {
+        let c = contribution(get3(k_light, k), get3(&f_cos, k), samples.pdf[k]);
+        let finite = c.is_finite();
+        let on = glossy >> k & 1 == 1;
+        dropped |= ((on & !finite) as u32) << k;
+        for (a, t) in total.iter_mut().enumerate() {
+            t[k] += if on & finite { c[a] } else { 0.0 };
+        }
+    }
+    dropped.count_ones() as u64
+}
+
+/// Writes lanes j of `f` (f64, as the scalar path's `as_vec3`) for j in `lanes` into lanes
+/// `offset + j` of `out`.
+#[inline(always)]
+fn keep_lanes<const N: usize>(
+    out: &mut Lanes3,
+    f: &brdf_lanes::Lanes3<N>,
+    lanes: u32,
+    offset: usize,
+) {
+    for j in 0..N {
+        if lanes >> j & 1 == 1 {
+            set3(out, offset + j, brdf_lanes::get(f, j).as_vec3());
+        }
+    }
+}
+
+/// `f(k)` for each lane k in `mask`, in increasing order.
+#[inline(always)]
+fn for_lanes(mut mask: u32, mut f: impl FnMut(usize)) {
+    while mask != 0 {
+        f(mask.trailing_zeros() as usize);
+        mask &= mask - 1;
+    }
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
@@ -907,7 +1012,12 @@ impl<'a> Context<'a> {
             batch::sample_projected_solid_angle_slice(self.isa, &inputs, &mut outputs);
         } else {
             for (input, output) in inputs.iter().zip(&mut outputs) {
-                *output = batch::sample_li2018_with(self.isa, input).0;
+                *output = match technique {
+                    Technique::ClippedSolidAngle => {
+                        batch::sample_clipped_solid_angle_with(self.isa, input)
+                    }
+                    _ => batch::sample_li2018_with(self.isa, input).0,
+                };
             }
         }
         for (b, o) in outputs.iter().enumerate() {
