@@ -67,6 +67,7 @@ use linlight_imagefile::Image;
 use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
+use std::mem::MaybeUninit;
 
 /// Camera samples rendered together: one ray packet.
 pub const LANES: usize = PACKET;
@@ -263,34 +264,24 @@ impl<'a> Context<'a> {
     ) {
         let spp = self.opts.spp as usize;
         let total = pixels.len() * spp;
+        // Most tiles see no line: then no lane has visible lines to add.
+        let lines = seen.iter().any(|l| !l.is_empty());
         let mut start = 0;
         let mut packet = Packet::default();
         while start < total {
             let len = LANES.min(total - start);
-            packet.len = len;
-            // Sample j = start + k is sample j % spp of pixel j / spp: one division per
-            // packet, then counting.
-            let (mut pixel, mut sample) = (start / spp, (start % spp) as u32);
-            for k in 0..LANES {
-                if k > 0 && k < len {
-                    sample += 1;
-                    if sample as usize == spp {
-                        (pixel, sample) = (pixel + 1, 0);
-                    }
-                }
-                let (fx, fy) = pixels[pixel];
-                packet.pixel[k] = pixel;
-                packet.fx[k] = fx;
-                packet.fy[k] = fy;
-                // < 2^32: checked by `window`.
-                packet.index[k] = fy.wrapping_mul(self.full_width).wrapping_add(fx);
-                packet.sample[k] = sample;
-            }
+            fill_packet(
+                self.isa,
+                &mut packet,
+                pixels,
+                (spp, self.full_width),
+                (start, len),
+            );
             let mut radiance = run_packet(self.isa, self, &packet, pass);
-            self.visible_lines(&packet, seen, pass, &mut radiance);
-            for k in 0..len {
-                acc[packet.pixel[k]].push(get3(&radiance.total, k).to_array().map(|c| c as f64));
+            if lines {
+                self.visible_lines(&packet, seen, pass, &mut radiance);
             }
+            accumulate(self.isa, acc, &packet, &radiance.total);
             start += len;
         }
     }
@@ -342,6 +333,57 @@ struct Packet {
     sample: [u32; LANES],
 }
 
+impl Packet {
+    /// Camera samples `start` … `start + len − 1` of a tile pass over `pixels` at `spp`
+    /// samples per pixel (sample j is sample j % spp of pixel j / spp); lanes ≥ `len` repeat
+    /// the last one.
+    #[inline(always)]
+    fn fill(
+        &mut self,
+        pixels: &[(u32, u32)],
+        spp: usize,
+        full_width: u32,
+        start: usize,
+        len: usize,
+    ) {
+        self.len = len;
+        let (pixel, sample) = (start / spp, start % spp);
+        // < 2^32: checked by `window`.
+        let index = |(fx, fy): (u32, u32)| fy.wrapping_mul(full_width).wrapping_add(fx);
+        if spp >= LANES {
+            // At most one step to the next pixel inside the packet: every lane at once.
+            let (a, b) = (pixels[pixel], pixels[(pixel + 1).min(pixels.len() - 1)]);
+            let (ia, ib) = (index(a), index(b));
+            for k in 0..LANES {
+                let s = (sample + k.min(len - 1)) as u32;
+                let next = s >= spp as u32;
+                self.sample[k] = if next { s - spp as u32 } else { s };
+                self.pixel[k] = pixel + next as usize;
+                self.fx[k] = if next { b.0 } else { a.0 };
+                self.fy[k] = if next { b.1 } else { a.1 };
+                self.index[k] = if next { ib } else { ia };
+            }
+            return;
+        }
+        // Counting, one lane after the other.
+        let (mut pixel, mut sample) = (pixel, sample as u32);
+        for k in 0..LANES {
+            if k > 0 && k < len {
+                sample += 1;
+                if sample as usize == spp {
+                    (pixel, sample) = (pixel + 1, 0);
+                }
+            }
+            let (fx, fy) = pixels[pixel];
+            self.pixel[k] = pixel;
+            self.fx[k] = fx;
+            self.fy[k] = fy;
+            self.index[k] = index((fx, fy));
+            self.sample[k] = sample;
+        }
+    }
+}
+
 /// Radiance of each lane of a packet, the lanes whose camera ray reached a reflecting
 /// surface (they used one number per light), and among them those that used two (LTC and MIS
 /// on non-Lambertian surfaces).
@@ -353,6 +395,43 @@ struct Radiance {
 
 linlight_sampling::isa_variants! {
     fn run_packet(ctx: &Context, packet: &Packet, pass: u32) -> Radiance = packet_kernel;
+    fn accumulate(acc: &mut [Welford], packet: &Packet, total: &Lanes3) -> () = accumulate_kernel;
+    fn fill_packet(
+        packet: &mut Packet,
+        pixels: &[(u32, u32)],
+        spp_width: (usize, u32),
+        start_len: (usize, usize)
+    ) -> () = fill_kernel;
+}
+
+/// [`Packet::fill`], inlined into one function per instruction set.
+#[inline(always)]
+fn fill_kernel(
+    packet: &mut Packet,
+    pixels: &[(u32, u32)],
+    (spp, full_width): (usize, u32),
+    (start, len): (usize, usize),
+) {
+    packet.fill(pixels, spp, full_width, start, len);
+}
+
+/// Pushes the lanes' radiance into their pixels' accumulators in lane order (the scalar
+/// path's order, so the same bits). A packet's lanes of one pixel are consecutive: each run
+/// of them is pushed into a copy held in registers and stored once, instead of a load and a
+/// store of the accumulator per sample (a store-to-load round trip in the serial chain of
+/// the running mean). Inlined into one function per instruction set.
+#[inline(always)]
+fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
+    let mut k = 0;
+    while k < packet.len {
+        let pixel = packet.pixel[k];
+        let mut w = acc[pixel];
+        while k < packet.len && packet.pixel[k] == pixel {
+            w.push(get3(total, k).to_array().map(|c| c as f64));
+            k += 1;
+        }
+        acc[pixel] = w;
+    }
 }
 
 /// Radiance of the camera samples of `packet` (see the module documentation), every stage
@@ -364,21 +443,26 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let active = ((1u64 << packet.len) - 1) as u32;
     // Film position (2 numbers) and the lights' numbers (one or two per light, or the choice
     // ξ_c and the chosen light's one or two), from the lanes' own streams.
-    let mut words = [[[0u32; LANES]; 4]; MAX_BLOCKS];
+    // Only the blocks the packet uses are computed, and only they are read (`number`); the
+    // others stay uninitialised rather than zeroed per packet (a 1 KiB memset).
+    let mut words = [std::mem::MaybeUninit::<[[u32; LANES]; 4]>::uninit(); MAX_BLOCKS];
     let one = rs.chooses_one(ctx.opts.lights);
     let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, ctx.per_light)).div_ceil(4);
-    for (b, w) in words.iter_mut().enumerate().take(blocks.min(MAX_BLOCKS)) {
-        *w = CounterRng::camera_sample_block(
+    let kept = blocks.min(MAX_BLOCKS);
+    for (b, w) in words.iter_mut().enumerate().take(kept) {
+        w.write(CounterRng::camera_sample_block(
             ctx.opts.seed,
             pass,
             &packet.index,
             &packet.sample,
             b as u32,
-        );
+        ));
     }
     let number = |dim: usize| -> [f32; LANES] {
-        if dim / 4 < MAX_BLOCKS {
-            words[dim / 4][dim % 4].map(unit_f32)
+        if dim / 4 < kept {
+            // SAFETY: blocks below `kept` were written above.
+            let block = unsafe { words[dim / 4].assume_init_ref() };
+            block[dim % 4].map(unit_f32)
         } else {
             // More lights than the blocks kept: this dimension lane by lane.
             std::array::from_fn(|k| {
@@ -674,11 +758,14 @@ fn for_lanes(mut mask: u32, mut f: impl FnMut(usize)) {
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
-/// (`normals`: lanes that have them), the sign of `flip_normals`.
+/// (`normals`: lanes that have them), the sign of `flip_normals`. The vertex and normal
+/// arrays are written lane by lane as hits come (`set`) and only then completed with zeros in
+/// the lanes left out ([`Triangles::surface_points`]) rather than zeroed whole per packet
+/// first; the normals not at all when no lane has them (they are not read then).
 struct Triangles {
     mask: u32,
-    v: [Lanes3; 3],
-    n: [Lanes3; 3],
+    v: MaybeUninit<[Lanes3; 3]>,
+    n: MaybeUninit<[Lanes3; 3]>,
     normals: u32,
     sign: [f32; LANES],
 }
@@ -687,10 +774,25 @@ impl Default for Triangles {
     fn default() -> Self {
         Self {
             mask: 0,
-            v: [[[0.0; LANES]; 3]; 3],
-            n: [[[0.0; LANES]; 3]; 3],
+            v: MaybeUninit::uninit(),
+            n: MaybeUninit::uninit(),
             normals: 0,
             sign: [1.0; LANES],
+        }
+    }
+}
+
+/// Writes the three vectors `v` into lane k of `lanes`.
+#[inline(always)]
+fn write_lane(lanes: &mut MaybeUninit<[Lanes3; 3]>, k: usize, v: &[Vec3; 3]) {
+    let lanes = lanes.as_mut_ptr();
+    for (j, vj) in v.iter().enumerate() {
+        // SAFETY: `lanes` points to a live array and the indices are in bounds (k < LANES,
+        // checked); f32 has no destructor, so an uninitialised element may be written over.
+        unsafe {
+            (*lanes)[j][0][k] = vj.x;
+            (*lanes)[j][1][k] = vj.y;
+            (*lanes)[j][2][k] = vj.z;
         }
     }
 }
@@ -699,14 +801,10 @@ impl Triangles {
     #[inline(always)]
     fn set(&mut self, k: usize, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
         self.mask |= 1 << k;
-        for (lanes, &vj) in self.v.iter_mut().zip(v) {
-            set3(lanes, k, vj);
-        }
+        write_lane(&mut self.v, k, v);
         if let Some(n) = n {
             self.normals |= 1 << k;
-            for (lanes, &nj) in self.n.iter_mut().zip(n) {
-                set3(lanes, k, nj);
-            }
+            write_lane(&mut self.n, k, n);
         }
         self.sign[k] = if flip { -1.0 } else { 1.0 };
     }
@@ -715,19 +813,65 @@ impl Triangles {
     /// the same bits), in one loop over all lanes that the compiler vectorises; other lanes
     /// are left as they are.
     #[inline(always)]
-    fn surface_points(&self, hits: &PacketHits, p: &mut Lanes3, ng: &mut Lanes3, ns: &mut Lanes3) {
+    fn surface_points(
+        &mut self,
+        hits: &PacketHits,
+        p: &mut Lanes3,
+        ng: &mut Lanes3,
+        ns: &mut Lanes3,
+    ) {
+        let full = ((1u64 << LANES) - 1) as u32;
+        let mut m = full & !self.mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            write_lane(&mut self.v, k, &[Vec3::ZERO; 3]);
+        }
+        // SAFETY: every lane was written, by `set` or just above.
+        let v = unsafe { self.v.assume_init_ref() };
+        if self.normals == 0 {
+            // Zero normals, as the lanes without them: the shading normal is the geometric.
+            self.lanes(v, None, hits, p, ng, ns);
+            return;
+        }
+        let mut m = full & !self.normals;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            write_lane(&mut self.n, k, &[Vec3::ZERO; 3]);
+        }
+        // SAFETY: as above.
+        let n = unsafe { self.n.assume_init_ref() };
+        self.lanes(v, Some(n), hits, p, ng, ns);
+    }
+
+    #[inline(always)]
+    fn lanes(
+        &self,
+        v: &[Lanes3; 3],
+        n: Option<&[Lanes3; 3]>,
+        hits: &PacketHits,
+        p: &mut Lanes3,
+        ng: &mut Lanes3,
+        ns: &mut Lanes3,
+    ) {
         for k in 0..LANES {
             let (b1, b2) = (hits.b1[k], hits.b2[k]);
             let b0 = 1.0 - b1 - b2;
-            let [v0, v1, v2] = self.v.each_ref().map(|v| get3(v, k));
-            let [n0, n1, n2] = self.n.each_ref().map(|n| get3(n, k));
+            let [v0, v1, v2] = v.each_ref().map(|v| get3(v, k));
             let pk = b0 * v0 + b1 * v1 + b2 * v2;
             let ngk = (v1 - v0).cross(v2 - v0).normalize_or_zero();
-            let nsk = (b0 * n0 + b1 * n1 + b2 * n2).normalize_or_zero();
-            let nsk = if (self.normals >> k & 1 == 1) & (nsk != Vec3::ZERO) {
-                nsk
-            } else {
-                ngk
+            let nsk = match n {
+                Some(n) => {
+                    let [n0, n1, n2] = n.each_ref().map(|n| get3(n, k));
+                    let nsk = (b0 * n0 + b1 * n1 + b2 * n2).normalize_or_zero();
+                    if (self.normals >> k & 1 == 1) & (nsk != Vec3::ZERO) {
+                        nsk
+                    } else {
+                        ngk
+                    }
+                }
+                None => ngk,
             };
             if self.mask >> k & 1 == 1 {
                 let sign = self.sign[k];
