@@ -212,6 +212,7 @@ pub const PACKET: usize = 16;
 /// Up to [`PACKET`] rays as structure of arrays (the rays of a batched renderer); which lanes
 /// hold rays is a separate bit mask.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))] // one cache line per component: whole-register loads never split
 pub struct RayLanes {
     pub o: [[f32; PACKET]; 3],
     pub d: [[f32; PACKET]; 3],
@@ -276,14 +277,15 @@ impl RayLanes {
 /// test; a NaN corner, 0·∞, leaves the axis unconstrained). Conservative like that test, it
 /// only decides which subtrees the packet enters: every ray still meets the primitives with its
 /// own exact test. Other packets are tested ray by ray.
+#[repr(C, align(64))] // the lane arrays first, one cache line each
 struct RayPacket<'a> {
-    lanes: &'a RayLanes,
     /// 1 / d per axis and lane; its sign bit says that the near plane is the box's max.
     inv: [[f32; PACKET]; 3],
     /// The rays' intervals: +∞ and −∞ outside the packet (t_max kept up to date by the
     /// closest-hit walk).
     t_min: [f32; PACKET],
     t_max: [f32; PACKET],
+    lanes: &'a RayLanes,
     /// Every ray has the same direction signs (and nothing is NaN): box tests by intervals.
     coherent: bool,
     /// 1 where the common direction sign is negative.
@@ -413,6 +415,7 @@ impl<'a> RayPacket<'a> {
 /// Closest hits of a packet of up to [`PACKET`] rays ([`Bvh::intersect_lanes`]); lanes of
 /// rays that hit nothing (or outside the packet) hold meaningless values.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))] // one cache line per array: whole-register loads never split
 pub struct PacketHits {
     pub t: [f32; PACKET],
     /// BVH primitive index ([`Bvh::primitive`]).

@@ -530,14 +530,19 @@ mod x86 {
             );
             let zero = _mm512_testn_epi32_mask(bits, _mm512_set1_epi32(i32::MAX));
             let up = _mm512_mask_mov_epi32(up, zero, _mm512_set1_epi32(1));
+            // Whole-register stores (blends), not masked ones: a masked store does not forward
+            // to the next triangle's whole-register load of t_max (a stall per update).
             // SAFETY: 16 lanes in each array.
             unsafe {
                 _mm512_storeu_ps(best.t.as_mut_ptr(), _mm512_mask_mov_ps(best_t, take, t));
                 let p = _mm512_mask_mov_epi32(best_prim, take, i);
                 _mm512_storeu_si512(best.prim.as_mut_ptr().cast(), p);
-                _mm512_mask_storeu_ps(best.b1.as_mut_ptr(), take, ld(b1));
-                _mm512_mask_storeu_ps(best.b2.as_mut_ptr(), take, ld(b2));
-                _mm512_mask_storeu_ps(t_max.as_mut_ptr(), take, _mm512_castsi512_ps(up));
+                let b = _mm512_mask_mov_ps(ld(&best.b1), take, ld(b1));
+                _mm512_storeu_ps(best.b1.as_mut_ptr(), b);
+                let b = _mm512_mask_mov_ps(ld(&best.b2), take, ld(b2));
+                _mm512_storeu_ps(best.b2.as_mut_ptr(), b);
+                let up = _mm512_mask_mov_ps(ld(t_max), take, _mm512_castsi512_ps(up));
+                _mm512_storeu_ps(t_max.as_mut_ptr(), up);
             }
             take as u32
         }
@@ -683,7 +688,8 @@ mod x86 {
                     // mask's sign bit is set).
                     let v = [o, negate(o), r, negate(r)];
                     for (l, x) in lo.iter_mut().zip(v) {
-                        *l = _mm256_min_ps(*l, _mm256_blendv_ps(inf, x, on[h]));
+                        let x = _mm256_blendv_ps(inf, x, on[h]);
+                        *l = if h == 0 { x } else { _mm256_min_ps(*l, x) };
                     }
                 }
                 neg[a] &= active;
