@@ -678,22 +678,24 @@ impl Bvh {
         let mut spill: Vec<PacketEntry> = Vec::new();
         let mut sp = 0;
         let mut expand = Some((0u32, active));
+        // A child of the last node entered without a trip through the stack (an entry
+        // written and read back at once stalls the load: store forwarding fails).
+        let mut next: Option<PacketEntry> = None;
         loop {
             if let Some((index, mask)) = expand.take() {
                 let node = &self.nodes[index as usize];
                 let children = packet.children::<K>(node, mask);
                 for (lane, (hits, entry)) in children.into_iter().enumerate() {
                     if hits != 0 {
-                        push(
-                            &mut stack,
-                            &mut sp,
-                            &mut spill,
-                            (index, lane as u32, hits, entry),
-                        );
+                        if let Some(e) = next.replace((index, lane as u32, hits, entry)) {
+                            push(&mut stack, &mut sp, &mut spill, e);
+                        }
                     }
                 }
             }
-            let Some((parent, lane, mask, _)) = pop(&stack, &mut sp, &mut spill) else {
+            let Some((parent, lane, mask, _)) =
+                next.take().or_else(|| pop(&stack, &mut sp, &mut spill))
+            else {
                 return occluded;
             };
             let mask = mask & !occluded;
@@ -796,38 +798,53 @@ impl Bvh {
         let mut spill: Vec<PacketEntry> = Vec::new();
         let mut sp = 0;
         let mut expand = Some((0u32, active));
+        // The nearest child of the last node, entered without a trip through the stack (an
+        // entry written and read back at once stalls the load: store forwarding fails).
+        let mut next: Option<PacketEntry> = None;
         loop {
             if let Some((index, mask)) = expand.take() {
                 let node = &self.nodes[index as usize];
-                // Hit slots sorted by entry distance, farthest first (pushed first, popped last).
-                let mut order = [(0u32, 0u32, 0u32, 0.0f32); WIDTH];
-                let mut n = 0;
                 let children = packet.children::<K>(node, mask);
-                for (lane, (hits, entry)) in children.into_iter().enumerate() {
+                // Hit slots sorted by entry distance, farthest first: the nearest is entered
+                // next, the others pushed so that the nearer ones are popped first.
+                let mut order = [0usize; WIDTH];
+                let mut n = 0;
+                for (lane, &(hits, entry)) in children.iter().enumerate() {
                     if hits != 0 {
                         let mut j = n;
-                        while j > 0 && order[j - 1].3 < entry {
+                        while j > 0 && children[order[j - 1]].1 < entry {
                             order[j] = order[j - 1];
                             j -= 1;
                         }
-                        order[j] = (index, lane as u32, hits, entry);
+                        order[j] = lane;
                         n += 1;
                     }
                 }
-                for &e in &order[..n] {
-                    push(&mut stack, &mut sp, &mut spill, e);
+                for (k, &lane) in order[..n].iter().enumerate() {
+                    let (hits, entry) = children[lane];
+                    let e = (index, lane as u32, hits, entry);
+                    if k + 1 == n {
+                        next = Some(e);
+                    } else {
+                        push(&mut stack, &mut sp, &mut spill, e);
+                    }
                 }
             }
-            let Some((parent, lane, mask, entry)) = pop(&stack, &mut sp, &mut spill) else {
-                break;
+            let (parent, lane, mask) = if let Some((parent, lane, mask, _)) = next.take() {
+                (parent, lane as usize, mask)
+            } else {
+                let Some((parent, lane, mask, entry)) = pop(&stack, &mut sp, &mut spill) else {
+                    break;
+                };
+                // Rays that found a closer hit since the push may no longer reach the box.
+                let node = &self.nodes[parent as usize];
+                let mask = packet.still_hit::<K>(node, lane as usize, mask, entry);
+                if mask == 0 {
+                    continue;
+                }
+                (parent, lane as usize, mask)
             };
             let node = &self.nodes[parent as usize];
-            let lane = lane as usize;
-            // Rays that found a closer hit since the push may no longer reach the box.
-            let mask = packet.still_hit::<K>(node, lane, mask, entry);
-            if mask == 0 {
-                continue;
-            }
             let (child, count) = (node.child[lane], node.count[lane]);
             if count == 0 {
                 expand = Some((child, mask));
