@@ -338,10 +338,13 @@ impl<'a> RayPacket<'a> {
             t_hi,
         };
         for (a, &(o_lo, o_hi, inv_lo, inv_hi, neg_bits)) in axes.iter().enumerate() {
+            // `&`, not `&&`, and selects: no branch per axis.
             let negative = neg_bits == active;
-            p.coherent &= (neg_bits == 0 || negative) && o_lo <= o_hi && inv_lo <= inv_hi;
+            p.coherent &= (neg_bits == 0) | negative;
+            p.coherent &= (o_lo <= o_hi) & (inv_lo <= inv_hi);
             p.sign[a] = negative as usize;
-            (p.o_near[a], p.o_far[a]) = if negative { (o_lo, o_hi) } else { (o_hi, o_lo) };
+            p.o_near[a] = if negative { o_lo } else { o_hi };
+            p.o_far[a] = if negative { o_hi } else { o_lo };
             (p.inv_lo[a], p.inv_hi[a]) = (inv_lo, inv_hi);
         }
         p
@@ -351,30 +354,68 @@ impl<'a> RayPacket<'a> {
     /// the rays' distances limited to [t_lo, t_hi]: whether some ray may meet each box, and a
     /// lower bound of the rays' entry distances.
     #[inline(always)]
-    fn interval_hits(&self, node: &Node) -> ([f32; WIDTH], [bool; WIDTH]) {
-        let mut t0 = [self.t_lo; WIDTH];
-        let mut t1 = [self.t_hi; WIDTH];
-        for a in 0..3 {
-            let s = self.sign[a] & 1;
-            let (nb, fb) = (&node.b[s][a], &node.b[s ^ 1][a]);
-            let (on, of) = (self.o_near[a], self.o_far[a]);
-            let (lo, hi) = (self.inv_lo[a], self.inv_hi[a]);
-            for i in 0..WIDTH {
-                // Smallest (nb − o)·inv and largest (fb − o)·inv over the packet's bounds (a
-                // NaN, 0·∞, compares false below: no constraint).
-                let g = nb[i] - on;
-                let near = g * if g >= 0.0 { lo } else { hi };
-                let h = fb[i] - of;
-                let far = h * if h >= 0.0 { hi } else { lo } * FAR_SCALE;
-                t0[i] = if near > t0[i] { near } else { t0[i] };
-                t1[i] = if far < t1[i] { far } else { t1[i] };
+    fn interval_hits(&self, node: &Node) -> ([f32; WIDTH], u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // The same arithmetic in SSE registers (the compiler kept parts of it scalar).
+            use std::arch::x86_64::*;
+            // SAFETY: SSE and SSE2 are part of x86-64; the loads read four floats each.
+            unsafe {
+                let mut t0 = _mm_set1_ps(self.t_lo);
+                let mut t1 = _mm_set1_ps(self.t_hi);
+                let zero = _mm_setzero_ps();
+                // c ? x : y for a comparison mask c (SSE2 has no blend).
+                let select = |c: __m128, x: __m128, y: __m128| {
+                    _mm_or_ps(_mm_and_ps(c, x), _mm_andnot_ps(c, y))
+                };
+                for a in 0..3 {
+                    let s = self.sign[a] & 1;
+                    let (nb, fb) = (
+                        _mm_loadu_ps(node.b[s][a].as_ptr()),
+                        _mm_loadu_ps(node.b[s ^ 1][a].as_ptr()),
+                    );
+                    let (lo, hi) = (_mm_set1_ps(self.inv_lo[a]), _mm_set1_ps(self.inv_hi[a]));
+                    let g = _mm_sub_ps(nb, _mm_set1_ps(self.o_near[a]));
+                    let near = _mm_mul_ps(g, select(_mm_cmpge_ps(g, zero), lo, hi));
+                    let h = _mm_sub_ps(fb, _mm_set1_ps(self.o_far[a]));
+                    let far = _mm_mul_ps(
+                        _mm_mul_ps(h, select(_mm_cmpge_ps(h, zero), hi, lo)),
+                        _mm_set1_ps(FAR_SCALE),
+                    );
+                    // near > t0 ? near : t0 (NaN: no constraint), likewise for t1.
+                    t0 = _mm_max_ps(near, t0);
+                    t1 = _mm_min_ps(far, t1);
+                }
+                let hit = _mm_movemask_ps(_mm_cmple_ps(t0, t1)) as u32;
+                (std::mem::transmute::<__m128, [f32; WIDTH]>(t0), hit)
             }
         }
-        let mut hit = [false; WIDTH];
-        for i in 0..WIDTH {
-            hit[i] = t0[i] <= t1[i];
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let mut t0 = [self.t_lo; WIDTH];
+            let mut t1 = [self.t_hi; WIDTH];
+            for a in 0..3 {
+                let s = self.sign[a] & 1;
+                let (nb, fb) = (&node.b[s][a], &node.b[s ^ 1][a]);
+                let (on, of) = (self.o_near[a], self.o_far[a]);
+                let (lo, hi) = (self.inv_lo[a], self.inv_hi[a]);
+                for i in 0..WIDTH {
+                    // Smallest (nb − o)·inv and largest (fb − o)·inv over the packet's bounds
+                    // (a NaN, 0·∞, compares false below: no constraint).
+                    let g = nb[i] - on;
+                    let near = g * if g >= 0.0 { lo } else { hi };
+                    let h = fb[i] - of;
+                    let far = h * if h >= 0.0 { hi } else { lo } * FAR_SCALE;
+                    t0[i] = if near > t0[i] { near } else { t0[i] };
+                    t1[i] = if far < t1[i] { far } else { t1[i] };
+                }
+            }
+            let mut hit = 0u32;
+            for i in 0..WIDTH {
+                hit |= ((t0[i] <= t1[i]) as u32) << i;
+            }
+            (t0, hit)
         }
-        (t0, hit)
     }
 
     /// Per child of `node`: the rays of `mask` that may meet its box and their smallest entry
@@ -385,7 +426,7 @@ impl<'a> RayPacket<'a> {
         if self.coherent {
             let (t0, hit) = self.interval_hits(node);
             for lane in 0..WIDTH {
-                out[lane] = (if hit[lane] { mask } else { 0 }, t0[lane]);
+                out[lane] = (if hit >> lane & 1 == 1 { mask } else { 0 }, t0[lane]);
             }
         } else {
             for (lane, o) in out.iter_mut().enumerate() {
