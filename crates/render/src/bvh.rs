@@ -958,31 +958,20 @@ impl Bvh {
     /// smallest index: what [`Self::intersect`] returns.
     #[inline(always)]
     fn intersect_tiny<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
-        // The current closest distance of each ray; −∞ outside the packet (nothing is hit).
-        let mut t_max: [f32; PACKET] = std::array::from_fn(|k| {
+        // `out.t`: the current closest distance of each ray; −∞ outside the packet (nothing
+        // is hit).
+        out.t = std::array::from_fn(|k| {
             if active >> k & 1 == 1 {
                 lanes.t_max[k]
             } else {
                 f32::NEG_INFINITY
             }
         });
-        let mut prim = [u32::MAX; PACKET];
-        let (mut b1, mut b2) = ([0.0f32; PACKET], [0.0f32; PACKET]);
         for (i, tri) in self.tiny.iter().enumerate() {
-            let (t, u, v, hits) = K::triangle(lanes, &lanes.t_min, &t_max, tri);
-            for k in 0..PACKET {
-                let hit = hits >> k & 1 == 1;
-                t_max[k] = if hit { t[k] } else { t_max[k] };
-                prim[k] = if hit { i as u32 } else { prim[k] };
-                b1[k] = if hit { u[k] } else { b1[k] };
-                b2[k] = if hit { v[k] } else { b2[k] };
-            }
+            let hits = K::triangle(lanes, &lanes.t_min, &out.t, tri);
+            K::take_nearer(out, &hits, i as u32);
         }
-        out.t = t_max;
-        out.prim = prim;
-        out.b1 = b1;
-        out.b2 = b2;
-        for (k, &p) in prim.iter().enumerate() {
+        for (k, &p) in out.prim.iter().enumerate() {
             out.mask |= ((p != u32::MAX) as u32) << k;
         }
     }

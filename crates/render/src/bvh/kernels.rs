@@ -47,6 +47,9 @@ pub(super) trait Kernel {
         mask: u32,
         prim: u32,
     ) -> u32;
+    /// The lanes of `hits` (bit i: ray i hits primitive `prim` closer than `best.t[i]`) take
+    /// that hit: t, prim, b1, b2 (the tiny-tree walk, whose t_max is `best.t`).
+    fn take_nearer(best: &mut PacketHits, hits: &LaneHits, prim: u32);
     /// Largest element (no NaN).
     fn max(a: &[f32; PACKET]) -> f32;
 }
@@ -183,6 +186,17 @@ impl Kernel for Portable {
     }
 
     #[inline(always)]
+    fn take_nearer(best: &mut PacketHits, (t, b1, b2, hits): &LaneHits, prim: u32) {
+        for k in 0..PACKET {
+            let hit = hits >> k & 1 == 1;
+            best.t[k] = if hit { t[k] } else { best.t[k] };
+            best.prim[k] = if hit { prim } else { best.prim[k] };
+            best.b1[k] = if hit { b1[k] } else { best.b1[k] };
+            best.b2[k] = if hit { b2[k] } else { best.b2[k] };
+        }
+    }
+
+    #[inline(always)]
     fn max(a: &[f32; PACKET]) -> f32 {
         reduce::<true>(*a)
     }
@@ -246,6 +260,10 @@ mod x86 {
             unsafe { avx512::take_closest(best, t_max, hits, mask, prim) }
         }
         #[inline(always)]
+        fn take_nearer(best: &mut PacketHits, hits: &LaneHits, prim: u32) {
+            unsafe { avx512::take_nearer(best, hits, prim) }
+        }
+        #[inline(always)]
         fn max(a: &[f32; PACKET]) -> f32 {
             unsafe { avx512::max(a) }
         }
@@ -284,6 +302,10 @@ mod x86 {
             prim: u32,
         ) -> u32 {
             unsafe { avx2::take_closest(best, t_max, hits, mask, prim) }
+        }
+        #[inline(always)]
+        fn take_nearer(best: &mut PacketHits, hits: &LaneHits, prim: u32) {
+            unsafe { avx2::take_nearer(best, hits, prim) }
         }
         #[inline(always)]
         fn max(a: &[f32; PACKET]) -> f32 {
@@ -545,6 +567,26 @@ mod x86 {
                 _mm512_storeu_ps(t_max.as_mut_ptr(), up);
             }
             take as u32
+        }
+
+        #[inline]
+        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        pub(super) fn take_nearer(best: &mut PacketHits, (t, b1, b2, hits): &LaneHits, prim: u32) {
+            let take = *hits as __mmask16;
+            // SAFETY: 16 lanes in each array.
+            unsafe {
+                _mm512_storeu_ps(
+                    best.t.as_mut_ptr(),
+                    _mm512_mask_mov_ps(ld(&best.t), take, ld(t)),
+                );
+                let old = _mm512_loadu_si512(best.prim.as_ptr().cast());
+                let p = _mm512_mask_mov_epi32(old, take, _mm512_set1_epi32(prim as i32));
+                _mm512_storeu_si512(best.prim.as_mut_ptr().cast(), p);
+                let b = _mm512_mask_mov_ps(ld(&best.b1), take, ld(b1));
+                _mm512_storeu_ps(best.b1.as_mut_ptr(), b);
+                let b = _mm512_mask_mov_ps(ld(&best.b2), take, ld(b2));
+                _mm512_storeu_ps(best.b2.as_mut_ptr(), b);
+            }
         }
 
         #[inline]
@@ -875,6 +917,31 @@ mod x86 {
 
         #[inline]
         #[target_feature(enable = "avx2,fma")]
+        pub(super) fn take_nearer(best: &mut PacketHits, (t, b1, b2, hits): &LaneHits, prim: u32) {
+            let i = _mm256_set1_ps(f32::from_bits(prim));
+            for h in 0..2 {
+                let take = lane_mask(*hits, h);
+                let pick = |old: &[f32; PACKET], new: V| _mm256_blendv_ps(ld(old, h), new, take);
+                let (nt, n1, n2) = (
+                    pick(&best.t, ld(t, h)),
+                    pick(&best.b1, ld(b1, h)),
+                    pick(&best.b2, ld(b2, h)),
+                );
+                // SAFETY: 8 u32 from 8h.
+                let old_prim = unsafe { _mm256_loadu_ps(best.prim.as_ptr().add(8 * h).cast()) };
+                let np = _mm256_blendv_ps(old_prim, i, take);
+                // SAFETY: 8 lanes from 8h in each array.
+                unsafe {
+                    _mm256_storeu_ps(best.t.as_mut_ptr().add(8 * h), nt);
+                    _mm256_storeu_ps(best.b1.as_mut_ptr().add(8 * h), n1);
+                    _mm256_storeu_ps(best.b2.as_mut_ptr().add(8 * h), n2);
+                    _mm256_storeu_ps(best.prim.as_mut_ptr().add(8 * h).cast(), np);
+                }
+            }
+        }
+
+        #[inline]
+        #[target_feature(enable = "avx2,fma")]
         pub(super) fn max(a: &[f32; PACKET]) -> f32 {
             -hmin(_mm256_min_ps(negate(ld(a, 0)), negate(ld(a, 1))))
         }
@@ -1050,6 +1117,26 @@ mod tests {
                     assert_eq!(bits(&bp.b1), bits(&bq.b1));
                     assert_eq!(bits(&bp.b2), bits(&bq.b2));
                 }
+            }
+            // The tiny-tree update: best.t is the rays' t_max.
+            let mut near = [PacketHits {
+                t: p.t_max,
+                prim: [u32::MAX; PACKET],
+                b1: [0.0; PACKET],
+                b2: [0.0; PACKET],
+                mask: 0,
+            }; 2];
+            for (i, tri) in tris.iter().enumerate() {
+                let [np, nq] = &mut near;
+                let h = Portable::triangle(&lanes, &p.t_min, &np.t, tri);
+                let g = K::triangle(&lanes, &q.t_min, &nq.t, tri);
+                assert_eq!(h.3, g.3);
+                Portable::take_nearer(np, &h, i as u32);
+                K::take_nearer(nq, &g, i as u32);
+                assert_eq!(bits(&np.t), bits(&nq.t));
+                assert_eq!(np.prim, nq.prim);
+                assert_eq!(bits(&np.b1), bits(&nq.b1));
+                assert_eq!(bits(&np.b2), bits(&nq.b2));
             }
             let finite = p.t_max.map(|t| if t.is_finite() { t } else { 0.0 });
             assert_eq!(Portable::max(&finite), K::max(&finite));
