@@ -951,7 +951,6 @@ mod x86 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use linlight_sampling::batch::Isa;
     use linlight_sampling::rng::Pcg32;
 
     /// Packets with every kind of lane: masked off, zero and negative direction components,
@@ -1003,6 +1002,7 @@ mod tests {
     fn kernels_agree_with_portable() {
         #[cfg(target_arch = "x86_64")]
         {
+            use linlight_sampling::batch::Isa;
             if Isa::Avx512.supported() && std::arch::is_x86_feature_detected!("avx512bw") {
                 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
                 unsafe fn run() {
