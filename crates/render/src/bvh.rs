@@ -726,9 +726,11 @@ impl Bvh {
             if let Some((index, mask)) = expand.take() {
                 let node = &self.nodes[index as usize];
                 let children = packet.children::<K>(node, mask);
-                for (lane, (hits, entry)) in children.into_iter().enumerate() {
+                // Any hit: no order, the entry distances are not needed (and, unused, not
+                // computed: the kernels' horizontal minima are dropped).
+                for (lane, (hits, _)) in children.into_iter().enumerate() {
                     if hits != 0 {
-                        if let Some(e) = next.replace((index, lane as u32, hits, entry)) {
+                        if let Some(e) = next.replace((index, lane as u32, hits, 0.0)) {
                             push(&mut stack, &mut sp, &mut spill, e);
                         }
                     }
