@@ -11,7 +11,10 @@
 //! 62 066 cornell-tube shadow rays differently (its box test is not made conservative), and it
 //! needs glam 0.33–0.34 besides the workspace's 0.30.
 
-use crate::shapes::{intersect_triangle_edges, intersect_triangle_lane, Aabb, Hit, Primitive, Ray};
+use crate::shapes::{intersect_triangle_edges, Aabb, Hit, Primitive, Ray};
+use kernels::Kernel;
+
+mod kernels;
 use glam::Vec3;
 
 const BINS: usize = 16;
@@ -209,6 +212,7 @@ pub const PACKET: usize = 16;
 /// Up to [`PACKET`] rays as structure of arrays (the rays of a batched renderer); which lanes
 /// hold rays is a separate bit mask.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))] // one cache line per component: whole-register loads never split
 pub struct RayLanes {
     pub o: [[f32; PACKET]; 3],
     pub d: [[f32; PACKET]; 3],
@@ -260,7 +264,8 @@ impl RayLanes {
 }
 
 /// A packet of rays prepared for box tests. Lanes outside the packet's mask have an empty
-/// interval and never hit.
+/// interval and never hit. Built by a [`Kernel`] (`Kernel::packet`); origins and directions are
+/// read from the caller's [`RayLanes`], not copied.
 ///
 /// When every ray has the same direction sign on each axis (the camera rays of a pixel or a
 /// row of pixels, shadow rays from a pixel's points toward a light that does not straddle
@@ -272,15 +277,16 @@ impl RayLanes {
 /// test; a NaN corner, 0·∞, leaves the axis unconstrained). Conservative like that test, it
 /// only decides which subtrees the packet enters: every ray still meets the primitives with its
 /// own exact test. Other packets are tested ray by ray.
-struct RayPacket<const N: usize> {
-    o: [[f32; N]; 3],
-    d: [[f32; N]; 3],
-    inv: [[f32; N]; 3],
-    /// Direction component negative (its near plane is the box's max).
-    neg: [[bool; N]; 3],
-    t_min: [f32; N],
-    t_max: [f32; N],
-    /// Every ray has the same direction signs: box tests by intervals.
+#[repr(C, align(64))] // the lane arrays first, one cache line each
+struct RayPacket<'a> {
+    /// 1 / d per axis and lane; its sign bit says that the near plane is the box's max.
+    inv: [[f32; PACKET]; 3],
+    /// The rays' intervals: +∞ and −∞ outside the packet (t_max kept up to date by the
+    /// closest-hit walk).
+    t_min: [f32; PACKET],
+    t_max: [f32; PACKET],
+    lanes: &'a RayLanes,
+    /// Every ray has the same direction signs (and nothing is NaN): box tests by intervals.
     coherent: bool,
     /// 1 where the common direction sign is negative.
     sign: [usize; 3],
@@ -296,155 +302,135 @@ struct RayPacket<const N: usize> {
     t_hi: f32,
 }
 
-/// Smallest (`MAX` = false) or largest element of a, by halving (elementwise operations the
-/// compiler vectorises; a reduction loop would stay scalar). NaN-free inputs.
-#[inline(always)]
-fn reduce<const N: usize, const MAX: bool>(mut a: [f32; N]) -> f32 {
-    let mut w = N;
-    while w > 1 {
-        w /= 2;
-        for i in 0..w {
-            let (x, y) = (a[i], a[i + w]);
-            a[i] = if (x < y) ^ MAX { x } else { y };
-        }
-    }
-    a[0]
-}
+/// Bounds of a packet on one axis: smallest and largest origin, smallest and largest 1/d, and
+/// the direction-sign bits of the active rays.
+type AxisBounds = (f32, f32, f32, f32, u32);
 
-impl<const N: usize> RayPacket<N> {
-    /// The rays of `lanes` whose bit is set in `active` (lanes ≥ N are ignored; N a power of 2).
+impl<'a> RayPacket<'a> {
+    /// The interval part of the packet from the bounds of its rays, per axis: (smallest origin,
+    /// largest origin, smallest 1/d, largest 1/d, direction-sign bits of the active rays), and
+    /// the smallest t_min and largest t_max. `ordered`: no active lane has a NaN origin,
+    /// reciprocal or interval end (a NaN makes the packet incoherent).
     #[inline(always)]
-    fn new(lanes: &RayLanes, active: u32) -> Self {
+    #[allow(clippy::too_many_arguments)]
+    fn from_bounds(
+        lanes: &'a RayLanes,
+        active: u32,
+        inv: [[f32; PACKET]; 3],
+        t_min: [f32; PACKET],
+        t_max: [f32; PACKET],
+        axes: [AxisBounds; 3],
+        (t_lo, t_hi): (f32, f32),
+        ordered: bool,
+    ) -> Self {
         let mut p = RayPacket {
-            o: [[0.0; N]; 3],
-            d: [[0.0; N]; 3],
-            inv: [[0.0; N]; 3],
-            neg: [[false; N]; 3],
-            t_min: [f32::INFINITY; N],
-            t_max: [f32::NEG_INFINITY; N],
-            coherent: true,
+            lanes,
+            inv,
+            t_min,
+            t_max,
+            coherent: ordered && t_lo <= t_hi,
             sign: [0; 3],
             o_near: [0.0; 3],
             o_far: [0.0; 3],
             inv_lo: [0.0; 3],
             inv_hi: [0.0; 3],
-            t_lo: 0.0,
-            t_hi: 0.0,
+            t_lo,
+            t_hi,
         };
-        let on: [bool; N] = std::array::from_fn(|i| active >> i & 1 == 1);
-        let (inf, ninf) = (f32::INFINITY, f32::NEG_INFINITY);
-        for a in 0..3 {
-            let mut neg_bits = 0u32;
-            let (mut o_lo, mut o_hi) = ([inf; N], [ninf; N]);
-            let (mut i_lo, mut i_hi) = ([inf; N], [ninf; N]);
-            for i in 0..N {
-                let (o, d) = (lanes.o[a][i], lanes.d[a][i]);
-                let inv = 1.0 / d;
-                let neg = inv.is_sign_negative();
-                (p.o[a][i], p.d[a][i], p.inv[a][i], p.neg[a][i]) = (o, d, inv, neg);
-                neg_bits |= ((on[i] & neg) as u32) << i;
-                // NaN (a NaN direction or origin) makes the packet incoherent below.
-                o_lo[i] = if on[i] { o } else { inf };
-                o_hi[i] = if on[i] { o } else { ninf };
-                i_lo[i] = if on[i] { inv } else { inf };
-                i_hi[i] = if on[i] { inv } else { ninf };
-            }
-            let (o_lo, o_hi) = (reduce::<N, false>(o_lo), reduce::<N, true>(o_hi));
-            let (inv_lo, inv_hi) = (reduce::<N, false>(i_lo), reduce::<N, true>(i_hi));
+        for (a, &(o_lo, o_hi, inv_lo, inv_hi, neg_bits)) in axes.iter().enumerate() {
+            // `&`, not `&&`, and selects: no branch per axis.
             let negative = neg_bits == active;
-            p.coherent &= (neg_bits == 0 || negative) && o_lo <= o_hi && inv_lo <= inv_hi;
+            p.coherent &= (neg_bits == 0) | negative;
+            p.coherent &= (o_lo <= o_hi) & (inv_lo <= inv_hi);
             p.sign[a] = negative as usize;
-            (p.o_near[a], p.o_far[a]) = if negative { (o_lo, o_hi) } else { (o_hi, o_lo) };
+            p.o_near[a] = if negative { o_lo } else { o_hi };
+            p.o_far[a] = if negative { o_hi } else { o_lo };
             (p.inv_lo[a], p.inv_hi[a]) = (inv_lo, inv_hi);
         }
-        #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
-        for i in 0..N {
-            p.t_min[i] = if on[i] { lanes.t_min[i] } else { inf };
-            p.t_max[i] = if on[i] { lanes.t_max[i] } else { ninf };
-        }
-        p.t_lo = reduce::<N, false>(p.t_min);
-        p.t_hi = reduce::<N, true>(p.t_max);
-        // NaN interval ends: test ray by ray (NaN compares false there, as in `occluded`).
-        p.coherent &= p.t_lo <= p.t_hi;
         p
-    }
-
-    /// Bit i: ray i meets child `lane`'s box within its (t_min, t_max) — the same conservative
-    /// slab test as [`RayBoxes::hits`] (a NaN slab distance leaves the interval unchanged).
-    #[inline(always)]
-    fn hits(&self, node: &Node, lane: usize) -> u32 {
-        self.hits_and_entry(node, lane).0
-    }
-
-    /// [`Self::hits`] and the smallest entry distance of the rays that hit (+∞ if none).
-    #[inline(always)]
-    fn hits_and_entry(&self, node: &Node, lane: usize) -> (u32, f32) {
-        let mut t0 = self.t_min;
-        let mut t1 = self.t_max;
-        for a in 0..3 {
-            let (lo, hi) = (node.b[0][a][lane], node.b[1][a][lane]);
-            for i in 0..N {
-                let (nb, fb) = if self.neg[a][i] { (hi, lo) } else { (lo, hi) };
-                let near = (nb - self.o[a][i]) * self.inv[a][i];
-                let far = (fb - self.o[a][i]) * self.inv[a][i] * FAR_SCALE;
-                t0[i] = if near > t0[i] { near } else { t0[i] };
-                t1[i] = if far < t1[i] { far } else { t1[i] };
-            }
-        }
-        let mut mask = 0u32;
-        let mut entries = [f32::INFINITY; N];
-        for i in 0..N {
-            let hit = t0[i] <= t1[i];
-            mask |= (hit as u32) << i;
-            // t0 is never NaN (it only takes values that compared greater).
-            entries[i] = if hit { t0[i] } else { f32::INFINITY };
-        }
-        (mask, reduce::<N, false>(entries))
     }
 
     /// The four boxes of `node` against the packet as intervals (valid when `coherent`), with
     /// the rays' distances limited to [t_lo, t_hi]: whether some ray may meet each box, and a
     /// lower bound of the rays' entry distances.
     #[inline(always)]
-    fn interval_hits(&self, node: &Node) -> ([f32; WIDTH], [bool; WIDTH]) {
-        let mut t0 = [self.t_lo; WIDTH];
-        let mut t1 = [self.t_hi; WIDTH];
-        for a in 0..3 {
-            let s = self.sign[a] & 1;
-            let (nb, fb) = (&node.b[s][a], &node.b[s ^ 1][a]);
-            let (on, of) = (self.o_near[a], self.o_far[a]);
-            let (lo, hi) = (self.inv_lo[a], self.inv_hi[a]);
-            for i in 0..WIDTH {
-                // Smallest (nb − o)·inv and largest (fb − o)·inv over the packet's bounds (a
-                // NaN, 0·∞, compares false below: no constraint).
-                let g = nb[i] - on;
-                let near = g * if g >= 0.0 { lo } else { hi };
-                let h = fb[i] - of;
-                let far = h * if h >= 0.0 { hi } else { lo } * FAR_SCALE;
-                t0[i] = if near > t0[i] { near } else { t0[i] };
-                t1[i] = if far < t1[i] { far } else { t1[i] };
+    fn interval_hits(&self, node: &Node) -> ([f32; WIDTH], u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // The same arithmetic in SSE registers (the compiler kept parts of it scalar).
+            use std::arch::x86_64::*;
+            // SAFETY: SSE and SSE2 are part of x86-64; the loads read four floats each.
+            unsafe {
+                let mut t0 = _mm_set1_ps(self.t_lo);
+                let mut t1 = _mm_set1_ps(self.t_hi);
+                let zero = _mm_setzero_ps();
+                // c ? x : y for a comparison mask c (SSE2 has no blend).
+                let select = |c: __m128, x: __m128, y: __m128| {
+                    _mm_or_ps(_mm_and_ps(c, x), _mm_andnot_ps(c, y))
+                };
+                for a in 0..3 {
+                    let s = self.sign[a] & 1;
+                    let (nb, fb) = (
+                        _mm_loadu_ps(node.b[s][a].as_ptr()),
+                        _mm_loadu_ps(node.b[s ^ 1][a].as_ptr()),
+                    );
+                    let (lo, hi) = (_mm_set1_ps(self.inv_lo[a]), _mm_set1_ps(self.inv_hi[a]));
+                    let g = _mm_sub_ps(nb, _mm_set1_ps(self.o_near[a]));
+                    let near = _mm_mul_ps(g, select(_mm_cmpge_ps(g, zero), lo, hi));
+                    let h = _mm_sub_ps(fb, _mm_set1_ps(self.o_far[a]));
+                    let far = _mm_mul_ps(
+                        _mm_mul_ps(h, select(_mm_cmpge_ps(h, zero), hi, lo)),
+                        _mm_set1_ps(FAR_SCALE),
+                    );
+                    // near > t0 ? near : t0 (NaN: no constraint), likewise for t1.
+                    t0 = _mm_max_ps(near, t0);
+                    t1 = _mm_min_ps(far, t1);
+                }
+                let hit = _mm_movemask_ps(_mm_cmple_ps(t0, t1)) as u32;
+                (std::mem::transmute::<__m128, [f32; WIDTH]>(t0), hit)
             }
         }
-        let mut hit = [false; WIDTH];
-        for i in 0..WIDTH {
-            hit[i] = t0[i] <= t1[i];
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let mut t0 = [self.t_lo; WIDTH];
+            let mut t1 = [self.t_hi; WIDTH];
+            for a in 0..3 {
+                let s = self.sign[a] & 1;
+                let (nb, fb) = (&node.b[s][a], &node.b[s ^ 1][a]);
+                let (on, of) = (self.o_near[a], self.o_far[a]);
+                let (lo, hi) = (self.inv_lo[a], self.inv_hi[a]);
+                for i in 0..WIDTH {
+                    // Smallest (nb − o)·inv and largest (fb − o)·inv over the packet's bounds
+                    // (a NaN, 0·∞, compares false below: no constraint).
+                    let g = nb[i] - on;
+                    let near = g * if g >= 0.0 { lo } else { hi };
+                    let h = fb[i] - of;
+                    let far = h * if h >= 0.0 { hi } else { lo } * FAR_SCALE;
+                    t0[i] = if near > t0[i] { near } else { t0[i] };
+                    t1[i] = if far < t1[i] { far } else { t1[i] };
+                }
+            }
+            let mut hit = 0u32;
+            for i in 0..WIDTH {
+                hit |= ((t0[i] <= t1[i]) as u32) << i;
+            }
+            (t0, hit)
         }
-        (t0, hit)
     }
 
     /// Per child of `node`: the rays of `mask` that may meet its box and their smallest entry
     /// distance (for the whole packet by intervals, or ray by ray).
     #[inline(always)]
-    fn children(&self, node: &Node, mask: u32) -> [(u32, f32); WIDTH] {
+    fn children<K: Kernel>(&self, node: &Node, mask: u32) -> [(u32, f32); WIDTH] {
         let mut out = [(0u32, f32::INFINITY); WIDTH];
         if self.coherent {
             let (t0, hit) = self.interval_hits(node);
             for lane in 0..WIDTH {
-                out[lane] = (if hit[lane] { mask } else { 0 }, t0[lane]);
+                out[lane] = (if hit >> lane & 1 == 1 { mask } else { 0 }, t0[lane]);
             }
         } else {
             for (lane, o) in out.iter_mut().enumerate() {
-                let (hits, entry) = self.hits_and_entry(node, lane);
+                let (hits, entry) = K::box_hits(self, node, lane);
                 *o = (hits & mask, entry);
             }
         }
@@ -454,7 +440,7 @@ impl<const N: usize> RayPacket<N> {
     /// The rays of `mask` that may still meet the box of `node`'s child `lane`, entered at
     /// `entry` (from [`Self::children`]), now that some have found closer hits.
     #[inline(always)]
-    fn still_hit(&self, node: &Node, lane: usize, mask: u32, entry: f32) -> u32 {
+    fn still_hit<K: Kernel>(&self, node: &Node, lane: usize, mask: u32, entry: f32) -> u32 {
         if self.coherent {
             if entry > self.t_hi {
                 0
@@ -462,37 +448,15 @@ impl<const N: usize> RayPacket<N> {
                 mask
             }
         } else {
-            mask & self.hits(node, lane)
+            mask & K::box_hits(self, node, lane).0
         }
-    }
-
-    /// Bit i: ray i (in `mask`) meets the triangle (v0, e1, e2) within its interval, at
-    /// `t[i]` with barycentrics `b1[i]`, `b2[i]` (the scalar test's values, lane by lane).
-    #[inline(always)]
-    fn triangle(
-        &self,
-        mask: u32,
-        v0: Vec3,
-        e1: Vec3,
-        e2: Vec3,
-    ) -> ([f32; N], [f32; N], [f32; N], u32) {
-        let (mut t, mut b1, mut b2) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
-        let mut hits = 0u32;
-        for k in 0..N {
-            let o = Vec3::new(self.o[0][k], self.o[1][k], self.o[2][k]);
-            let d = Vec3::new(self.d[0][k], self.d[1][k], self.d[2][k]);
-            let (tk, u, v, hit) =
-                intersect_triangle_lane(o, d, self.t_min[k], self.t_max[k], v0, e1, e2);
-            (t[k], b1[k], b2[k]) = (tk, u, v);
-            hits |= ((hit & (mask >> k & 1 == 1)) as u32) << k;
-        }
-        (t, b1, b2, hits)
     }
 }
 
 /// Closest hits of a packet of up to [`PACKET`] rays ([`Bvh::intersect_lanes`]); lanes of
 /// rays that hit nothing (or outside the packet) hold meaningless values.
 #[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))] // one cache line per array: whole-register loads never split
 pub struct PacketHits {
     pub t: [f32; PACKET],
     /// BVH primitive index ([`Bvh::primitive`]).
@@ -714,8 +678,9 @@ impl Bvh {
     /// [`RayPacket`]), a subtree is entered with the rays that may meet its box, a leaf tests
     /// its triangles against all of them at once (vectorised) and other primitives ray by ray,
     /// and the walk ends when every ray is occluded. A tree of at most `TINY` (12) triangles is
-    /// not walked: each triangle is tested against all rays not yet occluded. Compiled for the
-    /// best vector extension of the CPU (chosen at run time, as `linlight_sampling::batch` does).
+    /// not walked: each triangle is tested against all rays not yet occluded. The lane
+    /// arithmetic is written per vector extension ([`kernels`]: AVX-512, AVX2, portable), the
+    /// best the CPU has chosen at run time, as `linlight_sampling::batch` does.
     pub fn occluded_lanes(&self, lanes: &RayLanes, active: u32) -> u32 {
         let active = active & ((1u64 << PACKET) - 1) as u32;
         if self.nodes.is_empty() || active == 0 {
@@ -726,11 +691,11 @@ impl Bvh {
             use linlight_sampling::batch::Isa;
             #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
             unsafe fn avx512(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
-                bvh.occluded_lanes_n::<PACKET>(lanes, active)
+                bvh.occluded_walk::<kernels::Avx512>(lanes, active)
             }
             #[target_feature(enable = "avx2,fma")]
             unsafe fn avx2(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
-                bvh.occluded_lanes_n::<PACKET>(lanes, active)
+                bvh.occluded_walk::<kernels::Avx2>(lanes, active)
             }
             match self.walk_isa {
                 // SAFETY: the features the functions are compiled for were detected
@@ -740,35 +705,40 @@ impl Bvh {
                 Isa::Baseline => {}
             }
         }
-        self.occluded_lanes_n::<PACKET>(lanes, active)
+        self.occluded_walk::<kernels::Portable>(lanes, active)
     }
 
     #[inline(always)]
-    fn occluded_lanes_n<const N: usize>(&self, lanes: &RayLanes, active: u32) -> u32 {
+    fn occluded_walk<K: Kernel>(&self, lanes: &RayLanes, active: u32) -> u32 {
         if !self.tiny.is_empty() {
-            return self.occluded_tiny::<N>(lanes, active);
+            return self.occluded_tiny::<K>(lanes, active);
         }
-        let packet = RayPacket::<N>::new(lanes, active);
+        let packet = K::packet(lanes, active);
         let mut occluded = 0u32;
         let mut stack = stack::<PacketEntry, 64>();
         let mut spill: Vec<PacketEntry> = Vec::new();
         let mut sp = 0;
         let mut expand = Some((0u32, active));
+        // A child of the last node entered without a trip through the stack (an entry
+        // written and read back at once stalls the load: store forwarding fails).
+        let mut next: Option<PacketEntry> = None;
         loop {
             if let Some((index, mask)) = expand.take() {
                 let node = &self.nodes[index as usize];
-                for (lane, (hits, entry)) in packet.children(node, mask).into_iter().enumerate() {
+                let children = packet.children::<K>(node, mask);
+                // Any hit: no order, the entry distances are not needed (and, unused, not
+                // computed: the kernels' horizontal minima are dropped).
+                for (lane, (hits, _)) in children.into_iter().enumerate() {
                     if hits != 0 {
-                        push(
-                            &mut stack,
-                            &mut sp,
-                            &mut spill,
-                            (index, lane as u32, hits, entry),
-                        );
+                        if let Some(e) = next.replace((index, lane as u32, hits, 0.0)) {
+                            push(&mut stack, &mut sp, &mut spill, e);
+                        }
                     }
                 }
             }
-            let Some((parent, lane, mask, _)) = pop(&stack, &mut sp, &mut spill) else {
+            let Some((parent, lane, mask, _)) =
+                next.take().or_else(|| pop(&stack, &mut sp, &mut spill))
+            else {
                 return occluded;
             };
             let mask = mask & !occluded;
@@ -785,7 +755,8 @@ impl Bvh {
             for i in child..child + count {
                 match self.isect[i as usize] {
                     Isect::Triangle { v0, e1, e2 } => {
-                        occluded |= packet.triangle(mask, v0, e1, e2).3;
+                        let tri = [v0, e1, e2];
+                        occluded |= mask & K::triangle(lanes, &packet.t_min, &packet.t_max, &tri).3;
                     }
                     Isect::Other => {
                         let mut m = mask;
@@ -835,11 +806,11 @@ impl Bvh {
             use linlight_sampling::batch::Isa;
             #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
             unsafe fn avx512(bvh: &Bvh, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
-                bvh.intersect_lanes_n::<PACKET>(lanes, active, out)
+                bvh.intersect_walk::<kernels::Avx512>(lanes, active, out)
             }
             #[target_feature(enable = "avx2,fma")]
             unsafe fn avx2(bvh: &Bvh, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
-                bvh.intersect_lanes_n::<PACKET>(lanes, active, out)
+                bvh.intersect_walk::<kernels::Avx2>(lanes, active, out)
             }
             match self.walk_isa {
                 // SAFETY: the features the functions are compiled for were detected
@@ -855,58 +826,68 @@ impl Bvh {
                 Isa::Baseline => {}
             }
         }
-        self.intersect_lanes_n::<PACKET>(lanes, active, &mut out);
+        self.intersect_walk::<kernels::Portable>(lanes, active, &mut out);
         out
     }
 
+    /// The walk of [`Self::intersect_lanes`]; `out` holds "no hit" in every lane on entry.
     #[inline(always)]
-    fn intersect_lanes_n<const N: usize>(
-        &self,
-        lanes: &RayLanes,
-        active: u32,
-        out: &mut PacketHits,
-    ) {
+    fn intersect_walk<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
         if !self.tiny.is_empty() {
-            return self.intersect_tiny::<N>(lanes, active, out);
+            return self.intersect_tiny::<K>(lanes, active, out);
         }
-        let mut packet = RayPacket::<N>::new(lanes, active);
-        let (mut best_t, mut best_prim) = ([0.0f32; N], [u32::MAX; N]);
-        let (mut best_b1, mut best_b2) = ([0.0f32; N], [0.0f32; N]);
+        let mut packet = K::packet(lanes, active);
         let mut stack = stack::<PacketEntry, 64>();
         let mut spill: Vec<PacketEntry> = Vec::new();
         let mut sp = 0;
         let mut expand = Some((0u32, active));
+        // The nearest child of the last node, entered without a trip through the stack (an
+        // entry written and read back at once stalls the load: store forwarding fails).
+        let mut next: Option<PacketEntry> = None;
         loop {
             if let Some((index, mask)) = expand.take() {
                 let node = &self.nodes[index as usize];
-                // Hit slots sorted by entry distance, farthest first (pushed first, popped last).
-                let mut order = [(0u32, 0u32, 0u32, 0.0f32); WIDTH];
+                let children = packet.children::<K>(node, mask);
+                // Hit slots sorted by entry distance, farthest first: the nearest is entered
+                // next, the others pushed so that the nearer ones are popped first.
+                let mut order = [0usize; WIDTH];
                 let mut n = 0;
-                for (lane, (hits, entry)) in packet.children(node, mask).into_iter().enumerate() {
+                for (lane, &(hits, entry)) in children.iter().enumerate() {
                     if hits != 0 {
                         let mut j = n;
-                        while j > 0 && order[j - 1].3 < entry {
+                        while j > 0 && children[order[j - 1]].1 < entry {
                             order[j] = order[j - 1];
                             j -= 1;
                         }
-                        order[j] = (index, lane as u32, hits, entry);
+                        order[j] = lane;
                         n += 1;
                     }
                 }
-                for &e in &order[..n] {
-                    push(&mut stack, &mut sp, &mut spill, e);
+                for (k, &lane) in order[..n].iter().enumerate() {
+                    let (hits, entry) = children[lane];
+                    let e = (index, lane as u32, hits, entry);
+                    if k + 1 == n {
+                        next = Some(e);
+                    } else {
+                        push(&mut stack, &mut sp, &mut spill, e);
+                    }
                 }
             }
-            let Some((parent, lane, mask, entry)) = pop(&stack, &mut sp, &mut spill) else {
-                break;
+            let (parent, lane, mask) = if let Some((parent, lane, mask, _)) = next.take() {
+                (parent, lane as usize, mask)
+            } else {
+                let Some((parent, lane, mask, entry)) = pop(&stack, &mut sp, &mut spill) else {
+                    break;
+                };
+                // Rays that found a closer hit since the push may no longer reach the box.
+                let node = &self.nodes[parent as usize];
+                let mask = packet.still_hit::<K>(node, lane as usize, mask, entry);
+                if mask == 0 {
+                    continue;
+                }
+                (parent, lane as usize, mask)
             };
             let node = &self.nodes[parent as usize];
-            let lane = lane as usize;
-            // Rays that found a closer hit since the push may no longer reach the box.
-            let mask = packet.still_hit(node, lane, mask, entry);
-            if mask == 0 {
-                continue;
-            }
             let (child, count) = (node.child[lane], node.count[lane]);
             if count == 0 {
                 expand = Some((child, mask));
@@ -916,21 +897,9 @@ impl Bvh {
             for i in child..child + count {
                 match self.isect[i as usize] {
                     Isect::Triangle { v0, e1, e2 } => {
-                        let (t, b1, b2, hits) = packet.triangle(mask, v0, e1, e2);
-                        for k in 0..N {
-                            let take =
-                                (hits >> k & 1 == 1) & replaces(t[k], i, best_t[k], best_prim[k]);
-                            best_t[k] = if take { t[k] } else { best_t[k] };
-                            best_prim[k] = if take { i } else { best_prim[k] };
-                            best_b1[k] = if take { b1[k] } else { best_b1[k] };
-                            best_b2[k] = if take { b2[k] } else { best_b2[k] };
-                            packet.t_max[k] = if take {
-                                t[k].next_up()
-                            } else {
-                                packet.t_max[k]
-                            };
-                        }
-                        took |= hits;
+                        let tri = [v0, e1, e2];
+                        let lane_hits = K::triangle(lanes, &packet.t_min, &packet.t_max, &tri);
+                        took |= K::take_closest(out, &mut packet.t_max, &lane_hits, mask, i);
                     }
                     Isect::Other => {
                         let mut m = mask;
@@ -942,9 +911,9 @@ impl Bvh {
                                 ..lanes.get(k)
                             };
                             if let Some((t, b1, b2)) = self.prims[i as usize].intersect(&ray) {
-                                if replaces(t, i, best_t[k], best_prim[k]) {
-                                    (best_t[k], best_prim[k]) = (t, i);
-                                    (best_b1[k], best_b2[k]) = (b1, b2);
+                                if replaces(t, i, out.t[k], out.prim[k]) {
+                                    (out.t[k], out.prim[k]) = (t, i);
+                                    (out.b1[k], out.b2[k]) = (b1, b2);
                                     packet.t_max[k] = t.next_up();
                                     took |= 1 << k;
                                 }
@@ -955,46 +924,32 @@ impl Bvh {
             }
             if took != 0 {
                 // The rays' intervals shrank: so does the packet's.
-                packet.t_hi = reduce::<N, true>(packet.t_max);
+                packet.t_hi = K::max(&packet.t_max);
             }
         }
-        let n = N.min(PACKET);
-        out.t[..n].copy_from_slice(&best_t[..n]);
-        out.prim[..n].copy_from_slice(&best_prim[..n]);
-        out.b1[..n].copy_from_slice(&best_b1[..n]);
-        out.b2[..n].copy_from_slice(&best_b2[..n]);
-        for (k, &prim) in best_prim[..n].iter().enumerate() {
+        for (k, &prim) in out.prim.iter().enumerate() {
             out.mask |= ((prim != u32::MAX) as u32) << k;
         }
     }
+
     /// [`Self::occluded_lanes`] of a tiny tree ([`Bvh::tiny`]): every triangle against all
     /// active rays at once, until every ray is occluded.
     #[inline(always)]
-    fn occluded_tiny<const N: usize>(&self, lanes: &RayLanes, active: u32) -> u32 {
-        let on: [bool; N] = std::array::from_fn(|k| active >> k & 1 == 1);
-        // Rays outside the packet count as done: they never hit (t < −∞ is false).
-        let t_max: [f32; N] = std::array::from_fn(|k| {
-            if on[k] {
+    fn occluded_tiny<K: Kernel>(&self, lanes: &RayLanes, active: u32) -> u32 {
+        // Rays outside the packet never hit (t < −∞ is false).
+        let t_max: [f32; PACKET] = std::array::from_fn(|k| {
+            if active >> k & 1 == 1 {
                 lanes.t_max[k]
             } else {
                 f32::NEG_INFINITY
             }
         });
-        let mut done: [bool; N] = on.map(|a| !a);
-        for &[v0, e1, e2] in &self.tiny {
-            for k in 0..N {
-                let o = Vec3::new(lanes.o[0][k], lanes.o[1][k], lanes.o[2][k]);
-                let d = Vec3::new(lanes.d[0][k], lanes.d[1][k], lanes.d[2][k]);
-                let hit = intersect_triangle_lane(o, d, lanes.t_min[k], t_max[k], v0, e1, e2).3;
-                done[k] |= hit;
-            }
-            if done.iter().fold(true, |all, &x| all & x) {
+        let mut occluded = 0u32;
+        for tri in &self.tiny {
+            occluded |= K::triangle(lanes, &lanes.t_min, &t_max, tri).3;
+            if occluded == active {
                 break;
             }
-        }
-        let mut occluded = 0u32;
-        for k in 0..N {
-            occluded |= ((done[k] & on[k]) as u32) << k;
         }
         occluded
     }
@@ -1004,35 +959,21 @@ impl Bvh {
     /// it is strictly closer, so a ray ends with its smallest t and, among hits at that t, the
     /// smallest index: what [`Self::intersect`] returns.
     #[inline(always)]
-    fn intersect_tiny<const N: usize>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
-        // The current closest distance of each ray; −∞ outside the packet (nothing is hit).
-        let mut t_max: [f32; N] = std::array::from_fn(|k| {
+    fn intersect_tiny<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
+        // `out.t`: the current closest distance of each ray; −∞ outside the packet (nothing
+        // is hit).
+        out.t = std::array::from_fn(|k| {
             if active >> k & 1 == 1 {
                 lanes.t_max[k]
             } else {
                 f32::NEG_INFINITY
             }
         });
-        let mut prim = [u32::MAX; N];
-        let (mut b1, mut b2) = ([0.0f32; N], [0.0f32; N]);
-        for (i, &[v0, e1, e2]) in self.tiny.iter().enumerate() {
-            for k in 0..N {
-                let o = Vec3::new(lanes.o[0][k], lanes.o[1][k], lanes.o[2][k]);
-                let d = Vec3::new(lanes.d[0][k], lanes.d[1][k], lanes.d[2][k]);
-                let (t, u, v, hit) =
-                    intersect_triangle_lane(o, d, lanes.t_min[k], t_max[k], v0, e1, e2);
-                t_max[k] = if hit { t } else { t_max[k] };
-                prim[k] = if hit { i as u32 } else { prim[k] };
-                b1[k] = if hit { u } else { b1[k] };
-                b2[k] = if hit { v } else { b2[k] };
-            }
+        for (i, tri) in self.tiny.iter().enumerate() {
+            let hits = K::triangle(lanes, &lanes.t_min, &out.t, tri);
+            K::take_nearer(out, &hits, i as u32);
         }
-        let n = N.min(PACKET);
-        out.t[..n].copy_from_slice(&t_max[..n]);
-        out.prim[..n].copy_from_slice(&prim[..n]);
-        out.b1[..n].copy_from_slice(&b1[..n]);
-        out.b2[..n].copy_from_slice(&b2[..n]);
-        for (k, &p) in prim[..n].iter().enumerate() {
+        for (k, &p) in out.prim.iter().enumerate() {
             out.mask |= ((p != u32::MAX) as u32) << k;
         }
     }
@@ -1445,7 +1386,7 @@ mod tests {
                 .collect();
             let packet = bvh.intersect_packet(&rays);
             let all = (1u32 << size) - 1;
-            coherent += RayPacket::<PACKET>::new(&RayLanes::from_rays(&rays), all).coherent as u32;
+            coherent += kernels::Portable::packet(&RayLanes::from_rays(&rays), all).coherent as u32;
             for (i, ray) in rays.iter().enumerate() {
                 let single = bvh.intersect(ray).map(|h| (h.t, h.prim, h.b1, h.b2));
                 let got = packet.get(i).map(|h| (h.t, h.prim, h.b1, h.b2));
