@@ -31,7 +31,7 @@
 //! Accuracy (the measure: the backward error of a sample, |CDF(τ̂) − ξ| in units of ξ, with
 //! CDF the exact per-radius CDF of p_R on the problem as the sampler represents it, evaluated in
 //! f64; `linlight backward-error` sweeps normals, sub-intervals down to 1e-4 rad and ξ): with
-//! [`DEFAULT_ITERATIONS`] = 2 the f32 sampler's worst case is 1.585e-5 outside the ξ guard and
+//! [`DEFAULT_ITERATIONS`] = 2 the f32 sampler's worst case is 1.595e-5 outside the ξ guard and
 //! 1.991e-5 including it (the start value returned for ξ within [`XI_GUARD`] of 0 or 1), within
 //! the bound 2e-5 (the paper: 1.6e-5); one step leaves 1.548e-2, three 6.2e-7. One step from
 //! a better start value was studied and not adopted (docs/performance.md, "One Halley step"):
@@ -58,8 +58,11 @@
 //! f32 precision, evaluated by Estrin's scheme, and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1;
 //! the last step rotates the values it started from instead of a further sin/cos (the lanes of
 //! [`crate::batch`] evaluate that sin/cos only when some lane of the batch needs it, see
-//! `PsaCore::solve_rotated_lane`); the pdf is (n·ω)/Ω⊥_R with n·ω from that rotation. The f64
-//! instantiation keeps std's functions and the full series.
+//! `PsaCore::solve_rotated_lane`); the pdf is (n·ω)/Ω⊥_R with n·ω from that rotation. The f32
+//! sin/cos is evaluated in f32 (no conversions on the chain), G = ΔC − ξ·total is summed as
+//! a + (b − ξ·total) with b = n_t(τ − sin τ) known before a (`PsaCore::g_of`), and the frame's
+//! end values are one multiplication after their division. The f64 instantiation keeps std's
+//! functions and the full series.
 
 use crate::geometry::{arc_tolerance, tau_in_arc, unit_normal, EndValues, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
@@ -252,9 +255,12 @@ pub(crate) struct Eval<T> {
     /// first is still being multiplied (one addition fewer on the sampler's dependency chain).
     pub delta_c_cos: T,
     pub delta_c_lin: T,
-    /// sin φ, cos φ.
+    /// sin φ, cos φ, and twice them (formed first: G' = 2t(n·ω) and G'' = 2(t(n·ω)′ − s(n·ω))
+    /// are then one multiplication earlier, bit for bit the same).
     pub s: T,
     pub t: T,
+    pub s2: T,
+    pub t2: T,
     /// n·ω and d(n·ω)/dφ.
     pub n_dot_w: T,
     pub n_dot_w_prime: T,
@@ -370,12 +376,18 @@ impl<T: Real> PsaCore<T> {
         let sin_tau = T::TWO * sh * ch;
         let cos_tau = T::ONE - T::TWO * sh * sh;
         let (delta_c_cos, delta_c_lin) = self.delta_c_parts(tau, sh, ch);
-        let (s, t) = self.rotate(sin_tau, cos_tau);
+        // 2·(sin φ, cos φ) by rotating with the doubled (exact) begin values.
+        let (s2, t2) = (
+            T::TWO * self.s_b * cos_tau + T::TWO * self.c_b * sin_tau,
+            T::TWO * self.c_b * cos_tau - T::TWO * self.s_b * sin_tau,
+        );
         Eval {
             delta_c_cos,
             delta_c_lin,
-            s,
-            t,
+            s: s2 * T::HALF,
+            t: t2 * T::HALF,
+            s2,
+            t2,
             n_dot_w: self.p0 * cos_tau + self.p1 * sin_tau,
             n_dot_w_prime: self.p1 * cos_tau - self.p0 * sin_tau,
         }
@@ -468,23 +480,44 @@ impl<T: Real> PsaCore<T> {
     /// the values `e` = `eval(τ)`, clamped to [0, Δ].
     #[inline(always)]
     fn halley_from(&self, tau: T, xi: T, e: &Eval<T>) -> T {
-        let g = self.g_of(xi, e);
-        // G' = 2t(n·ω), G''/2 = t(n_s t − n_t s) − s(n·ω) with n_s t − n_t s = d(n·ω)/dφ.
-        let g1 = T::TWO * e.t * e.n_dot_w;
-        let g2 = T::TWO * (e.t * e.n_dot_w_prime - e.s * e.n_dot_w);
-        // Smallest root of G + G'h + G''h²/2, h = −2G / (G' + √(G'² − 2GG'')) with
-        // den = G' + √… ≥ 0 (G' ≥ 0 on the clipped interval). Without branches (their outcome is
-        // data-dependent): den = 0 makes h = ±inf, clamped to an end of [0, Δ], or NaN for
-        // G = 0, where τ is kept.
-        let num = -T::TWO * g;
-        // g·(2G'') is 2G·G'' bit for bit, one multiplication after G fewer.
-        let den = g1.max(T::ZERO) + (g1 * g1 - g * (T::TWO * g2)).max(T::ZERO).sqrt();
-        let next = tau + num / den;
+        let (g, den) = self.halley_terms(xi, e);
+        let next = tau + -T::TWO * g / den;
         if next.is_nan() {
             tau
         } else {
             next.clamp(T::ZERO, self.width)
         }
+    }
+
+    /// [`Self::halley_from`] halved, formed as τ/2 − G/den (bit for bit the half of it, the
+    /// scalings by 2 being exact): the argument of the next evaluation's sin/cos without a
+    /// multiplication after the division.
+    #[inline(always)]
+    fn halley_half_from(&self, tau: T, xi: T, e: &Eval<T>) -> T {
+        let (g, den) = self.halley_terms(xi, e);
+        let half = tau * T::HALF;
+        let next = half + -g / den;
+        if next.is_nan() {
+            half
+        } else {
+            next.clamp(T::ZERO, self.width * T::HALF)
+        }
+    }
+
+    /// G and the denominator of the Halley step: h = −2G/den.
+    #[inline(always)]
+    fn halley_terms(&self, xi: T, e: &Eval<T>) -> (T, T) {
+        let g = self.g_of(xi, e);
+        // G' = 2t(n·ω), G''/2 = t(n_s t − n_t s) − s(n·ω) with n_s t − n_t s = d(n·ω)/dφ.
+        let g1 = e.t2 * e.n_dot_w;
+        let g2 = e.t2 * e.n_dot_w_prime - e.s2 * e.n_dot_w;
+        // Smallest root of G + G'h + G''h²/2, h = −2G / (G' + √(G'² − 2GG'')) with
+        // den = G' + √… ≥ 0 (G' ≥ 0 on the clipped interval). Without branches (their outcome is
+        // data-dependent): den = 0 makes h = ±inf, clamped to an end of [0, Δ], or NaN for
+        // G = 0, where τ is kept.
+        // g·(2G'') is 2G·G'' bit for bit, one multiplication after G fewer.
+        let den = g1.max(T::ZERO) + (g1 * g1 - g * (T::TWO * g2)).max(T::ZERO).sqrt();
+        (g, den)
     }
 
     /// G(τ) = C(φ_b + τ) − C(φ_b) − ξ·total from the values `e` = `eval(τ)`, as
@@ -513,8 +546,10 @@ impl<T: Real> PsaCore<T> {
         let mut e = self.eval_half(start, sh, ch);
         let mut tau = start;
         for _ in 1..iterations {
-            tau = self.halley_from(tau, xi, &e);
-            e = self.eval(tau);
+            let half = self.halley_half_from(tau, xi, &e);
+            tau = T::TWO * half;
+            let (sh, ch) = half.sin_cos();
+            e = self.eval_half(tau, sh, ch);
         }
         (start, tau, e)
     }
