@@ -58,11 +58,11 @@
 //! f32 precision, evaluated by Estrin's scheme, and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1;
 //! the last step rotates the values it started from instead of a further sin/cos (the lanes of
 //! [`crate::batch`] evaluate that sin/cos only when some lane of the batch needs it, see
-//! `PsaCore::solve_rotated_lane`); the pdf is (n·ω)/Ω⊥_R with n·ω from that rotation. The f32
-//! sin/cos is evaluated in f32 (no conversions on the chain), G = ΔC − ξ·total is summed as
-//! a + (b − ξ·total) with b = n_t(τ − sin τ) known before a (`PsaCore::g_of`), and the frame's
-//! end values are one multiplication after their division. The f64 instantiation keeps std's
-//! functions and the full series.
+//! `PsaCore::solve_rotated_lane`); the pdf is (n·ω)/Ω⊥_R with n·ω from that rotation.
+//! G = ΔC − ξ·total is summed as a + (b − ξ·total) with b = n_t(τ − sin τ) known before a
+//! (`PsaCore::g_of`), the Halley step starts from 2·(sin φ, cos φ) and hands the next
+//! evaluation τ/2, and the frame's end values are one multiplication after their division. The
+//! f64 instantiation keeps std's functions and the full series.
 
 use crate::geometry::{arc_tolerance, tau_in_arc, unit_normal, EndValues, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};

@@ -1,12 +1,11 @@
-//! atan2 and sin/cos for the f32 hot path, without a libm call.
+//! atan2 and sin/cos for the f32 hot path, evaluated in f64 without a libm call.
 //!
 //! glibc's `atan2f` (the target of `f32::atan2`) was the single most expensive call of the
 //! projected-solid-angle samplers (~130 instructions per call, two to five calls per sample), and
 //! every libm call forces the caller to spill all live SSE registers (all are caller-saved), which
-//! dominated the Halley loop around `sincosf`. Both are replaced by short polynomials fitted in
-//! f64, accurate far beyond f32, with relative accuracy kept where the f32 callers need it (sin x
-//! and 1 − cos x near 0). atan2 is evaluated in f64 (its f32 results are the correctly rounded
-//! values except within ~1e-3 ulp of a tie); the f32 [`sin_cos`] in f32 (a few ulp, see there).
+//! dominated the Halley loop around `sincosf`. Both are replaced by short f64 polynomials, accurate
+//! far beyond f32 (so results are the correctly rounded f32 values except within ~1e-3 ulp of a
+//! tie), with relative accuracy kept where the f32 callers need it (sin x and 1 − cos x near 0).
 //!
 //! atan2: octant reduction to t = min/max ∈ [0, 1], then t > tan(π/8) is mapped to
 //! (t − 1)/(t + 1) ∈ [−tan(π/8), 0] with atan t = π/4 + atan((t − 1)/(t + 1)), and atan on
@@ -158,27 +157,14 @@ pub const SIN_COS_RANGE: f64 = 1.570_875;
 /// (sin x, cos x) for f32 x with |x| ≤ [`SIN_COS_RANGE`] ⊃ [−π/2, π/2] (the callers' half
 /// angles of τ ∈ [0, Δ] ⊂ [0, π]): the polynomials only, no branch (so that SIMD lanes can run
 /// it); out-of-range arguments are a caller's bug (debug-asserted).
-///
-/// Evaluated in f32 with the coefficients of [`sin_cos_f64`] rounded to f32: a few ulp (sin
-/// ≤ 2e-7 relative, cos ≤ 3.3e-7 of max(|cos|, 1/2)) instead of the correctly rounded value of
-/// the f64 evaluation, for two f32 ↔ f64 conversions fewer on the projected-solid-angle
-/// sampler's dependency chain (−5 to −10 ns per sample); its backward error did not change
-/// (`linlight backward-error`, docs/performance.md).
 #[inline(always)]
 pub fn sin_cos(x: f32) -> (f32, f32) {
     debug_assert!(
         x.is_nan() || x.abs() <= SIN_COS_RANGE as f32,
         "sin_cos({x}) out of range"
     );
-    let v = x * x;
-    // c₀v⁵ + … + c₅ by Estrin's scheme, as `poly5` in f32.
-    let p = |c: &[f64; 6]| {
-        let c = c.map(|c| c as f32);
-        let v2 = v * v;
-        let v4 = v2 * v2;
-        v4 * (c[0] * v + c[1]) + ((c[2] * v + c[3]) * v2 + (c[4] * v + c[5]))
-    };
-    (x * p(&S), 1.0 - v * p(&K))
+    let (s, c) = sin_cos_poly(x as f64);
+    (s as f32, c as f32)
 }
 
 #[inline(always)]
@@ -281,11 +267,10 @@ mod tests {
                     ((s as f64 - se) / se).abs()
                 };
                 let ec = (c as f64 - ce).abs() / ce.abs().max(0.5);
-                // Evaluated in f32 (the polynomial's 3e-11 is far below): a few roundings of
-                // f32, measured 1.96e-7 (sin, relative) and 3.31e-7 (cos, relative to
-                // max(|cos|, 1/2), i.e. ~3 ulp of 1 where cos → 0).
+                // Correct rounding of the f64 value is all that can be asked: half an ulp of f32
+                // plus the polynomial's 3e-11.
                 assert!(
-                    es <= 2.5e-7 && ec <= 4.0e-7,
+                    es <= 6.0e-8 && ec <= 6.0e-8,
                     "sin_cos({x32}) = ({s}, {c}), std ({se}, {ce})"
                 );
                 worst = (worst.0.max(es), worst.1.max(ec));
