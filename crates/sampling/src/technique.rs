@@ -80,8 +80,8 @@ impl Technique {
     /// caller copy the ~120-byte [`Prepared`] with 16-byte loads of fields that `prepare` had
     /// just stored with narrower stores: the loads cannot be forwarded from the store buffer and
     /// wait for those stores to retire, i.e. for the whole preparation, so the sample could not
-    /// start early (micro-benchmark, projected solid angle: 130 → 115 ns per light sample, every
-    /// technique 5–15 ns).
+    /// start early (micro-benchmark: up to 15 ns per light sample for projected solid angle,
+    /// 5–8 ns for the others; docs/performance.md, "Third pass").
     pub fn prepare(self, segment: &Segment, x: Vec3, n: Vec3) -> Option<Prepared> {
         Some(match self {
             Technique::Baseline => Prepared::Baseline(Baseline::prepare(segment, x, n)?),
