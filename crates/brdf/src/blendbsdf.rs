@@ -1,6 +1,7 @@
 //! Mitsuba's `blendbsdf`: (1 − w)·f₀ + w·f₁ with the weight clipped to [0, 1]; f₀ is the first
 //! nested BSDF in file order.
 
+use crate::lanes::{each_lane, Lanes3};
 use crate::{Bsdf, Lobes, SpecularLobe};
 use glam::DVec3;
 
@@ -14,14 +15,31 @@ pub struct Blend {
 
 impl Blend {
     /// The weight w of the second BSDF, clipped to [0, 1].
+    #[inline(always)]
     pub fn weight(&self) -> f64 {
         (self.weight as f64).clamp(0.0, 1.0)
     }
 
     /// f·cos θ_l = (1 − w)·f₀·cos + w·f₁·cos.
     pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
+        self.mix(self.bsdfs[0].eval(v, l), self.bsdfs[1].eval(v, l))
+    }
+
+    /// [`Blend::eval`] of N lanes from the children's values f₀·cos and f₁·cos of each lane.
+    #[inline(always)]
+    pub fn eval_lanes<const N: usize>(&self, f0: &Lanes3<N>, f1: &Lanes3<N>) -> Lanes3<N> {
+        each_lane(
+            f0,
+            f1,
+            #[inline(always)]
+            |a, b| self.mix(a, b),
+        )
+    }
+
+    #[inline(always)]
+    fn mix(&self, f0: DVec3, f1: DVec3) -> DVec3 {
         let w = self.weight();
-        self.bsdfs[0].eval(v, l) * (1.0 - w) + self.bsdfs[1].eval(v, l) * w
+        f0 * (1.0 - w) + f1 * w
     }
 
     /// Weighted sums of the children's summaries. When both children have a specular lobe, the

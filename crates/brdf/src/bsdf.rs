@@ -2,6 +2,7 @@
 //! shading frame, and the lobe summary that steers multiple importance sampling.
 
 use crate::blendbsdf::Blend;
+use crate::lanes::{self, each_lane, Lanes3};
 use crate::principled::Principled;
 use crate::roughconductor::RoughConductor;
 use crate::{diffuse, twosided};
@@ -69,13 +70,59 @@ impl Bsdf {
     /// Mitsuba's `BSDF.eval(ctx, si, wo)` returns with `si.wi = v`, `wo = l`. Both directions
     /// are unit vectors in the shading frame (z = shading normal), v toward the viewer, l toward
     /// the light. Per RGB channel, f64.
+    ///
+    /// This is the lane code with one lane ([`Bsdf::eval_lanes`]), so that both give the same
+    /// bits.
     pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
+        let one = |d: DVec3| [[d.x], [d.y], [d.z]];
+        lanes::get(&self.eval_lanes::<1>(&one(v), &one(l)), 0)
+    }
+
+    /// [`Bsdf::eval`] of N lanes at once (directions and values as structures of arrays,
+    /// [`crate::lanes`]); lane k is bit for bit `eval` of lane k's directions. The models'
+    /// lane loops vectorise (f64, SIMD width of the instruction set the caller is compiled
+    /// for): `twosided`, `blendbsdf` and the leaf models are written out to that depth, deeper
+    /// nestings evaluate their inner BSDFs lane by lane.
+    #[inline(always)]
+    pub fn eval_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
         match self {
-            Bsdf::Diffuse { reflectance } => diffuse::eval(*reflectance, v, l),
-            Bsdf::RoughConductor(c) => c.eval(v, l),
-            Bsdf::Principled(p) => p.eval(v, l),
-            Bsdf::Blend(b) => b.eval(v, l),
-            Bsdf::TwoSided(inner) => twosided::eval(inner, v, l),
+            Bsdf::TwoSided(inner) => {
+                let (v, l) = twosided::flip_lanes(v, l);
+                inner.eval_one_sided_lanes(&v, &l)
+            }
+            _ => self.eval_one_sided_lanes(v, l),
+        }
+    }
+
+    #[inline(always)]
+    fn eval_one_sided_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
+        match self {
+            Bsdf::Blend(b) => b.eval_lanes(
+                &b.bsdfs[0].eval_leaf_lanes(v, l),
+                &b.bsdfs[1].eval_leaf_lanes(v, l),
+            ),
+            _ => self.eval_leaf_lanes(v, l),
+        }
+    }
+
+    #[inline(always)]
+    fn eval_leaf_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
+        match self {
+            Bsdf::Diffuse { reflectance } => each_lane(
+                v,
+                l,
+                #[inline(always)]
+                |v, l| diffuse::eval(*reflectance, v, l),
+            ),
+            Bsdf::RoughConductor(c) => c.eval_lanes(v, l),
+            Bsdf::Principled(p) => each_lane(
+                v,
+                l,
+                #[inline(always)]
+                |v, l| p.eval(v, l),
+            ),
+            // Nested blends and two-sided BSDFs: the scalar code per lane.
+            Bsdf::Blend(_) | Bsdf::TwoSided(_) => each_lane(v, l, |v, l| self.eval(v, l)),
         }
     }
 

@@ -4,12 +4,15 @@ use crate::{Lobes, Rgb};
 use glam::DVec3;
 
 /// ρ/π · l_z (cosine included) for v_z > 0 and l_z > 0, else 0.
-#[inline]
+#[inline(always)]
 pub fn eval(reflectance: Rgb, v: DVec3, l: DVec3) -> DVec3 {
-    if !(v.z > 0.0 && l.z > 0.0) {
-        return DVec3::ZERO;
+    // Branch-free (computed, then selected) for the lanes of `Bsdf::eval_lanes`.
+    let value = rgb(reflectance) * (std::f64::consts::FRAC_1_PI * l.z);
+    if v.z > 0.0 && l.z > 0.0 {
+        value
+    } else {
+        DVec3::ZERO
     }
-    rgb(reflectance) * (std::f64::consts::FRAC_1_PI * l.z)
 }
 
 /// ρ_d = ρ (the directional albedo of a Lambertian reflector, exact); no specular lobe.
@@ -23,7 +26,7 @@ pub fn lobes(reflectance: Rgb, v: DVec3) -> Lobes {
     }
 }
 
-#[inline]
+#[inline(always)]
 pub(crate) fn rgb(c: Rgb) -> DVec3 {
     DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)
 }

@@ -5,7 +5,9 @@
 
 /// Reflectance of a conductor with complex relative index of refraction η + i·k (Moeller's
 /// formula as in Mitsuba's `fresnel_conductor`). η = 0, k = 1 — Mitsuba's values for
-/// `material="none"` — gives exactly 1 in exact arithmetic.
+/// `material="none"` — gives exactly 1 in exact arithmetic. Branch-free (vectorises in
+/// [`crate::Bsdf::eval_lanes`]).
+#[inline(always)]
 pub fn conductor(cos_theta_i: f64, eta: f64, k: f64) -> f64 {
     let cos2 = cos_theta_i * cos_theta_i;
     let sin2 = 1.0 - cos2;
@@ -24,26 +26,29 @@ pub fn conductor(cos_theta_i: f64, eta: f64, k: f64) -> f64 {
 
 /// Reflectance of a dielectric interface with real relative index η (interior over exterior);
 /// `cos_theta_i` is signed: negative means the ray arrives from inside (Mitsuba's `fresnel`).
-/// Total internal reflection gives 1, an index-matched interface (η = 1) gives 0.
+/// Total internal reflection gives 1, an index-matched interface (η = 1) gives 0. Branch-free
+/// (computed, then selected: the lanes of [`crate::Bsdf::eval_lanes`] vectorise).
+#[inline(always)]
 pub fn dielectric(cos_theta_i: f64, eta: f64) -> f64 {
     let eta_ti = if cos_theta_i >= 0.0 { 1.0 / eta } else { eta };
     let eta_it = 1.0 / eta_ti;
     let cos_t2 = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
     let ci = cos_theta_i.abs();
     let ct = safe_sqrt(cos_t2);
-    if eta == 1.0 {
-        return 0.0;
-    }
-    if ci == 0.0 {
-        return 1.0;
-    }
     let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
     let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
-    0.5 * (a_s * a_s + a_p * a_p)
+    let r = 0.5 * (a_s * a_s + a_p * a_p);
+    if eta == 1.0 {
+        0.0
+    } else if ci == 0.0 {
+        1.0
+    } else {
+        r
+    }
 }
 
 /// Schlick's weight (1 − c)⁵ with 1 − c clipped to [0, 1].
-#[inline]
+#[inline(always)]
 pub fn schlick_weight(cos: f64) -> f64 {
     let m = (1.0 - cos).clamp(0.0, 1.0);
     let m2 = m * m;
@@ -52,7 +57,8 @@ pub fn schlick_weight(cos: f64) -> f64 {
 
 /// Schlick's approximation R₀ + (1 − R₀)·(1 − cos)⁵ as the principled BSDF evaluates it
 /// (`calc_schlick`): for η_it ≤ 1 it uses the cosine of the transmitted direction, so that total
-/// internal reflection gives 1.
+/// internal reflection gives 1. Branch-free, as [`dielectric`].
+#[inline(always)]
 pub fn schlick(r0: f64, cos_theta_i: f64, eta: f64) -> f64 {
     let outside = cos_theta_i >= 0.0;
     let (eta_it, eta_ti) = if outside {
@@ -60,10 +66,10 @@ pub fn schlick(r0: f64, cos_theta_i: f64, eta: f64) -> f64 {
     } else {
         (1.0 / eta, eta)
     };
+    let cos_t2 = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
     let w = if eta_it > 1.0 {
         schlick_weight(cos_theta_i.abs())
     } else {
-        let cos_t2 = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
         schlick_weight(safe_sqrt(cos_t2))
     };
     // Mitsuba: lerp(w, 1, R₀) = w·(1 − R₀) + R₀.
@@ -71,13 +77,13 @@ pub fn schlick(r0: f64, cos_theta_i: f64, eta: f64) -> f64 {
 }
 
 /// Normal-incidence reflectance ((η − 1)/(η + 1))² of a dielectric with relative index η.
-#[inline]
+#[inline(always)]
 pub fn schlick_r0(eta: f64) -> f64 {
     let r = (eta - 1.0) / (eta + 1.0);
     r * r
 }
 
-#[inline]
+#[inline(always)]
 fn safe_sqrt(x: f64) -> f64 {
     x.max(0.0).sqrt()
 }

@@ -11,7 +11,7 @@
 //! [`roughconductor`], [`principled`], [`blendbsdf`], [`twosided`]; [`Bsdf`] dispatches over
 //! them and documents the lobe summary ([`Lobes`]) that MIS weights are built from. Shared
 //! pieces: [`microfacet`] (GGX D, Smith G1, the F ≡ 1 lobe, visible-normal sampling) and
-//! [`fresnel`].
+//! [`fresnel`]; [`lanes`] (N evaluations at once, bit for bit the scalar ones).
 //!
 //! No I/O (the LTC table is compiled in); no dependency on the sampling crate.
 
@@ -22,6 +22,7 @@ pub mod blendbsdf;
 mod bsdf;
 pub mod diffuse;
 pub mod fresnel;
+pub mod lanes;
 pub mod ltc;
 pub mod microfacet;
 pub mod principled;

@@ -43,16 +43,14 @@ pub fn clamp_alpha<T: Float>(alpha: T) -> T {
 
 /// D(h) for a microfacet normal with sin²θ_h = h_x² + h_y² and cos θ_h = h_z (h unit):
 /// 1 / (π α² (sin²θ_h/α² + cos²θ_h)²) = α² / (π (sin²θ_h + α² cos²θ_h)²). Zero below the
-/// horizon and where Mitsuba flushes it.
-#[inline]
+/// horizon and where Mitsuba flushes it. Branch-free (computed, then selected), so that the
+/// lanes of [`crate::Bsdf::eval_lanes`] vectorise.
+#[inline(always)]
 pub fn d<T: Float>(alpha: T, sin2_theta_h: T, cos_theta_h: T) -> T {
-    if !(cos_theta_h > T::zero()) {
-        return T::zero();
-    }
     let a2 = alpha * alpha;
     let denom = sin2_theta_h + a2 * cos_theta_h * cos_theta_h;
     let value = a2 / (c::<T>(std::f64::consts::PI) * denom * denom);
-    if value * cos_theta_h > c(D_FLUSH) {
+    if cos_theta_h > T::zero() && value * cos_theta_h > c(D_FLUSH) {
         value
     } else {
         T::zero()
@@ -60,20 +58,24 @@ pub fn d<T: Float>(alpha: T, sin2_theta_h: T, cos_theta_h: T) -> T {
 }
 
 /// Smith's G1(w, h) for GGX: 2 / (1 + √(1 + α² tan²θ_w)), tan²θ_w = sin²θ_w / cos²θ_w; 1 when
-/// sin²θ_w = 0; 0 when (w·h)·cos θ_w ≤ 0.
-#[inline]
+/// sin²θ_w = 0; 0 when (w·h)·cos θ_w ≤ 0. Branch-free, as [`d`].
+#[inline(always)]
 pub fn g1<T: Float>(alpha: T, sin2_theta_w: T, cos_theta_w: T, w_dot_h: T) -> T {
-    if !(w_dot_h * cos_theta_w > T::zero()) {
-        return T::zero();
-    }
-    if sin2_theta_w == T::zero() {
-        return T::one();
-    }
     let tan2_alpha2 = alpha * alpha * sin2_theta_w / (cos_theta_w * cos_theta_w);
-    c::<T>(2.0) / (T::one() + (T::one() + tan2_alpha2).sqrt())
+    let value = c::<T>(2.0) / (T::one() + (T::one() + tan2_alpha2).sqrt());
+    let value = if sin2_theta_w == T::zero() {
+        T::one()
+    } else {
+        value
+    };
+    if w_dot_h * cos_theta_w > T::zero() {
+        value
+    } else {
+        T::zero()
+    }
 }
 
-#[inline]
+#[inline(always)]
 fn sin2(w: DVec3) -> f64 {
     w.x * w.x + w.y * w.y
 }
@@ -86,22 +88,28 @@ pub fn ggx_cos(alpha: f64, v: DVec3, l: DVec3) -> f64 {
 }
 
 /// [`ggx_cos`] and v·h, the cosine at which a Fresnel factor multiplies the lobe; (0, 0) where
-/// the lobe is zero (as Mitsuba's conductor, which skips Fresnel where D = 0).
+/// the lobe is zero (as Mitsuba's conductor, which skips Fresnel where D = 0). Branch-free:
+/// every value is computed and the zero cases are selected at the end (the same bits as the
+/// early returns), so that the lanes of [`crate::Bsdf::eval_lanes`] vectorise.
+#[inline(always)]
 pub fn ggx_cos_and_cos_vh(alpha: f64, v: DVec3, l: DVec3) -> (f64, f64) {
-    if !(v.z > 0.0 && l.z > 0.0) {
-        return (0.0, 0.0);
-    }
-    let h = (v + l).normalize_or_zero();
-    if h == DVec3::ZERO {
-        return (0.0, 0.0);
-    }
+    // h = normalize_or_zero(v + l), written out (glam's expression) to select instead of branch.
+    let sum = v + l;
+    let rcp = sum.length_recip();
+    let h = if rcp.is_finite() && rcp > 0.0 {
+        sum * rcp
+    } else {
+        DVec3::ZERO
+    };
     let dh = d(alpha, sin2(h), h.z);
-    if dh == 0.0 {
-        return (0.0, 0.0);
-    }
     let cos_vh = v.dot(h);
     let g = g1(alpha, sin2(v), v.z, cos_vh) * g1(alpha, sin2(l), l.z, l.dot(h));
-    (dh * g / (4.0 * v.z), cos_vh)
+    let lobe = dh * g / (4.0 * v.z);
+    if v.z > 0.0 && l.z > 0.0 && h != DVec3::ZERO && dh != 0.0 {
+        (lobe, cos_vh)
+    } else {
+        (0.0, 0.0)
+    }
 }
 
 /// A microfacet normal visible from `v` (v_z > 0), drawn with density
@@ -277,6 +285,43 @@ mod tests {
         assert!((f_vl - f_lv).abs() < 1e-12 * f_vl);
         assert_eq!(ggx_cos(alpha, v, DVec3::new(l.x, l.y, -l.z)), 0.0);
         assert_eq!(ggx_cos(alpha, DVec3::new(v.x, v.y, -v.z), l), 0.0);
+    }
+
+    /// The lobe as written before it was made branch-free (early returns): the same bits.
+    #[test]
+    fn branch_free_lobe_equals_the_early_returns() {
+        let reference = |alpha: f64, v: DVec3, l: DVec3| -> (f64, f64) {
+            if !(v.z > 0.0 && l.z > 0.0) {
+                return (0.0, 0.0);
+            }
+            let h = (v + l).normalize_or_zero();
+            if h == DVec3::ZERO {
+                return (0.0, 0.0);
+            }
+            let dh = d(alpha, sin2(h), h.z);
+            if dh == 0.0 {
+                return (0.0, 0.0);
+            }
+            let cos_vh = v.dot(h);
+            let g = g1(alpha, sin2(v), v.z, cos_vh) * g1(alpha, sin2(l), l.z, l.dot(h));
+            (dh * g / (4.0 * v.z), cos_vh)
+        };
+        let v0 = dir(0.7, 0.3);
+        for alpha in [1e-4, 0.01, 0.3, 1.0] {
+            for i in 0..=60 {
+                for j in 0..12 {
+                    let l = dir(i as f64 * PI / 60.0, j as f64 * 0.5);
+                    for v in [v0, dir(1.5, 2.0), DVec3::Z, -l, l] {
+                        let (a, b) = (ggx_cos_and_cos_vh(alpha, v, l), reference(alpha, v, l));
+                        assert_eq!(
+                            (a.0.to_bits(), a.1.to_bits()),
+                            (b.0.to_bits(), b.1.to_bits()),
+                            "α {alpha}, v {v}, l {l}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

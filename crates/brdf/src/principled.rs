@@ -57,64 +57,74 @@ impl Principled {
     }
 
     /// The evaluated GGX α: max(0.001, roughness²), then Mitsuba's floor 1e-4.
+    #[inline(always)]
     pub fn alpha(&self) -> f64 {
         let r2 = (self.roughness * self.roughness).max(0.001);
         clamp_alpha(r2 as f64)
     }
 
-    /// F_p per channel at the microfacet cosine `cos_vh` (front side).
+    /// F_p per channel at the microfacet cosine `cos_vh` (front side). The terms that the
+    /// parameters switch off are computed and not added (branch-free per lane, the same bits).
+    #[inline(always)]
     pub fn fresnel(&self, cos_vh: f64) -> DVec3 {
         let eta = self.eta as f64;
         let metallic = self.metallic as f64;
         let tint = self.spec_tint as f64;
         let base = rgb(self.base_color);
         let f_dielectric = fresnel::dielectric(cos_vh, eta);
-        let mut f = DVec3::splat((1.0 - metallic) * (1.0 - tint) * f_dielectric);
-        if metallic != 0.0 {
-            f += metallic * base.map(|b| fresnel::schlick(b, cos_vh, eta));
-        }
+        let f = DVec3::splat((1.0 - metallic) * (1.0 - tint) * f_dielectric);
+        let metal = metallic * base.map(|b| fresnel::schlick(b, cos_vh, eta));
+        let f = if metallic != 0.0 { f + metal } else { f };
+        let lum = base.dot(rgb(LUMINANCE));
+        let c_tint = if lum > 0.0 { base / lum } else { DVec3::ONE };
+        let eta_it = if cos_vh >= 0.0 { eta } else { 1.0 / eta };
+        let f0 = c_tint * fresnel::schlick_r0(eta_it);
+        let tinted = (1.0 - metallic) * tint * f0.map(|r0| fresnel::schlick(r0, cos_vh, eta));
         if tint != 0.0 {
-            let lum = base.dot(rgb(LUMINANCE));
-            let c_tint = if lum > 0.0 { base / lum } else { DVec3::ONE };
-            let eta_it = if cos_vh >= 0.0 { eta } else { 1.0 / eta };
-            let f0 = c_tint * fresnel::schlick_r0(eta_it);
-            f += (1.0 - metallic) * tint * f0.map(|r0| fresnel::schlick(r0, cos_vh, eta));
+            f + tinted
+        } else {
+            f
         }
-        f
     }
 
-    /// f(v, l)·l_z in the shading frame, as Mitsuba's `BSDF.eval` returns it.
+    /// f(v, l)·l_z in the shading frame, as Mitsuba's `BSDF.eval` returns it. Branch-free:
+    /// every term is computed and the ones that do not apply are not added (the same bits as
+    /// skipping them), so that the lanes of [`crate::Bsdf::eval_lanes`] vectorise.
+    #[inline(always)]
     pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
-        if !(v.z > 0.0 && l.z > 0.0) {
-            return DVec3::ZERO;
-        }
-        let mut value = DVec3::ZERO;
+        let value = DVec3::ZERO;
         let (lobe, cos_vh) = ggx_cos_and_cos_vh(self.alpha(), v, l);
         // Mitsuba drops the whole specular term where the dielectric Fresnel vanishes (η = 1),
         // even when metallic or tint would contribute.
-        if lobe != 0.0 && fresnel::dielectric(cos_vh, self.eta as f64) > 0.0 {
-            value += self.fresnel(cos_vh) * lobe;
-        }
+        let specular = self.fresnel(cos_vh) * lobe;
+        let value = if lobe != 0.0 && fresnel::dielectric(cos_vh, self.eta as f64) > 0.0 {
+            value + specular
+        } else {
+            value
+        };
         let w = 1.0 - self.metallic as f64;
-        if w > 0.0 {
-            let h = (v + l).normalize();
-            let (f_l, f_v) = (fresnel::schlick_weight(l.z), fresnel::schlick_weight(v.z));
-            let f_diff = (1.0 - 0.5 * f_v) * (1.0 - 0.5 * f_l);
-            let cos_d = h.dot(l);
-            let rr = 2.0 * self.roughness as f64 * cos_d * cos_d;
-            let f_retro = rr * (f_l + f_v + f_l * f_v * (rr - 1.0));
-            let flatness = self.flatness as f64;
-            let shape = if flatness != 0.0 {
-                let fss90 = 0.5 * rr;
-                let fss = lerp(1.0, fss90, f_l) * lerp(1.0, fss90, f_v);
-                let f_ss = 1.25 * (fss * (1.0 / (l.z + v.z) - 0.5) + 0.5);
-                lerp(f_diff + f_retro, f_ss, flatness)
-            } else {
-                f_diff + f_retro
-            };
-            value += rgb(self.base_color) * (w * l.z * std::f64::consts::FRAC_1_PI * shape);
+        let h = (v + l).normalize();
+        let (f_l, f_v) = (fresnel::schlick_weight(l.z), fresnel::schlick_weight(v.z));
+        let f_diff = (1.0 - 0.5 * f_v) * (1.0 - 0.5 * f_l);
+        let cos_d = h.dot(l);
+        let rr = 2.0 * self.roughness as f64 * cos_d * cos_d;
+        let f_retro = rr * (f_l + f_v + f_l * f_v * (rr - 1.0));
+        let flatness = self.flatness as f64;
+        let fss90 = 0.5 * rr;
+        let fss = lerp(1.0, fss90, f_l) * lerp(1.0, fss90, f_v);
+        let f_ss = 1.25 * (fss * (1.0 / (l.z + v.z) - 0.5) + 0.5);
+        let shape = if flatness != 0.0 {
+            lerp(f_diff + f_retro, f_ss, flatness)
+        } else {
+            f_diff + f_retro
+        };
+        let diffuse = rgb(self.base_color) * (w * l.z * std::f64::consts::FRAC_1_PI * shape);
+        let value = if w > 0.0 { value + diffuse } else { value };
+        if v.z > 0.0 && l.z > 0.0 {
+            value
+        } else {
+            DVec3::ZERO
         }
-        value
     }
 
     /// ρ_d = (1 − metallic)·base_color (the Disney diffuse albedo up to its retro-reflection
@@ -143,7 +153,7 @@ impl Default for Principled {
 }
 
 /// Mitsuba's `lerp(a, b, t)` = a + t (b − a).
-#[inline]
+#[inline(always)]
 fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a + t * (b - a)
 }

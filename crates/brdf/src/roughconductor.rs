@@ -4,6 +4,7 @@
 //! `specular_reflectance`.
 
 use crate::diffuse::rgb;
+use crate::lanes::{each_lane, Lanes3};
 use crate::microfacet::{clamp_alpha, ggx_cos_and_cos_vh};
 use crate::{fresnel, Lobes, Rgb, SpecularLobe};
 use glam::DVec3;
@@ -27,31 +28,68 @@ pub struct RoughConductor {
     pub specular_reflectance: Rgb,
 }
 
+/// The conductor Fresnel reflectance per channel at cosine `cos_vh`.
+#[inline(always)]
+fn complex_fresnel(cos_vh: f64, eta: &Rgb, k: &Rgb) -> DVec3 {
+    DVec3::new(
+        fresnel::conductor(cos_vh, eta[0] as f64, k[0] as f64),
+        fresnel::conductor(cos_vh, eta[1] as f64, k[1] as f64),
+        fresnel::conductor(cos_vh, eta[2] as f64, k[2] as f64),
+    )
+}
+
 impl RoughConductor {
     /// The α that is evaluated: the given one clamped to ≥ 1e-4.
+    #[inline(always)]
     pub fn alpha(&self) -> f64 {
         clamp_alpha(self.alpha as f64)
     }
 
     /// Fresnel reflectance per channel at cosine `cos_vh`.
+    #[inline(always)]
     pub fn fresnel(&self, cos_vh: f64) -> DVec3 {
         match &self.fresnel {
             ConductorFresnel::One => DVec3::ONE,
-            ConductorFresnel::Complex { eta, k } => DVec3::new(
-                fresnel::conductor(cos_vh, eta[0] as f64, k[0] as f64),
-                fresnel::conductor(cos_vh, eta[1] as f64, k[1] as f64),
-                fresnel::conductor(cos_vh, eta[2] as f64, k[2] as f64),
-            ),
+            ConductorFresnel::Complex { eta, k } => complex_fresnel(cos_vh, eta, k),
         }
     }
 
     /// f(v, l)·l_z in the shading frame, as Mitsuba's `BSDF.eval` returns it.
+    #[inline(always)]
     pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
-        let (lobe, cos_vh) = ggx_cos_and_cos_vh(self.alpha(), v, l);
-        if lobe == 0.0 {
-            return DVec3::ZERO;
+        self.eval_with(v, l, |cos_vh| self.fresnel(cos_vh))
+    }
+
+    /// [`RoughConductor::eval`] for N lanes (structure of arrays x, y, z): the same per-lane
+    /// arithmetic, with the Fresnel model chosen once for all lanes.
+    #[inline(always)]
+    pub fn eval_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
+        match &self.fresnel {
+            ConductorFresnel::One => each_lane(
+                v,
+                l,
+                #[inline(always)]
+                |v, l| self.eval_with(v, l, |_| DVec3::ONE),
+            ),
+            ConductorFresnel::Complex { eta, k } => each_lane(
+                v,
+                l,
+                #[inline(always)]
+                |v, l| self.eval_with(v, l, |cos_vh| complex_fresnel(cos_vh, eta, k)),
+            ),
         }
-        self.fresnel(cos_vh) * rgb(self.specular_reflectance) * lobe
+    }
+
+    /// F(v·h)·k·lobe, 0 where the lobe is (branch-free: every lane computes it).
+    #[inline(always)]
+    fn eval_with(&self, v: DVec3, l: DVec3, fresnel: impl Fn(f64) -> DVec3) -> DVec3 {
+        let (lobe, cos_vh) = ggx_cos_and_cos_vh(self.alpha(), v, l);
+        let value = fresnel(cos_vh) * rgb(self.specular_reflectance) * lobe;
+        if lobe == 0.0 {
+            DVec3::ZERO
+        } else {
+            value
+        }
     }
 
     /// No diffuse part; the specular lobe's weight k_s = specular_reflectance · F(v_z), the

@@ -1,17 +1,30 @@
 //! Mitsuba's `twosided` with one nested BSDF: seen from below (v_z < 0) both directions are
 //! mirrored through the surface, so the nested one-sided BSDF reflects on both sides.
 
+use crate::lanes::{self, Lanes3};
 use crate::{Bsdf, Lobes};
 use glam::DVec3;
 
 /// Mitsuba's rule: l_z takes the sign of v_z relative to the flip, v_z becomes |v_z|.
-#[inline]
+#[inline(always)]
 fn flip(v: DVec3, l: DVec3) -> (DVec3, DVec3) {
     if v.z.is_sign_negative() {
         (DVec3::new(v.x, v.y, -v.z), DVec3::new(l.x, l.y, -l.z))
     } else {
         (v, l)
     }
+}
+
+/// [`flip`] of N lanes (v, l as structures of arrays).
+#[inline(always)]
+pub(crate) fn flip_lanes<const N: usize>(v: &Lanes3<N>, l: &Lanes3<N>) -> (Lanes3<N>, Lanes3<N>) {
+    let (mut fv, mut fl) = (*v, *l);
+    for k in 0..N {
+        let (a, b) = flip(lanes::get(v, k), lanes::get(l, k));
+        lanes::set(&mut fv, k, a);
+        lanes::set(&mut fl, k, b);
+    }
+    (fv, fl)
 }
 
 /// f(v, l)·|l_z| of `inner` on the side the viewer is on.

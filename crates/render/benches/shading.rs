@@ -1,6 +1,7 @@
 //! The paper's timing table: `linlight_render::shading_cost` (every technique shading the cached
 //! hit points of a 1920×1080 frame, Lambert + GGX, no shadow rays, 128 lights × 1 spp and
-//! 1 light × 128 spp), printed as ns per sample, ms per frame and ratios to clipped solid angle.
+//! 1 light × 128 spp), printed as ns per sample, ms per frame, ratios to clipped solid angle,
+//! and Peters / clipped and Li / Peters both scalar and x8 (like for like).
 //! `linlight figures --only timings` draws the same measurement as a table.
 //!
 //! Timing: by default every 8th pixel of every 8th row (32 400 pixels, 4.1 M samples per row
@@ -8,7 +9,8 @@
 //! across the rows (`LINLIGHT_SHADING_REPEATS`).
 //!
 //! Instruction-count mode for callgrind (`--toggle-collect='*shade_*'`):
-//! `LINLIGHT_SHADING_ONLY=<row>:<config>` with row a technique name, `psa-x8` or `li-x8`, config
+//! `LINLIGHT_SHADING_ONLY=<row>:<config>` with row a technique name, `psa-x8`, `li-x8` or
+//! `clipped-x8`, config
 //! `128x1` or `1x128`, shades once and prints the number of samples (instructions per sample
 //! = Ir / samples). Batches run the kernel the CPU supports (under valgrind: AVX2).
 //!
@@ -35,6 +37,7 @@ fn count_mode(spec: &str, stride: usize) {
     let sum = match row {
         "psa-x8" => shade_batched(Batched::ProjectedSolidAngle, isa, &h, lights, spp).0,
         "li-x8" => shade_batched(Batched::Li2018, isa, &h, lights, spp).0,
+        "clipped-x8" => shade_batched(Batched::ClippedSolidAngle, isa, &h, lights, spp).0,
         t => shade_scalar(t.parse().expect("technique"), &h, lights, spp),
     };
     println!(
@@ -89,10 +92,20 @@ fn main() {
                 row.name
             );
         }
-        let ratio = |a: RowKind, b: RowKind| {
-            let (a, b) = (c.row(a).unwrap(), c.row(b).unwrap());
-            (a.median_s / b.median_s, a.min_s / b.min_s)
-        };
+        let ratio = |a: RowKind, b: RowKind| c.ratio(a, b);
+        let scalar = ratio(
+            RowKind::Scalar(Technique::ProjectedSolidAngle),
+            RowKind::Scalar(Technique::ClippedSolidAngle),
+        );
+        let simd = ratio(
+            RowKind::Batched(Batched::ProjectedSolidAngle),
+            RowKind::Batched(Batched::ClippedSolidAngle),
+        );
+        println!(
+            "  projected-solid-angle / clipped-solid-angle: scalar {:.3} (min {:.3}), \
+             x8 {:.3} (min {:.3})",
+            scalar.0, scalar.1, simd.0, simd.1
+        );
         let scalar = ratio(
             RowKind::Scalar(Technique::Li2018),
             RowKind::Scalar(Technique::ProjectedSolidAngle),

@@ -3,13 +3,15 @@
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
 //! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
 //! rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes' arrays, lanes on
-//! other surfaces (rough conductor, principled, blends) with the scalar path's BSDF evaluation
-//! lane by lane ([`ShadingPoint::new`], [`single_contribution`]); a packet may mix both.
+//! other surfaces (rough conductor, principled, blends) with the scalar path's shading frame
+//! ([`shading_frame`]) for all lanes at once and its BSDF evaluation eight or sixteen lanes at
+//! a time per BSDF ([`Bsdf::eval_lanes`], f64 SIMD lanes: the scalar `Bsdf::eval` is its
+//! one-lane case) and [`single_contribution`]'s arithmetic; a packet may mix both.
 //!
-//! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle,
-//! clipped solid angle, Hart), LTC and MIS on non-Lambertian surfaces — take their samples lane
-//! by lane with the scalar code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and
-//! trace them in packet walks (LTC and MIS: one for the diffuse, one for the specular samples).
+//! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle, Hart),
+//! LTC and MIS on non-Lambertian surfaces — take their samples lane by lane with the scalar
+//! code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and trace them in packet walks
+//! (LTC and MIS: one for the diffuse, one for the specular samples).
 //!
 //! The lights: with `--lights every` one pass per light, every lane sampling that light; with
 //! `--lights one` ([`crate::light_choice`], two or more lights) a single pass in which each
@@ -54,16 +56,18 @@ use crate::render::{
 };
 use crate::scene::{Bsdf, Scene};
 use crate::shading::{
-    lambert_technique, single_contribution, single_sample, Combination, ShadingPoint,
-    TwoTechniqueLight,
+    contribution, lambert_technique, shading_frame, single_contribution, single_sample, to_local,
+    Combination, ShadingPoint, TwoTechniqueLight,
 };
 use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
+use linlight_brdf::lanes as brdf_lanes;
 use linlight_imagefile::Image;
 use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
+use std::mem::MaybeUninit;
 
 /// Camera samples rendered together: one ray packet.
 pub const LANES: usize = PACKET;
@@ -71,11 +75,11 @@ const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet")
 
 /// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
 /// light sample per camera sample, white noise, and either a technique with a batch kernel
-/// (projected solid angle, Li et al.) or a scene with Lambertian surfaces. The other methods
-/// sample lane by lane with the scalar code, which pays in packets only where Lambertian lanes
-/// share them (measured: 15–28 % less CPU time on cornell-tube and mesh-occluder, half on
-/// glossy-cornell for MIS, but 5–20 % more on the scenes without a Lambertian surface; see
-/// docs/performance.md). Both light selections (`every`, `one`) take the same decision.
+/// (projected solid angle, Li et al., clipped solid angle) or a scene with Lambertian surfaces.
+/// The other methods sample lane by lane with the scalar code, which pays in packets only
+/// where Lambertian lanes share them (measured: 15–28 % less CPU time on cornell-tube and
+/// mesh-occluder, half on glossy-cornell for MIS, but 5–20 % more on the scenes without a
+/// Lambertian surface; see docs/performance.md). Both light selections (`every`, `one`) take the same decision.
 /// [`render_isa`] renders any scene, method and light selection with one light sample and
 /// white noise.
 pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
@@ -87,7 +91,7 @@ pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
 fn has_batch_kernel(technique: Technique) -> bool {
     matches!(
         technique,
-        Technique::ProjectedSolidAngle | Technique::Li2018
+        Technique::ProjectedSolidAngle | Technique::Li2018 | Technique::ClippedSolidAngle
     )
 }
 
@@ -204,9 +208,17 @@ struct ShadingLanes<'a> {
     /// f = ρ/π on Lambertian lanes (zero on the others and outside `active`).
     lambert: Lanes3,
     /// The active lanes on non-Lambertian surfaces: `glossy[k]` is the scalar path's shading
-    /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere.
+    /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere and where
+    /// the lanes sample in a batch kernel (they need only the frames below).
     glossy_mask: u32,
     glossy: [Option<ShadingPoint<'a>>; LANES],
+    /// The BSDF of the lanes in `glossy_mask`.
+    bsdf: [Option<&'a Bsdf>; LANES],
+    /// The shading frames of all lanes ([`shading_frame`], computed at once where
+    /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
+    frame_x: Lanes3,
+    frame_y: Lanes3,
+    v: [[f64; LANES]; 2],
 }
 
 /// The light each lane samples in one pass over the lights: the light's index, its K (divided
@@ -252,34 +264,24 @@ impl<'a> Context<'a> {
     ) {
         let spp = self.opts.spp as usize;
         let total = pixels.len() * spp;
+        // Most tiles see no line: then no lane has visible lines to add.
+        let lines = seen.iter().any(|l| !l.is_empty());
         let mut start = 0;
         let mut packet = Packet::default();
         while start < total {
             let len = LANES.min(total - start);
-            packet.len = len;
-            // Sample j = start + k is sample j % spp of pixel j / spp: one division per
-            // packet, then counting.
-            let (mut pixel, mut sample) = (start / spp, (start % spp) as u32);
-            for k in 0..LANES {
-                if k > 0 && k < len {
-                    sample += 1;
-                    if sample as usize == spp {
-                        (pixel, sample) = (pixel + 1, 0);
-                    }
-                }
-                let (fx, fy) = pixels[pixel];
-                packet.pixel[k] = pixel;
-                packet.fx[k] = fx;
-                packet.fy[k] = fy;
-                // < 2^32: checked by `window`.
-                packet.index[k] = fy.wrapping_mul(self.full_width).wrapping_add(fx);
-                packet.sample[k] = sample;
-            }
+            fill_packet(
+                self.isa,
+                &mut packet,
+                pixels,
+                (spp, self.full_width),
+                (start, len),
+            );
             let mut radiance = run_packet(self.isa, self, &packet, pass);
-            self.visible_lines(&packet, seen, pass, &mut radiance);
-            for k in 0..len {
-                acc[packet.pixel[k]].push(get3(&radiance.total, k).to_array().map(|c| c as f64));
+            if lines {
+                self.visible_lines(&packet, seen, pass, &mut radiance);
             }
+            accumulate(self.isa, acc, &packet, &radiance.total);
             start += len;
         }
     }
@@ -331,6 +333,57 @@ struct Packet {
     sample: [u32; LANES],
 }
 
+impl Packet {
+    /// Camera samples `start` … `start + len − 1` of a tile pass over `pixels` at `spp`
+    /// samples per pixel (sample j is sample j % spp of pixel j / spp); lanes ≥ `len` repeat
+    /// the last one.
+    #[inline(always)]
+    fn fill(
+        &mut self,
+        pixels: &[(u32, u32)],
+        spp: usize,
+        full_width: u32,
+        start: usize,
+        len: usize,
+    ) {
+        self.len = len;
+        let (pixel, sample) = (start / spp, start % spp);
+        // < 2^32: checked by `window`.
+        let index = |(fx, fy): (u32, u32)| fy.wrapping_mul(full_width).wrapping_add(fx);
+        if spp >= LANES {
+            // At most one step to the next pixel inside the packet: every lane at once.
+            let (a, b) = (pixels[pixel], pixels[(pixel + 1).min(pixels.len() - 1)]);
+            let (ia, ib) = (index(a), index(b));
+            for k in 0..LANES {
+                let s = (sample + k.min(len - 1)) as u32;
+                let next = s >= spp as u32;
+                self.sample[k] = if next { s - spp as u32 } else { s };
+                self.pixel[k] = pixel + next as usize;
+                self.fx[k] = if next { b.0 } else { a.0 };
+                self.fy[k] = if next { b.1 } else { a.1 };
+                self.index[k] = if next { ib } else { ia };
+            }
+            return;
+        }
+        // Counting, one lane after the other.
+        let (mut pixel, mut sample) = (pixel, sample as u32);
+        for k in 0..LANES {
+            if k > 0 && k < len {
+                sample += 1;
+                if sample as usize == spp {
+                    (pixel, sample) = (pixel + 1, 0);
+                }
+            }
+            let (fx, fy) = pixels[pixel];
+            self.pixel[k] = pixel;
+            self.fx[k] = fx;
+            self.fy[k] = fy;
+            self.index[k] = index((fx, fy));
+            self.sample[k] = sample;
+        }
+    }
+}
+
 /// Radiance of each lane of a packet, the lanes whose camera ray reached a reflecting
 /// surface (they used one number per light), and among them those that used two (LTC and MIS
 /// on non-Lambertian surfaces).
@@ -342,6 +395,43 @@ struct Radiance {
 
 linlight_sampling::isa_variants! {
     fn run_packet(ctx: &Context, packet: &Packet, pass: u32) -> Radiance = packet_kernel;
+    fn accumulate(acc: &mut [Welford], packet: &Packet, total: &Lanes3) -> () = accumulate_kernel;
+    fn fill_packet(
+        packet: &mut Packet,
+        pixels: &[(u32, u32)],
+        spp_width: (usize, u32),
+        start_len: (usize, usize)
+    ) -> () = fill_kernel;
+}
+
+/// [`Packet::fill`], inlined into one function per instruction set.
+#[inline(always)]
+fn fill_kernel(
+    packet: &mut Packet,
+    pixels: &[(u32, u32)],
+    (spp, full_width): (usize, u32),
+    (start, len): (usize, usize),
+) {
+    packet.fill(pixels, spp, full_width, start, len);
+}
+
+/// Pushes the lanes' radiance into their pixels' accumulators in lane order (the scalar
+/// path's order, so the same bits). A packet's lanes of one pixel are consecutive: each run
+/// of them is pushed into a copy held in registers and stored once, instead of a load and a
+/// store of the accumulator per sample (a store-to-load round trip in the serial chain of
+/// the running mean). Inlined into one function per instruction set.
+#[inline(always)]
+fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
+    let mut k = 0;
+    while k < packet.len {
+        let pixel = packet.pixel[k];
+        let mut w = acc[pixel];
+        while k < packet.len && packet.pixel[k] == pixel {
+            w.push(get3(total, k).to_array().map(|c| c as f64));
+            k += 1;
+        }
+        acc[pixel] = w;
+    }
 }
 
 /// Radiance of the camera samples of `packet` (see the module documentation), every stage
@@ -353,21 +443,26 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let active = ((1u64 << packet.len) - 1) as u32;
     // Film position (2 numbers) and the lights' numbers (one or two per light, or the choice
     // ξ_c and the chosen light's one or two), from the lanes' own streams.
-    let mut words = [[[0u32; LANES]; 4]; MAX_BLOCKS];
+    // Only the blocks the packet uses are computed, and only they are read (`number`); the
+    // others stay uninitialised rather than zeroed per packet (a 1 KiB memset).
+    let mut words = [std::mem::MaybeUninit::<[[u32; LANES]; 4]>::uninit(); MAX_BLOCKS];
     let one = rs.chooses_one(ctx.opts.lights);
     let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, ctx.per_light)).div_ceil(4);
-    for (b, w) in words.iter_mut().enumerate().take(blocks.min(MAX_BLOCKS)) {
-        *w = CounterRng::camera_sample_block(
+    let kept = blocks.min(MAX_BLOCKS);
+    for (b, w) in words.iter_mut().enumerate().take(kept) {
+        w.write(CounterRng::camera_sample_block(
             ctx.opts.seed,
             pass,
             &packet.index,
             &packet.sample,
             b as u32,
-        );
+        ));
     }
     let number = |dim: usize| -> [f32; LANES] {
-        if dim / 4 < MAX_BLOCKS {
-            words[dim / 4][dim % 4].map(unit_f32)
+        if dim / 4 < kept {
+            // SAFETY: blocks below `kept` were written above.
+            let block = unsafe { words[dim / 4].assume_init_ref() };
+            block[dim % 4].map(unit_f32)
         } else {
             // More lights than the blocks kept: this dimension lane by lane.
             std::array::from_fn(|k| {
@@ -383,7 +478,10 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     let mut rays = RayLanes::default();
     rs.camera.ray_lanes(&px, &py, &mut rays);
     let hits = rs.bvh.intersect_lanes(&rays, active);
-    let shading = shading_points(rs, &rays, &hits);
+    // Shading points for the lanes sampled with the scalar code; the batch kernels' lanes need
+    // only the frames.
+    let points = (ctx.combination.is_some() || !ctx.batch).then_some(ctx.opts.method);
+    let shading = shading_points(rs, points, &rays, &hits);
     // Lanes sampled by a batch kernel, lanes sampled with the scalar code lane by lane (a
     // technique without a batch kernel; LTC and MIS on non-Lambertian surfaces).
     let (batch_lanes, scalar_lanes, two_per_light) = match (ctx.combination, ctx.batch) {
@@ -456,7 +554,12 @@ const MAX_BLOCKS: usize = 4;
 /// scalar integrator's `surface_point` and `reflecting_normal`, lane by lane (every surface
 /// is Lambertian: [`applies`]).
 #[inline(always)]
-fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -> ShadingLanes<'a> {
+fn shading_points<'a>(
+    rs: &'a RenderScene,
+    points: Option<Method>,
+    rays: &RayLanes,
+    hits: &PacketHits,
+) -> ShadingLanes<'a> {
     let mut out = ShadingLanes {
         active: 0,
         p: [[0.0; LANES]; 3],
@@ -465,6 +568,10 @@ fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -
         lambert: [[0.0; LANES]; 3],
         glossy_mask: 0,
         glossy: [None; LANES],
+        bsdf: [None; LANES],
+        frame_x: [[0.0; LANES]; 3],
+        frame_y: [[0.0; LANES]; 3],
+        v: [[0.0; LANES]; 2],
     };
     // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
     // all lanes at once below, other primitives with their own `surface_point`.
@@ -517,8 +624,21 @@ fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -
             None => {
                 // The scalar integrator's shading point (its n() is `n`, bit for bit).
                 out.glossy_mask |= 1 << k;
-                out.glossy[k] = Some(glossy_point(bsdf, pk, n, wi));
+                out.bsdf[k] = Some(bsdf);
+                if let Some(method) = points {
+                    out.glossy[k] = Some(glossy_point(method, bsdf, pk, n, wi));
+                }
             }
+        }
+    }
+    if out.glossy_mask != 0 {
+        // The scalar path's frames (ShadingPoint::new), all lanes at once (branch-free).
+        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+        for k in 0..LANES {
+            let (frame, v) = shading_frame(get3(&out.n, k), -get3(&rays.d, k));
+            set3(&mut out.frame_x, k, frame.x_axis);
+            set3(&mut out.frame_y, k, frame.y_axis);
+            (out.v[0][k], out.v[1][k]) = (v.x, v.z);
         }
     }
     out
@@ -526,15 +646,18 @@ fn shading_points<'a>(rs: &'a RenderScene, rays: &RayLanes, hits: &PacketHits) -
 
 /// The scalar integrator's shading point; not inlined, as [`Context::scalar_samples`].
 #[inline(never)]
-fn glossy_point(bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> ShadingPoint<'_> {
-    ShadingPoint::new(&SceneBsdf, bsdf, p, n, wi)
+fn glossy_point(method: Method, bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> ShadingPoint<'_> {
+    ShadingPoint::for_method(&SceneBsdf, method, bsdf, p, n, wi)
 }
 
 /// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for their light
 /// (lane k's K = `k_light[·][k]`) to `total`: the scalar single-technique contribution
-/// ([`single_contribution`]) lane by lane, finite ones only; returns how many were dropped.
-/// Not inlined, as [`Context::scalar_samples`].
-#[inline(never)]
+/// ([`single_contribution`]), finite ones only; returns how many were dropped. The lanes that
+/// share a BSDF are evaluated together, all sixteen or the half packets that hold them
+/// ([`Bsdf::eval_lanes`]: the scalar path's arithmetic per lane, the same bits, in f64 SIMD
+/// lanes of the kernel's instruction set, into which this is inlined), then K·f·cos/p on all
+/// lanes at once.
+#[inline(always)]
 fn glossy_contributions(
     shading: &ShadingLanes,
     samples: &SampleLanes,
@@ -542,38 +665,107 @@ fn glossy_contributions(
     k_light: &Lanes3,
     total: &mut Lanes3,
 ) -> u64 {
-    let mut dropped = 0;
-    let mut m = lit & shading.glossy_mask;
-    while m != 0 {
-        let k = m.trailing_zeros() as usize;
-        m &= m - 1;
-        let Some(point) = &shading.glossy[k] else {
+    let mut todo = lit & shading.glossy_mask;
+    if todo == 0 {
+        return 0;
+    }
+    // ω in the shading frames (ShadingPoint::local), all lanes at once.
+    let mut l = [[0.0f64; LANES]; 3];
+    #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+    for k in 0..LANES {
+        let (x, y, n) = (
+            get3(&shading.frame_x, k),
+            get3(&shading.frame_y, k),
+            get3(&shading.n, k),
+        );
+        let lk = to_local(x, y, n, get3(&samples.dir, k));
+        (l[0][k], l[1][k], l[2][k]) = (lk.x, lk.y, lk.z);
+    }
+    // f·cos of the lanes in `todo`, BSDF by BSDF.
+    let mut f_cos = [[0.0f32; LANES]; 3];
+    while todo != 0 {
+        let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
+            todo &= todo - 1;
             continue;
         };
-        let c = single_contribution(
-            &SceneBsdf,
-            point,
-            get3(k_light, k),
-            get3(&samples.dir, k),
-            samples.pdf[k],
-        );
-        if c.is_finite() {
-            for (a, t) in total.iter_mut().enumerate() {
-                t[k] += c[a];
+        // The lanes whose surface has this BSDF.
+        let mut group = 0u32;
+        for_lanes(todo, |k| {
+            if shading.bsdf[k].is_some_and(|b| std::ptr::eq(b, bsdf)) {
+                group |= 1 << k;
             }
-        } else {
-            dropped += 1;
+        });
+        todo &= !group;
+        if group >> BATCH != 0 && group & ((1 << BATCH) - 1) != 0 {
+            // Both halves: all sixteen lanes at once (the others' values are not used).
+            let v = [shading.v[0], [0.0; LANES], shading.v[1]];
+            keep_lanes(&mut f_cos, &bsdf.eval_lanes(&v, &l), group, 0);
+            continue;
+        }
+        for half in 0..LANES / BATCH {
+            let lanes = group >> (half * BATCH) & ((1 << BATCH) - 1);
+            if lanes == 0 {
+                continue;
+            }
+            // The half's eight lanes.
+            let slice =
+                |a: &[f64; LANES]| -> [f64; BATCH] { std::array::from_fn(|j| a[half * BATCH + j]) };
+            let v = [slice(&shading.v[0]), [0.0; BATCH], slice(&shading.v[1])];
+            let f = bsdf.eval_lanes(&v, &l.each_ref().map(slice));
+            keep_lanes(&mut f_cos, &f, lanes, half * BATCH);
         }
     }
-    dropped
+    // K·(f·cos)/p (single_contribution's arithmetic) on all lanes, the finite ones of the lit
+    // glossy lanes added (+0 elsewhere leaves the sums, which start at +0, bitwise unchanged).
+    let glossy = lit & shading.glossy_mask;
+    let mut dropped = 0u32;
+    #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+    for k in 0..LANES {
+        let c = contribution(get3(k_light, k), get3(&f_cos, k), samples.pdf[k]);
+        let finite = c.is_finite();
+        let on = glossy >> k & 1 == 1;
+        dropped |= ((on & !finite) as u32) << k;
+        for (a, t) in total.iter_mut().enumerate() {
+            t[k] += if on & finite { c[a] } else { 0.0 };
+        }
+    }
+    dropped.count_ones() as u64
+}
+
+/// Writes lanes j of `f` (f64, as the scalar path's `as_vec3`) for j in `lanes` into lanes
+/// `offset + j` of `out`.
+#[inline(always)]
+fn keep_lanes<const N: usize>(
+    out: &mut Lanes3,
+    f: &brdf_lanes::Lanes3<N>,
+    lanes: u32,
+    offset: usize,
+) {
+    for j in 0..N {
+        if lanes >> j & 1 == 1 {
+            set3(out, offset + j, brdf_lanes::get(f, j).as_vec3());
+        }
+    }
+}
+
+/// `f(k)` for each lane k in `mask`, in increasing order.
+#[inline(always)]
+fn for_lanes(mut mask: u32, mut f: impl FnMut(usize)) {
+    while mask != 0 {
+        f(mask.trailing_zeros() as usize);
+        mask &= mask - 1;
+    }
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
-/// (`normals`: lanes that have them), the sign of `flip_normals`.
+/// (`normals`: lanes that have them), the sign of `flip_normals`. The vertex and normal
+/// arrays are written lane by lane as hits come (`set`) and only then completed with zeros in
+/// the lanes left out ([`Triangles::surface_points`]) rather than zeroed whole per packet
+/// first; the normals not at all when no lane has them (they are not read then).
 struct Triangles {
     mask: u32,
-    v: [Lanes3; 3],
-    n: [Lanes3; 3],
+    v: MaybeUninit<[Lanes3; 3]>,
+    n: MaybeUninit<[Lanes3; 3]>,
     normals: u32,
     sign: [f32; LANES],
 }
@@ -582,10 +774,25 @@ impl Default for Triangles {
     fn default() -> Self {
         Self {
             mask: 0,
-            v: [[[0.0; LANES]; 3]; 3],
-            n: [[[0.0; LANES]; 3]; 3],
+            v: MaybeUninit::uninit(),
+            n: MaybeUninit::uninit(),
             normals: 0,
             sign: [1.0; LANES],
+        }
+    }
+}
+
+/// Writes the three vectors `v` into lane k of `lanes`.
+#[inline(always)]
+fn write_lane(lanes: &mut MaybeUninit<[Lanes3; 3]>, k: usize, v: &[Vec3; 3]) {
+    let lanes = lanes.as_mut_ptr();
+    for (j, vj) in v.iter().enumerate() {
+        // SAFETY: `lanes` points to a live array and the indices are in bounds (k < LANES,
+        // checked); f32 has no destructor, so an uninitialised element may be written over.
+        unsafe {
+            (*lanes)[j][0][k] = vj.x;
+            (*lanes)[j][1][k] = vj.y;
+            (*lanes)[j][2][k] = vj.z;
         }
     }
 }
@@ -594,14 +801,10 @@ impl Triangles {
     #[inline(always)]
     fn set(&mut self, k: usize, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
         self.mask |= 1 << k;
-        for (lanes, &vj) in self.v.iter_mut().zip(v) {
-            set3(lanes, k, vj);
-        }
+        write_lane(&mut self.v, k, v);
         if let Some(n) = n {
             self.normals |= 1 << k;
-            for (lanes, &nj) in self.n.iter_mut().zip(n) {
-                set3(lanes, k, nj);
-            }
+            write_lane(&mut self.n, k, n);
         }
         self.sign[k] = if flip { -1.0 } else { 1.0 };
     }
@@ -610,19 +813,65 @@ impl Triangles {
     /// the same bits), in one loop over all lanes that the compiler vectorises; other lanes
     /// are left as they are.
     #[inline(always)]
-    fn surface_points(&self, hits: &PacketHits, p: &mut Lanes3, ng: &mut Lanes3, ns: &mut Lanes3) {
+    fn surface_points(
+        &mut self,
+        hits: &PacketHits,
+        p: &mut Lanes3,
+        ng: &mut Lanes3,
+        ns: &mut Lanes3,
+    ) {
+        let full = ((1u64 << LANES) - 1) as u32;
+        let mut m = full & !self.mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            write_lane(&mut self.v, k, &[Vec3::ZERO; 3]);
+        }
+        // SAFETY: every lane was written, by `set` or just above.
+        let v = unsafe { self.v.assume_init_ref() };
+        if self.normals == 0 {
+            // Zero normals, as the lanes without them: the shading normal is the geometric.
+            self.lanes(v, None, hits, p, ng, ns);
+            return;
+        }
+        let mut m = full & !self.normals;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            write_lane(&mut self.n, k, &[Vec3::ZERO; 3]);
+        }
+        // SAFETY: as above.
+        let n = unsafe { self.n.assume_init_ref() };
+        self.lanes(v, Some(n), hits, p, ng, ns);
+    }
+
+    #[inline(always)]
+    fn lanes(
+        &self,
+        v: &[Lanes3; 3],
+        n: Option<&[Lanes3; 3]>,
+        hits: &PacketHits,
+        p: &mut Lanes3,
+        ng: &mut Lanes3,
+        ns: &mut Lanes3,
+    ) {
         for k in 0..LANES {
             let (b1, b2) = (hits.b1[k], hits.b2[k]);
             let b0 = 1.0 - b1 - b2;
-            let [v0, v1, v2] = self.v.each_ref().map(|v| get3(v, k));
-            let [n0, n1, n2] = self.n.each_ref().map(|n| get3(n, k));
+            let [v0, v1, v2] = v.each_ref().map(|v| get3(v, k));
             let pk = b0 * v0 + b1 * v1 + b2 * v2;
             let ngk = (v1 - v0).cross(v2 - v0).normalize_or_zero();
-            let nsk = (b0 * n0 + b1 * n1 + b2 * n2).normalize_or_zero();
-            let nsk = if (self.normals >> k & 1 == 1) & (nsk != Vec3::ZERO) {
-                nsk
-            } else {
-                ngk
+            let nsk = match n {
+                Some(n) => {
+                    let [n0, n1, n2] = n.each_ref().map(|n| get3(n, k));
+                    let nsk = (b0 * n0 + b1 * n1 + b2 * n2).normalize_or_zero();
+                    if (self.normals >> k & 1 == 1) & (nsk != Vec3::ZERO) {
+                        nsk
+                    } else {
+                        ngk
+                    }
+                }
+                None => ngk,
             };
             if self.mask >> k & 1 == 1 {
                 let sign = self.sign[k];
@@ -763,7 +1012,12 @@ impl<'a> Context<'a> {
             batch::sample_projected_solid_angle_slice(self.isa, &inputs, &mut outputs);
         } else {
             for (input, output) in inputs.iter().zip(&mut outputs) {
-                *output = batch::sample_li2018_with(self.isa, input).0;
+                *output = match technique {
+                    Technique::ClippedSolidAngle => {
+                        batch::sample_clipped_solid_angle_with(self.isa, input)
+                    }
+                    _ => batch::sample_li2018_with(self.isa, input).0,
+                };
             }
         }
         for (b, o) in outputs.iter().enumerate() {

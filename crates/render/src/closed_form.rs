@@ -32,7 +32,7 @@
 //! is O(1/s²); pixels that contain a silhouette edge converge only as O(1/s).
 
 use crate::integrator::{diffuse_lobe, reflecting_normal, RenderScene};
-use crate::line_quadrature::{unshadowed_line_integral, ShadingPoint};
+use crate::line_quadrature::{unshadowed_line_integral, QuadraturePoint};
 use crate::render::RenderError;
 use crate::scene::{Bsdf, Geometry, Scene};
 use glam::{DVec3, Vec3};
@@ -191,7 +191,7 @@ fn quadrature_at(rs: &RenderScene, px: f32, py: f32, unconverged: &AtomicU64) ->
     let Some((p, n, wi, bsdf)) = primary_hit(rs, px, py) else {
         return [0.0; 3];
     };
-    let sp = ShadingPoint::new(p.as_dvec3(), n.as_dvec3(), wi.as_dvec3());
+    let sp = QuadraturePoint::new(p.as_dvec3(), n.as_dvec3(), wi.as_dvec3());
     let mut sum = DVec3::ZERO;
     for (segment, k) in &rs.lights {
         let (value, converged) =

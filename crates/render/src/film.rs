@@ -28,15 +28,20 @@ impl Welford {
     #[inline]
     pub fn push(&mut self, x: [f64; 3]) {
         self.n += 1;
-        let inv = 1.0 / self.n as f64;
+        // Through i64: one conversion instruction without AVX-512 (u64 → f64 takes five),
+        // the same value for every count below 2^63.
+        let inv = 1.0 / self.n as i64 as f64;
         for ((xc, mean), m2) in x.iter().zip(&mut self.mean).zip(&mut self.m2) {
             let delta = xc - *mean;
             *mean += delta * inv;
             *m2 += delta * (xc - *mean);
         }
+        // `f64::min`/`max` without their NaN fix-ups (a compare and a blend each): the
+        // extremes start at ±∞ and only take a number that compares below/above them, so a
+        // NaN sample leaves them as `min`/`max` would.
         for ((lo, hi), xc) in self.min.iter_mut().zip(&mut self.max).zip(x) {
-            *lo = lo.min(xc);
-            *hi = hi.max(xc);
+            *lo = if xc < *lo { xc } else { *lo };
+            *hi = if xc > *hi { xc } else { *hi };
         }
     }
 

@@ -240,7 +240,7 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             }
         }
         None => {
-            let point = ShadingPoint::new(pieces.bsdf, bsdf, sp.p, n, wi);
+            let point = ShadingPoint::for_method(pieces.bsdf, opts.method, bsdf, sp.p, n, wi);
             // `every`: each light's estimate is its iterations' mean; `one`: the mean of the
             // light samples is taken here.
             total = sum_over_light_samples(scene, opts, rng, |segment, k, samples, rng| {

@@ -39,10 +39,11 @@ pub const NODES: usize = 8;
 /// Relative error target of the integral (of the channel sum).
 pub const RELATIVE_ERROR: f64 = 1e-7;
 
-/// A shading point: position, unit normal of the reflecting side, and the orthonormal tangent
-/// frame (t, b, n) with v (unit, toward the viewer) expressed in it. Everything in f64.
+/// The quadrature's shading point (the renderer's own is [`crate::shading::ShadingPoint`]):
+/// position, unit normal of the reflecting side, and the orthonormal tangent frame (t, b, n)
+/// with v (unit, toward the viewer) expressed in it. Everything in f64.
 #[derive(Clone, Copy, Debug)]
-pub struct ShadingPoint {
+pub struct QuadraturePoint {
     pub x: DVec3,
     pub t: DVec3,
     pub b: DVec3,
@@ -51,7 +52,7 @@ pub struct ShadingPoint {
     pub v_local: DVec3,
 }
 
-impl ShadingPoint {
+impl QuadraturePoint {
     /// The frame at x with reflecting normal `n` and world direction `v` toward the viewer; the
     /// tangent is arbitrary (the supported BSDFs are isotropic).
     pub fn new(x: DVec3, n: DVec3, v: DVec3) -> Self {
@@ -74,7 +75,7 @@ impl ShadingPoint {
 
 /// The sub-interval of [0, len] of the line p₀ + t·u strictly above the tangent plane of `sp`
 /// (n·(p(t) − x) > 0), or None.
-fn above_horizon(sp: &ShadingPoint, p0: DVec3, u: DVec3, len: f64) -> Option<(f64, f64)> {
+fn above_horizon(sp: &QuadraturePoint, p0: DVec3, u: DVec3, len: f64) -> Option<(f64, f64)> {
     let h0 = sp.n.dot(p0 - sp.x); // height of p(0) above the plane
     let slope = sp.n.dot(u);
     let (mut a, mut b) = (0.0, len);
@@ -91,7 +92,7 @@ fn above_horizon(sp: &ShadingPoint, p0: DVec3, u: DVec3, len: f64) -> Option<(f6
 }
 
 /// Edges of [`PANELS`] panels of equal angle subtended at x between t = a and t = b.
-fn equal_angle_edges(sp: &ShadingPoint, p0: DVec3, u: DVec3, a: f64, b: f64) -> Vec<f64> {
+fn equal_angle_edges(sp: &QuadraturePoint, p0: DVec3, u: DVec3, a: f64, b: f64) -> Vec<f64> {
     let foot = (sp.x - p0).dot(u);
     let d = (p0 + foot * u - sp.x).length();
     if !(d > 0.0) {
@@ -115,7 +116,7 @@ fn equal_angle_edges(sp: &ShadingPoint, p0: DVec3, u: DVec3, a: f64, b: f64) -> 
 /// horizon. Also returns whether every channel met the error target.
 pub fn unshadowed_line_integral(
     bsdf: &Bsdf,
-    sp: &ShadingPoint,
+    sp: &QuadraturePoint,
     p0: DVec3,
     p1: DVec3,
 ) -> (DVec3, bool) {
@@ -189,7 +190,7 @@ mod tests {
     /// midpoint rule with 2·10⁶ nodes.
     #[test]
     fn lambertian_matches_brute_force() {
-        let sp = ShadingPoint::new(
+        let sp = QuadraturePoint::new(
             DVec3::new(0.1, -0.2, 0.0),
             DVec3::Z,
             DVec3::new(0.3, -0.5, 1.0),
@@ -216,7 +217,7 @@ mod tests {
         // Mirror of the middle point's direction about the normal.
         let m = ((p0 + p1) * 0.5 - x).normalize();
         let v = DVec3::new(-m.x, -m.y, m.z);
-        let sp = ShadingPoint::new(x, DVec3::Z, v);
+        let sp = QuadraturePoint::new(x, DVec3::Z, v);
         let (got, ok) = unshadowed_line_integral(&bsdf, &sp, p0, p1);
         assert!(ok);
         let want = midpoint_rule(x, p0, p1, 4_000_000, |w| {
@@ -228,7 +229,7 @@ mod tests {
 
     #[test]
     fn horizon_cut_and_degenerate_cases() {
-        let sp = ShadingPoint::new(DVec3::ZERO, DVec3::Z, DVec3::Z);
+        let sp = QuadraturePoint::new(DVec3::ZERO, DVec3::Z, DVec3::Z);
         // Entirely below: zero.
         let (below, ok) = unshadowed_line_integral(
             &lambert(1.0),

@@ -41,13 +41,27 @@ pub const MIN_DIFFUSE_WEIGHT: f32 = 0.01;
 
 /// The shading frame of the LTC tables: columns x̂, ŷ, n with x̂ = normalize(v − (n·v)n)
 /// (any unit x̂ ⊥ n when v ∥ n) and ŷ = n × x̂; and v in it. `n`, `wi` unit, n·wi > 0.
+/// Branch-free (glam's `try_normalize` written out, the fallback selected), so that the
+/// batched renderer's loop over its lanes vectorises.
+#[inline(always)]
 pub fn shading_frame(n: Vec3, wi: Vec3) -> (Mat3, DVec3) {
-    let x = (wi - n.dot(wi) * n)
-        .try_normalize()
-        .unwrap_or_else(|| n.any_orthonormal_vector());
+    let d = wi - n.dot(wi) * n;
+    let rcp = d.length_recip();
+    let x = if rcp.is_finite() && rcp > 0.0 {
+        d * rcp
+    } else {
+        n.any_orthonormal_vector()
+    };
     let frame = Mat3::from_cols(x, n.cross(x), n);
     let v = DVec3::new(wi.dot(x) as f64, 0.0, wi.dot(n) as f64);
     (frame, v)
+}
+
+/// A world direction `w` in the frame with columns `x`, `y`, `n` ([`shading_frame`]), in f64
+/// for the BSDF ([`ShadingPoint::local`]).
+#[inline(always)]
+pub fn to_local(x: Vec3, y: Vec3, n: Vec3, w: Vec3) -> DVec3 {
+    DVec3::new(w.dot(x) as f64, w.dot(y) as f64, w.dot(n) as f64)
 }
 
 /// A shading point of a non-Lambertian surface: position, frame, view and what the BSDF
@@ -63,13 +77,47 @@ pub struct ShadingPoint<'a> {
     pub lobes: Lobes,
     /// A (shading → cosine space) and ρ_s of the specular lobe from the GGX LTC table.
     pub ltc: Option<(Mat3, f32)>,
+    /// Whether `lobes` and `ltc` were computed ([`ShadingPoint::for_method`] leaves them out
+    /// for single techniques, which only evaluate the BSDF).
+    summarised: bool,
 }
 
 impl<'a> ShadingPoint<'a> {
     /// `n`: unit normal of the reflecting side, `wi`: unit direction toward the viewer.
     pub fn new<B: BsdfModel>(model: &B, bsdf: &'a Bsdf, x: Vec3, n: Vec3, wi: Vec3) -> Self {
+        Self::with_summary(model, bsdf, x, n, wi, true)
+    }
+
+    /// The shading point `method` needs: [`ShadingPoint::new`] for the two-technique methods,
+    /// without the lobe summary and LTC look-up for single techniques (which only call
+    /// [`ShadingPoint::eval`]; a third of a glossy sample's work went into them).
+    #[inline]
+    pub fn for_method<B: BsdfModel>(
+        model: &B,
+        method: Method,
+        bsdf: &'a Bsdf,
+        x: Vec3,
+        n: Vec3,
+        wi: Vec3,
+    ) -> Self {
+        Self::with_summary(model, bsdf, x, n, wi, Combination::of(method).is_some())
+    }
+
+    #[inline]
+    fn with_summary<B: BsdfModel>(
+        model: &B,
+        bsdf: &'a Bsdf,
+        x: Vec3,
+        n: Vec3,
+        wi: Vec3,
+        summarised: bool,
+    ) -> Self {
         let (frame, v) = shading_frame(n, wi);
-        let lobes = model.lobes(bsdf, v);
+        let lobes = if summarised {
+            model.lobes(bsdf, v)
+        } else {
+            Lobes::BLACK
+        };
         let ltc = lobes
             .specular
             .map(|s| GgxLtcTable::ggx().lookup(s.alpha as f32, v.z as f32));
@@ -80,6 +128,7 @@ impl<'a> ShadingPoint<'a> {
             bsdf,
             lobes,
             ltc,
+            summarised,
         }
     }
 
@@ -91,12 +140,14 @@ impl<'a> ShadingPoint<'a> {
     /// f(v, ω)·cos θ for a unit world direction ω.
     #[inline]
     pub fn eval<B: BsdfModel>(&self, model: &B, w: Vec3) -> Vec3 {
-        let l = DVec3::new(
-            w.dot(self.frame.x_axis) as f64,
-            w.dot(self.frame.y_axis) as f64,
-            w.dot(self.frame.z_axis) as f64,
-        );
-        model.eval(self.bsdf, self.v, l).as_vec3()
+        model.eval(self.bsdf, self.v, self.local(w)).as_vec3()
+    }
+
+    /// A world direction in the shading frame, as [`ShadingPoint::eval`] passes it to the
+    /// BSDF (the batched renderer's lanes call it too).
+    #[inline(always)]
+    pub fn local(&self, w: Vec3) -> DVec3 {
+        to_local(self.frame.x_axis, self.frame.y_axis, self.frame.z_axis, w)
     }
 }
 
@@ -171,7 +222,14 @@ pub fn single_contribution<B: BsdfModel>(
     w: Vec3,
     pdf: f32,
 ) -> Vec3 {
-    k * sp.eval(model, w) / pdf
+    contribution(k, sp.eval(model, w), pdf)
+}
+
+/// K·(f·cos)/p: the last step of [`single_contribution`] (`f_cos` from the BSDF), which the
+/// batched renderer applies to its lanes' BSDF values.
+#[inline(always)]
+pub fn contribution(k: Vec3, f_cos: Vec3, pdf: f32) -> Vec3 {
+    k * f_cos / pdf
 }
 
 /// A sample of a single technique that can contribute: direction ω, cos θ = n·ω > 0, density
@@ -264,6 +322,7 @@ impl<S: SpecularSampler> TwoTechniqueLight<S> {
         sp: &ShadingPoint,
         segment: &Segment,
     ) -> Option<Self> {
+        debug_assert!(sp.summarised, "a shading point without its lobe summary");
         let diffuse = ProjectedSolidAngle::prepare(segment, sp.x, sp.n())?;
         let k_s = sp
             .lobes

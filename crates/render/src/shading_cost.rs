@@ -1,9 +1,9 @@
 //! Sampler cost as the paper reports it (its timing table): shading of the cached hit points of
 //! a 1920×1080 frame by linear lights, Lambert + GGX evaluated, no shadow rays, for every
 //! technique (the baseline included) in two configurations — 128 lights × 1 sample per pixel,
-//! and 1 light × 128 samples per pixel — and for the 8-wide batches of projected solid angle
-//! and Li et al. 2018 (lanes = 8 lights, or 8 samples of one light; Li iterating until the
-//! slowest lane converges, as a GPU warp does).
+//! and 1 light × 128 samples per pixel — and for the 8-wide batches of projected solid angle,
+//! Li et al. 2018 and clipped solid angle (lanes = 8 lights, or 8 samples of one light; Li
+//! iterating until the slowest lane converges, as a GPU warp does).
 //!
 //! Scene (procedural, the paper's "roughness planes"): a floor z = 0 and a back wall y = 6 seen
 //! by a pinhole camera, GGX roughness α in ten stripes from 0.05 to 1 across the image, a
@@ -14,12 +14,15 @@
 //! [`measure`] times every row on every `stride`-th pixel of every `stride`-th row, `repeats`
 //! times interleaved across the rows (timings on a shared machine are noisy: only rows of one
 //! run are compared), and reports per sample, per extrapolated full frame, and as ratios to
-//! clipped solid angle. Both the shading benchmark (`cargo bench -p linlight-render --bench
+//! clipped solid angle (scalar; [`ConfigTiming::ratio`] compares any two rows, e.g. the x8
+//! batches like for like). Both the shading benchmark (`cargo bench -p linlight-render --bench
 //! shading`) and `linlight figures` (the timings table) call it.
 
 use glam::Vec3;
 use linlight_brdf::microfacet;
-use linlight_sampling::batch::{Isa, PreparedBatch, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES};
+use linlight_sampling::batch::{
+    ClippedBatch, Isa, PreparedBatch, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES,
+};
 use linlight_sampling::{LineSampler, Segment, Technique};
 use std::hint::black_box;
 use std::time::Instant;
@@ -180,6 +183,7 @@ fn shade_lanes(out: &PsaBatchOutput, n: Vec3, v: Vec3, alpha: f32, k: &[f32; LAN
 pub enum Batched {
     ProjectedSolidAngle,
     Li2018,
+    ClippedSolidAngle,
 }
 
 /// Batched shading. 128 lights × 1 spp: lanes = 8 lights of a hit point, prepared and sampled
@@ -193,18 +197,53 @@ pub fn shade_batched(
     lights: &[(Segment, Vec3)],
     spp: usize,
 ) -> (f32, u64) {
-    let mut sum = 0.0f32;
     let mut iterations = 0u64;
-    let mut sample = |prepared: &PreparedBatch, xi: &[f32; LANES]| -> PsaBatchOutput {
-        match which {
-            Batched::ProjectedSolidAngle => prepared.sample_projected_solid_angle(isa, xi),
-            Batched::Li2018 => {
-                let (out, k) = prepared.sample_li2018(isa, xi);
+    let psa = |input: &PsaBatchInput| PreparedBatch::prepare(isa, input);
+    let sum = match which {
+        Batched::ProjectedSolidAngle => shade_prepared(
+            h,
+            lights,
+            spp,
+            psa,
+            |p| p.mask,
+            |p, xi| p.sample_projected_solid_angle(isa, xi),
+        ),
+        Batched::Li2018 => shade_prepared(
+            h,
+            lights,
+            spp,
+            psa,
+            |p| p.mask,
+            |p, xi| {
+                let (out, k) = p.sample_li2018(isa, xi);
                 iterations += k as u64;
                 out
-            }
-        }
+            },
+        ),
+        Batched::ClippedSolidAngle => shade_prepared(
+            h,
+            lights,
+            spp,
+            |input| ClippedBatch::prepare(isa, input),
+            |p| p.mask,
+            |p, xi| p.sample(isa, xi),
+        ),
     };
+    (sum, iterations)
+}
+
+/// [`shade_batched`] for one kind of prepared batch `P` (one instance per kind, so that no
+/// per-batch dispatch or copy of the prepared state is timed).
+#[inline(always)]
+fn shade_prepared<P>(
+    h: &HitPoints,
+    lights: &[(Segment, Vec3)],
+    spp: usize,
+    prepare: impl Fn(&PsaBatchInput) -> P,
+    mask: impl Fn(&P) -> u8,
+    mut sample: impl FnMut(&P, &[f32; LANES]) -> PsaBatchOutput,
+) -> f32 {
+    let mut sum = 0.0f32;
     for i in 0..h.p.len() {
         let (p, n, v, a) = (h.p[i], h.n[i], h.v[i], h.alpha[i]);
         let mut input = PsaBatchInput {
@@ -220,8 +259,8 @@ pub fn shade_batched(
                     input.end.set(l, segment.end);
                     k[l] = radiance.x;
                 }
-                let prepared = PreparedBatch::prepare(isa, &input);
-                if prepared.mask == 0 {
+                let prepared = prepare(&input);
+                if mask(&prepared) == 0 {
                     continue;
                 }
                 let xi: [f32; LANES] = std::array::from_fn(|l| xi(i, g * LANES + l, 0));
@@ -231,8 +270,8 @@ pub fn shade_batched(
             let (segment, radiance) = lights[0];
             input.begin = Vec3x8::splat(segment.begin);
             input.end = Vec3x8::splat(segment.end);
-            let prepared = PreparedBatch::prepare(isa, &input);
-            if prepared.mask == 0 {
+            let prepared = prepare(&input);
+            if mask(&prepared) == 0 {
                 continue;
             }
             let k = [radiance.x; LANES];
@@ -242,7 +281,7 @@ pub fn shade_batched(
             }
         }
     }
-    (sum, iterations)
+    sum
 }
 
 /// What a row of the table times.
@@ -297,11 +336,16 @@ impl ConfigTiming {
     pub fn row(&self, kind: RowKind) -> Option<&RowTiming> {
         self.rows.iter().find(|r| r.kind == kind)
     }
-    /// Time relative to clipped solid angle (median/median, minimum/minimum).
+    /// Time relative to (scalar) clipped solid angle (median/median, minimum/minimum).
     pub fn ratio_to_clipped(&self, row: &RowTiming) -> (f64, f64) {
-        match self.row(RowKind::Scalar(Technique::ClippedSolidAngle)) {
-            Some(c) => (row.median_s / c.median_s, row.min_s / c.min_s),
-            None => (f64::NAN, f64::NAN),
+        self.ratio(row.kind, RowKind::Scalar(Technique::ClippedSolidAngle))
+    }
+    /// Time of row `a` relative to row `b` (median/median, minimum/minimum); NaN when either
+    /// was not measured.
+    pub fn ratio(&self, a: RowKind, b: RowKind) -> (f64, f64) {
+        match (self.row(a), self.row(b)) {
+            (Some(a), Some(b)) => (a.median_s / b.median_s, a.min_s / b.min_s),
+            _ => (f64::NAN, f64::NAN),
         }
     }
 }
@@ -344,6 +388,10 @@ pub fn measure(stride: usize, repeats: usize, progress: &dyn Fn(usize, usize)) -
             (
                 format!("li2018 x8 ({})", isa.name()),
                 RowKind::Batched(Batched::Li2018),
+            ),
+            (
+                format!("clipped-solid-angle x8 ({})", isa.name()),
+                RowKind::Batched(Batched::ClippedSolidAngle),
             ),
         ])
         .collect();

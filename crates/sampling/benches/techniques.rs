@@ -9,8 +9,8 @@
 use criterion::{black_box, Criterion, Throughput};
 use glam::Vec3;
 use linlight_sampling::batch::{
-    sample_projected_solid_angle_slice, sample_projected_solid_angle_with, Isa, PsaBatchInput,
-    PsaBatchOutput, LANES,
+    sample_clipped_solid_angle_with, sample_projected_solid_angle_slice,
+    sample_projected_solid_angle_with, Isa, PsaBatchInput, PsaBatchOutput, LANES,
 };
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::rng::Pcg32;
@@ -86,13 +86,22 @@ fn batches(configurations: &[Configuration]) -> Vec<PsaBatchInput> {
         .collect()
 }
 
-/// One pass of the 8-wide batch over all configurations (same work as `pass` for
-/// projected-solid-angle, same checksum).
+/// An 8-wide kernel (prepare + sample + pdf of every lane).
+type Kernel = fn(Isa, &PsaBatchInput) -> PsaBatchOutput;
+
+/// The batched techniques: row name and kernel.
+const KERNELS: [(&str, Kernel); 2] = [
+    ("projected-solid-angle", sample_projected_solid_angle_with),
+    ("clipped-solid-angle", sample_clipped_solid_angle_with),
+];
+
+/// One pass of an 8-wide batch kernel over all configurations (same work as `pass` for its
+/// technique, same checksum).
 #[inline(never)]
-fn batch_pass(isa: Isa, batches: &[PsaBatchInput]) -> f32 {
+fn batch_pass(kernel: Kernel, isa: Isa, batches: &[PsaBatchInput]) -> f32 {
     let mut acc = 0.0f32;
     for b in batches {
-        let out = sample_projected_solid_angle_with(isa, b);
+        let out = kernel(isa, b);
         for i in 0..LANES {
             acc += out.dir.x[i] + out.pdf[i];
         }
@@ -153,16 +162,22 @@ fn plain_timing(rows: &[Row], configurations: usize) -> Vec<(f64, f64)> {
 /// Instruction-count mode for `valgrind --tool=callgrind --toggle-collect='*pass*'`:
 /// `LINLIGHT_BENCH_ONLY=<technique> <bench binary>` runs 10 passes of that technique and exits
 /// (no criterion, no timing), so that instructions per configuration = Ir(pass) / (10·1024).
+/// `batch-<isa>` runs the projected-solid-angle batch, `clipped-batch-<isa>` the clipped
+/// solid angle batch.
 fn count_mode(name: &str, configurations: &[Configuration]) {
     let mut acc = 0.0;
-    if let Some(isa) = name.strip_prefix("batch-") {
+    let batch = match name.strip_prefix("clipped-") {
+        Some(rest) => rest.strip_prefix("batch-").map(|isa| (KERNELS[1].1, isa)),
+        None => name.strip_prefix("batch-").map(|isa| (KERNELS[0].1, isa)),
+    };
+    if let Some((kernel, isa)) = batch {
         let isa = Isa::ALL
             .into_iter()
             .find(|i| i.name() == isa)
-            .expect("LINLIGHT_BENCH_ONLY=batch-<avx512|avx2|baseline>");
+            .expect("LINLIGHT_BENCH_ONLY=[clipped-]batch-<avx512|avx2|baseline>");
         let batches = batches(configurations);
         for _ in 0..10 {
-            acc += black_box(batch_pass(isa, black_box(&batches)));
+            acc += black_box(batch_pass(kernel, isa, black_box(&batches)));
         }
     } else {
         let technique =
@@ -205,13 +220,18 @@ fn main() {
         })
         .collect();
     let b = &batches;
+    // Row index of each (kernel, ISA) batch row, for the like-for-like ratios.
+    let mut batch_rows = Vec::new();
     for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
+        for (k, (name, kernel)) in KERNELS.into_iter().enumerate() {
+            batch_rows.push((k, isa, rows.len(), kernel));
+            rows.push((
+                format!("{name} batch x{LANES} {}", isa.name()),
+                Box::new(move || batch_pass(kernel, isa, black_box(b))),
+            ));
+        }
         rows.push((
-            format!("projected-solid-angle batch x{LANES} {}", isa.name()),
-            Box::new(move || batch_pass(isa, black_box(b))),
-        ));
-        rows.push((
-            format!("  same, slice of batches {}", isa.name()),
+            format!("  psa, slice of batches {}", isa.name()),
             Box::new(move || slice_pass(isa, black_box(b), &mut out.borrow_mut())),
         ));
     }
@@ -224,14 +244,16 @@ fn main() {
                 .iter()
                 .filter(|c| t.prepare(&c.segment, c.x, c.n).is_some())
                 .count(),
-            None => batches
-                .iter()
-                .map(|b| {
-                    sample_projected_solid_angle_with(Isa::Baseline, b)
-                        .mask
-                        .count_ones() as usize
-                })
-                .sum(),
+            None => {
+                let kernel = batch_rows
+                    .iter()
+                    .find(|r| r.2 == k)
+                    .map_or(KERNELS[0].1, |r| r.3);
+                batches
+                    .iter()
+                    .map(|b| kernel(Isa::Baseline, b).mask.count_ones() as usize)
+                    .sum()
+            }
         };
         println!(
             "  {name:<40} {median:8.2} ns {min:8.2} ns   ({prepared}/{} prepared)",
@@ -253,6 +275,21 @@ fn main() {
         "  ratio projected-solid-angle / clipped-solid-angle: {}",
         ratio(Technique::ProjectedSolidAngle, Technique::ClippedSolidAngle)
     );
+    // Like for like: both techniques 8-wide with the same ISA.
+    for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
+        let row = |kernel: usize| {
+            let r = batch_rows.iter().find(|r| r.0 == kernel && r.1 == isa);
+            times[r.expect("a row per kernel and ISA").2]
+        };
+        let (psa, clipped) = (row(0), row(1));
+        println!(
+            "  ratio projected-solid-angle x{LANES} / clipped-solid-angle x{LANES} ({}): \
+             {:.3} (median)  {:.3} (minimum)",
+            isa.name(),
+            psa.0 / clipped.0,
+            psa.1 / clipped.1
+        );
+    }
     // Li et al.'s cost is proportional to its iteration count (mean, not the worst case that a
     // GPU warp would wait for).
     let evaluations: Vec<u32> = configurations

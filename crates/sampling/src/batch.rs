@@ -1,4 +1,5 @@
-//! Projected-solid-angle sampling (technique 8) of eight (light, shading point) pairs at once.
+//! Projected-solid-angle sampling (technique 8), Li et al. 2018 (technique 7) and clipped solid
+//! angle sampling (technique 4) of eight (light, shading point) pairs at once.
 //!
 //! For a batched renderer: structure-of-arrays inputs (segment ends, shading point, normal, ξ
 //! per lane) and outputs (direction, density per radius, distance to the line along the
@@ -7,7 +8,9 @@
 //! inputs — bit for bit, since both run the same branch-free building blocks
 //! ([`LineFrame::lane`], [`ProjectedSolidAngle::lane`], `PsaCore::solve_rotated_lane`; the
 //! scalar path takes cheap early branches in front of them where a branch pays) with the same
-//! operations (no fused multiply-adds are formed by the compiler). A lane whose scalar
+//! operations (no fused multiply-adds are formed by the compiler); likewise clipped solid angle
+//! ([`sample_clipped_solid_angle_with`], [`ClippedBatch`]: [`LineFrame::lane`],
+//! `SolidAngle::lane` and its `sample_lane`, on the same inputs and outputs). A lane whose scalar
 //! preparation returns `None` has its bit cleared in [`PsaBatchOutput::mask`] and zero outputs.
 //!
 //! SIMD: the kernel is one loop over the lanes of branch-free code, which the compiler
@@ -17,11 +20,12 @@
 //! the binary runs on any CPU of its target. Cost per lane: `cargo bench -p linlight-sampling
 //! --bench techniques` (the `batch` rows).
 
-use crate::geometry::{unit_normal_lane, LineFrame};
+use crate::geometry::{unit_normal_lane, FrameArc, LineFrame};
 use crate::li2018::{Li2018, LiState, MAX_ITERATIONS};
 use crate::projected_solid_angle::{ProjectedSolidAngle, PsaCore, DEFAULT_ITERATIONS};
 use crate::sampler::clamp_xi;
 use crate::sampler::LineSampler;
+use crate::solid_angle::SolidAngle;
 use crate::trig::{atan2_f64_select, atan2_select};
 use glam::Vec3;
 
@@ -69,6 +73,9 @@ crate::isa_variants! {
     fn run_prepare(input: &PsaBatchInput) -> PreparedBatch = prepare_kernel;
     fn run_psa_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput = psa_sample_kernel;
     fn run_li_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) = li_sample_kernel;
+    fn run_clipped(input: &PsaBatchInput) -> PsaBatchOutput = clipped_kernel;
+    fn run_clipped_prepare(input: &PsaBatchInput) -> ClippedBatch = clipped_prepare_kernel;
+    fn run_clipped_sample(prepared: &ClippedBatch, xi: &[f32; LANES]) -> PsaBatchOutput = clipped_sample_kernel;
 }
 
 /// Eight 3-vectors as structure of arrays.
@@ -503,6 +510,118 @@ pub fn sample_li2018_with(isa: Isa, input: &PsaBatchInput) -> (PsaBatchOutput, u
     PreparedBatch::prepare(isa, input).sample_li2018(isa, &input.xi)
 }
 
+/// Clipped solid angle sampling (technique 4) on every lane of `input` (prepare and one sample)
+/// with the chosen kernel (the baseline where the CPU does not run it): lane i equals the scalar
+/// `Technique::ClippedSolidAngle.prepare(..)` + `sample_with_pdf(xi)` bit for bit, its
+/// `distance` is d/(ĉ·ω) as for the other kernels.
+pub fn sample_clipped_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBatchOutput {
+    run_clipped(isa, input)
+}
+
+/// Eight prepared clipped-solid-angle samplers as structure of arrays: what `SolidAngle`
+/// keeps per (light, shading point) for its samples — the frame's u, ĉ, d, the arc of the
+/// clipped interval in f64 ([`FrameArc`] without its support tolerance, which sampling does not
+/// read) and 1/Ω_R. Lanes outside `mask` hold meaningless values.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ClippedBatch {
+    u: Vec3x8,
+    c_hat: Vec3x8,
+    d: [f32; LANES],
+    s_b: [f64; LANES],
+    c_b: [f64; LANES],
+    width: [f64; LANES],
+    delta_s: [f64; LANES],
+    inv_solid_angle: [f32; LANES],
+    /// Bit i set: lane i contributes.
+    pub mask: u8,
+}
+
+impl ClippedBatch {
+    /// Prepare every lane of `input` (its `xi` is not used) with the chosen kernel.
+    pub fn prepare(isa: Isa, input: &PsaBatchInput) -> Self {
+        run_clipped_prepare(isa, input)
+    }
+
+    /// One sample per lane for `xi`: lane i equals the scalar sampler's `sample_with_pdf(xi[i])`.
+    pub fn sample(&self, isa: Isa, xi: &[f32; LANES]) -> PsaBatchOutput {
+        run_clipped_sample(isa, self, xi)
+    }
+
+    #[inline(always)]
+    fn store(&mut self, i: usize, sampler: &SolidAngle) {
+        let (frame, arc, inv_solid_angle) = sampler.parts();
+        self.u.set(i, frame.u);
+        self.c_hat.set(i, frame.c_hat);
+        (self.d[i], self.inv_solid_angle[i]) = (frame.d, inv_solid_angle);
+        (self.s_b[i], self.c_b[i]) = (arc.s_b, arc.c_b);
+        (self.width[i], self.delta_s[i]) = (arc.width, arc.delta_s);
+    }
+
+    /// Lane i as the scalar sampler, with the fields sampling reads (the rest zero).
+    #[inline(always)]
+    fn sampler(&self, i: usize) -> SolidAngle {
+        let frame = LineFrame {
+            u: self.u.get(i),
+            c_hat: self.c_hat.get(i),
+            d: self.d[i],
+            l_begin: 0.0,
+            l_end: 0.0,
+            s_begin: 0.0,
+            s_end: 0.0,
+        };
+        let arc = FrameArc {
+            s_b: self.s_b[i],
+            c_b: self.c_b[i],
+            width: self.width[i],
+            delta_s: self.delta_s[i],
+            tolerance: 0.0,
+        };
+        SolidAngle::from_parts(frame, arc, self.inv_solid_angle[i])
+    }
+}
+
+#[inline(always)]
+fn clipped_prepare_kernel(input: &PsaBatchInput) -> ClippedBatch {
+    let mut out = ClippedBatch::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
+    for i in 0..LANES {
+        // Clipped with the unit normal, as the scalar `SolidAngle::prepare_clipped`.
+        let (n, normal_ok) = unit_normal_lane(input.n.get(i));
+        let (frame, ends, frame_ok) = LineFrame::lane(
+            input.begin.get(i),
+            input.end.get(i),
+            input.x.get(i),
+            Some(n),
+        );
+        let (sampler, ok) = SolidAngle::lane(frame, ends, atan2_f64_select);
+        out.store(i, &sampler);
+        valid[i] = normal_ok && frame_ok && ok;
+    }
+    out.mask = pack(valid);
+    out
+}
+
+#[inline(always)]
+fn clipped_sample_kernel(prepared: &ClippedBatch, xi: &[f32; LANES]) -> PsaBatchOutput {
+    let mut out = PsaBatchOutput::default();
+    let mut valid = [false; LANES];
+    #[allow(clippy::needless_range_loop)]
+    for i in 0..LANES {
+        let (dir, pdf) = prepared.sampler(i).sample_lane(xi[i], atan2_f64_select);
+        let distance = prepared.d[i] / prepared.c_hat.get(i).dot(dir);
+        let ok = prepared.mask & (1 << i) != 0;
+        valid[i] = store(&mut out, i, (dir, pdf, distance, ok));
+    }
+    out.mask = pack(valid);
+    out
+}
+
+#[inline(always)]
+fn clipped_kernel(input: &PsaBatchInput) -> PsaBatchOutput {
+    clipped_sample_kernel(&clipped_prepare_kernel(input), &input.xi)
+}
+
 /// Two batches in one loop over the lanes (two independent chains per vector instruction
 /// stream).
 #[inline(always)]
@@ -658,11 +777,15 @@ mod tests {
         for input in batches(300) {
             for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
                 let prepared = PreparedBatch::prepare(isa, &input);
+                let clipped = ClippedBatch::prepare(isa, &input);
                 for k in 0..3 {
                     let xi: [f32; LANES] = std::array::from_fn(|i| input.xi[(i + k) % LANES]);
                     let fused =
                         sample_projected_solid_angle_with(isa, &PsaBatchInput { xi, ..input });
                     assert_eq!(prepared.sample_projected_solid_angle(isa, &xi), fused);
+                    let fused =
+                        sample_clipped_solid_angle_with(isa, &PsaBatchInput { xi, ..input });
+                    assert_eq!(clipped.sample(isa, &xi), fused);
                 }
             }
         }
@@ -703,49 +826,77 @@ mod tests {
         assert!(total.0 > total.1, "{total:?}");
     }
 
-    /// Every lane equals the scalar technique bit for bit (direction, density, mask), on
-    /// every compiled variant this CPU can run.
+    /// Every lane equals the scalar technique bit for bit (direction, density, distance,
+    /// mask), on every compiled variant this CPU can run, for projected solid angle and for
+    /// clipped solid angle.
     #[test]
     fn lanes_equal_the_scalar_technique() {
+        let kernels: [(Technique, Kernel); 2] = [
+            (
+                Technique::ProjectedSolidAngle,
+                sample_projected_solid_angle_with,
+            ),
+            (
+                Technique::ClippedSolidAngle,
+                sample_clipped_solid_angle_with,
+            ),
+        ];
+        for (technique, kernel) in kernels {
+            lanes_equal(technique, kernel);
+        }
+    }
+
+    /// A fused 8-wide kernel (prepare and one sample per lane).
+    type Kernel = fn(Isa, &PsaBatchInput) -> PsaBatchOutput;
+
+    fn lanes_equal(technique: Technique, kernel: Kernel) {
         let mut valid = 0;
         let mut invalid = 0;
         for input in batches(3000) {
             let outputs = Isa::ALL
                 .into_iter()
                 .filter(|isa| isa.supported())
-                .map(|isa| sample_projected_solid_angle_with(isa, &input));
-            for out in outputs {
+                .map(|isa| (isa, kernel(isa, &input)));
+            for (isa, out) in outputs {
                 for i in 0..LANES {
                     let seg = Segment::new(input.begin.get(i), input.end.get(i));
-                    let scalar = Technique::ProjectedSolidAngle.prepare(
-                        &seg,
-                        input.x.get(i),
-                        input.n.get(i),
-                    );
+                    let scalar = technique.prepare(&seg, input.x.get(i), input.n.get(i));
                     match scalar {
                         Some(p) => {
                             valid += 1;
-                            assert!(out.contributes(i), "lane {i} of {input:?}");
+                            assert!(
+                                out.contributes(i),
+                                "{technique} {isa:?} lane {i} of {input:?}"
+                            );
                             let (dir, pdf) = p.sample_with_pdf(input.xi[i]);
                             let got = out.dir.get(i);
                             assert_eq!(
                                 (got.to_array().map(f32::to_bits), out.pdf[i].to_bits()),
                                 (dir.to_array().map(f32::to_bits), pdf.to_bits()),
-                                "lane {i}: {got:?} {} vs {dir:?} {pdf}",
+                                "{technique} {isa:?} lane {i}: {got:?} {} vs {dir:?} {pdf}",
                                 out.pdf[i]
                             );
                             let f = p.support();
-                            assert_eq!(out.distance[i], f.d / f.c_hat.dot(dir));
+                            assert_eq!(
+                                out.distance[i].to_bits(),
+                                (f.d / f.c_hat.dot(dir)).to_bits()
+                            );
                         }
                         None => {
                             invalid += 1;
-                            assert!(!out.contributes(i), "lane {i} of {input:?}");
+                            assert!(
+                                !out.contributes(i),
+                                "{technique} {isa:?} lane {i} of {input:?}"
+                            );
                             assert_eq!((out.dir.get(i), out.pdf[i]), (Vec3::ZERO, 0.0));
                         }
                     }
                 }
             }
         }
-        assert!(valid > 10_000 && invalid > 1_000, "{valid} {invalid}");
+        assert!(
+            valid > 10_000 && invalid > 1_000,
+            "{technique}: {valid} {invalid}"
+        );
     }
 }

@@ -9,7 +9,7 @@
 //! p(l) = c + l·u, s(l) = l / √(l² + d²). A [`LineFrame`] carries an l-interval; horizon
 //! clipping only shrinks that interval, the frame (u, ĉ, d) stays the same.
 
-use crate::trig::{atan2_f64, sin_cos_f64};
+use crate::trig::{atan2_f64, sin_cos_f64, sin_cos_poly};
 use glam::Vec3;
 
 /// A segment light in world space.
@@ -445,11 +445,24 @@ pub struct FrameArc {
 
 impl FrameArc {
     pub fn of(frame: &LineFrame) -> Self {
+        Self::on_ends(frame, EndValues::of(frame), atan2_f64)
+    }
+
+    /// [`Self::of`] from the [`EndValues`] the frame's constructor computed (not recomputed),
+    /// with a given atan2 (branch-free in the lanes of [`crate::batch`]; bitwise equal): the one
+    /// implementation of the scalar path and the lanes. No branch: Δ ∈ (0, π] for a valid
+    /// frame, so Δ/2 is in the range of [`sin_cos_poly`].
+    #[inline(always)]
+    pub(crate) fn on_ends(
+        frame: &LineFrame,
+        ends: EndValues,
+        atan2: impl Fn(f64, f64) -> f64,
+    ) -> Self {
         let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
-        let EndValues { s_b, c_b, .. } = EndValues::of(frame);
+        let EndValues { s_b, c_b, .. } = ends;
         // tan(φ_e − φ_b) = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b.
-        let width = atan2_f64((le - lb) * d, d * d + lb * le);
-        let (sh, ch) = sin_cos_f64(0.5 * width);
+        let width = atan2((le - lb) * d, d * d + lb * le);
+        let (sh, ch) = sin_cos_poly(0.5 * width);
         let delta_s = 2.0 * (c_b * ch - s_b * sh) * sh;
         Self {
             s_b,
@@ -486,12 +499,14 @@ impl FrameArc {
     /// sin τ = y c_b + s_b q/(c_b + c), cos τ = c c_b + (s_b + y) s_b.
     #[inline]
     pub fn tau_of_delta_s(&self, y: f64) -> f64 {
-        if y.is_nan() || y <= 0.0 {
-            return 0.0;
-        }
-        if y >= self.delta_s {
-            return self.width;
-        }
+        self.tau_of_delta_s_with(y, atan2_f64)
+    }
+
+    /// [`Self::tau_of_delta_s`] with a given atan2, without branches (the ends y ≤ 0, y ≥ Δs and
+    /// NaN are selected after the formula, which is then evaluated in vain): the one
+    /// implementation of the scalar path and the lanes of [`crate::batch`].
+    #[inline(always)]
+    pub(crate) fn tau_of_delta_s_with(&self, y: f64, atan2: impl Fn(f64, f64) -> f64) -> f64 {
         let q = y * (2.0 * self.s_b + y);
         let c = (self.c_b * self.c_b - q).max(0.0).sqrt();
         let denom = self.c_b + c;
@@ -503,14 +518,23 @@ impl FrameArc {
         } else {
             (y, cos_tau)
         };
-        atan2_f64(sin_tau, cos_tau).clamp(0.0, self.width)
+        // max/min rather than clamp: no assertion (a branch) in the lanes of a batch, whose
+        // invalid lanes may hold a NaN Δ.
+        let tau = atan2(sin_tau, cos_tau).max(0.0).min(self.width);
+        let tau = if y >= self.delta_s { self.width } else { tau };
+        if y.is_nan() || y <= 0.0 {
+            0.0
+        } else {
+            tau
+        }
     }
 
     /// Unit direction at offset τ (clamped to [0, Δ]); (sin, cos) τ from the half angle, which
-    /// is in the range of the polynomial [`sin_cos_f64`].
-    #[inline]
+    /// is in the range of the polynomial [`sin_cos_poly`] (no branch: the lanes of
+    /// [`crate::batch`] call it too).
+    #[inline(always)]
     pub fn direction(&self, frame: &LineFrame, tau: f64) -> Vec3 {
-        let (sh, ch) = sin_cos_f64(0.5 * tau.clamp(0.0, self.width));
+        let (sh, ch) = sin_cos_poly(0.5 * tau.max(0.0).min(self.width));
         let (st, ct) = (2.0 * sh * ch, 1.0 - 2.0 * sh * sh);
         let s = self.s_b * ct + self.c_b * st;
         let t = (self.c_b * ct - self.s_b * st).max(0.0);

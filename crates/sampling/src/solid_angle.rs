@@ -8,8 +8,9 @@
 //! interval there holds only a few f32 values of s, and for ℓ/d ≳ 3000 s_end rounds to 1 so that
 //! an s-test would accept the whole rest of the line).
 
-use crate::geometry::{unit_normal, FrameArc, LineFrame, Segment};
+use crate::geometry::{unit_normal, EndValues, FrameArc, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
+use crate::trig::atan2_f64;
 use glam::Vec3;
 
 /// s uniform on an interval of the line; shared by the clipped and the unclipped variant.
@@ -28,33 +29,71 @@ impl SolidAngle {
         Self::on_frame(LineFrame::new(segment, x)?)
     }
 
-    /// Uniform in solid angle over the part of the segment above the horizon of `n`.
+    /// Uniform in solid angle over the part of the segment above the horizon of `n` (clipped
+    /// with the unit normal; the lanes of [`crate::batch`] clip with the same).
     pub fn prepare_clipped(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
         let n = unit_normal(n)?;
-        Self::on_frame(LineFrame::clipped(segment, x, n)?)
+        let (frame, ends) = LineFrame::clipped_with_ends(segment, x, n)?;
+        let (sampler, valid) = Self::lane(frame, ends, atan2_f64);
+        valid.then_some(sampler)
     }
 
     /// Uniform in solid angle over an already prepared interval.
     pub fn on_frame(frame: LineFrame) -> Option<Self> {
+        let (sampler, valid) = Self::lane(frame, EndValues::of(&frame), atan2_f64);
+        valid.then_some(sampler)
+    }
+
+    /// [`Self::on_frame`] without branches, from the frame's [`EndValues`] (as its constructor
+    /// computed them) and a given atan2: the sampler and whether `on_frame` returns it (the one
+    /// implementation of the scalar path and the lanes of [`crate::batch`]).
+    #[inline(always)]
+    pub(crate) fn lane(
+        frame: LineFrame,
+        ends: EndValues,
+        atan2: impl Fn(f64, f64) -> f64,
+    ) -> (Self, bool) {
         // Ω_R may be subnormal (far line, tiny Δs): its reciprocal must be finite too.
         let inv_solid_angle = 1.0 / frame.solid_angle();
-        let arc = FrameArc::of(&frame);
-        (inv_solid_angle > 0.0 && inv_solid_angle.is_finite() && arc.delta_s > 0.0).then_some(
-            Self {
-                frame,
-                arc,
-                inv_solid_angle,
-            },
-        )
+        let arc = FrameArc::on_ends(&frame, ends, atan2);
+        let valid = inv_solid_angle > 0.0 && inv_solid_angle.is_finite() && arc.delta_s > 0.0;
+        let sampler = Self {
+            frame,
+            arc,
+            inv_solid_angle,
+        };
+        (sampler, valid)
+    }
+
+    /// [`LineSampler::sample_with_pdf`] with a given atan2 (branch-free in [`crate::batch`];
+    /// bitwise equal): s uniform on the interval, the density 1/Ω_R.
+    #[inline(always)]
+    pub(crate) fn sample_lane(&self, xi: f32, atan2: impl Fn(f64, f64) -> f64) -> (Vec3, f32) {
+        let y = clamp_xi(xi) as f64 * self.arc.delta_s;
+        let tau = self.arc.tau_of_delta_s_with(y, atan2);
+        (self.arc.direction(&self.frame, tau), self.inv_solid_angle)
+    }
+
+    /// The frame, its arc and 1/Ω_R (for the structure of arrays of [`crate::batch`]).
+    #[inline(always)]
+    pub(crate) fn parts(&self) -> (&LineFrame, &FrameArc, f32) {
+        (&self.frame, &self.arc, self.inv_solid_angle)
+    }
+
+    /// Reassembled from [`Self::parts`].
+    #[inline(always)]
+    pub(crate) fn from_parts(frame: LineFrame, arc: FrameArc, inv_solid_angle: f32) -> Self {
+        Self {
+            frame,
+            arc,
+            inv_solid_angle,
+        }
     }
 }
 
 impl LineSampler for SolidAngle {
     fn sample(&self, xi: f32) -> Vec3 {
-        let tau = self
-            .arc
-            .tau_of_delta_s(clamp_xi(xi) as f64 * self.arc.delta_s);
-        self.arc.direction(&self.frame, tau)
+        self.sample_lane(xi, atan2_f64).0
     }
 
     fn pdf(&self, dir: Vec3) -> f32 {
@@ -74,8 +113,9 @@ impl LineSampler for SolidAngle {
         Some(((self.arc.delta_s_at(tau) / self.arc.delta_s) as f32).clamp(0.0, 1.0))
     }
 
+    #[inline]
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
-        (self.sample(xi), self.inv_solid_angle)
+        self.sample_lane(xi, atan2_f64)
     }
 }
 

@@ -167,8 +167,11 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     (s as f32, c as f32)
 }
 
+/// (sin x, cos x) by the polynomials of [`sin_cos_f64`] only, without its branch to libm: for
+/// callers whose |x| ≤ [`SIN_COS_RANGE`] holds by construction (half angles of an arc, at most
+/// π/2), and for the lanes of a SIMD batch (a lane outside the range gets garbage, not a call).
 #[inline(always)]
-fn sin_cos_poly(x: f64) -> (f64, f64) {
+pub fn sin_cos_poly(x: f64) -> (f64, f64) {
     let v = x * x;
     (x * poly5(&S, v), 1.0 - v * poly5(&K, v))
 }
