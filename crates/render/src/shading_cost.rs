@@ -144,7 +144,9 @@ pub fn shade_scalar(t: Technique, h: &HitPoints, lights: &[(Segment, Vec3)], spp
         let (p, n, v, a) = (h.p[i], h.n[i], h.v[i], h.alpha[i]);
         let mut radiance = 0.0f32;
         for (j, (segment, k)) in lights.iter().enumerate() {
-            let Some(sampler) = t.prepare(segment, p, n) else {
+            // By reference, as the renderer does (see `Technique::prepare`).
+            let prepared = t.prepare(segment, p, n);
+            let Some(sampler) = &prepared else {
                 continue;
             };
             for s in 0..spp {

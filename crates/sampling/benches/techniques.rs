@@ -58,7 +58,9 @@ fn configurations() -> Vec<Configuration> {
 fn pass(technique: Technique, configurations: &[Configuration]) -> f32 {
     let mut acc = 0.0f32;
     for c in configurations {
-        if let Some(p) = technique.prepare(&c.segment, c.x, c.n) {
+        // By reference, as the renderer does (see `Technique::prepare`: moving the sampler out
+        // of the Option costs a failed store forward per light sample).
+        if let Some(p) = &technique.prepare(&c.segment, c.x, c.n) {
             let (dir, pdf) = p.sample_with_pdf(c.xi);
             acc += dir.x + pdf;
         }

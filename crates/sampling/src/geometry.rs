@@ -591,15 +591,17 @@ pub fn sin_cos_pair(lb: f32, le: f32, d: f32) -> ((f64, f64), (f64, f64), f64) {
     // into one per arm in the branch-free lanes of `crate::batch`.)
     let f = std::hint::select_unpredictable(same_side, le * rb + lb * re, 1.0);
     let zf = 1.0 / (rb * re * f);
-    let z = zf * f;
-    let (inv_rb, inv_re) = (re * z, rb * z);
-    let (s_b, s_e) = (lb * inv_rb, le * inv_re);
+    // 1/r_b = r_e f·zf, 1/r_e = r_b f·zf: the numerators formed beside the division, so that
+    // each value is one multiplication after it (they start the samplers' dependency chains).
+    let (ref_, rbf) = (re * f, rb * f);
+    let (s_b, c_b) = (lb * ref_ * zf, d * ref_ * zf);
+    let (s_e, c_e) = (le * rbf * zf, d * rbf * zf);
     let delta_s = if same_side {
         d * d * (le - lb) * (le + lb) * zf
     } else {
         s_e - s_b
     };
-    ((s_b, d * inv_rb), (s_e, d * inv_re), delta_s)
+    ((s_b, c_b), (s_e, c_e), delta_s)
 }
 
 #[inline(always)]

@@ -31,7 +31,7 @@
 //! Accuracy (the measure: the backward error of a sample, |CDF(τ̂) − ξ| in units of ξ, with
 //! CDF the exact per-radius CDF of p_R on the problem as the sampler represents it, evaluated in
 //! f64; `linlight backward-error` sweeps normals, sub-intervals down to 1e-4 rad and ξ): with
-//! [`DEFAULT_ITERATIONS`] = 2 the f32 sampler's worst case is 1.585e-5 outside the ξ guard and
+//! [`DEFAULT_ITERATIONS`] = 2 the f32 sampler's worst case is 1.595e-5 outside the ξ guard and
 //! 1.991e-5 including it (the start value returned for ξ within [`XI_GUARD`] of 0 or 1), within
 //! the bound 2e-5 (the paper: 1.6e-5); one step leaves 1.548e-2, three 6.2e-7. One step from
 //! a better start value was studied and not adopted (docs/performance.md, "One Halley step"):
@@ -58,8 +58,11 @@
 //! f32 precision, evaluated by Estrin's scheme, and reuses sin τ = 2 sin(τ/2)cos(τ/2) above 1;
 //! the last step rotates the values it started from instead of a further sin/cos (the lanes of
 //! [`crate::batch`] evaluate that sin/cos only when some lane of the batch needs it, see
-//! `PsaCore::solve_rotated_lane`); the pdf is (n·ω)/Ω⊥_R with n·ω from that rotation. The f64
-//! instantiation keeps std's functions and the full series.
+//! `PsaCore::solve_rotated_lane`); the pdf is (n·ω)/Ω⊥_R with n·ω from that rotation.
+//! G = ΔC − ξ·total is summed as a + (b − ξ·total) with b = n_t(τ − sin τ) known before a
+//! (`PsaCore::g_of`), the Halley step starts from 2·(sin φ, cos φ) and hands the next
+//! evaluation τ/2, and the frame's end values are one multiplication after their division. The
+//! f64 instantiation keeps std's functions and the full series.
 
 use crate::geometry::{arc_tolerance, tau_in_arc, unit_normal, EndValues, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
@@ -247,11 +250,17 @@ pub(crate) fn delta_minus_sin_given<T: Real>(x: T, sin_x: T) -> T {
 /// Values of the inversion problem at one τ.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Eval<T> {
-    /// C(φ_b + τ) − C(φ_b).
-    pub delta_c: T,
-    /// sin φ, cos φ.
+    /// C(φ_b + τ) − C(φ_b) = `delta_c_cos` + `delta_c_lin` (see [`PsaCore::delta_c_parts`]):
+    /// kept apart so that the Halley step subtracts ξ·total from the second part while the
+    /// first is still being multiplied (one addition fewer on the sampler's dependency chain).
+    pub delta_c_cos: T,
+    pub delta_c_lin: T,
+    /// sin φ, cos φ, and twice them (formed first: G' = 2t(n·ω) and G'' = 2(t(n·ω)′ − s(n·ω))
+    /// are then one multiplication earlier, bit for bit the same).
     pub s: T,
     pub t: T,
+    pub s2: T,
+    pub t2: T,
     /// n·ω and d(n·ω)/dφ.
     pub n_dot_w: T,
     pub n_dot_w_prime: T,
@@ -323,7 +332,8 @@ impl<T: Real> PsaCore<T> {
         };
         let (sh, ch) = (width * T::HALF).sin_cos();
         core.delta_s = T::TWO * core.rotate(sh, ch).1 * sh;
-        core.total = core.delta_c_half(width, sh, ch);
+        let (a, b) = core.delta_c_parts(width, sh, ch);
+        core.total = a + b;
         let valid = width > T::ZERO && core.total > T::ZERO && core.total.is_finite();
         (core, valid)
     }
@@ -338,13 +348,18 @@ impl<T: Real> PsaCore<T> {
     }
 
     /// C(φ_b + τ) − C(φ_b) given (sin, cos) of τ/2 (cancellation-free, see the module
-    /// documentation).
+    /// documentation) as its two terms 2 cos m · sin τ · (n·ω)(m) and n_t (τ − sin τ), m the
+    /// midpoint φ_b + τ/2. The first is formed as (cos m · (n·ω)(m)) · (4 sin(τ/2) cos(τ/2)):
+    /// two multiplications after the midpoint values instead of three in series.
     #[inline(always)]
-    fn delta_c_half(&self, tau: T, sh: T, ch: T) -> T {
+    fn delta_c_parts(&self, tau: T, sh: T, ch: T) -> (T, T) {
         let cm = self.c_b * ch - self.s_b * sh; // cos of the midpoint φ_b + τ/2
         let n_dot_wm = self.p0 * ch + self.p1 * sh;
         let sin_tau = T::TWO * sh * ch;
-        T::TWO * cm * sin_tau * n_dot_wm + self.nt * delta_minus_sin_given(tau, sin_tau)
+        (
+            cm * n_dot_wm * (T::TWO * sin_tau),
+            self.nt * delta_minus_sin_given(tau, sin_tau),
+        )
     }
 
     /// C(φ_b + τ) − C(φ_b), cancellation-free (see the module documentation), with the values
@@ -360,12 +375,19 @@ impl<T: Real> PsaCore<T> {
     fn eval_half(&self, tau: T, sh: T, ch: T) -> Eval<T> {
         let sin_tau = T::TWO * sh * ch;
         let cos_tau = T::ONE - T::TWO * sh * sh;
-        let delta_c = self.delta_c_half(tau, sh, ch);
-        let (s, t) = self.rotate(sin_tau, cos_tau);
+        let (delta_c_cos, delta_c_lin) = self.delta_c_parts(tau, sh, ch);
+        // 2·(sin φ, cos φ) by rotating with the doubled (exact) begin values.
+        let (s2, t2) = (
+            T::TWO * self.s_b * cos_tau + T::TWO * self.c_b * sin_tau,
+            T::TWO * self.c_b * cos_tau - T::TWO * self.s_b * sin_tau,
+        );
         Eval {
-            delta_c,
-            s,
-            t,
+            delta_c_cos,
+            delta_c_lin,
+            s: s2 * T::HALF,
+            t: t2 * T::HALF,
+            s2,
+            t2,
             n_dot_w: self.p0 * cos_tau + self.p1 * sin_tau,
             n_dot_w_prime: self.p1 * cos_tau - self.p0 * sin_tau,
         }
@@ -374,7 +396,8 @@ impl<T: Real> PsaCore<T> {
     #[inline]
     pub fn delta_c(&self, tau: T) -> T {
         let (sh, ch) = (tau * T::HALF).sin_cos();
-        self.delta_c_half(tau, sh, ch)
+        let (a, b) = self.delta_c_parts(tau, sh, ch);
+        a + b
     }
 
     /// Whether ξ lies in the guard band where the start value is returned unchanged.
@@ -457,22 +480,51 @@ impl<T: Real> PsaCore<T> {
     /// the values `e` = `eval(τ)`, clamped to [0, Δ].
     #[inline(always)]
     fn halley_from(&self, tau: T, xi: T, e: &Eval<T>) -> T {
-        let g = e.delta_c - xi * self.total;
-        // G' = 2t(n·ω), G''/2 = t(n_s t − n_t s) − s(n·ω) with n_s t − n_t s = d(n·ω)/dφ.
-        let g1 = T::TWO * e.t * e.n_dot_w;
-        let g2 = T::TWO * (e.t * e.n_dot_w_prime - e.s * e.n_dot_w);
-        // Smallest root of G + G'h + G''h²/2, h = −2G / (G' + √(G'² − 2GG'')) with
-        // den = G' + √… ≥ 0 (G' ≥ 0 on the clipped interval). Without branches (their outcome is
-        // data-dependent): den = 0 makes h = ±inf, clamped to an end of [0, Δ], or NaN for
-        // G = 0, where τ is kept.
-        let num = -T::TWO * g;
-        let den = g1.max(T::ZERO) + (g1 * g1 - T::TWO * g * g2).max(T::ZERO).sqrt();
-        let next = tau + num / den;
+        let (g, den) = self.halley_terms(xi, e);
+        let next = tau + -T::TWO * g / den;
         if next.is_nan() {
             tau
         } else {
             next.clamp(T::ZERO, self.width)
         }
+    }
+
+    /// [`Self::halley_from`] halved, formed as τ/2 − G/den (bit for bit the half of it, the
+    /// scalings by 2 being exact): the argument of the next evaluation's sin/cos without a
+    /// multiplication after the division.
+    #[inline(always)]
+    fn halley_half_from(&self, tau: T, xi: T, e: &Eval<T>) -> T {
+        let (g, den) = self.halley_terms(xi, e);
+        let half = tau * T::HALF;
+        let next = half + -g / den;
+        if next.is_nan() {
+            half
+        } else {
+            next.clamp(T::ZERO, self.width * T::HALF)
+        }
+    }
+
+    /// G and the denominator of the Halley step: h = −2G/den.
+    #[inline(always)]
+    fn halley_terms(&self, xi: T, e: &Eval<T>) -> (T, T) {
+        let g = self.g_of(xi, e);
+        // G' = 2t(n·ω), G''/2 = t(n_s t − n_t s) − s(n·ω) with n_s t − n_t s = d(n·ω)/dφ.
+        let g1 = e.t2 * e.n_dot_w;
+        let g2 = e.t2 * e.n_dot_w_prime - e.s2 * e.n_dot_w;
+        // Smallest root of G + G'h + G''h²/2, h = −2G / (G' + √(G'² − 2GG'')) with
+        // den = G' + √… ≥ 0 (G' ≥ 0 on the clipped interval). Without branches (their outcome is
+        // data-dependent): den = 0 makes h = ±inf, clamped to an end of [0, Δ], or NaN for
+        // G = 0, where τ is kept.
+        // g·(2G'') is 2G·G'' bit for bit, one multiplication after G fewer.
+        let den = g1.max(T::ZERO) + (g1 * g1 - g * (T::TWO * g2)).max(T::ZERO).sqrt();
+        (g, den)
+    }
+
+    /// G(τ) = C(φ_b + τ) − C(φ_b) − ξ·total from the values `e` = `eval(τ)`, as
+    /// `delta_c_cos` + (`delta_c_lin` − ξ·total): the last two are known before the first.
+    #[inline(always)]
+    fn g_of(&self, xi: T, e: &Eval<T>) -> T {
+        e.delta_c_cos + (e.delta_c_lin - xi * self.total)
     }
 
     /// τ of the sample for ξ ∈ [0, 1] after `iterations` Halley steps.
@@ -494,8 +546,10 @@ impl<T: Real> PsaCore<T> {
         let mut e = self.eval_half(start, sh, ch);
         let mut tau = start;
         for _ in 1..iterations {
-            tau = self.halley_from(tau, xi, &e);
-            e = self.eval(tau);
+            let half = self.halley_half_from(tau, xi, &e);
+            tau = T::TWO * half;
+            let (sh, ch) = half.sin_cos();
+            e = self.eval_half(tau, sh, ch);
         }
         (start, tau, e)
     }
@@ -604,7 +658,7 @@ impl PsaCore<f64> {
         let mut tau = self.start(xi);
         for _ in 0..CONVERGED_MAX_STEPS {
             let e = self.eval(tau);
-            let g = e.delta_c - xi * self.total;
+            let g = self.g_of(xi, &e);
             if g < 0.0 {
                 lo = tau;
             } else if g > 0.0 {
