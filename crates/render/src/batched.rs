@@ -797,6 +797,19 @@ fn write_lane(lanes: &mut MaybeUninit<[Lanes3; 3]>, k: usize, v: &[Vec3; 3]) {
     }
 }
 
+/// Writes zeros into every lane of `lanes` not in `written` (bit k: lane k), so that all lanes
+/// are initialised.
+#[inline(always)]
+fn zero_lanes_outside(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32) {
+    let full = ((1u64 << LANES) - 1) as u32;
+    let mut m = full & !written;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        write_lane(lanes, k, &[Vec3::ZERO; 3]);
+    }
+}
+
 impl Triangles {
     #[inline(always)]
     fn set(&mut self, k: usize, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
@@ -820,13 +833,7 @@ impl Triangles {
         ng: &mut Lanes3,
         ns: &mut Lanes3,
     ) {
-        let full = ((1u64 << LANES) - 1) as u32;
-        let mut m = full & !self.mask;
-        while m != 0 {
-            let k = m.trailing_zeros() as usize;
-            m &= m - 1;
-            write_lane(&mut self.v, k, &[Vec3::ZERO; 3]);
-        }
+        zero_lanes_outside(&mut self.v, self.mask);
         // SAFETY: every lane was written, by `set` or just above.
         let v = unsafe { self.v.assume_init_ref() };
         if self.normals == 0 {
@@ -834,12 +841,7 @@ impl Triangles {
             self.lanes(v, None, hits, p, ng, ns);
             return;
         }
-        let mut m = full & !self.normals;
-        while m != 0 {
-            let k = m.trailing_zeros() as usize;
-            m &= m - 1;
-            write_lane(&mut self.n, k, &[Vec3::ZERO; 3]);
-        }
+        zero_lanes_outside(&mut self.n, self.normals);
         // SAFETY: as above.
         let n = unsafe { self.n.assume_init_ref() };
         self.lanes(v, Some(n), hits, p, ng, ns);
