@@ -193,13 +193,22 @@ mod tests {
             for &t in &c.thresholds {
                 ks.extend([t.saturating_sub(1), t.min(LATTICE - 1)]);
             }
-            for k in ks {
-                let xi = k as f32 / LATTICE as f32;
-                let (j, inv) = c.pick(xi);
-                assert_eq!(c.pick_lanes(&[0.0, xi]), [0, j as u32]);
+            let xi_of = |k: u32| k as f32 / LATTICE as f32;
+            let in_interval = |k: u32, j: usize| {
                 let lo = if j == 0 { 0 } else { c.thresholds[j - 1] };
                 assert!(lo <= k && k < c.thresholds[j], "{weights:?}: k {k} → {j}");
+            };
+            for &k in &ks {
+                let (j, inv) = c.pick(xi_of(k));
+                in_interval(k, j);
                 assert_eq!(inv, (1.0 / c.probability(j)) as f32);
+            }
+            // Eight different ξ at once (the packet path's call).
+            for chunk in ks.chunks_exact(8) {
+                let picked = c.pick_lanes(&std::array::from_fn::<f32, 8, _>(|i| xi_of(chunk[i])));
+                for (&k, &j) in chunk.iter().zip(&picked) {
+                    in_interval(k, j as usize);
+                }
             }
             let total: f64 = weights.iter().map(|&w| w as f64).sum();
             for (j, &w) in weights.iter().enumerate() {
