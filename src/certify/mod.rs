@@ -221,13 +221,13 @@ pub(crate) fn overall_verdict(suite: Option<&SuiteSummary>, scenes: &[SceneRepor
     }
 }
 
-/// A method (single technique, LTC, MIS with a heuristic) as a subject, named as in reports
-/// (`mis:clamped-optimal=0.5`).
 /// `opts` rendered with `method` (the method field is the subject's business).
 fn with_method(method: Method, opts: &RenderOptions) -> RenderOptions {
     RenderOptions { method, ..*opts }
 }
 
+/// A method (single technique, LTC, MIS with a heuristic) as a subject, named as in reports
+/// (`mis:clamped-optimal=0.5`).
 impl Subject for Method {
     fn name(&self) -> String {
         Method::name(*self)

@@ -370,7 +370,6 @@ fn prepare_kernel(input: &PsaBatchInput) -> PreparedBatch {
 
 #[inline(always)]
 fn psa_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput {
-    #[allow(clippy::needless_range_loop)]
     let mut pending = Pending::default();
     #[allow(clippy::needless_range_loop)]
     for i in 0..LANES {

@@ -380,11 +380,13 @@ fn light_samples_are_kept_only_where_they_pay() {
     assert!(BudgetRule::light_samples_pay(&one, &at(3_472.0), 8));
     // Half of the variance from the pixel footprint: 8 light samples cut it to 9/16 (cost 5/2).
     assert!(!BudgetRule::light_samples_pay(&one, &at(15_624.0), 8));
-    // Break-even at N = 2: 1.5 × the camera samples' cost.
-    assert!(!BudgetRule::light_samples_pay(&one, &at(27_776.0 / 1.5), 2));
+    // Break-even at N = 2: 1.5 × the camera samples' cost (operands exact in f64:
+    // 18 000 × 1.5 = 27 000).
+    let even = at(27_000.0);
+    assert!(!BudgetRule::light_samples_pay(&even, &at(18_000.0), 2));
     assert!(BudgetRule::light_samples_pay(
-        &one,
-        &at(27_776.0 / 1.5 - 64.0),
+        &even,
+        &at(18_000.0 - 64.0),
         2
     ));
 }

@@ -256,14 +256,8 @@ impl SampleStream<'_> {
     /// never stratified across the samples of a pass.
     #[inline]
     pub fn film_position(&mut self) -> (f32, f32) {
-        match (self.source.noise, self.source.table) {
-            (Noise::White, _) | (_, None) => (self.white.next_f32(), self.white.next_f32()),
-            (_, Some(table)) => {
-                let u = self.blue(table, false);
-                let v = self.blue(table, false);
-                (u, v)
-            }
-        }
+        // u before v: a tuple's operands are evaluated left to right.
+        (self.next_f32_unstratified(), self.next_f32_unstratified())
     }
 
     /// The next dimension: the primary sample of a one-dimensional estimator that the caller
