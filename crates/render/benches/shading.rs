@@ -92,32 +92,33 @@ fn main() {
                 row.name
             );
         }
-        let ratio = |a: RowKind, b: RowKind| c.ratio(a, b);
-        let scalar = ratio(
-            RowKind::Scalar(Technique::ProjectedSolidAngle),
-            RowKind::Scalar(Technique::ClippedSolidAngle),
-        );
-        let simd = ratio(
-            RowKind::Batched(Batched::ProjectedSolidAngle),
-            RowKind::Batched(Batched::ClippedSolidAngle),
-        );
-        println!(
-            "  projected-solid-angle / clipped-solid-angle: scalar {:.3} (min {:.3}), \
-             x8 {:.3} (min {:.3})",
-            scalar.0, scalar.1, simd.0, simd.1
-        );
-        let scalar = ratio(
-            RowKind::Scalar(Technique::Li2018),
-            RowKind::Scalar(Technique::ProjectedSolidAngle),
-        );
-        let simd = ratio(
-            RowKind::Batched(Batched::Li2018),
-            RowKind::Batched(Batched::ProjectedSolidAngle),
-        );
-        println!(
-            "  li2018 / projected-solid-angle: scalar {:.3} (min {:.3}), x8 {:.3} (min {:.3}); \
-             x8 li2018 ran {:.2} iterations per batch",
-            scalar.0, scalar.1, simd.0, simd.1, c.li_iterations_per_batch
-        );
+        // Numerator / denominator, each scalar and as the x8 batch.
+        let pairs = [
+            (
+                "projected-solid-angle / clipped-solid-angle",
+                (Technique::ProjectedSolidAngle, Batched::ProjectedSolidAngle),
+                (Technique::ClippedSolidAngle, Batched::ClippedSolidAngle),
+            ),
+            (
+                "li2018 / projected-solid-angle",
+                (Technique::Li2018, Batched::Li2018),
+                (Technique::ProjectedSolidAngle, Batched::ProjectedSolidAngle),
+            ),
+        ];
+        for (label, (a, ab), (b, bb)) in pairs {
+            let scalar = c.ratio(RowKind::Scalar(a), RowKind::Scalar(b));
+            let simd = c.ratio(RowKind::Batched(ab), RowKind::Batched(bb));
+            print!(
+                "  {label}: scalar {:.3} (min {:.3}), x8 {:.3} (min {:.3})",
+                scalar.0, scalar.1, simd.0, simd.1
+            );
+            if a == Technique::Li2018 {
+                print!(
+                    "; x8 li2018 ran {:.2} iterations per batch",
+                    c.li_iterations_per_batch
+                );
+            }
+            println!();
+        }
     }
 }
