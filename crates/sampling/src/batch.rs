@@ -548,7 +548,7 @@ impl ClippedBatch {
 
     #[inline(always)]
     fn store(&mut self, i: usize, sampler: &SolidAngle) {
-        let (frame, arc, inv_solid_angle) = sampler.parts();
+        let (frame, arc, inv_solid_angle) = (&sampler.frame, &sampler.arc, sampler.inv_solid_angle);
         self.u.set(i, frame.u);
         self.c_hat.set(i, frame.c_hat);
         (self.d[i], self.inv_solid_angle[i]) = (frame.d, inv_solid_angle);
@@ -575,7 +575,11 @@ impl ClippedBatch {
             delta_s: self.delta_s[i],
             tolerance: 0.0,
         };
-        SolidAngle::from_parts(frame, arc, self.inv_solid_angle[i])
+        SolidAngle {
+            frame,
+            arc,
+            inv_solid_angle: self.inv_solid_angle[i],
+        }
     }
 }
 

@@ -16,9 +16,10 @@ use glam::Vec3;
 /// s uniform on an interval of the line; shared by the clipped and the unclipped variant.
 #[derive(Clone, Copy, Debug)]
 pub struct SolidAngle {
-    frame: LineFrame,
-    arc: FrameArc,
-    inv_solid_angle: f32,
+    // pub(crate): the structure of arrays of [`crate::batch`] stores and rebuilds them.
+    pub(crate) frame: LineFrame,
+    pub(crate) arc: FrameArc,
+    pub(crate) inv_solid_angle: f32,
 }
 
 impl SolidAngle {
@@ -72,22 +73,6 @@ impl SolidAngle {
         let y = clamp_xi(xi) as f64 * self.arc.delta_s;
         let tau = self.arc.tau_of_delta_s_with(y, atan2);
         (self.arc.direction(&self.frame, tau), self.inv_solid_angle)
-    }
-
-    /// The frame, its arc and 1/Ω_R (for the structure of arrays of [`crate::batch`]).
-    #[inline(always)]
-    pub(crate) fn parts(&self) -> (&LineFrame, &FrameArc, f32) {
-        (&self.frame, &self.arc, self.inv_solid_angle)
-    }
-
-    /// Reassembled from [`Self::parts`].
-    #[inline(always)]
-    pub(crate) fn from_parts(frame: LineFrame, arc: FrameArc, inv_solid_angle: f32) -> Self {
-        Self {
-            frame,
-            arc,
-            inv_solid_angle,
-        }
     }
 }
 
