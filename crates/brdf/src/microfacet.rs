@@ -24,10 +24,10 @@ use num_traits::Float;
 pub const MIN_ALPHA: f64 = 1e-4;
 
 /// Mitsuba flushes D to zero where D·cos θ_h ≤ this value ("numerical issues in other stages").
-const D_FLUSH: f64 = 1e-20;
+pub(crate) const D_FLUSH: f64 = 1e-20;
 
 #[inline]
-fn c<T: Float>(x: f64) -> T {
+pub(crate) fn c<T: Float>(x: f64) -> T {
     T::from(x).expect("constant representable")
 }
 
@@ -76,7 +76,7 @@ pub fn g1<T: Float>(alpha: T, sin2_theta_w: T, cos_theta_w: T, w_dot_h: T) -> T 
 }
 
 #[inline(always)]
-fn sin2(w: DVec3) -> f64 {
+pub(crate) fn sin2(w: DVec3) -> f64 {
     w.x * w.x + w.y * w.y
 }
 

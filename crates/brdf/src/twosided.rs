@@ -7,7 +7,7 @@ use glam::DVec3;
 
 /// Mitsuba's rule: l_z takes the sign of v_z relative to the flip, v_z becomes |v_z|.
 #[inline(always)]
-fn flip(v: DVec3, l: DVec3) -> (DVec3, DVec3) {
+pub(crate) fn flip(v: DVec3, l: DVec3) -> (DVec3, DVec3) {
     if v.z.is_sign_negative() {
         (DVec3::new(v.x, v.y, -v.z), DVec3::new(l.x, l.y, -l.z))
     } else {
