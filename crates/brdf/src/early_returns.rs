@@ -37,7 +37,7 @@ fn g1<T: Float>(alpha: T, sin2_theta_w: T, cos_theta_w: T, w_dot_h: T) -> T {
     c::<T>(2.0) / (T::one() + (T::one() + tan2_alpha2).sqrt())
 }
 
-fn ggx_cos_and_cos_vh(alpha: f64, v: DVec3, l: DVec3) -> (f64, f64) {
+pub(crate) fn ggx_cos_and_cos_vh(alpha: f64, v: DVec3, l: DVec3) -> (f64, f64) {
     if !(v.z > 0.0 && l.z > 0.0) {
         return (0.0, 0.0);
     }
