@@ -20,12 +20,8 @@ impl Blend {
         (self.weight as f64).clamp(0.0, 1.0)
     }
 
-    /// f·cos θ_l = (1 − w)·f₀·cos + w·f₁·cos.
-    pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
-        self.mix(self.bsdfs[0].eval(v, l), self.bsdfs[1].eval(v, l))
-    }
-
-    /// [`Blend::eval`] of N lanes from the children's values f₀·cos and f₁·cos of each lane.
+    /// f·cos θ_l = (1 − w)·f₀·cos + w·f₁·cos of N lanes from the children's values f₀·cos and
+    /// f₁·cos of each lane (evaluate a blend with [`Bsdf::eval`]).
     #[inline(always)]
     pub fn eval_lanes<const N: usize>(&self, f0: &Lanes3<N>, f1: &Lanes3<N>) -> Lanes3<N> {
         each_lane(
@@ -102,12 +98,14 @@ mod tests {
     #[test]
     fn weight_selects_and_is_clipped() {
         let (v, l) = (unit(0.2, 0.3, 0.8), unit(-0.1, -0.3, 0.7));
+        // The renderer's path: `Bsdf::eval` of the blend.
+        let eval = |weight| Bsdf::Blend(blend(weight)).eval(v, l);
         let [d, c] = &*blend(0.0).bsdfs;
-        assert_eq!(blend(0.0).eval(v, l), d.eval(v, l));
-        assert_eq!(blend(1.0).eval(v, l), c.eval(v, l));
-        assert_eq!(blend(-2.0).eval(v, l), d.eval(v, l));
-        assert_eq!(blend(7.0).eval(v, l), c.eval(v, l));
-        let mid = blend(0.3).eval(v, l);
+        assert_eq!(eval(0.0), d.eval(v, l));
+        assert_eq!(eval(1.0), c.eval(v, l));
+        assert_eq!(eval(-2.0), d.eval(v, l));
+        assert_eq!(eval(7.0), c.eval(v, l));
+        let mid = eval(0.3);
         let w = 0.3f32 as f64;
         let want = (1.0 - w) * d.eval(v, l) + w * c.eval(v, l);
         assert!((mid - want).abs().max_element() < 1e-15);

@@ -84,7 +84,7 @@ pub fn schlick_r0(eta: f64) -> f64 {
 }
 
 #[inline(always)]
-fn safe_sqrt(x: f64) -> f64 {
+pub(crate) fn safe_sqrt(x: f64) -> f64 {
     x.max(0.0).sqrt()
 }
 

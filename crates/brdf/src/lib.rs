@@ -35,4 +35,6 @@ pub use principled::Principled;
 pub use roughconductor::{ConductorFresnel, RoughConductor};
 
 #[cfg(test)]
+mod early_returns;
+#[cfg(test)]
 pub(crate) mod test_util;

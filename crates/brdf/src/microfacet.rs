@@ -24,10 +24,10 @@ use num_traits::Float;
 pub const MIN_ALPHA: f64 = 1e-4;
 
 /// Mitsuba flushes D to zero where D·cos θ_h ≤ this value ("numerical issues in other stages").
-const D_FLUSH: f64 = 1e-20;
+pub(crate) const D_FLUSH: f64 = 1e-20;
 
 #[inline]
-fn c<T: Float>(x: f64) -> T {
+pub(crate) fn c<T: Float>(x: f64) -> T {
     T::from(x).expect("constant representable")
 }
 
@@ -76,7 +76,7 @@ pub fn g1<T: Float>(alpha: T, sin2_theta_w: T, cos_theta_w: T, w_dot_h: T) -> T 
 }
 
 #[inline(always)]
-fn sin2(w: DVec3) -> f64 {
+pub(crate) fn sin2(w: DVec3) -> f64 {
     w.x * w.x + w.y * w.y
 }
 
@@ -287,25 +287,11 @@ mod tests {
         assert_eq!(ggx_cos(alpha, DVec3::new(v.x, v.y, -v.z), l), 0.0);
     }
 
-    /// The lobe as written before it was made branch-free (early returns): the same bits.
+    /// The lobe as written before it was made branch-free (early returns, with the d and g1 of
+    /// then): the same bits on a grid of α and directions.
     #[test]
     fn branch_free_lobe_equals_the_early_returns() {
-        let reference = |alpha: f64, v: DVec3, l: DVec3| -> (f64, f64) {
-            if !(v.z > 0.0 && l.z > 0.0) {
-                return (0.0, 0.0);
-            }
-            let h = (v + l).normalize_or_zero();
-            if h == DVec3::ZERO {
-                return (0.0, 0.0);
-            }
-            let dh = d(alpha, sin2(h), h.z);
-            if dh == 0.0 {
-                return (0.0, 0.0);
-            }
-            let cos_vh = v.dot(h);
-            let g = g1(alpha, sin2(v), v.z, cos_vh) * g1(alpha, sin2(l), l.z, l.dot(h));
-            (dh * g / (4.0 * v.z), cos_vh)
-        };
+        let reference = crate::early_returns::ggx_cos_and_cos_vh;
         let v0 = dir(0.7, 0.3);
         for alpha in [1e-4, 0.01, 0.3, 1.0] {
             for i in 0..=60 {

@@ -35,7 +35,7 @@ pub struct Principled {
 }
 
 /// Mitsuba's RGB luminance weights (f32 constants).
-const LUMINANCE: [f32; 3] = [0.212671, 0.715160, 0.072169];
+pub(crate) const LUMINANCE: [f32; 3] = [0.212671, 0.715160, 0.072169];
 
 impl Principled {
     /// Mitsuba's defaults: base_color 0.5, roughness 0.5, metallic 0, specular 0.5, no tint.
@@ -154,7 +154,7 @@ impl Default for Principled {
 
 /// Mitsuba's `lerp(a, b, t)` = a + t (b − a).
 #[inline(always)]
-fn lerp(a: f64, b: f64, t: f64) -> f64 {
+pub(crate) fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a + t * (b - a)
 }
 

@@ -1,5 +1,6 @@
 //! Quadrature and direction helpers shared by the model tests.
 
+use crate::{Blend, Bsdf, ConductorFresnel, Principled, RoughConductor};
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -69,4 +70,99 @@ pub fn hemisphere_integral(f: impl Fn(DVec3) -> DVec3, n: usize) -> DVec3 {
         total += ring * (wt * theta.sin());
     }
     total
+}
+
+fn conductor(alpha: f32, fresnel: ConductorFresnel) -> Bsdf {
+    Bsdf::RoughConductor(RoughConductor {
+        alpha,
+        fresnel,
+        specular_reflectance: [0.9, 0.7, 0.5],
+    })
+}
+
+fn blend(weight: f32, a: Bsdf, b: Bsdf) -> Bsdf {
+    Bsdf::Blend(Blend {
+        weight,
+        bsdfs: Box::new([a, b]),
+    })
+}
+
+/// BSDFs for bit-exactness tests: every model and nesting the lanes write out (and one deeper), with the parameters that
+/// switch terms on and off.
+pub fn bsdfs() -> Vec<Bsdf> {
+    let gold = ConductorFresnel::Complex {
+        eta: [0.143, 0.375, 1.442],
+        k: [3.983, 2.386, 1.603],
+    };
+    let diffuse = Bsdf::Diffuse {
+        reflectance: [0.25, 0.45, 0.6],
+    };
+    let principled = |metallic, spec_tint, flatness| {
+        Bsdf::Principled(Principled {
+            base_color: [0.55, 0.35, 0.25],
+            roughness: 0.4,
+            metallic,
+            spec_tint,
+            flatness,
+            ..Principled::new()
+        })
+    };
+    let mut out = vec![
+        diffuse.clone(),
+        conductor(0.3, ConductorFresnel::One),
+        conductor(0.0, gold.clone()),
+        conductor(0.2, gold.clone()),
+        principled(0.0, 0.0, 0.0),
+        principled(0.5, 0.3, 0.6),
+        principled(1.0, 0.0, 0.0),
+        Bsdf::Principled(Principled {
+            eta: 1.0,
+            ..Principled::new()
+        }),
+        blend(0.35, diffuse.clone(), conductor(0.2, gold.clone())),
+        blend(
+            0.5,
+            blend(0.3, diffuse.clone(), principled(0.0, 0.0, 0.0)),
+            diffuse,
+        ),
+    ];
+    let two: Vec<Bsdf> = out
+        .iter()
+        .map(|b| Bsdf::TwoSided(Box::new(b.clone())))
+        .collect();
+    out.extend(two);
+    out
+}
+
+/// Directions: random unit vectors on the sphere (both sides) and the degenerate cases
+/// (v = −l: no half vector; l = v = n; grazing; exactly in the horizon).
+pub fn pairs() -> Vec<(DVec3, DVec3)> {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    let mut unit = || loop {
+        let d = DVec3::new(next(), next(), next());
+        if d.length_squared() > 1e-3 && d.length_squared() <= 1.0 {
+            return d.normalize();
+        }
+    };
+    let mut out: Vec<(DVec3, DVec3)> = (0..2000).map(|_| (unit(), unit())).collect();
+    let v = DVec3::new(0.3, -0.2, 0.9).normalize();
+    let grazing = DVec3::new(1.0, 0.0, 1e-9).normalize();
+    let horizon = DVec3::new(0.6, 0.8, 0.0);
+    out.extend([
+        (v, -v),
+        (DVec3::Z, DVec3::Z),
+        (-DVec3::Z, -DVec3::Z),
+        (v, grazing),
+        (grazing, v),
+        (v, horizon),
+        (horizon, v),
+        (v, DVec3::new(-v.x, -v.y, v.z)),
+    ]);
+    out
 }

@@ -7,7 +7,7 @@ use glam::DVec3;
 
 /// Mitsuba's rule: l_z takes the sign of v_z relative to the flip, v_z becomes |v_z|.
 #[inline(always)]
-fn flip(v: DVec3, l: DVec3) -> (DVec3, DVec3) {
+pub(crate) fn flip(v: DVec3, l: DVec3) -> (DVec3, DVec3) {
     if v.z.is_sign_negative() {
         (DVec3::new(v.x, v.y, -v.z), DVec3::new(l.x, l.y, -l.z))
     } else {
@@ -25,12 +25,6 @@ pub(crate) fn flip_lanes<const N: usize>(v: &Lanes3<N>, l: &Lanes3<N>) -> (Lanes
         lanes::set(&mut fl, k, b);
     }
     (fv, fl)
-}
-
-/// f(v, l)·|l_z| of `inner` on the side the viewer is on.
-pub fn eval(inner: &Bsdf, v: DVec3, l: DVec3) -> DVec3 {
-    let (v, l) = flip(v, l);
-    inner.eval(v, l)
 }
 
 /// The nested BSDF's summary on the viewer's side.
@@ -52,9 +46,10 @@ mod tests {
         });
         let (v, l) = (unit(0.2, 0.3, 0.8), unit(-0.1, -0.3, 0.7));
         let m = |d: DVec3| DVec3::new(d.x, d.y, -d.z);
-        assert_eq!(eval(&inner, m(v), m(l)), inner.eval(v, l));
-        assert_eq!(eval(&inner, v, l), inner.eval(v, l));
-        assert_eq!(eval(&inner, m(v), l), DVec3::ZERO);
+        let two = Bsdf::TwoSided(Box::new(inner.clone()));
+        assert_eq!(two.eval(m(v), m(l)), inner.eval(v, l));
+        assert_eq!(two.eval(v, l), inner.eval(v, l));
+        assert_eq!(two.eval(m(v), l), DVec3::ZERO);
         assert_eq!(lobes(&inner, m(v)), inner.lobes(v));
     }
 }
