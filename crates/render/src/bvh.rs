@@ -136,17 +136,6 @@ pub struct Bvh {
     walk_isa: linlight_sampling::batch::Isa,
 }
 
-/// The packet walks' kernel on this CPU ([`Bvh::walk_isa`]).
-fn detect_walk_isa() -> linlight_sampling::batch::Isa {
-    use linlight_sampling::batch::Isa;
-    match Isa::detect() {
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 if std::arch::is_x86_feature_detected!("avx512bw") => Isa::Avx512,
-        Isa::Avx512 | Isa::Avx2 => Isa::Avx2,
-        Isa::Baseline => Isa::Baseline,
-    }
-}
-
 struct BuildItem {
     bounds: Aabb,
     centroid: Vec3,
@@ -591,7 +580,7 @@ impl Bvh {
             isect,
             nodes,
             tiny,
-            walk_isa: detect_walk_isa(),
+            walk_isa: linlight_sampling::batch::Isa::detect(),
         }
     }
 
@@ -698,8 +687,9 @@ impl Bvh {
                 bvh.occluded_walk::<kernels::Avx2>(lanes, active)
             }
             match self.walk_isa {
-                // SAFETY: the features the functions are compiled for were detected
-                // (`detect_walk_isa`).
+                // SAFETY: `walk_isa` is a variant `Isa::supported` on this CPU (`Isa::detect`
+                // at build; tests set only supported ones), and that checks every feature the
+                // functions are compiled for.
                 Isa::Avx512 => unsafe { return avx512(self, lanes, active) },
                 Isa::Avx2 => unsafe { return avx2(self, lanes, active) },
                 Isa::Baseline => {}
@@ -813,8 +803,9 @@ impl Bvh {
                 bvh.intersect_walk::<kernels::Avx2>(lanes, active, out)
             }
             match self.walk_isa {
-                // SAFETY: the features the functions are compiled for were detected
-                // (`detect_walk_isa`).
+                // SAFETY: `walk_isa` is a variant `Isa::supported` on this CPU (`Isa::detect`
+                // at build; tests set only supported ones), and that checks every feature the
+                // functions are compiled for.
                 Isa::Avx512 => unsafe {
                     avx512(self, lanes, active, &mut out);
                     return out;

@@ -1003,7 +1003,7 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         {
             use linlight_sampling::batch::Isa;
-            if Isa::Avx512.supported() && std::arch::is_x86_feature_detected!("avx512bw") {
+            if Isa::Avx512.supported() {
                 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
                 unsafe fn run() {
                     compare::<Avx512>();
