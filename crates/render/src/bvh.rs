@@ -472,10 +472,11 @@ impl PacketHits {
 /// Whether a hit at t of primitive i replaces the best hit so far (`best_prim` = u32::MAX:
 /// none): the closest hit, and among hits at the same t the smallest primitive index, so that
 /// the answer does not depend on the order in which the tree is walked. The caller has already
-/// checked t < t_max, where t_max = next_up(best t) once a hit is known.
+/// checked t < t_max, where t_max = next_up(best t) once a hit is known. No primitive index is
+/// u32::MAX ([`Bvh::build`]), so i < best_prim also covers "no hit yet".
 #[inline(always)]
 fn replaces(t: f32, i: u32, best_t: f32, best_prim: u32) -> bool {
-    (best_prim == u32::MAX) | (t < best_t) | (i < best_prim)
+    (t < best_t) | (i < best_prim)
 }
 
 /// A pending subtree of a packet walk: parent node, slot, rays, entry distance.
@@ -528,6 +529,11 @@ const STACK: usize = 16;
 
 impl Bvh {
     pub fn build(prims: Vec<Primitive>) -> Self {
+        // Primitive indices are u32 below u32::MAX, the packets' "no hit" (see `replaces`).
+        assert!(
+            prims.len() < u32::MAX as usize,
+            "a BVH holds fewer than 2^32 - 1 primitives"
+        );
         let mut items: Vec<BuildItem> = prims
             .iter()
             .enumerate()

@@ -539,9 +539,9 @@ mod x86 {
             // SAFETY: 16 u32 in each.
             let best_prim = unsafe { _mm512_loadu_si512(best.prim.as_ptr().cast()) };
             let i = _mm512_set1_epi32(prim as i32);
-            // `replaces`: no hit yet, closer, or as close with a smaller index.
-            let take = _mm512_mask_cmpeq_epi32_mask(hits, best_prim, _mm512_set1_epi32(-1))
-                | _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(hits, t, best_t)
+            // `replaces`: closer, or as close with a smaller index (u32::MAX, no hit yet, is
+            // larger than every index).
+            let take = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(hits, t, best_t)
                 | _mm512_mask_cmplt_epu32_mask(hits, i, best_prim);
             // next_up(t) of a finite t: ±0 → the smallest subnormal, else one ulp up.
             let bits = _mm512_castps_si512(t);
@@ -872,16 +872,16 @@ mod x86 {
                 let best_t = ld(&best.t, h);
                 // SAFETY: 8 u32 from 8h.
                 let best_prim = unsafe { _mm256_loadu_si256(best.prim.as_ptr().add(8 * h).cast()) };
-                // `replaces`: no hit yet, closer, or as close with a smaller index (unsigned
-                // comparison as signed with the sign bits flipped).
-                let none = _mm256_cmpeq_epi32(best_prim, _mm256_set1_epi32(-1));
+                // `replaces`: closer, or as close with a smaller index (u32::MAX, no hit yet,
+                // is larger than every index; unsigned comparison as signed with the sign
+                // bits flipped).
                 let smaller = _mm256_cmpgt_epi32(
                     _mm256_xor_si256(best_prim, flip),
                     _mm256_xor_si256(i, flip),
                 );
                 let closer = _mm256_cmp_ps::<_CMP_LT_OQ>(ti, best_t);
                 let take = _mm256_and_ps(
-                    _mm256_or_ps(closer, _mm256_castsi256_ps(_mm256_or_si256(none, smaller))),
+                    _mm256_or_ps(closer, _mm256_castsi256_ps(smaller)),
                     lane_mask(hits, h),
                 );
                 // next_up(t) of a finite t: ±0 → the smallest subnormal, else one ulp up.
