@@ -286,7 +286,8 @@ struct RayPacket<'a> {
     /// Bounds of the reciprocal directions.
     inv_lo: [f32; 3],
     inv_hi: [f32; 3],
-    /// Smallest t_min and largest t_max of the rays (kept up to date by the closest-hit walk).
+    /// Smallest t_min and largest t_max of the rays. `t_hi` is read only when `coherent`
+    /// (interval tests), so the closest-hit walk keeps it up to date only then.
     t_lo: f32,
     t_hi: f32,
 }
@@ -919,8 +920,9 @@ impl Bvh {
                     }
                 }
             }
-            if took != 0 {
-                // The rays' intervals shrank: so does the packet's.
+            if packet.coherent & (took != 0) {
+                // The rays' intervals shrank: so does the packet's (read only by the
+                // interval tests of a coherent packet).
                 packet.t_hi = K::max(&packet.t_max);
             }
         }
