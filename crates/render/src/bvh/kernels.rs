@@ -951,6 +951,7 @@ mod x86 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::{intersect_triangle_edges, Ray};
     use linlight_sampling::rng::Pcg32;
 
     /// Packets with every kind of lane: masked off, zero and negative direction components,
@@ -1020,6 +1021,8 @@ mod tests {
                 unsafe { run() };
             }
         }
+        // The portable kernel against the scalar single-ray tests (triangles; every other
+        // comparison is of the portable kernel with itself).
         compare::<Portable>();
     }
 
@@ -1085,23 +1088,27 @@ mod tests {
                 let h = Portable::triangle(&lanes, &p.t_min, &t_max[0], tri);
                 let g = K::triangle(&lanes, &q.t_min, &t_max[1], tri);
                 assert_eq!(h.3, g.3);
-                for k in (0..PACKET).filter(|k| h.3 >> k & 1 == 1) {
-                    assert_eq!(
-                        (h.0[k].to_bits(), h.1[k].to_bits(), h.2[k].to_bits()),
-                        (g.0[k].to_bits(), g.1[k].to_bits(), g.2[k].to_bits())
-                    );
-                    // The lane test is the scalar test.
-                    let ray = lanes.get(k);
-                    let scalar = intersect_triangle_lane(
-                        ray.o,
-                        ray.d,
-                        p.t_min[k],
-                        t_max[0][k],
-                        tri[0],
-                        tri[1],
-                        tri[2],
-                    );
-                    assert_eq!(scalar.0.to_bits(), h.0[k].to_bits());
+                #[allow(clippy::needless_range_loop)] // lane k of every array
+                for k in 0..PACKET {
+                    // Kernel K's lane is the scalar single-ray test (`Bvh::intersect`'s):
+                    // the same hit or miss, and where it hits the same t, b1, b2 bit for bit.
+                    let ray = Ray {
+                        t_min: q.t_min[k],
+                        t_max: t_max[1][k],
+                        ..lanes.get(k)
+                    };
+                    let scalar = intersect_triangle_edges(&ray, tri[0], tri[1], tri[2]);
+                    let lane = (g.3 >> k & 1 == 1).then(|| (g.0[k], g.1[k], g.2[k]));
+                    let bits3 = |x: Option<(f32, f32, f32)>| {
+                        x.map(|(t, b1, b2)| (t.to_bits(), b1.to_bits(), b2.to_bits()))
+                    };
+                    assert_eq!(bits3(scalar), bits3(lane), "lane {k}");
+                    if h.3 >> k & 1 == 1 {
+                        assert_eq!(
+                            (h.0[k].to_bits(), h.1[k].to_bits(), h.2[k].to_bits()),
+                            (g.0[k].to_bits(), g.1[k].to_bits(), g.2[k].to_bits())
+                        );
+                    }
                 }
                 hits += h.3.count_ones();
                 // The same hits under index 2i + 1, then again under 2i: every hit is then a
