@@ -480,6 +480,19 @@ fn replaces(t: f32, i: u32, best_t: f32, best_prim: u32) -> bool {
     (t < best_t) | (i < best_prim)
 }
 
+/// The rays' t_max on the lanes of `active`, −∞ elsewhere: rays outside the packet never hit
+/// (t < −∞ is false).
+#[inline(always)]
+fn active_t_max(lanes: &RayLanes, active: u32) -> [f32; PACKET] {
+    std::array::from_fn(|k| {
+        if active >> k & 1 == 1 {
+            lanes.t_max[k]
+        } else {
+            f32::NEG_INFINITY
+        }
+    })
+}
+
 /// A pending subtree of a packet walk: parent node, slot, rays, entry distance.
 type PacketEntry = (u32, u32, u32, f32);
 
@@ -831,9 +844,19 @@ impl Bvh {
     /// The walk of [`Self::intersect_lanes`]; `out` holds "no hit" in every lane on entry.
     #[inline(always)]
     fn intersect_walk<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
-        if !self.tiny.is_empty() {
-            return self.intersect_tiny::<K>(lanes, active, out);
+        if self.tiny.is_empty() {
+            self.intersect_tree::<K>(lanes, active, out);
+        } else {
+            self.intersect_tiny::<K>(lanes, active, out);
         }
+        for (k, &prim) in out.prim.iter().enumerate() {
+            out.mask |= ((prim != u32::MAX) as u32) << k;
+        }
+    }
+
+    /// [`Self::intersect_walk`] through the tree: `out`'s hits, not its mask.
+    #[inline(always)]
+    fn intersect_tree<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
         let mut packet = K::packet(lanes, active);
         let mut stack = stack::<PacketEntry, 64>();
         let mut spill: Vec<PacketEntry> = Vec::new();
@@ -926,23 +949,13 @@ impl Bvh {
                 packet.t_hi = K::max(&packet.t_max);
             }
         }
-        for (k, &prim) in out.prim.iter().enumerate() {
-            out.mask |= ((prim != u32::MAX) as u32) << k;
-        }
     }
 
     /// [`Self::occluded_lanes`] of a tiny tree ([`Bvh::tiny`]): every triangle against all
     /// active rays at once, until every ray is occluded.
     #[inline(always)]
     fn occluded_tiny<K: Kernel>(&self, lanes: &RayLanes, active: u32) -> u32 {
-        // Rays outside the packet never hit (t < −∞ is false).
-        let t_max: [f32; PACKET] = std::array::from_fn(|k| {
-            if active >> k & 1 == 1 {
-                lanes.t_max[k]
-            } else {
-                f32::NEG_INFINITY
-            }
-        });
+        let t_max = active_t_max(lanes, active);
         let mut occluded = 0u32;
         for tri in &self.tiny {
             occluded |= K::triangle(lanes, &lanes.t_min, &t_max, tri).3;
@@ -959,21 +972,11 @@ impl Bvh {
     /// smallest index: what [`Self::intersect`] returns.
     #[inline(always)]
     fn intersect_tiny<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
-        // `out.t`: the current closest distance of each ray; −∞ outside the packet (nothing
-        // is hit).
-        out.t = std::array::from_fn(|k| {
-            if active >> k & 1 == 1 {
-                lanes.t_max[k]
-            } else {
-                f32::NEG_INFINITY
-            }
-        });
+        // `out.t`: the current closest distance of each ray.
+        out.t = active_t_max(lanes, active);
         for (i, tri) in self.tiny.iter().enumerate() {
             let hits = K::triangle(lanes, &lanes.t_min, &out.t, tri);
             K::take_nearer(out, &hits, i as u32);
-        }
-        for (k, &p) in out.prim.iter().enumerate() {
-            out.mask |= ((p != u32::MAX) as u32) << k;
         }
     }
 
