@@ -297,9 +297,8 @@ struct RayPacket<'a> {
 type AxisBounds = (f32, f32, f32, f32, u32);
 
 impl<'a> RayPacket<'a> {
-    /// The interval part of the packet from the bounds of its rays, per axis: (smallest origin,
-    /// largest origin, smallest 1/d, largest 1/d, direction-sign bits of the active rays), and
-    /// the smallest t_min and largest t_max. `ordered`: no active lane has a NaN origin,
+    /// The interval part of the packet from the bounds of its rays, per axis
+    /// ([`AxisBounds`]), and the smallest t_min and largest t_max. `ordered`: no active lane has a NaN origin,
     /// reciprocal or interval end (a NaN makes the packet incoherent).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
