@@ -1470,21 +1470,31 @@ mod tests {
             // Every other ray of the packet switched off.
             let lanes = RayLanes::from_rays(&rays);
             let half = 0x5555 & ((1u32 << size) - 1);
+            // The single-ray answers, once per ray.
+            let singles: Vec<_> = rays
+                .iter()
+                .map(|ray| {
+                    let hit = bvh.intersect(ray).map(|h| (h.t, h.prim, h.b1, h.b2));
+                    (hit, bvh.occluded(ray))
+                })
+                .collect();
+            for &(hit, shadowed) in &singles {
+                hits += hit.is_some() as usize;
+                occluded += shadowed as usize;
+                total += 1;
+            }
             for b in walk_variants(&bvh) {
                 let packet = b.intersect_packet(&rays);
                 let shadows = b.occluded_packet(&rays);
-                for (i, ray) in rays.iter().enumerate() {
-                    let single = bvh.intersect(ray).map(|h| (h.t, h.prim, h.b1, h.b2));
+                for (i, &(single, shadowed)) in singles.iter().enumerate() {
                     let got = packet.get(i).map(|h| (h.t, h.prim, h.b1, h.b2));
                     assert_eq!(got, single, "{:?}, packet {k}, ray {i}", b.walk_isa);
                     assert_eq!(
                         shadows >> i & 1 == 1,
-                        bvh.occluded(ray),
-                        "packet {k}, ray {i}"
+                        shadowed,
+                        "{:?}, packet {k}, ray {i}",
+                        b.walk_isa
                     );
-                    hits += single.is_some() as usize;
-                    occluded += bvh.occluded(ray) as usize;
-                    total += 1;
                 }
                 assert_eq!(packet.mask >> size, 0);
                 assert_eq!(shadows >> size, 0);
