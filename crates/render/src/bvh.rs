@@ -136,17 +136,6 @@ pub struct Bvh {
     walk_isa: linlight_sampling::batch::Isa,
 }
 
-/// The packet walks' kernel on this CPU ([`Bvh::walk_isa`]).
-fn detect_walk_isa() -> linlight_sampling::batch::Isa {
-    use linlight_sampling::batch::Isa;
-    match Isa::detect() {
-        #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 if std::arch::is_x86_feature_detected!("avx512bw") => Isa::Avx512,
-        Isa::Avx512 | Isa::Avx2 => Isa::Avx2,
-        Isa::Baseline => Isa::Baseline,
-    }
-}
-
 struct BuildItem {
     bounds: Aabb,
     centroid: Vec3,
@@ -297,7 +286,8 @@ struct RayPacket<'a> {
     /// Bounds of the reciprocal directions.
     inv_lo: [f32; 3],
     inv_hi: [f32; 3],
-    /// Smallest t_min and largest t_max of the rays (kept up to date by the closest-hit walk).
+    /// Smallest t_min and largest t_max of the rays. `t_hi` is read only when `coherent`
+    /// (interval tests), so the closest-hit walk keeps it up to date only then.
     t_lo: f32,
     t_hi: f32,
 }
@@ -307,9 +297,8 @@ struct RayPacket<'a> {
 type AxisBounds = (f32, f32, f32, f32, u32);
 
 impl<'a> RayPacket<'a> {
-    /// The interval part of the packet from the bounds of its rays, per axis: (smallest origin,
-    /// largest origin, smallest 1/d, largest 1/d, direction-sign bits of the active rays), and
-    /// the smallest t_min and largest t_max. `ordered`: no active lane has a NaN origin,
+    /// The interval part of the packet from the bounds of its rays, per axis
+    /// ([`AxisBounds`]), and the smallest t_min and largest t_max. `ordered`: no active lane has a NaN origin,
     /// reciprocal or interval end (a NaN makes the packet incoherent).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
@@ -483,10 +472,24 @@ impl PacketHits {
 /// Whether a hit at t of primitive i replaces the best hit so far (`best_prim` = u32::MAX:
 /// none): the closest hit, and among hits at the same t the smallest primitive index, so that
 /// the answer does not depend on the order in which the tree is walked. The caller has already
-/// checked t < t_max, where t_max = next_up(best t) once a hit is known.
+/// checked t < t_max, where t_max = next_up(best t) once a hit is known. No primitive index is
+/// u32::MAX ([`Bvh::build`]), so i < best_prim also covers "no hit yet".
 #[inline(always)]
 fn replaces(t: f32, i: u32, best_t: f32, best_prim: u32) -> bool {
-    (best_prim == u32::MAX) | (t < best_t) | (i < best_prim)
+    (t < best_t) | (i < best_prim)
+}
+
+/// The rays' t_max on the lanes of `active`, −∞ elsewhere: rays outside the packet never hit
+/// (t < −∞ is false).
+#[inline(always)]
+fn active_t_max(lanes: &RayLanes, active: u32) -> [f32; PACKET] {
+    std::array::from_fn(|k| {
+        if active >> k & 1 == 1 {
+            lanes.t_max[k]
+        } else {
+            f32::NEG_INFINITY
+        }
+    })
 }
 
 /// A pending subtree of a packet walk: parent node, slot, rays, entry distance.
@@ -539,6 +542,11 @@ const STACK: usize = 16;
 
 impl Bvh {
     pub fn build(prims: Vec<Primitive>) -> Self {
+        // Primitive indices are u32 below u32::MAX, the packets' "no hit" (see `replaces`).
+        assert!(
+            prims.len() < u32::MAX as usize,
+            "a BVH holds fewer than 2^32 - 1 primitives"
+        );
         let mut items: Vec<BuildItem> = prims
             .iter()
             .enumerate()
@@ -591,7 +599,7 @@ impl Bvh {
             isect,
             nodes,
             tiny,
-            walk_isa: detect_walk_isa(),
+            walk_isa: linlight_sampling::batch::Isa::detect(),
         }
     }
 
@@ -698,8 +706,9 @@ impl Bvh {
                 bvh.occluded_walk::<kernels::Avx2>(lanes, active)
             }
             match self.walk_isa {
-                // SAFETY: the features the functions are compiled for were detected
-                // (`detect_walk_isa`).
+                // SAFETY: `walk_isa` is a variant `Isa::supported` on this CPU (`Isa::detect`
+                // at build; tests set only supported ones), and that checks every feature the
+                // functions are compiled for.
                 Isa::Avx512 => unsafe { return avx512(self, lanes, active) },
                 Isa::Avx2 => unsafe { return avx2(self, lanes, active) },
                 Isa::Baseline => {}
@@ -813,8 +822,9 @@ impl Bvh {
                 bvh.intersect_walk::<kernels::Avx2>(lanes, active, out)
             }
             match self.walk_isa {
-                // SAFETY: the features the functions are compiled for were detected
-                // (`detect_walk_isa`).
+                // SAFETY: `walk_isa` is a variant `Isa::supported` on this CPU (`Isa::detect`
+                // at build; tests set only supported ones), and that checks every feature the
+                // functions are compiled for.
                 Isa::Avx512 => unsafe {
                     avx512(self, lanes, active, &mut out);
                     return out;
@@ -833,9 +843,19 @@ impl Bvh {
     /// The walk of [`Self::intersect_lanes`]; `out` holds "no hit" in every lane on entry.
     #[inline(always)]
     fn intersect_walk<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
-        if !self.tiny.is_empty() {
-            return self.intersect_tiny::<K>(lanes, active, out);
+        if self.tiny.is_empty() {
+            self.intersect_tree::<K>(lanes, active, out);
+        } else {
+            self.intersect_tiny::<K>(lanes, active, out);
         }
+        for (k, &prim) in out.prim.iter().enumerate() {
+            out.mask |= ((prim != u32::MAX) as u32) << k;
+        }
+    }
+
+    /// [`Self::intersect_walk`] through the tree: `out`'s hits, not its mask.
+    #[inline(always)]
+    fn intersect_tree<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
         let mut packet = K::packet(lanes, active);
         let mut stack = stack::<PacketEntry, 64>();
         let mut spill: Vec<PacketEntry> = Vec::new();
@@ -922,13 +942,11 @@ impl Bvh {
                     }
                 }
             }
-            if took != 0 {
-                // The rays' intervals shrank: so does the packet's.
+            if packet.coherent & (took != 0) {
+                // The rays' intervals shrank: so does the packet's (read only by the
+                // interval tests of a coherent packet).
                 packet.t_hi = K::max(&packet.t_max);
             }
-        }
-        for (k, &prim) in out.prim.iter().enumerate() {
-            out.mask |= ((prim != u32::MAX) as u32) << k;
         }
     }
 
@@ -936,14 +954,7 @@ impl Bvh {
     /// active rays at once, until every ray is occluded.
     #[inline(always)]
     fn occluded_tiny<K: Kernel>(&self, lanes: &RayLanes, active: u32) -> u32 {
-        // Rays outside the packet never hit (t < −∞ is false).
-        let t_max: [f32; PACKET] = std::array::from_fn(|k| {
-            if active >> k & 1 == 1 {
-                lanes.t_max[k]
-            } else {
-                f32::NEG_INFINITY
-            }
-        });
+        let t_max = active_t_max(lanes, active);
         let mut occluded = 0u32;
         for tri in &self.tiny {
             occluded |= K::triangle(lanes, &lanes.t_min, &t_max, tri).3;
@@ -960,21 +971,11 @@ impl Bvh {
     /// smallest index: what [`Self::intersect`] returns.
     #[inline(always)]
     fn intersect_tiny<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
-        // `out.t`: the current closest distance of each ray; −∞ outside the packet (nothing
-        // is hit).
-        out.t = std::array::from_fn(|k| {
-            if active >> k & 1 == 1 {
-                lanes.t_max[k]
-            } else {
-                f32::NEG_INFINITY
-            }
-        });
+        // `out.t`: the current closest distance of each ray.
+        out.t = active_t_max(lanes, active);
         for (i, tri) in self.tiny.iter().enumerate() {
             let hits = K::triangle(lanes, &lanes.t_min, &out.t, tri);
             K::take_nearer(out, &hits, i as u32);
-        }
-        for (k, &p) in out.prim.iter().enumerate() {
-            out.mask |= ((p != u32::MAX) as u32) << k;
         }
     }
 
@@ -1469,21 +1470,31 @@ mod tests {
             // Every other ray of the packet switched off.
             let lanes = RayLanes::from_rays(&rays);
             let half = 0x5555 & ((1u32 << size) - 1);
+            // The single-ray answers, once per ray.
+            let singles: Vec<_> = rays
+                .iter()
+                .map(|ray| {
+                    let hit = bvh.intersect(ray).map(|h| (h.t, h.prim, h.b1, h.b2));
+                    (hit, bvh.occluded(ray))
+                })
+                .collect();
+            for &(hit, shadowed) in &singles {
+                hits += hit.is_some() as usize;
+                occluded += shadowed as usize;
+                total += 1;
+            }
             for b in walk_variants(&bvh) {
                 let packet = b.intersect_packet(&rays);
                 let shadows = b.occluded_packet(&rays);
-                for (i, ray) in rays.iter().enumerate() {
-                    let single = bvh.intersect(ray).map(|h| (h.t, h.prim, h.b1, h.b2));
+                for (i, &(single, shadowed)) in singles.iter().enumerate() {
                     let got = packet.get(i).map(|h| (h.t, h.prim, h.b1, h.b2));
                     assert_eq!(got, single, "{:?}, packet {k}, ray {i}", b.walk_isa);
                     assert_eq!(
                         shadows >> i & 1 == 1,
-                        bvh.occluded(ray),
-                        "packet {k}, ray {i}"
+                        shadowed,
+                        "{:?}, packet {k}, ray {i}",
+                        b.walk_isa
                     );
-                    hits += single.is_some() as usize;
-                    occluded += bvh.occluded(ray) as usize;
-                    total += 1;
                 }
                 assert_eq!(packet.mask >> size, 0);
                 assert_eq!(shadows >> size, 0);

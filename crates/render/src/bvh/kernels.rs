@@ -539,9 +539,9 @@ mod x86 {
             // SAFETY: 16 u32 in each.
             let best_prim = unsafe { _mm512_loadu_si512(best.prim.as_ptr().cast()) };
             let i = _mm512_set1_epi32(prim as i32);
-            // `replaces`: no hit yet, closer, or as close with a smaller index.
-            let take = _mm512_mask_cmpeq_epi32_mask(hits, best_prim, _mm512_set1_epi32(-1))
-                | _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(hits, t, best_t)
+            // `replaces`: closer, or as close with a smaller index (u32::MAX, no hit yet, is
+            // larger than every index).
+            let take = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(hits, t, best_t)
                 | _mm512_mask_cmplt_epu32_mask(hits, i, best_prim);
             // next_up(t) of a finite t: ±0 → the smallest subnormal, else one ulp up.
             let bits = _mm512_castps_si512(t);
@@ -872,16 +872,16 @@ mod x86 {
                 let best_t = ld(&best.t, h);
                 // SAFETY: 8 u32 from 8h.
                 let best_prim = unsafe { _mm256_loadu_si256(best.prim.as_ptr().add(8 * h).cast()) };
-                // `replaces`: no hit yet, closer, or as close with a smaller index (unsigned
-                // comparison as signed with the sign bits flipped).
-                let none = _mm256_cmpeq_epi32(best_prim, _mm256_set1_epi32(-1));
+                // `replaces`: closer, or as close with a smaller index (u32::MAX, no hit yet,
+                // is larger than every index; unsigned comparison as signed with the sign
+                // bits flipped).
                 let smaller = _mm256_cmpgt_epi32(
                     _mm256_xor_si256(best_prim, flip),
                     _mm256_xor_si256(i, flip),
                 );
                 let closer = _mm256_cmp_ps::<_CMP_LT_OQ>(ti, best_t);
                 let take = _mm256_and_ps(
-                    _mm256_or_ps(closer, _mm256_castsi256_ps(_mm256_or_si256(none, smaller))),
+                    _mm256_or_ps(closer, _mm256_castsi256_ps(smaller)),
                     lane_mask(hits, h),
                 );
                 // next_up(t) of a finite t: ±0 → the smallest subnormal, else one ulp up.
@@ -951,6 +951,7 @@ mod x86 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::{intersect_triangle_edges, Ray};
     use linlight_sampling::rng::Pcg32;
 
     /// Packets with every kind of lane: masked off, zero and negative direction components,
@@ -1003,7 +1004,7 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         {
             use linlight_sampling::batch::Isa;
-            if Isa::Avx512.supported() && std::arch::is_x86_feature_detected!("avx512bw") {
+            if Isa::Avx512.supported() {
                 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
                 unsafe fn run() {
                     compare::<Avx512>();
@@ -1020,6 +1021,8 @@ mod tests {
                 unsafe { run() };
             }
         }
+        // The portable kernel against the scalar single-ray tests (triangles; every other
+        // comparison is of the portable kernel with itself).
         compare::<Portable>();
     }
 
@@ -1085,23 +1088,27 @@ mod tests {
                 let h = Portable::triangle(&lanes, &p.t_min, &t_max[0], tri);
                 let g = K::triangle(&lanes, &q.t_min, &t_max[1], tri);
                 assert_eq!(h.3, g.3);
-                for k in (0..PACKET).filter(|k| h.3 >> k & 1 == 1) {
-                    assert_eq!(
-                        (h.0[k].to_bits(), h.1[k].to_bits(), h.2[k].to_bits()),
-                        (g.0[k].to_bits(), g.1[k].to_bits(), g.2[k].to_bits())
-                    );
-                    // The lane test is the scalar test.
-                    let ray = lanes.get(k);
-                    let scalar = intersect_triangle_lane(
-                        ray.o,
-                        ray.d,
-                        p.t_min[k],
-                        t_max[0][k],
-                        tri[0],
-                        tri[1],
-                        tri[2],
-                    );
-                    assert_eq!(scalar.0.to_bits(), h.0[k].to_bits());
+                #[allow(clippy::needless_range_loop)] // lane k of every array
+                for k in 0..PACKET {
+                    // Kernel K's lane is the scalar single-ray test (`Bvh::intersect`'s):
+                    // the same hit or miss, and where it hits the same t, b1, b2 bit for bit.
+                    let ray = Ray {
+                        t_min: q.t_min[k],
+                        t_max: t_max[1][k],
+                        ..lanes.get(k)
+                    };
+                    let scalar = intersect_triangle_edges(&ray, tri[0], tri[1], tri[2]);
+                    let lane = (g.3 >> k & 1 == 1).then(|| (g.0[k], g.1[k], g.2[k]));
+                    let bits3 = |x: Option<(f32, f32, f32)>| {
+                        x.map(|(t, b1, b2)| (t.to_bits(), b1.to_bits(), b2.to_bits()))
+                    };
+                    assert_eq!(bits3(scalar), bits3(lane), "lane {k}");
+                    if h.3 >> k & 1 == 1 {
+                        assert_eq!(
+                            (h.0[k].to_bits(), h.1[k].to_bits(), h.2[k].to_bits()),
+                            (g.0[k].to_bits(), g.1[k].to_bits(), g.2[k].to_bits())
+                        );
+                    }
                 }
                 hits += h.3.count_ones();
                 // The same hits under index 2i + 1, then again under 2i: every hit is then a
