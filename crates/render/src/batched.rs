@@ -62,7 +62,6 @@ use crate::shading::{
 use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
-use linlight_brdf::lanes as brdf_lanes;
 use linlight_imagefile::Image;
 use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
@@ -685,38 +684,38 @@ fn glossy_contributions(
         let lk = to_local(x, y, n, get3(&samples.dir, k));
         (l[0][k], l[1][k], l[2][k]) = (lk.x, lk.y, lk.z);
     }
-    // f·cos of the lanes in `todo`, BSDF by BSDF.
+    // f·cos of the lanes in `todo`, BSDF by BSDF, each on all sixteen lanes at once (f32: one
+    // 512-bit register; the lanes outside its group are computed and not kept).
+    let v = [shading.v[0], [0.0; LANES], shading.v[1]];
     let mut f_cos = [[0.0f32; LANES]; 3];
+    let all = todo;
     while todo != 0 {
         let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
             todo &= todo - 1;
             continue;
         };
-        // The lanes whose surface has this BSDF.
+        // The lanes of `todo` whose surface has this BSDF (pointers compared on all lanes at
+        // once).
         let mut group = 0u32;
-        for_lanes(todo, |k| {
-            if shading.bsdf[k].is_some_and(|b| std::ptr::eq(b, bsdf)) {
-                group |= 1 << k;
-            }
-        });
-        todo &= !group;
-        if group >> BATCH != 0 && group & ((1 << BATCH) - 1) != 0 {
-            // Both halves: all sixteen lanes at once (the others' values are not used).
-            let v = [shading.v[0], [0.0; LANES], shading.v[1]];
-            keep_lanes(&mut f_cos, &bsdf.eval_lanes(&v, &l), group, 0);
-            continue;
+        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+        for k in 0..LANES {
+            let same = shading.bsdf[k].map_or(std::ptr::null(), |b| b as *const Bsdf);
+            group |= (std::ptr::eq(same, bsdf) as u32) << k;
         }
-        for half in 0..LANES / BATCH {
-            let lanes = group >> (half * BATCH) & ((1 << BATCH) - 1);
-            if lanes == 0 {
-                continue;
+        group &= todo;
+        todo &= !group;
+        let f = bsdf.eval_lanes(&v, &l);
+        if group == all {
+            // One BSDF on every glossy lit lane (the loop below reads no other lane).
+            f_cos = f;
+            break;
+        }
+        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+        for k in 0..LANES {
+            let keep = group >> k & 1 == 1;
+            for a in 0..3 {
+                f_cos[a][k] = if keep { f[a][k] } else { f_cos[a][k] };
             }
-            // The half's eight lanes.
-            let slice =
-                |a: &[f32; LANES]| -> [f32; BATCH] { std::array::from_fn(|j| a[half * BATCH + j]) };
-            let v = [slice(&shading.v[0]), [0.0; BATCH], slice(&shading.v[1])];
-            let f = bsdf.eval_lanes(&v, &l.each_ref().map(slice));
-            keep_lanes(&mut f_cos, &f, lanes, half * BATCH);
         }
     }
     // K·(f·cos)/p (single_contribution's arithmetic) on all lanes, the finite ones of the lit
@@ -734,31 +733,6 @@ fn glossy_contributions(
         }
     }
     dropped.count_ones() as u64
-}
-
-/// Writes lanes j of `f` (f32, as the scalar path's `Bsdf::eval_f32`) for j in `lanes` into lanes
-/// `offset + j` of `out`.
-#[inline(always)]
-fn keep_lanes<const N: usize>(
-    out: &mut Lanes3,
-    f: &brdf_lanes::Lanes3<f32, N>,
-    lanes: u32,
-    offset: usize,
-) {
-    for j in 0..N {
-        if lanes >> j & 1 == 1 {
-            set3(out, offset + j, brdf_lanes::get(f, j).into());
-        }
-    }
-}
-
-/// `f(k)` for each lane k in `mask`, in increasing order.
-#[inline(always)]
-fn for_lanes(mut mask: u32, mut f: impl FnMut(usize)) {
-    while mask != 0 {
-        f(mask.trailing_zeros() as usize);
-        mask &= mask - 1;
-    }
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
