@@ -51,7 +51,6 @@ pub fn each_lane<T: Real, const N: usize>(
 mod tests {
     use super::*;
     use crate::test_util::{bsdfs, pairs};
-    use glam::Vec3;
 
     /// In both precisions: eight lanes (sixteen for f32, as the AVX-512 kernel evaluates them)
     /// equal the scalar evaluation, finite, for every model and nesting and the direction pairs
@@ -73,13 +72,53 @@ mod tests {
         }
     }
 
+    /// The renderer's f32 evaluation against the f64 one of the same (f32) directions: zero
+    /// exactly where f64 is zero, and relative error per channel ≤ 1e-5 (≈ 170 ulps of f32)
+    /// wherever the f64 value is ≥ 1e-6 of the set's largest (below that, the relative error of
+    /// a value that is almost flushed is not meaningful; it stays ≤ 1e-6 of the maximum).
+    /// Measured over every model and nesting of `bsdfs()`: worst 1.1e-6 (≈ 19 ulps).
+    #[test]
+    fn f32_eval_is_the_f64_eval_to_f32_precision() {
+        let (mut worst, mut worst_small) = (0.0f64, 0.0f64);
+        for bsdf in bsdfs() {
+            let pairs: Vec<_> = pairs()
+                .into_iter()
+                .map(|(a, b)| (a.as_vec3(), b.as_vec3()))
+                .collect();
+            let wide: Vec<_> = pairs
+                .iter()
+                .map(|&(a, b)| bsdf.eval(a.as_dvec3(), b.as_dvec3()))
+                .collect();
+            let max = wide.iter().map(|f| f.max_element()).fold(0.0, f64::max);
+            for (&(a, b), want) in pairs.iter().zip(&wide) {
+                let got = bsdf.eval_f32(a, b).as_dvec3();
+                for c in 0..3 {
+                    let (g, w) = (got[c], want[c]);
+                    assert_eq!(
+                        g == 0.0,
+                        w == 0.0,
+                        "{bsdf:?}, v {a}, l {b}: f32 {g}, f64 {w}"
+                    );
+                    if w.abs() >= 1e-6 * max {
+                        let e = (g - w).abs() / w.abs();
+                        worst = worst.max(e);
+                        assert!(e <= 1e-5, "{bsdf:?}, v {a}, l {b}: f32 {g}, f64 {w}: {e:e}");
+                    } else {
+                        worst_small = worst_small.max((g - w).abs() / max);
+                        assert!((g - w).abs() <= 1e-6 * max, "{bsdf:?}, v {a}, l {b}");
+                    }
+                }
+            }
+        }
+        println!("worst relative error {worst:e}; below 1e-6 of the maximum: {worst_small:e}");
+    }
+
     fn check<T: Real, const N: usize>(
         pairs: &[(glam::DVec3, glam::DVec3)],
         convert: impl Fn(glam::DVec3, glam::DVec3) -> (V3<T>, V3<T>),
         scalar: impl Fn(V3<T>, V3<T>) -> V3<T>,
         lanes: impl Fn(&Lanes3<T, N>, &Lanes3<T, N>) -> Lanes3<T, N>,
     ) {
-        let _ = Vec3::ZERO;
         for chunk in pairs.chunks(N) {
             let (mut v, mut l) = ([[T::zero(); N]; 3], [[T::zero(); N]; 3]);
             for (k, &(a, b)) in chunk.iter().enumerate() {
