@@ -125,7 +125,10 @@ fn pairs(seed: u64, count: usize, lobe_alpha: Option<f64>, side: &str) -> Vec<(D
 fn load_bsdf(xml: &str, name: &str) -> Bsdf {
     let dir = std::env::temp_dir().join(format!("linlight-bsdf-golden-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("{name}.xml"));
+    // A file of its own per call: the f64 and f32 tests load the same sets in parallel.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let path = dir.join(format!("{name}-{call}.xml"));
     let scene = format!(
         "<scene version=\"3.0.0\"><integrator type=\"direct\"/><sensor type=\"perspective\">\
          <float name=\"fov\" value=\"40\"/><film type=\"hdrfilm\"><rfilter type=\"box\"/></film>\
