@@ -26,7 +26,7 @@ use crate::projected_solid_angle::{ProjectedSolidAngle, PsaCore, DEFAULT_ITERATI
 use crate::sampler::clamp_xi;
 use crate::sampler::LineSampler;
 use crate::solid_angle::SolidAngle;
-use crate::trig::{atan2_f64_select, atan2_select};
+use crate::trig::{atan2_coarse_select, atan2_f64_select};
 use glam::Vec3;
 
 /// Lanes of a batch.
@@ -411,7 +411,8 @@ struct Pending {
 impl Pending {
     #[inline(always)]
     fn set(&mut self, i: usize, p: &ProjectedSolidAngle, xi: f32, ok: bool) {
-        let ((s, t, n_dot_w), tau, fresh) = p.sample_rotated_lane(clamp_xi(xi), atan2_select);
+        let ((s, t, n_dot_w), tau, fresh) =
+            p.sample_rotated_lane(clamp_xi(xi), atan2_coarse_select);
         (self.s[i], self.t[i], self.n_dot_w[i]) = (s, t, n_dot_w);
         (self.tau[i], self.fresh[i], self.ok[i]) = (tau, fresh, ok);
         let c = &p.core;

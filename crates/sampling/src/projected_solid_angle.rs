@@ -103,6 +103,7 @@ pub(crate) trait Real:
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
     fn sin_cos(self) -> (Self, Self);
+    /// atan2 of the start value (the core's only one; f32: [`crate::trig::atan2_coarse`]).
     fn atan2(self, x: Self) -> Self;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
@@ -179,13 +180,14 @@ macro_rules! impl_real {
         }
     };
 }
-// f32: atan2 and sin_cos without libm (crate::trig, f64 polynomials, ~1e-11 relative), the
+// f32: atan2 and sin_cos without libm (crate::trig, f64 polynomials, ~1e-11 relative; atan2,
+// which only the start value takes, with an f32 division: within 2 ulp), the
 // series of δ − sin δ to δ⁸ (truncation < 1e-9 relative for |δ| < 1). f64: std, to δ¹⁶
 // (< 1e-17). c_k = 6(−1)^k/(2k + 3)!.
 impl_real!(
     f32,
     |a: f32, b: f32, c: f32, d: f32| { (a as f64 * b as f64 + c as f64 * d as f64) as f32 },
-    crate::trig::atan2,
+    crate::trig::atan2_coarse,
     crate::trig::sin_cos,
     SERIES.split_at(5).0
 );
