@@ -677,8 +677,10 @@ pub(crate) fn power_of_two_scaled(n: Vec3) -> Vec3 {
 }
 
 /// Normalise a user-supplied normal. Policy of this crate: normals are *normalised*; a zero,
-/// denormal-length or non-finite normal is rejected (`None`), which makes the light contribute
-/// nothing at that shading point.
+/// denormal-length or non-finite normal is rejected (`None`; `normal_is_valid`), which makes
+/// the light contribute nothing at that shading point. (Projected solid angle and Li et al.,
+/// whose arithmetic is homogeneous in n, scale it by a power of two instead,
+/// `power_of_two_scaled`: the same direction without a rounding.)
 ///
 /// In f64, where the squares of f32 components neither overflow nor underflow: one square root
 /// and one division, no rescaling pass.
