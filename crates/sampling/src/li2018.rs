@@ -34,7 +34,9 @@ pub const TOLERANCE: f32 = 1e-5;
 pub struct Li2018 {
     /// Shares the clipped frame, the exact density and the exact CDF.
     pub(crate) exact: ProjectedSolidAngle,
-    /// n·c = d n_t and n_s = n·u, for F'(l) = 2d(n·c + l n_s)/r⁴.
+    /// n·c = d n_t and n_s = n·u, for F'(l) = 2d(n·c + l n_s)/r⁴, of the sampler's normal
+    /// `exact.n` (scaled by a power of two, not unit: the slope is used with `exact.inv_psa`,
+    /// which refers to the same normal).
     pub(crate) n_dot_c: f32,
     pub(crate) ns: f32,
     pub(crate) max_iterations: u32,
