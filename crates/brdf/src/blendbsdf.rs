@@ -2,6 +2,7 @@
 //! nested BSDF in file order.
 
 use crate::lanes::{each_lane, Lanes3};
+use crate::real::{Real, V3};
 use crate::{Bsdf, Lobes, SpecularLobe};
 use glam::DVec3;
 
@@ -17,13 +18,23 @@ impl Blend {
     /// The weight w of the second BSDF, clipped to [0, 1].
     #[inline(always)]
     pub fn weight(&self) -> f64 {
-        (self.weight as f64).clamp(0.0, 1.0)
+        self.weight_in()
+    }
+
+    /// [`Blend::weight`] in either precision (the same clip of the same f32 value).
+    #[inline(always)]
+    fn weight_in<T: Real>(&self) -> T {
+        T::of(self.weight.clamp(0.0, 1.0))
     }
 
     /// f·cos θ_l = (1 − w)·f₀·cos + w·f₁·cos of N lanes from the children's values f₀·cos and
     /// f₁·cos of each lane (evaluate a blend with [`Bsdf::eval`]).
     #[inline(always)]
-    pub fn eval_lanes<const N: usize>(&self, f0: &Lanes3<N>, f1: &Lanes3<N>) -> Lanes3<N> {
+    pub fn eval_lanes<T: Real, const N: usize>(
+        &self,
+        f0: &Lanes3<T, N>,
+        f1: &Lanes3<T, N>,
+    ) -> Lanes3<T, N> {
         each_lane(
             f0,
             f1,
@@ -33,9 +44,9 @@ impl Blend {
     }
 
     #[inline(always)]
-    fn mix(&self, f0: DVec3, f1: DVec3) -> DVec3 {
-        let w = self.weight();
-        f0 * (1.0 - w) + f1 * w
+    fn mix<T: Real>(&self, f0: V3<T>, f1: V3<T>) -> V3<T> {
+        let w = self.weight_in::<T>();
+        f0 * (T::one() - w) + f1 * w
     }
 
     /// Weighted sums of the children's summaries. When both children have a specular lobe, the

@@ -4,9 +4,10 @@
 use crate::blendbsdf::Blend;
 use crate::lanes::{self, each_lane, Lanes3};
 use crate::principled::Principled;
+use crate::real::{Real, V3};
 use crate::roughconductor::RoughConductor;
 use crate::{diffuse, twosided};
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 /// Linear RGB parameters, stored in single precision as Mitsuba stores them.
 pub type Rgb = [f32; 3];
@@ -69,22 +70,41 @@ impl Bsdf {
     /// f(v, l)·|l_z|: the BSDF value times the cosine at the light direction, exactly what
     /// Mitsuba's `BSDF.eval(ctx, si, wo)` returns with `si.wi = v`, `wo = l`. Both directions
     /// are unit vectors in the shading frame (z = shading normal), v toward the viewer, l toward
-    /// the light. Per RGB channel, f64.
+    /// the light. Per RGB channel, f64 (reference quadrature, tests; the renderer evaluates in
+    /// f32: [`Bsdf::eval_f32`]).
     ///
     /// This is the lane code with one lane ([`Bsdf::eval_lanes`]), so that both give the same
     /// bits.
     pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
-        let one = |d: DVec3| [[d.x], [d.y], [d.z]];
-        lanes::get(&self.eval_lanes::<1>(&one(v), &one(l)), 0)
+        self.eval_one::<f64>(v.into(), l.into()).into()
     }
 
-    /// [`Bsdf::eval`] of N lanes at once (directions and values as structures of arrays,
-    /// [`crate::lanes`]); lane k is bit for bit `eval` of lane k's directions. The models'
-    /// lane loops vectorise (f64, SIMD width of the instruction set the caller is compiled
-    /// for): `twosided`, `blendbsdf` and the leaf models are written out to that depth, deeper
-    /// nestings evaluate their inner BSDFs lane by lane.
+    /// [`Bsdf::eval`] in f32, as Mitsuba evaluates its BSDFs: what the renderer shades with,
+    /// the lane code with one lane ([`Bsdf::eval_lanes`] in f32), so that the renderer's
+    /// scalar path and its packets give the same bits. Within a few ulps of f32 of the f64
+    /// evaluation of the same (f32) directions, relative, where the value is not tiny.
+    pub fn eval_f32(&self, v: Vec3, l: Vec3) -> Vec3 {
+        self.eval_one::<f32>(v.into(), l.into()).into()
+    }
+
+    /// One lane of [`Bsdf::eval_lanes`] in either precision.
+    fn eval_one<T: Real>(&self, v: V3<T>, l: V3<T>) -> V3<T> {
+        lanes::get(&self.eval_lanes::<T, 1>(&lanes::one(v), &lanes::one(l)), 0)
+    }
+
+    /// [`Bsdf::eval`] of N lanes at once in f32 or f64 (directions and values as structures of
+    /// arrays, [`crate::lanes`]); lane k is bit for bit the one-lane evaluation of lane k's
+    /// directions in the same precision ([`Bsdf::eval`], [`Bsdf::eval_f32`]). The models'
+    /// lane loops vectorise (SIMD width of the instruction set the caller is compiled for:
+    /// sixteen f32 or eight f64 lanes per 512-bit register): `twosided`, `blendbsdf` and the
+    /// leaf models are written out to that depth, deeper nestings evaluate their inner BSDFs
+    /// lane by lane.
     #[inline(always)]
-    pub fn eval_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
+    pub fn eval_lanes<T: Real, const N: usize>(
+        &self,
+        v: &Lanes3<T, N>,
+        l: &Lanes3<T, N>,
+    ) -> Lanes3<T, N> {
         match self {
             Bsdf::TwoSided(inner) => {
                 let (v, l) = twosided::flip_lanes(v, l);
@@ -95,7 +115,11 @@ impl Bsdf {
     }
 
     #[inline(always)]
-    fn eval_one_sided_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
+    fn eval_one_sided_lanes<T: Real, const N: usize>(
+        &self,
+        v: &Lanes3<T, N>,
+        l: &Lanes3<T, N>,
+    ) -> Lanes3<T, N> {
         match self {
             Bsdf::Blend(b) => b.eval_lanes(
                 &b.bsdfs[0].eval_leaf_lanes(v, l),
@@ -106,23 +130,27 @@ impl Bsdf {
     }
 
     #[inline(always)]
-    fn eval_leaf_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
+    fn eval_leaf_lanes<T: Real, const N: usize>(
+        &self,
+        v: &Lanes3<T, N>,
+        l: &Lanes3<T, N>,
+    ) -> Lanes3<T, N> {
         match self {
             Bsdf::Diffuse { reflectance } => each_lane(
                 v,
                 l,
                 #[inline(always)]
-                |v, l| diffuse::eval(*reflectance, v, l),
+                |v, l| diffuse::eval_in(*reflectance, v, l),
             ),
             Bsdf::RoughConductor(c) => c.eval_lanes(v, l),
             Bsdf::Principled(p) => each_lane(
                 v,
                 l,
                 #[inline(always)]
-                |v, l| p.eval(v, l),
+                |v, l| p.eval_in(v, l),
             ),
-            // Nested blends and two-sided BSDFs: the scalar code per lane.
-            Bsdf::Blend(_) | Bsdf::TwoSided(_) => each_lane(v, l, |v, l| self.eval(v, l)),
+            // Nested blends and two-sided BSDFs: the one-lane code per lane.
+            Bsdf::Blend(_) | Bsdf::TwoSided(_) => each_lane(v, l, |v, l| self.eval_one(v, l)),
         }
     }
 

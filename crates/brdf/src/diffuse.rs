@@ -1,17 +1,23 @@
 //! Mitsuba's `diffuse`: a one-sided Lambertian reflector, f = ρ/π.
 
+use crate::real::{Real, V3};
 use crate::{Lobes, Rgb};
 use glam::DVec3;
 
 /// ρ/π · l_z (cosine included) for v_z > 0 and l_z > 0, else 0.
-#[inline(always)]
 pub fn eval(reflectance: Rgb, v: DVec3, l: DVec3) -> DVec3 {
-    // Branch-free (computed, then selected) for the lanes of `Bsdf::eval_lanes`.
-    let value = rgb(reflectance) * (std::f64::consts::FRAC_1_PI * l.z);
-    if v.z > 0.0 && l.z > 0.0 {
+    eval_in(reflectance, v.into(), l.into()).into()
+}
+
+/// [`eval`] in either precision. Branch-free (computed, then selected) for the lanes of
+/// `Bsdf::eval_lanes`.
+#[inline(always)]
+pub(crate) fn eval_in<T: Real>(reflectance: Rgb, v: V3<T>, l: V3<T>) -> V3<T> {
+    let value = V3::rgb(reflectance) * (T::c(std::f64::consts::FRAC_1_PI) * l.z);
+    if v.z > T::zero() && l.z > T::zero() {
         value
     } else {
-        DVec3::ZERO
+        V3::zero()
     }
 }
 

@@ -162,7 +162,8 @@ fn eval(bsdf: &Bsdf, v: DVec3, l: DVec3) -> DVec3 {
             eval(&b.bsdfs[0], v, l) * (1.0 - w) + eval(&b.bsdfs[1], v, l) * w
         }
         Bsdf::TwoSided(inner) => {
-            let (v, l) = twosided::flip(v, l);
+            let (v, l) = twosided::flip::<f64>(v.into(), l.into());
+            let (v, l) = (v.into(), l.into());
             eval(inner, v, l)
         }
     }

@@ -11,7 +11,8 @@
 //! [`roughconductor`], [`principled`], [`blendbsdf`], [`twosided`]; [`Bsdf`] dispatches over
 //! them and documents the lobe summary ([`Lobes`]) that MIS weights are built from. Shared
 //! pieces: [`microfacet`] (GGX D, Smith G1, the F ≡ 1 lobe, visible-normal sampling) and
-//! [`fresnel`]; [`lanes`] (N evaluations at once, bit for bit the scalar ones).
+//! [`fresnel`]; [`lanes`] (N evaluations at once, bit for bit the scalar ones); [`real`] (the
+//! precision: f64 for reference, f32 for the renderer, one piece of code).
 //!
 //! No I/O (the LTC table is compiled in); no dependency on the sampling crate.
 
@@ -26,6 +27,7 @@ pub mod lanes;
 pub mod ltc;
 pub mod microfacet;
 pub mod principled;
+pub mod real;
 pub mod roughconductor;
 pub mod twosided;
 

@@ -17,6 +17,7 @@
 //! renderer evaluate the same expression; they take sin²θ from vector components, as Mitsuba does,
 //! so that small α near the normal keeps its precision.
 
+use crate::real::{Real, V3};
 use glam::DVec3;
 use num_traits::Float;
 
@@ -88,27 +89,36 @@ pub fn ggx_cos(alpha: f64, v: DVec3, l: DVec3) -> f64 {
 }
 
 /// [`ggx_cos`] and v·h, the cosine at which a Fresnel factor multiplies the lobe; (0, 0) where
-/// the lobe is zero (as Mitsuba's conductor, which skips Fresnel where D = 0). Branch-free:
-/// every value is computed and the zero cases are selected at the end (the same bits as the
-/// early returns), so that the lanes of [`crate::Bsdf::eval_lanes`] vectorise.
+/// the lobe is zero (as Mitsuba's conductor, which skips Fresnel where D = 0). [`ggx_lobe`] in
+/// f64.
 #[inline(always)]
 pub fn ggx_cos_and_cos_vh(alpha: f64, v: DVec3, l: DVec3) -> (f64, f64) {
+    ggx_lobe(alpha, v.into(), l.into())
+}
+
+/// [`ggx_cos_and_cos_vh`] in either precision ([`Real`]). Branch-free: every value is computed
+/// and the zero cases are selected at the end (the same bits as the early returns), so that
+/// the lanes of [`crate::Bsdf::eval_lanes`] vectorise.
+#[inline(always)]
+pub fn ggx_lobe<T: Real>(alpha: T, v: V3<T>, l: V3<T>) -> (T, T) {
     // h = normalize_or_zero(v + l), written out (glam's expression) to select instead of branch.
     let sum = v + l;
     let rcp = sum.length_recip();
-    let h = if rcp.is_finite() && rcp > 0.0 {
+    let h = if rcp.is_finite() && rcp > T::zero() {
         sum * rcp
     } else {
-        DVec3::ZERO
+        V3::zero()
     };
+    let sin2 = |w: V3<T>| w.x * w.x + w.y * w.y;
     let dh = d(alpha, sin2(h), h.z);
     let cos_vh = v.dot(h);
     let g = g1(alpha, sin2(v), v.z, cos_vh) * g1(alpha, sin2(l), l.z, l.dot(h));
-    let lobe = dh * g / (4.0 * v.z);
-    if v.z > 0.0 && l.z > 0.0 && h != DVec3::ZERO && dh != 0.0 {
+    let lobe = dh * g / (T::c(4.0) * v.z);
+    let zero = T::zero();
+    if v.z > zero && l.z > zero && h != V3::zero() && dh != zero {
         (lobe, cos_vh)
     } else {
-        (0.0, 0.0)
+        (zero, zero)
     }
 }
 

@@ -17,7 +17,8 @@
 //! which is 0 with spec_trans = 0. Everything else (v_z = 0, or v and l on different sides) is 0.
 
 use crate::diffuse::rgb;
-use crate::microfacet::{clamp_alpha, ggx_cos_and_cos_vh};
+use crate::microfacet::{clamp_alpha, ggx_lobe};
+use crate::real::{Real, V3};
 use crate::{fresnel, Lobes, Rgb, SpecularLobe};
 use glam::DVec3;
 
@@ -59,71 +60,96 @@ impl Principled {
     /// The evaluated GGX α: max(0.001, roughness²), then Mitsuba's floor 1e-4.
     #[inline(always)]
     pub fn alpha(&self) -> f64 {
-        let r2 = (self.roughness * self.roughness).max(0.001);
-        clamp_alpha(r2 as f64)
+        self.alpha_in()
     }
 
-    /// F_p per channel at the microfacet cosine `cos_vh` (front side). The terms that the
-    /// parameters switch off are computed and not added (branch-free per lane, the same bits).
+    /// [`Principled::alpha`] in either precision (max in f32, as before, then the floor).
+    #[inline(always)]
+    fn alpha_in<T: Real>(&self) -> T {
+        let r2 = (self.roughness * self.roughness).max(0.001);
+        clamp_alpha(T::of(r2))
+    }
+
+    /// F_p per channel at the microfacet cosine `cos_vh` (front side).
     #[inline(always)]
     pub fn fresnel(&self, cos_vh: f64) -> DVec3 {
-        let eta = self.eta as f64;
-        let metallic = self.metallic as f64;
-        let tint = self.spec_tint as f64;
-        let base = rgb(self.base_color);
+        self.fresnel_in(cos_vh).into()
+    }
+
+    /// [`Principled::fresnel`] in either precision. The terms that the parameters switch off
+    /// are computed and not added (branch-free per lane, the same bits).
+    #[inline(always)]
+    fn fresnel_in<T: Real>(&self, cos_vh: T) -> V3<T> {
+        let one = T::one();
+        let eta = T::of(self.eta);
+        let metallic = T::of(self.metallic);
+        let tint = T::of(self.spec_tint);
+        let base = V3::rgb(self.base_color);
         let f_dielectric = fresnel::dielectric(cos_vh, eta);
-        let f = DVec3::splat((1.0 - metallic) * (1.0 - tint) * f_dielectric);
-        let metal = metallic * base.map(|b| fresnel::schlick(b, cos_vh, eta));
-        let f = if metallic != 0.0 { f + metal } else { f };
-        let lum = base.dot(rgb(LUMINANCE));
-        let c_tint = if lum > 0.0 { base / lum } else { DVec3::ONE };
-        let eta_it = if cos_vh >= 0.0 { eta } else { 1.0 / eta };
+        let f = V3::splat((one - metallic) * (one - tint) * f_dielectric);
+        let metal = base.map(|b| fresnel::schlick(b, cos_vh, eta)) * metallic;
+        let f = if metallic != T::zero() { f + metal } else { f };
+        let lum = base.dot(V3::rgb(LUMINANCE));
+        let c_tint = if lum > T::zero() {
+            base / lum
+        } else {
+            V3::splat(one)
+        };
+        let eta_it = if cos_vh >= T::zero() { eta } else { one / eta };
         let f0 = c_tint * fresnel::schlick_r0(eta_it);
-        let tinted = (1.0 - metallic) * tint * f0.map(|r0| fresnel::schlick(r0, cos_vh, eta));
-        if tint != 0.0 {
+        let tinted = f0.map(|r0| fresnel::schlick(r0, cos_vh, eta)) * ((one - metallic) * tint);
+        if tint != T::zero() {
             f + tinted
         } else {
             f
         }
     }
 
-    /// f(v, l)·l_z in the shading frame, as Mitsuba's `BSDF.eval` returns it. Branch-free:
-    /// every term is computed and the ones that do not apply are not added (the same bits as
-    /// skipping them), so that the lanes of [`crate::Bsdf::eval_lanes`] vectorise.
+    /// f(v, l)·l_z in the shading frame, as Mitsuba's `BSDF.eval` returns it (f64).
     #[inline(always)]
     pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
-        let value = DVec3::ZERO;
-        let (lobe, cos_vh) = ggx_cos_and_cos_vh(self.alpha(), v, l);
+        self.eval_in(v.into(), l.into()).into()
+    }
+
+    /// [`Principled::eval`] in either precision. Branch-free: every term is computed and the
+    /// ones that do not apply are not added (the same bits as skipping them), so that the
+    /// lanes of [`crate::Bsdf::eval_lanes`] vectorise.
+    #[inline(always)]
+    pub(crate) fn eval_in<T: Real>(&self, v: V3<T>, l: V3<T>) -> V3<T> {
+        let (zero, one, half) = (T::zero(), T::one(), T::c(0.5));
+        let value = V3::zero();
+        let (lobe, cos_vh) = ggx_lobe(self.alpha_in(), v, l);
         // Mitsuba drops the whole specular term where the dielectric Fresnel vanishes (η = 1),
         // even when metallic or tint would contribute.
-        let specular = self.fresnel(cos_vh) * lobe;
-        let value = if lobe != 0.0 && fresnel::dielectric(cos_vh, self.eta as f64) > 0.0 {
+        let specular = self.fresnel_in(cos_vh) * lobe;
+        let value = if lobe != zero && fresnel::dielectric(cos_vh, T::of(self.eta)) > zero {
             value + specular
         } else {
             value
         };
-        let w = 1.0 - self.metallic as f64;
+        let w = one - T::of(self.metallic);
         let h = (v + l).normalize();
         let (f_l, f_v) = (fresnel::schlick_weight(l.z), fresnel::schlick_weight(v.z));
-        let f_diff = (1.0 - 0.5 * f_v) * (1.0 - 0.5 * f_l);
+        let f_diff = (one - half * f_v) * (one - half * f_l);
         let cos_d = h.dot(l);
-        let rr = 2.0 * self.roughness as f64 * cos_d * cos_d;
-        let f_retro = rr * (f_l + f_v + f_l * f_v * (rr - 1.0));
-        let flatness = self.flatness as f64;
-        let fss90 = 0.5 * rr;
-        let fss = lerp(1.0, fss90, f_l) * lerp(1.0, fss90, f_v);
-        let f_ss = 1.25 * (fss * (1.0 / (l.z + v.z) - 0.5) + 0.5);
-        let shape = if flatness != 0.0 {
+        let rr = T::c(2.0) * T::of(self.roughness) * cos_d * cos_d;
+        let f_retro = rr * (f_l + f_v + f_l * f_v * (rr - one));
+        let flatness = T::of(self.flatness);
+        let fss90 = half * rr;
+        let fss = lerp(one, fss90, f_l) * lerp(one, fss90, f_v);
+        let f_ss = T::c(1.25) * (fss * (one / (l.z + v.z) - half) + half);
+        let shape = if flatness != zero {
             lerp(f_diff + f_retro, f_ss, flatness)
         } else {
             f_diff + f_retro
         };
-        let diffuse = rgb(self.base_color) * (w * l.z * std::f64::consts::FRAC_1_PI * shape);
-        let value = if w > 0.0 { value + diffuse } else { value };
-        if v.z > 0.0 && l.z > 0.0 {
+        let diffuse =
+            V3::rgb(self.base_color) * (w * l.z * T::c(std::f64::consts::FRAC_1_PI) * shape);
+        let value = if w > zero { value + diffuse } else { value };
+        if v.z > zero && l.z > zero {
             value
         } else {
-            DVec3::ZERO
+            V3::zero()
         }
     }
 
@@ -154,7 +180,7 @@ impl Default for Principled {
 
 /// Mitsuba's `lerp(a, b, t)` = a + t (b − a).
 #[inline(always)]
-pub(crate) fn lerp(a: f64, b: f64, t: f64) -> f64 {
+pub(crate) fn lerp<T: Real>(a: T, b: T, t: T) -> T {
     a + t * (b - a)
 }
 

@@ -4,8 +4,9 @@
 //! `specular_reflectance`.
 
 use crate::diffuse::rgb;
-use crate::lanes::{each_lane, Lanes3};
-use crate::microfacet::{clamp_alpha, ggx_cos_and_cos_vh};
+use crate::lanes::{self, each_lane, Lanes3};
+use crate::microfacet::{clamp_alpha, ggx_lobe};
+use crate::real::{Real, V3};
 use crate::{fresnel, Lobes, Rgb, SpecularLobe};
 use glam::DVec3;
 
@@ -30,11 +31,11 @@ pub struct RoughConductor {
 
 /// The conductor Fresnel reflectance per channel at cosine `cos_vh`.
 #[inline(always)]
-fn complex_fresnel(cos_vh: f64, eta: &Rgb, k: &Rgb) -> DVec3 {
-    DVec3::new(
-        fresnel::conductor(cos_vh, eta[0] as f64, k[0] as f64),
-        fresnel::conductor(cos_vh, eta[1] as f64, k[1] as f64),
-        fresnel::conductor(cos_vh, eta[2] as f64, k[2] as f64),
+fn complex_fresnel<T: Real>(cos_vh: T, eta: &Rgb, k: &Rgb) -> V3<T> {
+    V3::new(
+        fresnel::conductor(cos_vh, T::of(eta[0]), T::of(k[0])),
+        fresnel::conductor(cos_vh, T::of(eta[1]), T::of(k[1])),
+        fresnel::conductor(cos_vh, T::of(eta[2]), T::of(k[2])),
     )
 }
 
@@ -42,7 +43,13 @@ impl RoughConductor {
     /// The α that is evaluated: the given one clamped to ≥ 1e-4.
     #[inline(always)]
     pub fn alpha(&self) -> f64 {
-        clamp_alpha(self.alpha as f64)
+        self.alpha_in()
+    }
+
+    /// [`RoughConductor::alpha`] in either precision (the same clamp of the same f32 value).
+    #[inline(always)]
+    fn alpha_in<T: Real>(&self) -> T {
+        clamp_alpha(T::of(self.alpha))
     }
 
     /// Fresnel reflectance per channel at cosine `cos_vh`.
@@ -50,26 +57,33 @@ impl RoughConductor {
     pub fn fresnel(&self, cos_vh: f64) -> DVec3 {
         match &self.fresnel {
             ConductorFresnel::One => DVec3::ONE,
-            ConductorFresnel::Complex { eta, k } => complex_fresnel(cos_vh, eta, k),
+            ConductorFresnel::Complex { eta, k } => complex_fresnel(cos_vh, eta, k).into(),
         }
     }
 
-    /// f(v, l)·l_z in the shading frame, as Mitsuba's `BSDF.eval` returns it.
-    #[inline(always)]
+    /// f(v, l)·l_z in the shading frame, as Mitsuba's `BSDF.eval` returns it (f64).
     pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
-        self.eval_with(v, l, |cos_vh| self.fresnel(cos_vh))
+        lanes::get(
+            &self.eval_lanes::<f64, 1>(&lanes::one(v.into()), &lanes::one(l.into())),
+            0,
+        )
+        .into()
     }
 
-    /// [`RoughConductor::eval`] for N lanes (structure of arrays x, y, z): the same per-lane
-    /// arithmetic, with the Fresnel model chosen once for all lanes.
+    /// [`RoughConductor::eval`] for N lanes (structure of arrays x, y, z) in either precision:
+    /// the same per-lane arithmetic, with the Fresnel model chosen once for all lanes.
     #[inline(always)]
-    pub fn eval_lanes<const N: usize>(&self, v: &Lanes3<N>, l: &Lanes3<N>) -> Lanes3<N> {
+    pub fn eval_lanes<T: Real, const N: usize>(
+        &self,
+        v: &Lanes3<T, N>,
+        l: &Lanes3<T, N>,
+    ) -> Lanes3<T, N> {
         match &self.fresnel {
             ConductorFresnel::One => each_lane(
                 v,
                 l,
                 #[inline(always)]
-                |v, l| self.eval_with(v, l, |_| DVec3::ONE),
+                |v, l| self.eval_with(v, l, |_| V3::splat(T::one())),
             ),
             ConductorFresnel::Complex { eta, k } => each_lane(
                 v,
@@ -82,11 +96,11 @@ impl RoughConductor {
 
     /// F(v·h)·k·lobe, 0 where the lobe is (branch-free: every lane computes it).
     #[inline(always)]
-    fn eval_with(&self, v: DVec3, l: DVec3, fresnel: impl Fn(f64) -> DVec3) -> DVec3 {
-        let (lobe, cos_vh) = ggx_cos_and_cos_vh(self.alpha(), v, l);
-        let value = fresnel(cos_vh) * rgb(self.specular_reflectance) * lobe;
-        if lobe == 0.0 {
-            DVec3::ZERO
+    fn eval_with<T: Real>(&self, v: V3<T>, l: V3<T>, fresnel: impl Fn(T) -> V3<T>) -> V3<T> {
+        let (lobe, cos_vh) = ggx_lobe(self.alpha_in(), v, l);
+        let value = fresnel(cos_vh) * V3::rgb(self.specular_reflectance) * lobe;
+        if lobe == T::zero() {
+            V3::zero()
         } else {
             value
         }

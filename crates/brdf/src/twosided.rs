@@ -2,14 +2,15 @@
 //! mirrored through the surface, so the nested one-sided BSDF reflects on both sides.
 
 use crate::lanes::{self, Lanes3};
+use crate::real::{Real, V3};
 use crate::{Bsdf, Lobes};
 use glam::DVec3;
 
 /// Mitsuba's rule: l_z takes the sign of v_z relative to the flip, v_z becomes |v_z|.
 #[inline(always)]
-pub(crate) fn flip(v: DVec3, l: DVec3) -> (DVec3, DVec3) {
+pub(crate) fn flip<T: Real>(v: V3<T>, l: V3<T>) -> (V3<T>, V3<T>) {
     if v.z.is_sign_negative() {
-        (DVec3::new(v.x, v.y, -v.z), DVec3::new(l.x, l.y, -l.z))
+        (V3::new(v.x, v.y, -v.z), V3::new(l.x, l.y, -l.z))
     } else {
         (v, l)
     }
@@ -17,7 +18,10 @@ pub(crate) fn flip(v: DVec3, l: DVec3) -> (DVec3, DVec3) {
 
 /// [`flip`] of N lanes (v, l as structures of arrays).
 #[inline(always)]
-pub(crate) fn flip_lanes<const N: usize>(v: &Lanes3<N>, l: &Lanes3<N>) -> (Lanes3<N>, Lanes3<N>) {
+pub(crate) fn flip_lanes<T: Real, const N: usize>(
+    v: &Lanes3<T, N>,
+    l: &Lanes3<T, N>,
+) -> (Lanes3<T, N>, Lanes3<T, N>) {
     let (mut fv, mut fl) = (*v, *l);
     for k in 0..N {
         let (a, b) = flip(lanes::get(v, k), lanes::get(l, k));
@@ -29,7 +33,7 @@ pub(crate) fn flip_lanes<const N: usize>(v: &Lanes3<N>, l: &Lanes3<N>) -> (Lanes
 
 /// The nested BSDF's summary on the viewer's side.
 pub fn lobes(inner: &Bsdf, v: DVec3) -> Lobes {
-    inner.lobes(flip(v, v).0)
+    inner.lobes(flip::<f64>(v.into(), v.into()).0.into())
 }
 
 #[cfg(test)]

@@ -5,8 +5,8 @@
 //! rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes' arrays, lanes on
 //! other surfaces (rough conductor, principled, blends) with the scalar path's shading frame
 //! ([`shading_frame`]) for all lanes at once and its BSDF evaluation eight or sixteen lanes at
-//! a time per BSDF ([`Bsdf::eval_lanes`], f64 SIMD lanes: the scalar `Bsdf::eval` is its
-//! one-lane case) and [`single_contribution`]'s arithmetic; a packet may mix both.
+//! a time per BSDF ([`Bsdf::eval_lanes`], f32 SIMD lanes: the scalar path's `Bsdf::eval_f32`
+//! is its one-lane case) and [`single_contribution`]'s arithmetic; a packet may mix both.
 //!
 //! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle, Hart),
 //! LTC and MIS on non-Lambertian surfaces — take their samples lane by lane with the scalar
@@ -62,7 +62,6 @@ use crate::shading::{
 use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
-use linlight_brdf::lanes as brdf_lanes;
 use linlight_imagefile::Image;
 use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
 use linlight_sampling::philox::{unit_f32, CounterRng};
@@ -218,7 +217,7 @@ struct ShadingLanes<'a> {
     /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
     frame_x: Lanes3,
     frame_y: Lanes3,
-    v: [[f64; LANES]; 2],
+    v: [[f32; LANES]; 2],
 }
 
 /// The light each lane samples in one pass over the lights: the light's index, its K (divided
@@ -641,7 +640,8 @@ fn shading_points<'a>(
             let (frame, v) = shading_frame(get3(&out.n, k), -get3(&rays.d, k));
             set3(&mut out.frame_x, k, frame.x_axis);
             set3(&mut out.frame_y, k, frame.y_axis);
-            (out.v[0][k], out.v[1][k]) = (v.x, v.z);
+            // f32 values (dot products of f32 vectors), exactly.
+            (out.v[0][k], out.v[1][k]) = (v.x as f32, v.z as f32);
         }
     }
     out
@@ -657,7 +657,7 @@ fn glossy_point(method: Method, bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> Shad
 /// (lane k's K = `k_light[·][k]`) to `total`: the scalar single-technique contribution
 /// ([`single_contribution`]), finite ones only; returns how many were dropped. The lanes that
 /// share a BSDF are evaluated together, all sixteen or the half packets that hold them
-/// ([`Bsdf::eval_lanes`]: the scalar path's arithmetic per lane, the same bits, in f64 SIMD
+/// ([`Bsdf::eval_lanes`]: the scalar path's arithmetic per lane, the same bits, in f32 SIMD
 /// lanes of the kernel's instruction set, into which this is inlined), then K·f·cos/p on all
 /// lanes at once.
 #[inline(always)]
@@ -673,7 +673,7 @@ fn glossy_contributions(
         return 0;
     }
     // ω in the shading frames (ShadingPoint::local), all lanes at once.
-    let mut l = [[0.0f64; LANES]; 3];
+    let mut l = [[0.0f32; LANES]; 3];
     #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
     for k in 0..LANES {
         let (x, y, n) = (
@@ -684,38 +684,38 @@ fn glossy_contributions(
         let lk = to_local(x, y, n, get3(&samples.dir, k));
         (l[0][k], l[1][k], l[2][k]) = (lk.x, lk.y, lk.z);
     }
-    // f·cos of the lanes in `todo`, BSDF by BSDF.
+    // f·cos of the lanes in `todo`, BSDF by BSDF, each on all sixteen lanes at once (f32: one
+    // 512-bit register; the lanes outside its group are computed and not kept).
+    let v = [shading.v[0], [0.0; LANES], shading.v[1]];
     let mut f_cos = [[0.0f32; LANES]; 3];
+    let all = todo;
     while todo != 0 {
         let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
             todo &= todo - 1;
             continue;
         };
-        // The lanes whose surface has this BSDF.
+        // The lanes of `todo` whose surface has this BSDF (pointers compared on all lanes at
+        // once).
         let mut group = 0u32;
-        for_lanes(todo, |k| {
-            if shading.bsdf[k].is_some_and(|b| std::ptr::eq(b, bsdf)) {
-                group |= 1 << k;
-            }
-        });
-        todo &= !group;
-        if group >> BATCH != 0 && group & ((1 << BATCH) - 1) != 0 {
-            // Both halves: all sixteen lanes at once (the others' values are not used).
-            let v = [shading.v[0], [0.0; LANES], shading.v[1]];
-            keep_lanes(&mut f_cos, &bsdf.eval_lanes(&v, &l), group, 0);
-            continue;
+        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+        for k in 0..LANES {
+            let same = shading.bsdf[k].map_or(std::ptr::null(), |b| b as *const Bsdf);
+            group |= (std::ptr::eq(same, bsdf) as u32) << k;
         }
-        for half in 0..LANES / BATCH {
-            let lanes = group >> (half * BATCH) & ((1 << BATCH) - 1);
-            if lanes == 0 {
-                continue;
+        group &= todo;
+        todo &= !group;
+        let f = bsdf.eval_lanes(&v, &l);
+        if group == all {
+            // One BSDF on every glossy lit lane (the loop below reads no other lane).
+            f_cos = f;
+            break;
+        }
+        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+        for k in 0..LANES {
+            let keep = group >> k & 1 == 1;
+            for a in 0..3 {
+                f_cos[a][k] = if keep { f[a][k] } else { f_cos[a][k] };
             }
-            // The half's eight lanes.
-            let slice =
-                |a: &[f64; LANES]| -> [f64; BATCH] { std::array::from_fn(|j| a[half * BATCH + j]) };
-            let v = [slice(&shading.v[0]), [0.0; BATCH], slice(&shading.v[1])];
-            let f = bsdf.eval_lanes(&v, &l.each_ref().map(slice));
-            keep_lanes(&mut f_cos, &f, lanes, half * BATCH);
         }
     }
     // K·(f·cos)/p (single_contribution's arithmetic) on all lanes, the finite ones of the lit
@@ -733,31 +733,6 @@ fn glossy_contributions(
         }
     }
     dropped.count_ones() as u64
-}
-
-/// Writes lanes j of `f` (f64, as the scalar path's `as_vec3`) for j in `lanes` into lanes
-/// `offset + j` of `out`.
-#[inline(always)]
-fn keep_lanes<const N: usize>(
-    out: &mut Lanes3,
-    f: &brdf_lanes::Lanes3<N>,
-    lanes: u32,
-    offset: usize,
-) {
-    for j in 0..N {
-        if lanes >> j & 1 == 1 {
-            set3(out, offset + j, brdf_lanes::get(f, j).as_vec3());
-        }
-    }
-}
-
-/// `f(k)` for each lane k in `mask`, in increasing order.
-#[inline(always)]
-fn for_lanes(mut mask: u32, mut f: impl FnMut(usize)) {
-    while mask != 0 {
-        f(mask.trailing_zeros() as usize);
-        mask &= mask - 1;
-    }
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals

@@ -91,14 +91,16 @@ pub trait BsdfModel: Sync {
     }
 }
 
-/// The scene's BSDFs, evaluated as loaded.
+/// The scene's BSDFs, evaluated as loaded, in f32 as Mitsuba evaluates them
+/// ([`Bsdf::eval_f32`] of v and l rounded to f32: the renderer passes f32 values, so nothing
+/// is rounded, and the batched renderer's lanes give the same bits).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SceneBsdf;
 
 impl BsdfModel for SceneBsdf {
     #[inline]
     fn eval(&self, bsdf: &Bsdf, v: DVec3, l: DVec3) -> DVec3 {
-        bsdf.eval(v, l)
+        bsdf.eval_f32(v.as_vec3(), l.as_vec3()).as_dvec3()
     }
     #[inline]
     fn lobes(&self, bsdf: &Bsdf, v: DVec3) -> Lobes {

@@ -57,11 +57,11 @@ pub fn shading_frame(n: Vec3, wi: Vec3) -> (Mat3, DVec3) {
     (frame, v)
 }
 
-/// A world direction `w` in the frame with columns `x`, `y`, `n` ([`shading_frame`]), in f64
-/// for the BSDF ([`ShadingPoint::local`]).
+/// A world direction `w` in the frame with columns `x`, `y`, `n` ([`shading_frame`]), as the
+/// BSDF is evaluated with it ([`ShadingPoint::local`], f32: [`Bsdf::eval_f32`]).
 #[inline(always)]
-pub fn to_local(x: Vec3, y: Vec3, n: Vec3, w: Vec3) -> DVec3 {
-    DVec3::new(w.dot(x) as f64, w.dot(y) as f64, w.dot(n) as f64)
+pub fn to_local(x: Vec3, y: Vec3, n: Vec3, w: Vec3) -> Vec3 {
+    Vec3::new(w.dot(x), w.dot(y), w.dot(n))
 }
 
 /// A shading point of a non-Lambertian surface: position, frame, view and what the BSDF
@@ -137,17 +137,19 @@ impl<'a> ShadingPoint<'a> {
         self.frame.z_axis
     }
 
-    /// f(v, ω)·cos θ for a unit world direction ω.
+    /// f(v, ω)·cos θ for a unit world direction ω (v and ω in the frame are f32 values, so
+    /// [`SceneBsdf`](crate::hooks::SceneBsdf) evaluates exactly what the batched renderer's
+    /// f32 lanes do).
     #[inline]
     pub fn eval<B: BsdfModel>(&self, model: &B, w: Vec3) -> Vec3 {
         model.eval(self.bsdf, self.v, self.local(w)).as_vec3()
     }
 
     /// A world direction in the shading frame, as [`ShadingPoint::eval`] passes it to the
-    /// BSDF (the batched renderer's lanes call it too).
+    /// BSDF (f32 values, exactly; the batched renderer's lanes call [`to_local`] too).
     #[inline(always)]
     pub fn local(&self, w: Vec3) -> DVec3 {
-        to_local(self.frame.x_axis, self.frame.y_axis, self.frame.z_axis, w)
+        to_local(self.frame.x_axis, self.frame.y_axis, self.frame.z_axis, w).as_dvec3()
     }
 }
 

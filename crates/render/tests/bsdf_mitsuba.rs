@@ -7,14 +7,16 @@
 //!
 //! Precision. Mitsuba's wheel has float32 variants only, so the golden values carry Mitsuba's
 //! float32 rounding; the inputs are the same float32 vectors on both sides (the generator's
-//! float64 directions rounded once), and this side evaluates in float64. Every formula here is a
-//! few dozen float32 operations of well-scaled quantities, so Mitsuba's values should be within
-//! some tens of ulps (u = 2⁻²⁴ ≈ 6e-8 relative) of the exact ones. The test requires relative
-//! error ≤ 1e-5 per channel for every nonzero value and exact agreement on zeros (support,
-//! one-sidedness, `twosided`), and prints the worst, 99.9th-percentile and median relative
-//! errors per set. Measured (16 sets × 10 000 pairs): worst 1.2e-6 (≈ 20 ulps: the GGX peak at
-//! α = 0.1 and principled's Fresnel), 99.9 % ≤ 9.1e-7, medians 2e-8 … 2e-7. A control shows the
-//! tolerance has power: α off by 0.1 % fails most pairs of the α = 0.1 set.
+//! float64 directions rounded once), and this side evaluates in float64 (`Bsdf::eval`) and, in
+//! a second test, in float32 as the renderer does (`Bsdf::eval_f32`, the same code). Every
+//! formula here is a few dozen float32 operations of well-scaled quantities, so Mitsuba's values
+//! (and ours in f32) should be within some tens of ulps (u = 2⁻²⁴ ≈ 6e-8 relative) of the exact
+//! ones. Both tests require relative error ≤ 1e-5 per channel for every nonzero value and exact
+//! agreement on zeros (support, one-sidedness, `twosided`), and print the worst,
+//! 99.9th-percentile and median relative errors per set. Measured (16 sets × 10 000 pairs), f64:
+//! worst 1.2e-6 (≈ 20 ulps: the GGX peak at α = 0.1 and principled's Fresnel), 99.9 % ≤ 9.1e-7,
+//! medians 2e-8 … 2e-7; f32: worst 1.3e-6, 99.9 % ≤ 9.7e-7, medians 0 … 1.5e-7. A control shows
+//! the tolerance has power: α off by 0.1 % fails most pairs of the α = 0.1 set.
 
 use glam::DVec3;
 use linlight_render::scene::Bsdf;
@@ -123,7 +125,10 @@ fn pairs(seed: u64, count: usize, lobe_alpha: Option<f64>, side: &str) -> Vec<(D
 fn load_bsdf(xml: &str, name: &str) -> Bsdf {
     let dir = std::env::temp_dir().join(format!("linlight-bsdf-golden-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("{name}.xml"));
+    // A file of its own per call: the f64 and f32 tests load the same sets in parallel.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let path = dir.join(format!("{name}-{call}.xml"));
     let scene = format!(
         "<scene version=\"3.0.0\"><integrator type=\"direct\"/><sensor type=\"perspective\">\
          <float name=\"fov\" value=\"40\"/><film type=\"hdrfilm\"><rfilter type=\"box\"/></film>\
@@ -169,10 +174,30 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 
 #[test]
 fn eval_matches_mitsuba_golden_values() {
+    compare_with_golden_values("f64 (Bsdf::eval)", &|b, v, l| b.eval(v, l), true);
+}
+
+/// The renderer's evaluation (f32, `Bsdf::eval_f32`; the inputs are float32 vectors, so
+/// nothing is rounded on the way in) against the same golden values and the same tolerance.
+#[test]
+fn f32_eval_matches_mitsuba_golden_values() {
+    compare_with_golden_values(
+        "f32 (Bsdf::eval_f32, what renders)",
+        &|b, v, l| b.eval_f32(v.as_vec3(), l.as_vec3()).as_dvec3(),
+        false,
+    );
+}
+
+fn compare_with_golden_values(
+    precision: &str,
+    eval: &dyn Fn(&Bsdf, DVec3, DVec3) -> DVec3,
+    control: bool,
+) {
     let g = read_golden(&golden_dir());
     assert!(g.pairs >= 10_000, "{} pairs per set", g.pairs);
     assert!(g.sets.len() >= 15, "{} sets", g.sets.len());
     let mut failures = Vec::new();
+    println!("{precision}");
     println!(
         "{:<58} {:>7} {:>10} {:>10} {:>10}",
         "set", "nonzero", "worst rel", "99.9% rel", "median"
@@ -192,7 +217,7 @@ fn eval_matches_mitsuba_golden_values() {
         let mut rel = Vec::new();
         let mut nonzero = 0;
         for (i, &(v, l)) in pairs.iter().enumerate() {
-            let got = bsdf.eval(v, l);
+            let got = eval(&bsdf, v, l);
             let stored = &g.values[offset + i * channels..offset + (i + 1) * channels];
             let want = if channels == 1 {
                 DVec3::splat(stored[0] as f64)
@@ -230,13 +255,13 @@ fn eval_matches_mitsuba_golden_values() {
             nonzero > g.pairs / 5,
             "{name}: only {nonzero} nonzero values: the set tests little"
         );
-        if name == "roughconductor-none-a0.1" {
+        if control && name == "roughconductor-none-a0.1" {
             control_alpha_off_by_a_thousandth_fails(&bsdf, &pairs, &g.values[offset..], channels);
         }
     }
     assert!(
         failures.is_empty(),
-        "{} mismatches, first: {:#?}",
+        "{precision}: {} mismatches, first: {:#?}",
         failures.len(),
         &failures[..failures.len().min(10)]
     );
