@@ -117,7 +117,16 @@ fn collapse(bin: &[BuildNode], root: u32, out: &mut Vec<Node>) -> u32 {
 /// through the primitive itself.
 #[derive(Clone, Copy, Debug)]
 enum Isect {
-    Triangle { v0: Vec3, e1: Vec3, e2: Vec3 },
+    Triangle {
+        v0: Vec3,
+        e1: Vec3,
+        e2: Vec3,
+    },
+    /// r2 = (radius as f64)², as [`Primitive::intersect`] computes it.
+    Sphere {
+        center: Vec3,
+        r2: f64,
+    },
     Other,
 }
 
@@ -579,6 +588,10 @@ impl Bvh {
                     e1: v[1] - v[0],
                     e2: v[2] - v[0],
                 },
+                Primitive::Sphere { center, radius, .. } => Isect::Sphere {
+                    center,
+                    r2: (radius as f64).powi(2),
+                },
                 _ => Isect::Other,
             })
             .collect();
@@ -587,7 +600,7 @@ impl Bvh {
                 .iter()
                 .map(|t| match *t {
                     Isect::Triangle { v0, e1, e2 } => Some([v0, e1, e2]),
-                    Isect::Other => None,
+                    Isect::Sphere { .. } | Isect::Other => None,
                 })
                 .collect::<Option<Vec<_>>>()
                 .unwrap_or_default()
@@ -620,7 +633,7 @@ impl Bvh {
     fn intersect_prim(&self, i: usize, ray: &Ray) -> Option<(f32, f32, f32)> {
         match self.isect[i] {
             Isect::Triangle { v0, e1, e2 } => intersect_triangle_edges(ray, v0, e1, e2),
-            Isect::Other => self.prims[i].intersect(ray),
+            Isect::Sphere { .. } | Isect::Other => self.prims[i].intersect(ray),
         }
     }
 
@@ -766,6 +779,10 @@ impl Bvh {
                     Isect::Triangle { v0, e1, e2 } => {
                         let tri = [v0, e1, e2];
                         occluded |= mask & K::triangle(lanes, &packet.t_min, &packet.t_max, &tri).3;
+                    }
+                    Isect::Sphere { center, r2 } => {
+                        occluded |=
+                            mask & K::sphere(lanes, &packet.t_min, &packet.t_max, center, r2).3;
                     }
                     Isect::Other => {
                         let mut m = mask;
@@ -919,6 +936,10 @@ impl Bvh {
                     Isect::Triangle { v0, e1, e2 } => {
                         let tri = [v0, e1, e2];
                         let lane_hits = K::triangle(lanes, &packet.t_min, &packet.t_max, &tri);
+                        took |= K::take_closest(out, &mut packet.t_max, &lane_hits, mask, i);
+                    }
+                    Isect::Sphere { center, r2 } => {
+                        let lane_hits = K::sphere(lanes, &packet.t_min, &packet.t_max, center, r2);
                         took |= K::take_closest(out, &mut packet.t_max, &lane_hits, mask, i);
                     }
                     Isect::Other => {

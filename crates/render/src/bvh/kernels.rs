@@ -13,7 +13,7 @@
 //! enters and are conservative in every kernel (the bvh tests compare all kernels).
 
 use super::{replaces, AxisBounds, Node, PacketHits, RayLanes, RayPacket, FAR_SCALE, PACKET};
-use crate::shapes::intersect_triangle_lane;
+use crate::shapes::{intersect_sphere_lane, intersect_triangle_lane};
 use glam::Vec3;
 
 /// A triangle against the 16 lanes: t, b1, b2 per lane (meaningless where it misses) and bit
@@ -37,6 +37,30 @@ pub(super) trait Kernel {
         t_max: &[f32; PACKET],
         tri: &[Vec3; 3],
     ) -> LaneHits;
+    /// The sphere (center, r² in f64) against every lane with the intervals (t_min, t_max):
+    /// t per lane (b1 = b2 = 0, as [`crate::shapes::Primitive::intersect`] returns) and the hit
+    /// bits. One implementation for every kernel: plain Rust on the lanes
+    /// (`shapes::intersect_sphere_lane`), which the compiler vectorises for the extension of
+    /// the walk it is inlined into (f64, four or eight lanes per register).
+    #[inline(always)]
+    fn sphere(
+        lanes: &RayLanes,
+        t_min: &[f32; PACKET],
+        t_max: &[f32; PACKET],
+        center: Vec3,
+        r2: f64,
+    ) -> LaneHits {
+        let mut t = [0.0f32; PACKET];
+        let mut hits = 0u32;
+        for k in 0..PACKET {
+            let o = Vec3::new(lanes.o[0][k], lanes.o[1][k], lanes.o[2][k]);
+            let d = Vec3::new(lanes.d[0][k], lanes.d[1][k], lanes.d[2][k]);
+            let (tk, hit) = intersect_sphere_lane(o, d, t_min[k], t_max[k], center, r2);
+            t[k] = tk;
+            hits |= (hit as u32) << k;
+        }
+        (t, [0.0; PACKET], [0.0; PACKET], hits)
+    }
     /// The hits of primitive `prim` on the rays of `mask` that replace the best ones so far
     /// (`replaces`: closer, or as close with a smaller index); their t_max becomes next_up(t).
     /// Returns the rays whose best hit changed.
@@ -1024,6 +1048,93 @@ mod tests {
         // The portable kernel against the scalar single-ray tests (triangles; every other
         // comparison is of the portable kernel with itself).
         compare::<Portable>();
+    }
+
+    /// Every kernel's sphere lanes are the scalar single-ray test (`Primitive::intersect`, what
+    /// `Bvh::intersect` and `Bvh::occluded` call): the same hit or miss, and where it hits the
+    /// same t bit for bit — rays from outside and inside (near or far root), zero and NaN
+    /// directions, empty intervals.
+    #[test]
+    fn sphere_lanes_match_single_rays() {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use linlight_sampling::batch::Isa;
+            if Isa::Avx512.supported() {
+                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+                unsafe fn run() {
+                    compare_spheres::<Avx512>();
+                }
+                // SAFETY: detected above.
+                unsafe { run() };
+            }
+            if Isa::Avx2.supported() {
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn run() {
+                    compare_spheres::<Avx2>();
+                }
+                // SAFETY: detected above.
+                unsafe { run() };
+            }
+        }
+        compare_spheres::<Portable>();
+    }
+
+    #[inline(always)]
+    fn compare_spheres<K: Kernel>() {
+        use crate::shapes::Primitive;
+        let mut rng = Pcg32::new(5, 12);
+        let spheres: Vec<(Vec3, f32)> = (0..24)
+            .map(|i| {
+                let mut f = || rng.next_f32();
+                let center = Vec3::new(f(), f(), f()) * 2.0 - 1.0;
+                // Radii from tiny (rays graze or miss) to large (origins inside).
+                let radius = if i % 6 == 0 { 1e-3 } else { 0.1 + 1.5 * f() };
+                (center, radius)
+            })
+            .collect();
+        let (mut near, mut far, mut lanes_tested) = (0u32, 0u32, 0u32);
+        for (k, (mut lanes, _)) in packets(&mut rng, 200).into_iter().enumerate() {
+            // A zero direction (a = 0: no root) and an empty interval in some packets.
+            if k % 5 == 0 {
+                for a in 0..3 {
+                    lanes.d[a][k % PACKET] = 0.0;
+                }
+            }
+            if k % 7 == 0 {
+                lanes.t_min[(k + 1) % PACKET] = f32::INFINITY;
+                lanes.t_max[(k + 1) % PACKET] = f32::NEG_INFINITY;
+            }
+            for &(center, radius) in &spheres {
+                let prim = Primitive::Sphere {
+                    center,
+                    radius,
+                    shape: 0,
+                };
+                let r2 = (radius as f64).powi(2);
+                let (t, b1, b2, hits) = K::sphere(&lanes, &lanes.t_min, &lanes.t_max, center, r2);
+                for i in 0..PACKET {
+                    let ray = lanes.get(i);
+                    let scalar = prim.intersect(&ray).map(|(t, ..)| t.to_bits());
+                    let lane = (hits >> i & 1 == 1).then(|| t[i].to_bits());
+                    assert_eq!(
+                        scalar, lane,
+                        "lane {i}, sphere {center} {radius}, ray {ray:?}"
+                    );
+                    assert_eq!((b1[i], b2[i]), (0.0, 0.0));
+                    if hits >> i & 1 == 1 {
+                        // Which root: the origin inside the sphere gives the far one.
+                        if (ray.o - center).length() < radius {
+                            far += 1;
+                        } else {
+                            near += 1;
+                        }
+                    }
+                    lanes_tested += 1;
+                }
+            }
+        }
+        assert!(near > 1000 && far > 1000, "{near} near and {far} far roots");
+        assert!(lanes_tested > 50_000);
     }
 
     #[inline(always)]
