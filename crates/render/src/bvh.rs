@@ -122,10 +122,11 @@ enum Isect {
         e1: Vec3,
         e2: Vec3,
     },
-    /// r2 = (radius as f64)², as [`Primitive::intersect`] computes it.
+    /// The radius as f32 (an f64 r² would make every entry 8 bytes larger: the triangle
+    /// walks of cornell-tube took ~5 more instructions per sample).
     Sphere {
         center: Vec3,
-        r2: f64,
+        radius: f32,
     },
     Other,
 }
@@ -346,6 +347,39 @@ impl<'a> RayPacket<'a> {
             (p.inv_lo[a], p.inv_hi[a]) = (inv_lo, inv_hi);
         }
         p
+    }
+
+    /// A packet tested ray by ray (`coherent` false): the rays' reciprocals and intervals
+    /// only, no bounds (they are read only by the interval tests). The kernels build it
+    /// without reducing the bounds once the direction signs are mixed or a lane is NaN.
+    #[inline(always)]
+    fn incoherent(
+        lanes: &'a RayLanes,
+        inv: [[f32; PACKET]; 3],
+        t_min: [f32; PACKET],
+        t_max: [f32; PACKET],
+    ) -> Self {
+        RayPacket {
+            lanes,
+            inv,
+            t_min,
+            t_max,
+            coherent: false,
+            sign: [0; 3],
+            o_near: [0.0; 3],
+            o_far: [0.0; 3],
+            inv_lo: [0.0; 3],
+            inv_hi: [0.0; 3],
+            t_lo: 0.0,
+            t_hi: 0.0,
+        }
+    }
+
+    /// Whether a packet with these direction-sign bits per axis (of the `active` rays) and
+    /// none of them NaN may be coherent: every axis has one sign.
+    #[inline(always)]
+    fn one_sign_per_axis(neg: [u32; 3], active: u32) -> bool {
+        neg.iter().all(|&n| (n == 0) | (n == active))
     }
 
     /// The four boxes of `node` against the packet as intervals (valid when `coherent`), with
@@ -588,10 +622,7 @@ impl Bvh {
                     e1: v[1] - v[0],
                     e2: v[2] - v[0],
                 },
-                Primitive::Sphere { center, radius, .. } => Isect::Sphere {
-                    center,
-                    r2: (radius as f64).powi(2),
-                },
+                Primitive::Sphere { center, radius, .. } => Isect::Sphere { center, radius },
                 _ => Isect::Other,
             })
             .collect();
@@ -780,7 +811,8 @@ impl Bvh {
                         let tri = [v0, e1, e2];
                         occluded |= mask & K::triangle(lanes, &packet.t_min, &packet.t_max, &tri).3;
                     }
-                    Isect::Sphere { center, r2 } => {
+                    Isect::Sphere { center, radius } => {
+                        let r2 = (radius as f64).powi(2);
                         occluded |=
                             mask & K::sphere(lanes, &packet.t_min, &packet.t_max, center, r2).3;
                     }
@@ -938,7 +970,8 @@ impl Bvh {
                         let lane_hits = K::triangle(lanes, &packet.t_min, &packet.t_max, &tri);
                         took |= K::take_closest(out, &mut packet.t_max, &lane_hits, mask, i);
                     }
-                    Isect::Sphere { center, r2 } => {
+                    Isect::Sphere { center, radius } => {
+                        let r2 = (radius as f64).powi(2);
                         let lane_hits = K::sphere(lanes, &packet.t_min, &packet.t_max, center, r2);
                         took |= K::take_closest(out, &mut packet.t_max, &lane_hits, mask, i);
                     }
