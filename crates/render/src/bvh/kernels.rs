@@ -66,8 +66,9 @@ pub(super) trait Kernel {
 
 /// [`Kernel::sphere`] in plain Rust on the lanes (`shapes::intersect_sphere_lane`), which the
 /// compiler vectorises for the extension of the function it is inlined into (f64: four lanes
-/// per AVX2 register, eight per AVX-512 one). The intrinsics kernels call it out of line: inlined
-/// into the walks it cost the triangle-only walks of cornell-tube ~5 instructions per sample.
+/// per AVX2 register, eight per AVX-512 one). The intrinsics kernels call it through functions
+/// compiled for their extension (`avx2::sphere`, `avx512::sphere`): the walks test spheres out
+/// of line (`Bvh::occluded_other`, `Bvh::intersect_other`, baseline code).
 #[inline(always)]
 fn sphere_lanes(
     lanes: &RayLanes,
@@ -585,7 +586,7 @@ mod x86 {
             (arr(t), arr(b1), arr(b2), m as u32)
         }
 
-        /// Out of line (see [`sphere_lanes`]).
+        /// Out of line, compiled for this extension (see [`sphere_lanes`]).
         #[inline(never)]
         #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
         pub(super) fn sphere(
@@ -926,7 +927,7 @@ mod x86 {
             (arr(t), arr(b1), arr(b2), hits)
         }
 
-        /// Out of line (see [`sphere_lanes`]).
+        /// Out of line, compiled for this extension (see [`sphere_lanes`]).
         #[inline(never)]
         #[target_feature(enable = "avx2,fma")]
         pub(super) fn sphere(
