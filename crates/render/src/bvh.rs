@@ -728,8 +728,8 @@ impl Bvh {
     /// The packet walks the tree once: each node's four boxes are tested against the rays still
     /// unresolved (as intervals when the packet is coherent, else ray by ray, see
     /// [`RayPacket`]), a subtree is entered with the rays that may meet its box, a leaf tests
-    /// its triangles against all of them at once (vectorised) and other primitives ray by ray,
-    /// and the walk ends when every ray is occluded. A tree of at most `TINY` (12) triangles is
+    /// its triangles and spheres against all of them at once (vectorised) and other primitives
+    /// ray by ray, and the walk ends when every ray is occluded. A tree of at most `TINY` (12) triangles is
     /// not walked: each triangle is tested against all rays not yet occluded. The lane
     /// arithmetic is written per vector extension ([`kernels`]: AVX-512, AVX2, portable), the
     /// best the CPU has chosen at run time, as `linlight_sampling::batch` does.
@@ -829,8 +829,9 @@ impl Bvh {
     ///
     /// The packet walks the tree once, nearest box first (by the smallest entry distance of its
     /// rays), boxes tested as in [`Self::occluded_lanes`]; a pending subtree is checked again
-    /// against the rays' current closest distances when it is popped; a leaf's triangles are
-    /// tested against all its rays at once (vectorised), other primitives ray by ray. A tree of
+    /// against the rays' current closest distances when it is popped; a leaf's triangles and
+    /// spheres are tested against all its rays at once (vectorised), other primitives ray by
+    /// ray. A tree of
     /// at most `TINY` (12) triangles is not walked: each triangle is tested against all rays.
     pub fn intersect_lanes(&self, lanes: &RayLanes, active: u32) -> PacketHits {
         let active = active & ((1u64 << PACKET) - 1) as u32;
