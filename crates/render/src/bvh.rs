@@ -833,6 +833,9 @@ impl Bvh {
     /// spheres are tested against all its rays at once (vectorised), other primitives ray by
     /// ray. A tree of
     /// at most `TINY` (12) triangles is not walked: each triangle is tested against all rays.
+    // `inline`: the 320-byte result is then built where the caller keeps it (1–2 instructions
+    // per sample fewer on every scene; an out parameter instead cost ~3 more).
+    #[inline]
     pub fn intersect_lanes(&self, lanes: &RayLanes, active: u32) -> PacketHits {
         let active = active & ((1u64 << PACKET) - 1) as u32;
         let mut out = PacketHits {
