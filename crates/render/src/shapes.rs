@@ -299,6 +299,40 @@ pub fn intersect_triangle_lane(
     (t, b1, b2, hit)
 }
 
+/// The sphere test of [`Primitive::intersect`] without branches, for the lanes of a ray
+/// packet: the same f64 arithmetic in the same order (so bitwise the same t where it hits),
+/// every value computed, and whether the nearest root inside (t_min, t_max) exists. `r2` is
+/// `(radius as f64).powi(2)` (exact: the square of an f32 fits an f64).
+#[inline(always)]
+pub fn intersect_sphere_lane(
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    t_max: f32,
+    center: Vec3,
+    r2: f64,
+) -> (f32, bool) {
+    let oc = (o - center).as_dvec3();
+    let d = d.as_dvec3();
+    let (a, half_b, c) = (d.dot(d), oc.dot(d), oc.dot(oc) - r2);
+    // `nearest_root` with both roots computed and the first one inside the interval selected.
+    let disc = half_b * half_b - a * c;
+    let q = -(half_b + disc.sqrt().copysign(half_b));
+    let nonzero = q != 0.0;
+    let (r1, r2) = (
+        if nonzero { q / a } else { 0.0 },
+        if nonzero { c / q } else { 0.0 },
+    );
+    let ordered = r1 <= r2;
+    let (lo, hi) = (
+        (if ordered { r1 } else { r2 }) as f32,
+        (if ordered { r2 } else { r1 }) as f32,
+    );
+    let (lo_in, hi_in) = ((lo > t_min) & (lo < t_max), (hi > t_min) & (hi < t_max));
+    let t = if lo_in { lo } else { hi };
+    (t, (a > 0.0) & (disc >= 0.0) & (lo_in | hi_in))
+}
+
 /// Möller–Trumbore with the edges e1 = v1 − v0, e2 = v2 − v0 given (the BVH stores them).
 #[inline(always)]
 pub fn intersect_triangle_edges(

@@ -13,7 +13,7 @@
 //! enters and are conservative in every kernel (the bvh tests compare all kernels).
 
 use super::{replaces, AxisBounds, Node, PacketHits, RayLanes, RayPacket, FAR_SCALE, PACKET};
-use crate::shapes::intersect_triangle_lane;
+use crate::shapes::{intersect_sphere_lane, intersect_triangle_lane};
 use glam::Vec3;
 
 /// A triangle against the 16 lanes: t, b1, b2 per lane (meaningless where it misses) and bit
@@ -37,6 +37,16 @@ pub(super) trait Kernel {
         t_max: &[f32; PACKET],
         tri: &[Vec3; 3],
     ) -> LaneHits;
+    /// The sphere (center, r² in f64) against every lane with the intervals (t_min, t_max):
+    /// t per lane (b1 = b2 = 0, as [`crate::shapes::Primitive::intersect`] returns) and the hit
+    /// bits ([`sphere_lanes`] compiled for the kernel's extension).
+    fn sphere(
+        lanes: &RayLanes,
+        t_min: &[f32; PACKET],
+        t_max: &[f32; PACKET],
+        center: Vec3,
+        r2: f64,
+    ) -> LaneHits;
     /// The hits of primitive `prim` on the rays of `mask` that replace the best ones so far
     /// (`replaces`: closer, or as close with a smaller index); their t_max becomes next_up(t).
     /// Returns the rays whose best hit changed.
@@ -52,6 +62,31 @@ pub(super) trait Kernel {
     fn take_nearer(best: &mut PacketHits, hits: &LaneHits, prim: u32);
     /// Largest element (no NaN).
     fn max(a: &[f32; PACKET]) -> f32;
+}
+
+/// [`Kernel::sphere`] in plain Rust on the lanes (`shapes::intersect_sphere_lane`), which the
+/// compiler vectorises for the extension of the function it is inlined into (f64: four lanes
+/// per AVX2 register, eight per AVX-512 one). The intrinsics kernels call it through functions
+/// compiled for their extension (`avx2::sphere`, `avx512::sphere`): the walks test spheres out
+/// of line (`Bvh::occluded_other`, `Bvh::intersect_other`, baseline code).
+#[inline(always)]
+fn sphere_lanes(
+    lanes: &RayLanes,
+    t_min: &[f32; PACKET],
+    t_max: &[f32; PACKET],
+    center: Vec3,
+    r2: f64,
+) -> LaneHits {
+    let mut t = [0.0f32; PACKET];
+    let mut hits = 0u32;
+    for k in 0..PACKET {
+        let o = Vec3::new(lanes.o[0][k], lanes.o[1][k], lanes.o[2][k]);
+        let d = Vec3::new(lanes.d[0][k], lanes.d[1][k], lanes.d[2][k]);
+        let (tk, hit) = intersect_sphere_lane(o, d, t_min[k], t_max[k], center, r2);
+        t[k] = tk;
+        hits |= (hit as u32) << k;
+    }
+    (t, [0.0; PACKET], [0.0; PACKET], hits)
 }
 
 /// Plain Rust, vectorised by the compiler for whatever the target has (SSE2 on x86-64).
@@ -164,6 +199,17 @@ impl Kernel for Portable {
     }
 
     #[inline(always)]
+    fn sphere(
+        lanes: &RayLanes,
+        t_min: &[f32; PACKET],
+        t_max: &[f32; PACKET],
+        center: Vec3,
+        r2: f64,
+    ) -> LaneHits {
+        sphere_lanes(lanes, t_min, t_max, center, r2)
+    }
+
+    #[inline(always)]
     fn take_closest(
         best: &mut PacketHits,
         t_max: &mut [f32; PACKET],
@@ -250,6 +296,16 @@ mod x86 {
             unsafe { avx512::triangle(lanes, t_min, t_max, tri) }
         }
         #[inline(always)]
+        fn sphere(
+            lanes: &RayLanes,
+            t_min: &[f32; PACKET],
+            t_max: &[f32; PACKET],
+            center: Vec3,
+            r2: f64,
+        ) -> LaneHits {
+            unsafe { avx512::sphere(lanes, t_min, t_max, center, r2) }
+        }
+        #[inline(always)]
         fn take_closest(
             best: &mut PacketHits,
             t_max: &mut [f32; PACKET],
@@ -292,6 +348,16 @@ mod x86 {
             tri: &[Vec3; 3],
         ) -> LaneHits {
             unsafe { avx2::triangle(lanes, t_min, t_max, tri) }
+        }
+        #[inline(always)]
+        fn sphere(
+            lanes: &RayLanes,
+            t_min: &[f32; PACKET],
+            t_max: &[f32; PACKET],
+            center: Vec3,
+            r2: f64,
+        ) -> LaneHits {
+            unsafe { avx2::sphere(lanes, t_min, t_max, center, r2) }
         }
         #[inline(always)]
         fn take_closest(
@@ -416,37 +482,36 @@ mod x86 {
             let mut ordered = on;
             let mut inv = [inf; 3];
             let mut neg = [0u32; 3];
-            let mut red = [inf; 16];
             for a in 0..3 {
                 let o = ld(&lanes.o[a]);
                 let r = _mm512_div_ps(splat(1.0), ld(&lanes.d[a]));
                 inv[a] = r;
                 neg[a] = (_mm512_movepi32_mask(_mm512_castps_si512(r)) & on) as u32;
                 ordered &= _mm512_cmp_ps_mask::<_CMP_ORD_Q>(o, r);
+            }
+            let t_min = _mm512_mask_mov_ps(inf, on, ld(&lanes.t_min));
+            let t_max = _mm512_mask_mov_ps(negate(inf), on, ld(&lanes.t_max));
+            ordered &= _mm512_cmp_ps_mask::<_CMP_ORD_Q>(t_min, t_max);
+            // SAFETY: same size, every bit pattern valid.
+            let inv_lanes = unsafe { std::mem::transmute::<[V; 3], [[f32; PACKET]; 3]>(inv) };
+            if (ordered != on) | !RayPacket::one_sign_per_axis(neg, active) {
+                // Tested ray by ray: the bounds are not needed.
+                return RayPacket::incoherent(lanes, inv_lanes, arr(t_min), arr(t_max));
+            }
+            let mut red = [inf; 16];
+            for a in 0..3 {
+                let (o, r) = (ld(&lanes.o[a]), inv[a]);
                 red[4 * a] = _mm512_mask_mov_ps(inf, on, o);
                 red[4 * a + 1] = _mm512_mask_mov_ps(inf, on, negate(o));
                 red[4 * a + 2] = _mm512_mask_mov_ps(inf, on, r);
                 red[4 * a + 3] = _mm512_mask_mov_ps(inf, on, negate(r));
             }
-            let t_min = _mm512_mask_mov_ps(inf, on, ld(&lanes.t_min));
-            let t_max = _mm512_mask_mov_ps(negate(inf), on, ld(&lanes.t_max));
-            ordered &= _mm512_cmp_ps_mask::<_CMP_ORD_Q>(t_min, t_max);
             red[T_SLOT] = t_min;
             red[T_SLOT + 1] = negate(t_max);
             let m = min16(red);
             let (axes, t) = bounds(|s| m[4 * (s % 4) + s / 4], neg);
-            // SAFETY: same size, every bit pattern valid.
-            let inv = unsafe { std::mem::transmute::<[V; 3], [[f32; PACKET]; 3]>(inv) };
-            RayPacket::from_bounds(
-                lanes,
-                active,
-                inv,
-                arr(t_min),
-                arr(t_max),
-                axes,
-                t,
-                ordered == on,
-            )
+            let inv = inv_lanes;
+            RayPacket::from_bounds(lanes, active, inv, arr(t_min), arr(t_max), axes, t, true)
         }
 
         #[inline]
@@ -519,6 +584,19 @@ mod x86 {
             let m = _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(m, t, ld(t_min));
             let m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(m, t, ld(t_max));
             (arr(t), arr(b1), arr(b2), m as u32)
+        }
+
+        /// Out of line, compiled for this extension (see [`sphere_lanes`]).
+        #[inline(never)]
+        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        pub(super) fn sphere(
+            lanes: &RayLanes,
+            t_min: &[f32; PACKET],
+            t_max: &[f32; PACKET],
+            center: Vec3,
+            r2: f64,
+        ) -> LaneHits {
+            sphere_lanes(lanes, t_min, t_max, center, r2)
         }
 
         #[inline]
@@ -717,15 +795,34 @@ mod x86 {
             let mut unordered = 0u32;
             let mut inv = [[inf; 2]; 3];
             let mut neg = [0u32; 3];
+            for a in 0..3 {
+                for (h, inv) in inv[a].iter_mut().enumerate() {
+                    let o = ld(&lanes.o[a], h);
+                    let r = _mm256_div_ps(splat(1.0), ld(&lanes.d[a], h));
+                    *inv = r;
+                    neg[a] |= bits(r) << (8 * h);
+                    unordered |= bits(_mm256_cmp_ps::<_CMP_UNORD_Q>(o, r)) << (8 * h);
+                }
+                neg[a] &= active;
+            }
+            let mut t_min = [inf; 2];
+            let mut t_max = [inf; 2];
+            for h in 0..2 {
+                t_min[h] = _mm256_blendv_ps(inf, ld(&lanes.t_min, h), on[h]);
+                t_max[h] = _mm256_blendv_ps(negate(inf), ld(&lanes.t_max, h), on[h]);
+                unordered |= bits(_mm256_cmp_ps::<_CMP_UNORD_Q>(t_min[h], t_max[h])) << (8 * h);
+            }
+            // SAFETY: same size, every bit pattern valid.
+            let inv_lanes = unsafe { std::mem::transmute::<[[V; 2]; 3], [[f32; PACKET]; 3]>(inv) };
+            if (unordered & active != 0) | !RayPacket::one_sign_per_axis(neg, active) {
+                // Tested ray by ray: the bounds are not needed.
+                return RayPacket::incoherent(lanes, inv_lanes, arr(t_min), arr(t_max));
+            }
             let mut red = [inf; 16];
             for a in 0..3 {
                 let mut lo = [inf; 4];
                 for h in 0..2 {
-                    let o = ld(&lanes.o[a], h);
-                    let r = _mm256_div_ps(splat(1.0), ld(&lanes.d[a], h));
-                    inv[a][h] = r;
-                    neg[a] |= bits(r) << (8 * h);
-                    unordered |= bits(_mm256_cmp_ps::<_CMP_UNORD_Q>(o, r)) << (8 * h);
+                    let (o, r) = (ld(&lanes.o[a], h), inv[a][h]);
                     // Outside the packet: +∞ (blendv takes the second operand where the
                     // mask's sign bit is set).
                     let v = [o, negate(o), r, negate(r)];
@@ -734,35 +831,14 @@ mod x86 {
                         *l = if h == 0 { x } else { _mm256_min_ps(*l, x) };
                     }
                 }
-                neg[a] &= active;
                 red[4 * a..4 * a + 4].copy_from_slice(&lo);
             }
-            let mut t_min = [inf; 2];
-            let mut t_max = [inf; 2];
-            let (mut t_lo, mut t_hi) = (inf, inf);
-            for h in 0..2 {
-                t_min[h] = _mm256_blendv_ps(inf, ld(&lanes.t_min, h), on[h]);
-                t_max[h] = _mm256_blendv_ps(negate(inf), ld(&lanes.t_max, h), on[h]);
-                unordered |= bits(_mm256_cmp_ps::<_CMP_UNORD_Q>(t_min[h], t_max[h])) << (8 * h);
-                t_lo = _mm256_min_ps(t_lo, t_min[h]);
-                t_hi = _mm256_min_ps(t_hi, negate(t_max[h]));
-            }
-            red[T_SLOT] = t_lo;
-            red[T_SLOT + 1] = t_hi;
+            red[T_SLOT] = _mm256_min_ps(t_min[0], t_min[1]);
+            red[T_SLOT + 1] = _mm256_min_ps(negate(t_max[0]), negate(t_max[1]));
             let m = min16(red);
             let (axes, t) = bounds(|s| m[8 * (s / 8) + 4 * (s % 2) + (s % 8) / 2], neg);
-            // SAFETY: same size, every bit pattern valid.
-            let inv = unsafe { std::mem::transmute::<[[V; 2]; 3], [[f32; PACKET]; 3]>(inv) };
-            RayPacket::from_bounds(
-                lanes,
-                active,
-                inv,
-                arr(t_min),
-                arr(t_max),
-                axes,
-                t,
-                unordered & active == 0,
-            )
+            let inv = inv_lanes;
+            RayPacket::from_bounds(lanes, active, inv, arr(t_min), arr(t_max), axes, t, true)
         }
 
         #[inline]
@@ -849,6 +925,19 @@ mod x86 {
                 (t[h], b1[h], b2[h]) = (d, u, v);
             }
             (arr(t), arr(b1), arr(b2), hits)
+        }
+
+        /// Out of line, compiled for this extension (see [`sphere_lanes`]).
+        #[inline(never)]
+        #[target_feature(enable = "avx2,fma")]
+        pub(super) fn sphere(
+            lanes: &RayLanes,
+            t_min: &[f32; PACKET],
+            t_max: &[f32; PACKET],
+            center: Vec3,
+            r2: f64,
+        ) -> LaneHits {
+            sphere_lanes(lanes, t_min, t_max, center, r2)
         }
 
         #[inline]
@@ -1024,6 +1113,93 @@ mod tests {
         // The portable kernel against the scalar single-ray tests (triangles; every other
         // comparison is of the portable kernel with itself).
         compare::<Portable>();
+    }
+
+    /// Every kernel's sphere lanes are the scalar single-ray test (`Primitive::intersect`, what
+    /// `Bvh::intersect` and `Bvh::occluded` call): the same hit or miss, and where it hits the
+    /// same t bit for bit — rays from outside and inside (near or far root), zero and NaN
+    /// directions, empty intervals.
+    #[test]
+    fn sphere_lanes_match_single_rays() {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use linlight_sampling::batch::Isa;
+            if Isa::Avx512.supported() {
+                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+                unsafe fn run() {
+                    compare_spheres::<Avx512>();
+                }
+                // SAFETY: detected above.
+                unsafe { run() };
+            }
+            if Isa::Avx2.supported() {
+                #[target_feature(enable = "avx2,fma")]
+                unsafe fn run() {
+                    compare_spheres::<Avx2>();
+                }
+                // SAFETY: detected above.
+                unsafe { run() };
+            }
+        }
+        compare_spheres::<Portable>();
+    }
+
+    #[inline(always)]
+    fn compare_spheres<K: Kernel>() {
+        use crate::shapes::Primitive;
+        let mut rng = Pcg32::new(5, 12);
+        let spheres: Vec<(Vec3, f32)> = (0..24)
+            .map(|i| {
+                let mut f = || rng.next_f32();
+                let center = Vec3::new(f(), f(), f()) * 2.0 - 1.0;
+                // Radii from tiny (rays graze or miss) to large (origins inside).
+                let radius = if i % 6 == 0 { 1e-3 } else { 0.1 + 1.5 * f() };
+                (center, radius)
+            })
+            .collect();
+        let (mut near, mut far, mut lanes_tested) = (0u32, 0u32, 0u32);
+        for (k, (mut lanes, _)) in packets(&mut rng, 200).into_iter().enumerate() {
+            // A zero direction (a = 0: no root) and an empty interval in some packets.
+            if k % 5 == 0 {
+                for a in 0..3 {
+                    lanes.d[a][k % PACKET] = 0.0;
+                }
+            }
+            if k % 7 == 0 {
+                lanes.t_min[(k + 1) % PACKET] = f32::INFINITY;
+                lanes.t_max[(k + 1) % PACKET] = f32::NEG_INFINITY;
+            }
+            for &(center, radius) in &spheres {
+                let prim = Primitive::Sphere {
+                    center,
+                    radius,
+                    shape: 0,
+                };
+                let r2 = (radius as f64).powi(2);
+                let (t, b1, b2, hits) = K::sphere(&lanes, &lanes.t_min, &lanes.t_max, center, r2);
+                for i in 0..PACKET {
+                    let ray = lanes.get(i);
+                    let scalar = prim.intersect(&ray).map(|(t, ..)| t.to_bits());
+                    let lane = (hits >> i & 1 == 1).then(|| t[i].to_bits());
+                    assert_eq!(
+                        scalar, lane,
+                        "lane {i}, sphere {center} {radius}, ray {ray:?}"
+                    );
+                    assert_eq!((b1[i], b2[i]), (0.0, 0.0));
+                    if hits >> i & 1 == 1 {
+                        // Which root: the origin inside the sphere gives the far one.
+                        if (ray.o - center).length() < radius {
+                            far += 1;
+                        } else {
+                            near += 1;
+                        }
+                    }
+                    lanes_tested += 1;
+                }
+            }
+        }
+        assert!(near > 1000 && far > 1000, "{near} near and {far} far roots");
+        assert!(lanes_tested > 50_000);
     }
 
     #[inline(always)]
