@@ -147,6 +147,7 @@ pub fn render_isa(
         } else {
             1
         },
+        light_rows: light_rows(&rs),
     };
     let mut image = render_in_tiles(
         &rs,
@@ -181,10 +182,44 @@ struct Context<'a> {
     /// The most numbers a lane draws per light: 2 for LTC and MIS on a scene with
     /// non-Lambertian surfaces, else 1.
     per_light: usize,
+    /// Per light j, what a lane that chooses it (`--lights one`) samples: [`LightRow`].
+    light_rows: Vec<LightRow>,
+}
+
+/// A light's values for the lanes that sample it: K (K_j/p_j when the lanes choose one light:
+/// [`k_over_probability`], the scalar path's operation) at 0..3, its segment's begin at 3..6
+/// and end at 6..9.
+type LightRow = [f32; 9];
+
+/// The [`LightRow`] of light j with K = `k`.
+fn light_row(segment: &Segment, k: Vec3) -> LightRow {
+    let mut row = [0.0; 9];
+    for (c, v) in [k, segment.begin, segment.end].iter().enumerate() {
+        row[3 * c..3 * c + 3].copy_from_slice(&v.to_array());
+    }
+    row
+}
+
+/// The [`LightRow`] of every light of `rs` chosen with its probability (K/p).
+fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
+    (0..rs.lights.len())
+        .map(|j| {
+            light_row(
+                &rs.lights[j].0,
+                k_over_probability(&rs.lights, &rs.choice, j),
+            )
+        })
+        .collect()
 }
 
 /// Eight-lane ([`BATCH`]) halves of sixteen-lane arrays.
 type Lanes3 = [[f32; LANES]; 3];
+
+/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`.
+#[inline(always)]
+fn half_lanes(v: &[f32; LANES], b: usize) -> [f32; BATCH] {
+    std::array::from_fn(|i| v[b * BATCH + i])
+}
 
 #[inline(always)]
 fn get3(v: &Lanes3, k: usize) -> Vec3 {
@@ -221,15 +256,14 @@ struct ShadingLanes<'a> {
     v: [[f64; LANES]; 2],
 }
 
-/// The light each lane samples in one pass over the lights: the light's index, its K (divided
-/// by the lane's choice probability when one light is chosen) and the lane's numbers — `xi`
-/// for the batch lanes (one per light), `scalar_xi` for the lanes sampled with the scalar code
-/// (one, or two for LTC and MIS on non-Lambertian surfaces; the second is 0 otherwise);
-/// `uniform`: the light of every lane, when they share one (`every`).
+/// The light each lane samples in one pass over the lights: the light's index, its
+/// [`LightRow`] in lanes (`rows[r][k]`: value r of lane k's light — K, divided by the lane's
+/// choice probability when one light is chosen, and the segment) and the lane's numbers —
+/// `xi` for the batch lanes (one per light), `scalar_xi` for the lanes sampled with the scalar
+/// code (one, or two for LTC and MIS on non-Lambertian surfaces; the second is 0 otherwise).
 struct LightLanes {
-    uniform: Option<usize>,
     light: [u32; LANES],
-    k: Lanes3,
+    rows: [[f32; LANES]; 9],
     xi: [f32; LANES],
     scalar_xi: [[f32; LANES]; 2],
 }
@@ -238,7 +272,20 @@ impl LightLanes {
     /// Lane k's light segment and K.
     #[inline(always)]
     fn of<'s>(&self, rs: &'s RenderScene, k: usize) -> (&'s Segment, Vec3) {
-        (&rs.lights[self.light[k] as usize].0, get3(&self.k, k))
+        (&rs.lights[self.light[k] as usize].0, get3(self.k(), k))
+    }
+
+    /// Each lane's K.
+    #[inline(always)]
+    fn k(&self) -> &Lanes3 {
+        self.row3(0)
+    }
+
+    /// Rows 3·i … 3·i + 2 (0: K, 1: segment begin, 2: segment end).
+    #[inline(always)]
+    fn row3(&self, i: usize) -> &Lanes3 {
+        // Three whole rows (i is a constant after inlining): the conversion cannot fail.
+        self.rows[3 * i..3 * i + 3].try_into().expect("three rows")
     }
 }
 
@@ -522,7 +569,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             let (n, dir, f) = (&shading.n, &samples.dir, &shading.lambert);
             let cos = n[0][k] * dir[0][k] + n[1][k] * dir[1][k] + n[2][k] * dir[2][k];
             let s = cos / samples.pdf[k];
-            let c: [f32; 3] = std::array::from_fn(|a| light.k[a][k] * f[a][k] * s);
+            let c: [f32; 3] = std::array::from_fn(|a| light.k()[a][k] * f[a][k] * s);
             let finite = c.iter().all(|x| x.is_finite());
             let lambert = lambert_lit >> k & 1 == 1;
             let add = lambert & finite;
@@ -532,7 +579,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             }
         }
         dropped += lambert_dropped.count_ones() as u64;
-        dropped += glossy_contributions(&shading, &samples, lit, &light.k, &mut total);
+        dropped += glossy_contributions(&shading, &samples, lit, light.k(), &mut total);
     }
     if dropped > 0 {
         rs.dropped
@@ -953,31 +1000,21 @@ impl<'a> Context<'a> {
         } else {
             number(2 + walk)
         };
-        if !one {
-            return LightLanes {
-                uniform: Some(walk),
-                light: [walk as u32; LANES],
-                k: rs.lights[walk].1.to_array().map(|c| [c; LANES]),
-                xi,
-                scalar_xi,
-            };
-        }
-        let light = rs.choice.pick_lanes(&number(2));
-        let mut k = [[0.0; LANES]; 3];
-        for (lane, &j) in light.iter().enumerate() {
-            set3(
-                &mut k,
-                lane,
-                k_over_probability(&rs.lights, &rs.choice, j as usize),
-            );
-        }
-        LightLanes {
-            uniform: None,
-            light,
-            k,
+        let mut out = LightLanes {
+            light: [walk as u32; LANES],
+            rows: [[0.0; LANES]; 9],
             xi,
             scalar_xi,
+        };
+        if one {
+            // Each lane's light, its K/p and segment, all lanes at once.
+            rs.choice
+                .pick_rows(&number(2), &self.light_rows, &mut out.light, &mut out.rows);
+        } else {
+            let (segment, k) = &rs.lights[walk];
+            out.rows = light_row(segment, *k).map(|v| [v; LANES]);
         }
+        out
     }
 
     /// One sample of lane k's light `lights.light[k]` with ξ = `lights.xi[k]` for every lane
@@ -994,18 +1031,14 @@ impl<'a> Context<'a> {
         let mut out = SampleLanes::default();
         let mut inputs = [PsaBatchInput::default(); 2];
         for (b, input) in inputs.iter_mut().enumerate() {
-            if let Some(j) = lights.uniform {
-                let segment = &self.rs.lights[j].0;
-                input.begin = Vec3x8::splat(segment.begin);
-                input.end = Vec3x8::splat(segment.end);
-            }
+            let half = |v: &Lanes3| {
+                let [x, y, z] = v.each_ref().map(|c| half_lanes(c, b));
+                Vec3x8 { x, y, z }
+            };
+            input.begin = half(lights.row3(1));
+            input.end = half(lights.row3(2));
             for i in 0..BATCH {
                 let k = b * BATCH + i;
-                if lights.uniform.is_none() {
-                    let segment = &self.rs.lights[lights.light[k] as usize].0;
-                    input.begin.set(i, segment.begin);
-                    input.end.set(i, segment.end);
-                }
                 // Lanes without a shading point have a zero normal: no contribution.
                 input.x.set(i, get3(&shading.p, k));
                 input.n.set(i, get3(&shading.n, k));
