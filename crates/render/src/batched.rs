@@ -221,6 +221,19 @@ fn half_lanes(v: &[f32; LANES], b: usize) -> [f32; BATCH] {
     std::array::from_fn(|i| v[b * BATCH + i])
 }
 
+/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of the three components of `v`.
+#[inline(always)]
+fn half3(v: &Lanes3, b: usize) -> Vec3x8 {
+    let [x, y, z] = v.each_ref().map(|c| half_lanes(c, b));
+    Vec3x8 { x, y, z }
+}
+
+/// Sixteen lanes from two halves.
+#[inline(always)]
+fn join_halves(a: &[f32; BATCH], b: &[f32; BATCH]) -> [f32; LANES] {
+    std::array::from_fn(|k| if k < BATCH { a[k] } else { b[k - BATCH] })
+}
+
 #[inline(always)]
 fn get3(v: &Lanes3, k: usize) -> Vec3 {
     Vec3::new(v[0][k], v[1][k], v[2][k])
@@ -260,8 +273,10 @@ struct ShadingLanes<'a> {
 /// [`LightRow`] in lanes (`rows[r][k]`: value r of lane k's light — K, divided by the lane's
 /// choice probability when one light is chosen, and the segment) and the lane's numbers —
 /// `xi` for the batch lanes (one per light), `scalar_xi` for the lanes sampled with the scalar
-/// code (one, or two for LTC and MIS on non-Lambertian surfaces; the second is 0 otherwise).
+/// code (one, or two for LTC and MIS on non-Lambertian surfaces; the second is 0 otherwise);
+/// `uniform`: the light of every lane, when they share one (`every`).
 struct LightLanes {
+    uniform: Option<usize>,
     light: [u32; LANES],
     rows: [[f32; LANES]; 9],
     xi: [f32; LANES],
@@ -1000,21 +1015,46 @@ impl<'a> Context<'a> {
         } else {
             number(2 + walk)
         };
-        let mut out = LightLanes {
-            light: [walk as u32; LANES],
-            rows: [[0.0; LANES]; 9],
+        if !one {
+            let (segment, k) = &rs.lights[walk];
+            return LightLanes {
+                uniform: Some(walk),
+                light: [walk as u32; LANES],
+                rows: light_row(segment, *k).map(|v| [v; LANES]),
+                xi,
+                scalar_xi,
+            };
+        }
+        // Each lane's light, its K/p and segment, all lanes at once.
+        let (light, rows) = rs.choice.pick_rows(&number(2), &self.light_rows);
+        LightLanes {
+            uniform: None,
+            light,
+            rows,
             xi,
             scalar_xi,
-        };
-        if one {
-            // Each lane's light, its K/p and segment, all lanes at once.
-            rs.choice
-                .pick_rows(&number(2), &self.light_rows, &mut out.light, &mut out.rows);
-        } else {
-            let (segment, k) = &rs.lights[walk];
-            out.rows = light_row(segment, *k).map(|v| [v; LANES]);
         }
-        out
+    }
+
+    /// The 8-wide batch of lanes `b·BATCH` … `b·BATCH + BATCH − 1` for
+    /// [`Self::light_samples`]. Lanes without a shading point have a zero normal: no
+    /// contribution.
+    #[inline(always)]
+    fn batch_input(&self, lights: &LightLanes, shading: &ShadingLanes, b: usize) -> PsaBatchInput {
+        let (begin, end) = match lights.uniform {
+            Some(j) => {
+                let segment = &self.rs.lights[j].0;
+                (Vec3x8::splat(segment.begin), Vec3x8::splat(segment.end))
+            }
+            None => (half3(lights.row3(1), b), half3(lights.row3(2), b)),
+        };
+        PsaBatchInput {
+            begin,
+            end,
+            x: half3(&shading.p, b),
+            n: half3(&shading.n, b),
+            xi: half_lanes(&lights.xi, b),
+        }
     }
 
     /// One sample of lane k's light `lights.light[k]` with ξ = `lights.xi[k]` for every lane
@@ -1028,23 +1068,11 @@ impl<'a> Context<'a> {
     ) -> SampleLanes {
         let technique = self.technique;
         debug_assert!(self.batch, "{technique:?} has no batch kernel");
-        let mut out = SampleLanes::default();
-        let mut inputs = [PsaBatchInput::default(); 2];
-        for (b, input) in inputs.iter_mut().enumerate() {
-            let half = |v: &Lanes3| {
-                let [x, y, z] = v.each_ref().map(|c| half_lanes(c, b));
-                Vec3x8 { x, y, z }
-            };
-            input.begin = half(lights.row3(1));
-            input.end = half(lights.row3(2));
-            for i in 0..BATCH {
-                let k = b * BATCH + i;
-                // Lanes without a shading point have a zero normal: no contribution.
-                input.x.set(i, get3(&shading.p, k));
-                input.n.set(i, get3(&shading.n, k));
-                input.xi[i] = lights.xi[k];
-            }
-        }
+        // Every field written (no zeroed batches first).
+        let inputs = [
+            self.batch_input(lights, shading, 0),
+            self.batch_input(lights, shading, 1),
+        ];
         let mut outputs = [PsaBatchOutput::default(); 2];
         if technique == Technique::ProjectedSolidAngle {
             batch::sample_projected_solid_angle_slice(self.isa, &inputs, &mut outputs);
@@ -1059,17 +1087,17 @@ impl<'a> Context<'a> {
                 };
             }
         }
-        for (b, o) in outputs.iter().enumerate() {
-            for i in 0..BATCH {
-                let k = b * BATCH + i;
-                set3(&mut out.dir, k, o.dir.get(i));
-                out.pdf[k] = o.pdf[i];
-                out.distance[k] = o.distance[i];
-            }
-            out.mask |= (o.mask as u32) << (b * BATCH);
+        let [a, b] = &outputs;
+        SampleLanes {
+            mask: (a.mask as u32 | (b.mask as u32) << BATCH) & lanes,
+            dir: [
+                join_halves(&a.dir.x, &b.dir.x),
+                join_halves(&a.dir.y, &b.dir.y),
+                join_halves(&a.dir.z, &b.dir.z),
+            ],
+            pdf: join_halves(&a.pdf, &b.pdf),
+            distance: join_halves(&a.distance, &b.distance),
         }
-        out.mask &= lanes;
-        out
     }
 
     /// Each lane's light of `lights` at the lanes of `lanes`, sampled lane by lane

@@ -155,8 +155,8 @@ impl LightChoice {
         j
     }
 
-    /// [`pick_lanes`](Self::pick_lanes) into `light`, and for each lane the chosen light's row
-    /// of `rows` (row j: light j's C values, e.g. its K/p and segment) into `values`:
+    /// [`pick_lanes`](Self::pick_lanes), and for each lane the chosen light's row of `rows`
+    /// (row j: light j's C values, e.g. its K/p and segment): `(light, values)` with
     /// `values[c][k] = rows[light[k]][c]`. Up to [`SELECT_LIGHTS`] lights by selects over all
     /// lanes per threshold (lanes at or above T_{l−1} take row l; the thresholds increase, so
     /// the last row taken is the chosen light's), which vectorise; more lights lane by lane.
@@ -165,23 +165,15 @@ impl LightChoice {
         &self,
         xi: &[f32; L],
         rows: &[[f32; C]],
-        light: &mut [u32; L],
-        values: &mut [[f32; L]; C],
-    ) {
+    ) -> ([u32; L], [[f32; L]; C]) {
         debug_assert_eq!(rows.len(), self.thresholds.len(), "one row per light");
         if rows.len() > SELECT_LIGHTS {
-            *light = self.pick_lanes(xi);
-            for (c, values) in values.iter_mut().enumerate() {
-                for (v, &j) in values.iter_mut().zip(light.iter()) {
-                    *v = rows[j as usize][c];
-                }
-            }
-            return;
+            let light = self.pick_lanes(xi);
+            let values = std::array::from_fn(|c| light.map(|j| rows[j as usize][c]));
+            return (light, values);
         }
-        *light = [0; L];
-        for (values, &v) in values.iter_mut().zip(&rows[0]) {
-            *values = [v; L];
-        }
+        let mut light = [0; L];
+        let mut values = rows[0].map(|v| [v; L]);
         for (l, (&t, row)) in self.inner_thresholds().iter().zip(&rows[1..]).enumerate() {
             let t = threshold_f32(t);
             // All ones where ξ ≥ T_{l−1}; the rows are taken by bitwise selects on it (the
@@ -198,6 +190,7 @@ impl LightChoice {
                 }
             }
         }
+        (light, values)
     }
 
     /// T_0 … T_{N−2}: the thresholds between lights (the last one, 2²⁴, bounds every ξ).
@@ -336,8 +329,7 @@ mod tests {
             for chunk in xs.chunks_exact(16) {
                 let xi: [f32; 16] = chunk.try_into().unwrap();
                 let picked = c.pick_lanes(&xi);
-                let (mut j, mut values) = ([7; 16], [[f32::NAN; 16]; 3]);
-                c.pick_rows(&xi, &rows, &mut j, &mut values);
+                let (j, values) = c.pick_rows(&xi, &rows);
                 for k in 0..16 {
                     assert_eq!(
                         picked[k],
