@@ -20,13 +20,13 @@
 //! the binary runs on any CPU of its target. Cost per lane: `cargo bench -p linlight-sampling
 //! --bench techniques` (the `batch` rows).
 
-use crate::geometry::{unit_normal_lane, FrameArc, LineFrame};
+use crate::geometry::{normal_is_valid, unit_normal_lane, FrameArc, LineFrame};
 use crate::li2018::{Li2018, LiState, MAX_ITERATIONS};
 use crate::projected_solid_angle::{ProjectedSolidAngle, PsaCore, DEFAULT_ITERATIONS};
 use crate::sampler::clamp_xi;
 use crate::sampler::LineSampler;
 use crate::solid_angle::SolidAngle;
-use crate::trig::{atan2_f64_select, atan2_select};
+use crate::trig::{atan2_coarse_select, atan2_f64_select};
 use glam::Vec3;
 
 /// Lanes of a batch.
@@ -110,8 +110,10 @@ impl Vec3x8 {
 }
 
 /// Eight sampling problems: lane i samples the segment `begin[i]` → `end[i]` seen from the
-/// shading point `x[i]` with normal `n[i]` (any length; normalised, and rejected when zero or
-/// not finite, as by [`crate::unit_normal`]) for the primary sample `xi[i]` (clamped to [0, 1]).
+/// shading point `x[i]` with normal `n[i]` (any length; rejected when zero or not finite, as
+/// by [`crate::unit_normal`]; projected solid angle and Li et al. do not normalise it, their
+/// arithmetic being homogeneous in n, see `ProjectedSolidAngle::lane`) for the primary sample
+/// `xi[i]` (clamped to [0, 1]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PsaBatchInput {
     pub begin: Vec3x8,
@@ -353,12 +355,14 @@ fn prepare_kernel(input: &PsaBatchInput) -> PreparedBatch {
     let mut valid = [false; LANES];
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
     for i in 0..LANES {
-        let (n, normal_ok) = unit_normal_lane(input.n.get(i));
+        // The normal as given, not normalised (see `ProjectedSolidAngle::lane`).
+        let n = input.n.get(i);
+        let normal_ok = normal_is_valid(n);
         let (frame, ends, frame_ok) = LineFrame::lane(
             input.begin.get(i),
             input.end.get(i),
             input.x.get(i),
-            Some(input.n.get(i)),
+            Some(n),
         );
         let (li, ok) = Li2018::lane(frame, ends, n);
         out.store(i, &li);
@@ -407,7 +411,8 @@ struct Pending {
 impl Pending {
     #[inline(always)]
     fn set(&mut self, i: usize, p: &ProjectedSolidAngle, xi: f32, ok: bool) {
-        let ((s, t, n_dot_w), tau, fresh) = p.sample_rotated_lane(clamp_xi(xi), atan2_select);
+        let ((s, t, n_dot_w), tau, fresh) =
+            p.sample_rotated_lane(clamp_xi(xi), atan2_coarse_select);
         (self.s[i], self.t[i], self.n_dot_w[i]) = (s, t, n_dot_w);
         (self.tau[i], self.fresh[i], self.ok[i]) = (tau, fresh, ok);
         let c = &p.core;
@@ -676,12 +681,14 @@ fn kernel(input: &PsaBatchInput) -> PsaBatchOutput {
 /// contribute), into `pending`.
 #[inline(always)]
 fn lane(input: &PsaBatchInput, i: usize, pending: &mut Pending) {
-    let (n, normal_ok) = unit_normal_lane(input.n.get(i));
+    // The normal as given, not normalised (see `ProjectedSolidAngle::lane`).
+    let n = input.n.get(i);
+    let normal_ok = normal_is_valid(n);
     let (frame, ends, frame_ok) = LineFrame::lane(
         input.begin.get(i),
         input.end.get(i),
         input.x.get(i),
-        Some(input.n.get(i)),
+        Some(n),
     );
     let (sampler, sampler_ok) =
         ProjectedSolidAngle::lane(frame, ends, n, DEFAULT_ITERATIONS, atan2_f64_select);

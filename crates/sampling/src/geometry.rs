@@ -647,17 +647,40 @@ pub fn stable_length(v: Vec3) -> f32 {
 /// whether it is valid.
 #[inline(always)]
 pub(crate) fn unit_normal_lane(n: Vec3) -> (Vec3, bool) {
+    let len = n.as_dvec3().length_squared().sqrt();
+    ((n.as_dvec3() * (1.0 / len)).as_vec3(), normal_is_valid(n))
+}
+
+/// Whether `n` is accepted as a normal ([`unit_normal`]'s policy): finite, with a length in
+/// (1e-20, ∞), compared in squares (in f64, where the squares of f32 components neither
+/// overflow nor underflow): no square root for the test.
+#[inline(always)]
+pub(crate) fn normal_is_valid(n: Vec3) -> bool {
+    let len2 = n.as_dvec3().length_squared();
+    len2 > 1e-40 && len2 < f64::INFINITY
+}
+
+/// n·2^k with the integer k that puts the largest |component| into [1, 2): a normal of the
+/// same direction and a length in [1, 2√3), without rounding (a power-of-two scaling is exact)
+/// and without the square root and division of [`unit_normal`]. For the samplers whose
+/// arithmetic is homogeneous in n (projected solid angle: its density (n·ω)/Ω⊥ and its
+/// inversion are of degree 0 in n). Meaningless (but no panic) where `n` is not
+/// [`normal_is_valid`].
+#[inline(always)]
+pub(crate) fn power_of_two_scaled(n: Vec3) -> Vec3 {
     let n = n.as_dvec3();
-    let len = n.length_squared().sqrt();
-    (
-        (n * (1.0 / len)).as_vec3(),
-        len > 1e-20 && len < f64::INFINITY,
-    )
+    // m = 2^e·f with f ∈ [1, 2) and biased exponent E = e + 1023; 2^(−e) has the biased
+    // exponent 2046 − E (a normal f64 for every f32 m; wrapping for inf/NaN, which are invalid).
+    let m = n.abs().max_element();
+    let scale = f64::from_bits(2046u64.wrapping_sub(m.to_bits() >> 52) << 52);
+    (n * scale).as_vec3()
 }
 
 /// Normalise a user-supplied normal. Policy of this crate: normals are *normalised*; a zero,
-/// denormal-length or non-finite normal is rejected (`None`), which makes the light contribute
-/// nothing at that shading point.
+/// denormal-length or non-finite normal is rejected (`None`; `normal_is_valid`), which makes
+/// the light contribute nothing at that shading point. (Projected solid angle and Li et al.,
+/// whose arithmetic is homogeneous in n, scale it by a power of two instead,
+/// `power_of_two_scaled`: the same direction without a rounding.)
 ///
 /// In f64, where the squares of f32 components neither overflow nor underflow: one square root
 /// and one division, no rescaling pass.

@@ -19,7 +19,7 @@
 //! bracket with the sign of the residual and takes the Newton step l − G/F'(l) if it lands strictly
 //! inside the bracket, the bracket midpoint otherwise.
 
-use crate::geometry::{unit_normal, EndValues, LineFrame, Segment};
+use crate::geometry::{normal_is_valid, EndValues, LineFrame, Segment};
 use crate::projected_solid_angle::{ProjectedSolidAngle, DEFAULT_ITERATIONS};
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
@@ -34,7 +34,9 @@ pub const TOLERANCE: f32 = 1e-5;
 pub struct Li2018 {
     /// Shares the clipped frame, the exact density and the exact CDF.
     pub(crate) exact: ProjectedSolidAngle,
-    /// n·c = d n_t and n_s = n·u, for F'(l) = 2d(n·c + l n_s)/r⁴.
+    /// n·c = d n_t and n_s = n·u, for F'(l) = 2d(n·c + l n_s)/r⁴, of the sampler's normal
+    /// `exact.n` (scaled by a power of two, not unit: the slope is used with `exact.inv_psa`,
+    /// which refers to the same normal).
     pub(crate) n_dot_c: f32,
     pub(crate) ns: f32,
     pub(crate) max_iterations: u32,
@@ -42,12 +44,15 @@ pub struct Li2018 {
 
 impl Li2018 {
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
-        let unit = unit_normal(n)?;
-        // Clipped with the normal as given (as `ProjectedSolidAngle::prepare`).
+        if !normal_is_valid(n) {
+            return None;
+        }
+        // Clipped with the normal as given, which is not normalised either (as
+        // `ProjectedSolidAngle::prepare`).
         let (frame, ends) = LineFrame::clipped_with_ends(segment, x, n)?;
-        let n = unit;
         let exact = ProjectedSolidAngle::on_frame_with(frame, ends, n, DEFAULT_ITERATIONS)?;
-        let (ns, nt) = frame.normal_coefficients(n);
+        // Of the sampler's (scaled) normal, which its `inv_psa` refers to.
+        let (ns, nt) = frame.normal_coefficients(exact.n);
         Some(Self {
             exact,
             n_dot_c: frame.d * nt,
@@ -135,7 +140,7 @@ impl Li2018 {
             DEFAULT_ITERATIONS,
             crate::trig::atan2_f64_select,
         );
-        let (ns, nt) = frame.normal_coefficients(n);
+        let (ns, nt) = frame.normal_coefficients(exact.n);
         let li = Self {
             exact,
             n_dot_c: frame.d * nt,

@@ -64,7 +64,9 @@
 //! evaluation τ/2, and the frame's end values are one multiplication after their division. The
 //! f64 instantiation keeps std's functions and the full series.
 
-use crate::geometry::{arc_tolerance, tau_in_arc, unit_normal, EndValues, LineFrame, Segment};
+use crate::geometry::{
+    arc_tolerance, normal_is_valid, power_of_two_scaled, tau_in_arc, EndValues, LineFrame, Segment,
+};
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
 use glam::{DVec3, Vec3};
@@ -101,6 +103,7 @@ pub(crate) trait Real:
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
     fn sin_cos(self) -> (Self, Self);
+    /// atan2 of the start value (the core's only one; f32: [`crate::trig::atan2_coarse`]).
     fn atan2(self, x: Self) -> Self;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
@@ -177,13 +180,14 @@ macro_rules! impl_real {
         }
     };
 }
-// f32: atan2 and sin_cos without libm (crate::trig, f64 polynomials, ~1e-11 relative), the
+// f32: atan2 and sin_cos without libm (crate::trig, f64 polynomials, ~1e-11 relative; atan2,
+// which only the start value takes, with an f32 division: within 2 ulp), the
 // series of δ − sin δ to δ⁸ (truncation < 1e-9 relative for |δ| < 1). f64: std, to δ¹⁶
 // (< 1e-17). c_k = 6(−1)^k/(2k + 3)!.
 impl_real!(
     f32,
     |a: f32, b: f32, c: f32, d: f32| { (a as f64 * b as f64 + c as f64 * d as f64) as f32 },
-    crate::trig::atan2,
+    crate::trig::atan2_coarse,
     crate::trig::sin_cos,
     SERIES.split_at(5).0
 );
@@ -703,9 +707,13 @@ impl PsaCore<f32> {
 pub struct ProjectedSolidAngle {
     /// Horizon-clipped frame: the support.
     pub(crate) frame: LineFrame,
+    /// The normal scaled by a power of two (largest |component| in [1, 2),
+    /// [`power_of_two_scaled`]), not normalised: the core and the density are homogeneous in n.
     pub(crate) n: Vec3,
+    /// The core of `n` (its C, G and total carry the factor |n|).
     pub(crate) core: PsaCore<f32>,
-    /// 1/Ω⊥_R = d / (C(φ_e) − C(φ_b)).
+    /// 1/(|n| Ω⊥_R) = d / (C(φ_e) − C(φ_b)), so that the density per radius of a direction is
+    /// (n·ω)·`inv_psa` = (n̂·ω)/Ω⊥_R for the stored (not unit) `n`.
     pub(crate) inv_psa: f32,
     /// Support tolerance of the arc ([`arc_tolerance`]); the arc itself is (s_b, c_b, Δ) of
     /// `core`, not stored twice (keeps the struct, and `Prepared`, small enough to be moved
@@ -731,14 +739,17 @@ impl ProjectedSolidAngle {
         n: Vec3,
         iterations: u32,
     ) -> Option<Self> {
-        let unit = unit_normal(n)?;
-        // Clipped with the normal as given: the horizon depends on its direction only, and the
-        // clipping then need not wait for the normalisation (a square root and a division).
+        if !normal_is_valid(n) {
+            return None;
+        }
+        // Clipped with the normal as given: the horizon depends on its direction only. Nor does
+        // the sampler normalise it (see [`Self::lane`]).
         let (frame, ends) = LineFrame::clipped_with_ends(segment, x, n)?;
-        Self::on_frame_with(frame, ends, unit, iterations)
+        Self::on_frame_with(frame, ends, n, iterations)
     }
 
-    /// On an already clipped frame (n unit, frame clipped to its horizon).
+    /// On an already clipped frame (frame clipped to the horizon of n; n of any length that
+    /// [`crate::unit_normal`] accepts).
     #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
         Self::on_frame_with(frame, EndValues::of(&frame), n, iterations)
@@ -766,6 +777,13 @@ impl ProjectedSolidAngle {
         iterations: u32,
         atan2: impl Fn(f64, f64) -> f64,
     ) -> (Self, bool) {
+        // n is not normalised (that took an f64 square root and division, ~40 cycles of the
+        // divider per 8 lanes): ΔC, G, G', G'' and the total are all linear in n, so the Halley
+        // steps (h = −2G/(G' + √(G'² − 2GG''))) and the density (n·ω)·d/total do not depend on
+        // its length. It is scaled by a power of two instead (exact: rounds nothing), so that
+        // its length lies in [1, 2√3) like a unit normal's, whatever the caller passed; a unit
+        // normal thus gives bit for bit the sampler of the unit normal, up to exact factors 2.
+        let n = power_of_two_scaled(n);
         // In f64 from the f32 frame (no overflow, exact products), each value rounded once:
         // n_s, n_t; (sin φ_b, cos φ_b) = (l_b, d)/r_b, cos φ_b accurate where s_b ≈ ±1 is not;
         // Δ from tan Δ = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b;
@@ -821,14 +839,14 @@ impl ProjectedSolidAngle {
         s * self.frame.u.as_dvec3() + t.max(0.0) * self.frame.c_hat.as_dvec3()
     }
 
-    /// Ω⊥_R of the clipped segment.
+    /// Ω⊥_R of the clipped segment (for the unit normal): 1/(|n| `inv_psa`), see `inv_psa`.
     pub fn projected_solid_angle(&self) -> f32 {
-        1.0 / self.inv_psa
+        1.0 / (self.inv_psa * self.n.length())
     }
 
     /// The unit normal the sampler was prepared with.
     pub fn normal(&self) -> Vec3 {
-        self.n
+        self.n.normalize()
     }
 
     /// Exact CDF at the line parameter l (clamped to the support): the fraction of Ω⊥_R between

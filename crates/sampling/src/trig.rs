@@ -54,6 +54,30 @@ fn atan_small(t: f64) -> f64 {
 /// `f64::atan2` for finite and signed-zero arguments; NaN in, NaN out.
 #[inline(always)]
 pub fn atan2_f64(y: f64, x: f64) -> f64 {
+    atan2_with(y, x, divide_f64)
+}
+
+/// atan2's reduced argument for 0 ≤ num ≤ den: (num − den)/(num + den) where `reduce`, else
+/// num/den, correctly rounded in f64 (one division for both: the select is kept before it).
+#[inline(always)]
+fn divide_f64(reduce: bool, num: f64, den: f64) -> f64 {
+    std::hint::select_unpredictable(reduce, num - den, num)
+        / std::hint::select_unpredictable(reduce, num + den, den)
+}
+
+/// The same for f32 num and den, in f32 (for [`atan2_coarse`]): on 8 SIMD lanes one f32
+/// division (a third of an f64 division's time in the divider of an AVX-512 core), and on the
+/// scalar path no conversion before it.
+#[inline(always)]
+fn divide_f32(reduce: bool, num: f64, den: f64) -> f64 {
+    let (num, den) = (num as f32, den as f32);
+    (std::hint::select_unpredictable(reduce, num - den, num)
+        / std::hint::select_unpredictable(reduce, num + den, den)) as f64
+}
+
+/// [`atan2_f64`] with a given division of the reduced argument.
+#[inline(always)]
+fn atan2_with(y: f64, x: f64, divide: impl Fn(bool, f64, f64) -> f64) -> f64 {
     if y.is_nan() || x.is_nan() {
         return f64::NAN;
     }
@@ -66,9 +90,9 @@ pub fn atan2_f64(y: f64, x: f64) -> f64 {
     // (only in the second branch) gives NaN, where std returns π/4. (Branches, not selects:
     // measured faster, as the division starts on the predicted path.)
     let mut r = if num > TAN_PI_8 * den {
-        FRAC_PI_4 + atan_small((num - den) / (num + den))
+        FRAC_PI_4 + atan_small(divide(true, num, den))
     } else if den > 0.0 {
-        let t = num / den;
+        let t = divide(false, num, den);
         if t.is_nan() {
             FRAC_PI_4
         } else {
@@ -95,15 +119,20 @@ pub fn atan2_f64(y: f64, x: f64) -> f64 {
 /// path the branches measured faster (the division starts on the predicted path).
 #[inline(always)]
 pub fn atan2_f64_select(y: f64, x: f64) -> f64 {
+    atan2_select_with(y, x, divide_f64)
+}
+
+/// [`atan2_f64_select`] with a given division of the reduced argument.
+#[inline(always)]
+fn atan2_select_with(y: f64, x: f64, divide: impl Fn(bool, f64, f64) -> f64) -> f64 {
     let (ax, ay) = (x.abs(), y.abs());
     let swap = ay > ax;
     let num = if swap { ax } else { ay };
     let den = if swap { ay } else { ax };
     let reduce = num > TAN_PI_8 * den;
-    // One division and one polynomial for both arms: without the hint the compiler computes
-    // both arms (two divisions, two polynomials) and selects after them.
-    let t = std::hint::select_unpredictable(reduce, num - den, num)
-        / std::hint::select_unpredictable(reduce, num + den, den);
+    // One division and one polynomial for both arms: without the hint (in `divide`) the
+    // compiler computes both arms (two divisions, two polynomials) and selects after them.
+    let t = divide(reduce, num, den);
     let small = atan_small(t);
     let mut r = if reduce { FRAC_PI_4 + small } else { small };
     // t = NaN: 0/0 (x = y = 0, result 0), inf/inf (π/4) or a NaN input (NaN).
@@ -130,6 +159,22 @@ pub fn atan2_f64_select(y: f64, x: f64) -> f64 {
 #[inline(always)]
 pub fn atan2_select(y: f32, x: f32) -> f32 {
     atan2_f64_select(y as f64, x as f64) as f32
+}
+
+/// atan2(y, x) for f32 arguments with the reduced argument divided in f32 (the polynomial and
+/// the reduction in f64 as in [`atan2`]): within 2 ulp of the correctly rounded value instead of
+/// 1 (test `coarse_atan2_within_two_ulp`), for one f32 division instead of an f64 one. For the
+/// projected-solid-angle start value, which two Halley steps correct (in the ξ guard band it is
+/// the sample: the backward-error sweep covers it).
+#[inline]
+pub fn atan2_coarse(y: f32, x: f32) -> f32 {
+    atan2_with(y as f64, x as f64, divide_f32) as f32
+}
+
+/// [`atan2_coarse`] with selects instead of branches (bitwise the same results).
+#[inline(always)]
+pub fn atan2_coarse_select(y: f32, x: f32) -> f32 {
+    atan2_select_with(y as f64, x as f64, divide_f32) as f32
 }
 
 /// sin x = x·S(x²) and (1 − cos x)/x² = K(x²): degree-5 Chebyshev fits on x² ∈ [0, 1.0001·(π/2)²]
@@ -285,6 +330,48 @@ mod tests {
             "worst relative error of f32 sin, cos: {:.2e} {:.2e}",
             worst.0, worst.1
         );
+    }
+
+    /// The coarse f32 atan2 (f32 division) is within 2 ulp of the correctly rounded value, and
+    /// its branch-free variant is the same function bit for bit.
+    #[test]
+    fn coarse_atan2_within_two_ulp() {
+        let mut rng = Pcg32::new(13, 9);
+        let mut worst = 0.0f64;
+        for k in 0..400_000 {
+            let scale = |r: f32| 10f32.powi((r * 12.0) as i32 - 6);
+            let y = (rng.next_f32() - 0.5) * scale(rng.next_f32());
+            let x = (rng.next_f32() - 0.5) * scale(rng.next_f32());
+            // Every 4th pair near the reduction threshold tan(π/8) and the diagonal.
+            let y = if k % 4 == 0 {
+                x * (0.3 + 0.8 * rng.next_f32())
+            } else {
+                y
+            };
+            let (a, b) = (atan2_coarse(y, x), atan2_coarse_select(y, x));
+            assert_eq!(a.to_bits(), b.to_bits(), "atan2_coarse({y}, {x})");
+            let exact = (y as f64).atan2(x as f64);
+            let ulp = (exact as f32).abs().max(f32::MIN_POSITIVE) as f64 * f32::EPSILON as f64;
+            let err = (a as f64 - exact).abs() / ulp;
+            assert!(
+                err <= 2.0,
+                "atan2_coarse({y}, {x}) = {a}, exact {exact}: {err} ulp"
+            );
+            worst = worst.max(err);
+        }
+        for &(y, x) in &[
+            (0.0f32, 0.0f32),
+            (-0.0, -1.0),
+            (1.0, 0.0),
+            (f32::INFINITY, f32::INFINITY),
+        ] {
+            assert_eq!(atan2_coarse(y, x), atan2(y, x), "atan2_coarse({y}, {x})");
+            assert_eq!(atan2_coarse_select(y, x), atan2(y, x), "({y}, {x})");
+        }
+        assert!(
+            atan2_coarse(f32::NAN, 1.0).is_nan() && atan2_coarse_select(1.0, f32::NAN).is_nan()
+        );
+        eprintln!("worst error of atan2_coarse: {worst:.2} ulp");
     }
 
     /// The branch-free variant is the same function, bit for bit.
