@@ -71,6 +71,16 @@ impl std::str::FromStr for LightSelection {
 /// Lattice points of the renderer's uniforms: ξ = k·2⁻²⁴, k < 2²⁴.
 const LATTICE: u32 = 1 << 24;
 
+/// The most lights [`LightChoice::pick_rows`] chooses among with selects over the lanes (cost
+/// ∝ lights × values per lane); more are looked up lane by lane.
+pub const SELECT_LIGHTS: usize = 4;
+
+/// T·2⁻²⁴ (exact: T ≤ 2²⁴).
+#[inline(always)]
+fn threshold_f32(t: u32) -> f32 {
+    t as f32 * (1.0 / LATTICE as f32)
+}
+
 /// The discrete distribution of [`LightSelection::One`] over a scene's lights.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LightChoice {
@@ -127,17 +137,66 @@ impl LightChoice {
     /// The light [`pick`](Self::pick) chooses for each ξ of `xi`, without a search: light j is
     /// the number of thresholds T_0 … T_{N−2} at or below k = ξ·2²⁴ (a loop over lanes per
     /// threshold, which vectorises).
+    ///
+    /// Compared in f32, ξ ≥ T·2⁻²⁴: exactly the integer test ⌊ξ·2²⁴⌋ ≥ T for every f32 ξ
+    /// (scaling by 2²⁴ is exact, T ≤ 2²⁴ is an f32, and ⌊y⌋ ≥ T ⇔ y ≥ T for an integer T;
+    /// negative ξ and NaN choose light 0 both ways), without AVX2's costly f32 → u32
+    /// conversion.
     #[inline(always)]
     pub fn pick_lanes<const L: usize>(&self, xi: &[f32; L]) -> [u32; L] {
         debug_assert!(!self.thresholds.is_empty(), "no light to choose");
-        let k: [u32; L] = xi.map(|x| (x * LATTICE as f32) as u32);
         let mut j = [0u32; L];
-        for &t in &self.thresholds[..self.thresholds.len().saturating_sub(1)] {
-            for (j, k) in j.iter_mut().zip(&k) {
-                *j += (*k >= t) as u32;
+        for &t in self.inner_thresholds() {
+            let t = threshold_f32(t);
+            for (j, x) in j.iter_mut().zip(xi) {
+                *j += (*x >= t) as u32;
             }
         }
         j
+    }
+
+    /// [`pick_lanes`](Self::pick_lanes), and for each lane the chosen light's row of `rows`
+    /// (row j: light j's C values, e.g. its K/p and segment): `(light, values)` with
+    /// `values[c][k] = rows[light[k]][c]`. Up to [`SELECT_LIGHTS`] lights by selects over all
+    /// lanes per threshold (lanes at or above T_{l−1} take row l; the thresholds increase, so
+    /// the last row taken is the chosen light's), which vectorise; more lights lane by lane.
+    #[inline(always)]
+    pub fn pick_rows<const C: usize, const L: usize>(
+        &self,
+        xi: &[f32; L],
+        rows: &[[f32; C]],
+    ) -> ([u32; L], [[f32; L]; C]) {
+        debug_assert_eq!(rows.len(), self.thresholds.len(), "one row per light");
+        if rows.len() > SELECT_LIGHTS {
+            let light = self.pick_lanes(xi);
+            let values = std::array::from_fn(|c| light.map(|j| rows[j as usize][c]));
+            return (light, values);
+        }
+        let mut light = [0; L];
+        let mut values = rows[0].map(|v| [v; L]);
+        for (l, (&t, row)) in self.inner_thresholds().iter().zip(&rows[1..]).enumerate() {
+            let t = threshold_f32(t);
+            // All ones where ξ ≥ T_{l−1}; the rows are taken by bitwise selects on it (the
+            // same bits). Written with `if` per value, the compiler hoists the comparison out
+            // of the loop over the row and branches per lane.
+            let above: [u32; L] = std::array::from_fn(|k| ((xi[k] >= t) as u32).wrapping_neg());
+            for (j, &m) in light.iter_mut().zip(&above) {
+                *j = (l as u32 + 1) & m | *j & !m;
+            }
+            for (values, &v) in values.iter_mut().zip(row) {
+                let v = v.to_bits();
+                for (value, &m) in values.iter_mut().zip(&above) {
+                    *value = f32::from_bits(v & m | value.to_bits() & !m);
+                }
+            }
+        }
+        (light, values)
+    }
+
+    /// T_0 … T_{N−2}: the thresholds between lights (the last one, 2²⁴, bounds every ξ).
+    #[inline(always)]
+    fn inner_thresholds(&self) -> &[u32] {
+        &self.thresholds[..self.thresholds.len().saturating_sub(1)]
     }
 
     /// 1/p_j, rounded to f32.
@@ -220,6 +279,69 @@ mod tests {
                 );
             }
             assert!((0..weights.len()).map(|j| c.probability(j)).sum::<f64>() == 1.0);
+        }
+    }
+
+    /// The f32 comparison of `pick_lanes` chooses what the integer test ⌊ξ·2²⁴⌋ ≥ T chooses,
+    /// for lattice points and any other f32 (off the lattice, ≥ 1, negative, NaN); and
+    /// `pick_rows` returns that light and its row, by selects (≤ SELECT_LIGHTS lights) and lane
+    /// by lane (more).
+    #[test]
+    fn pick_rows_gives_the_chosen_light_and_its_row() {
+        let integer_pick = |c: &LightChoice, x: f32| {
+            let k = (x * LATTICE as f32) as u32;
+            c.thresholds[..c.thresholds.len() - 1]
+                .iter()
+                .filter(|&&t| k >= t)
+                .count() as u32
+        };
+        for n in 1..=SELECT_LIGHTS + 3 {
+            let weights: Vec<f32> = (0..n).map(|j| 1.0 + (j * 7 % 5) as f32).collect();
+            let c = LightChoice::new(&weights);
+            let rows: Vec<[f32; 3]> = (0..n).map(|j| [j as f32, -(j as f32), 0.5]).collect();
+            let mut xs: Vec<f32> = (0..LATTICE)
+                .step_by(4099)
+                .map(|k| k as f32 / LATTICE as f32)
+                .collect();
+            for &t in &c.thresholds {
+                for k in [t.saturating_sub(1), t, t + 1] {
+                    let x = k as f32 / LATTICE as f32;
+                    xs.extend([
+                        x,
+                        f32::from_bits(x.to_bits() + 1),
+                        f32::from_bits(x.to_bits().saturating_sub(1)),
+                    ]);
+                }
+            }
+            xs.extend([
+                -0.0,
+                -1.0,
+                1.0,
+                2.0,
+                f32::NAN,
+                f32::INFINITY,
+                f32::NEG_INFINITY,
+                1e-30,
+            ]);
+            while !xs.len().is_multiple_of(16) {
+                xs.push(0.25);
+            }
+            for chunk in xs.chunks_exact(16) {
+                let xi: [f32; 16] = chunk.try_into().unwrap();
+                let picked = c.pick_lanes(&xi);
+                let (j, values) = c.pick_rows(&xi, &rows);
+                for k in 0..16 {
+                    assert_eq!(
+                        picked[k],
+                        integer_pick(&c, xi[k]),
+                        "{n} lights, ξ {}",
+                        xi[k]
+                    );
+                    assert_eq!(j[k], picked[k]);
+                    let row = rows[j[k] as usize];
+                    assert_eq!([values[0][k], values[1][k], values[2][k]], row);
+                }
+            }
         }
     }
 }
