@@ -509,7 +509,9 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         }
         let samples = ctx.light_samples(&light, &shading, batch_lanes);
         let (shadow, mask) = shadow_rays(&shading, &samples);
-        let occluded = rs.bvh.occluded_lanes(&shadow, mask);
+        let occluded =
+            rs.shadows
+                .occluded_lanes(&rs.bvh, &light.light, light.uniform, &shadow, mask);
         let lit = mask & !occluded;
         // Lambertian lanes: K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R), and only finite
         // contributions (adding +0 elsewhere leaves a sum that starts at +0 bitwise unchanged).
@@ -1054,7 +1056,9 @@ impl<'a> Context<'a> {
         total: &mut Lanes3,
     ) -> u64 {
         let samples = self.scalar_samples(shading, lanes, lights);
-        let visible = samples.each_ref().map(|s| s.visible(self.rs, shading));
+        let visible = samples
+            .each_ref()
+            .map(|s| s.visible(self.rs, shading, lights));
         let mut dropped = 0;
         let mut m = lanes;
         while m != 0 {
@@ -1162,9 +1166,10 @@ impl CandidateLanes {
     }
 
     /// The lanes whose line point is visible: the scalar integrator's shadow rays
-    /// (`shadow_ray_to`), in one packet walk.
+    /// (`shadow_ray_to`) toward lane k's light `lights.light[k]`, in one packet walk per
+    /// light's shadow BVH ([`crate::shadow_culling`]).
     #[inline(always)]
-    fn visible(&self, rs: &RenderScene, shading: &ShadingLanes) -> u32 {
+    fn visible(&self, rs: &RenderScene, shading: &ShadingLanes, lights: &LightLanes) -> u32 {
         if self.mask == 0 {
             return 0;
         }
@@ -1180,7 +1185,9 @@ impl CandidateLanes {
             rays.set(k, &ray);
             mask |= (ok as u32) << k;
         }
-        mask & !rs.bvh.occluded_lanes(&rays, mask)
+        mask & !rs
+            .shadows
+            .occluded_lanes(&rs.bvh, &lights.light, lights.uniform, &rays, mask)
     }
 }
 
