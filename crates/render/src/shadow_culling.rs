@@ -22,17 +22,21 @@
 //! BVH. Its end o + t_max·d lies within a few u·D of the segment from o to a point of L (the ray
 //! stops short of its target), so both its ends are at h_P ≥ g_P. Möller–Trumbore
 //! ([`crate::shapes::intersect_triangle_edges`], with or without fused multiply-adds) computes
-//! t = num/det with num ≈ (o − v₀)·N, det ≈ −d·N, N = e₁ × e₂, each within γ·|o − v₀|·|e₁||e₂| and
-//! γ·|e₁||e₂| (γ ≈ 8u, |d| = 1) of its exact value. If both ends of the ray are at h_P ≥ g_P with
-//!   g_P = 256·u·D / sin θ_P    (θ_P: the angle between e₁ and e₂; |N| = |e₁||e₂| sin θ_P),
-//! then num has the sign of h_P(o) > 0 and the computed t is either ≤ 0 (det ≤ 0) or, when the
-//! ray heads toward Π_P, at least (h_P(o)|N| − E_n)/(|d·N| + E_d) > t_max because
-//! t_max·|d·N̂| ≤ h_P(o) − h_P(end), or, heading away with a det of the wrong sign (|det| ≤ 2E_d),
-//! at least (h_P(o)|N| − E_n)/(2E_d) > t_max: the bound needs g_P ≥ ~28·u·D/sin θ_P, taken
-//! with a factor 9 to spare. So P never reports a hit in (0, t_max) for a ray that passes the
-//! guard, any-hit over the kept primitives equals any-hit over all (the box tests are
-//! conservative, so the tree's shape does not matter), and images are bit for bit those of the
-//! full BVH. `tests` checks it on every committed scene, rays from the contact lines included.
+//! t = num/det with num ≈ (o − v₀)·N, det ≈ −d·N, N = e₁ × e₂, within E_n ≤ 12u·|o − v₀||e₁||e₂|
+//! and E_d ≤ 12u·|e₁||e₂| of their exact values (|d| = 1; a rounded difference, a cross product
+//! and a dot product, each term bounded by the norms). If both ends of the ray are at h_P ≥ g_P
+//! with
+//!   g_P = 64·u·D / sin θ_P    (θ_P: the angle between e₁ and e₂; |N| = |e₁||e₂| sin θ_P),
+//! then num has the sign of h_P(o) > 0 and the computed t is ≤ 0 (det ≤ 0), or, when the ray
+//! heads toward Π_P, at least (h_P(o)|N| − E_n)/(|d·N| + E_d) > t_max because
+//! t_max·|d·N̂| ≤ h_P(o) − h_P(end), or, heading away with a det of the wrong sign
+//! (|det| ≤ 2E_d), at least (h_P(o)|N| − E_n)/(2E_d) > t_max. Both need
+//! h_P ≥ 12u·(|o − v₀| + 2·t_max)/sin θ_P + O(u²) ≤ 36·u·D/sin θ_P, so g_P has a factor 1.8 to
+//! spare (fused multiply-adds only shrink the errors). So P never reports a hit in (0, t_max)
+//! for a ray that passes the guard, any-hit over the kept primitives equals any-hit over all
+//! (the box tests are conservative, so the tree's shape does not matter), and images are bit
+//! for bit those of the full BVH. `tests` checks it on every committed scene, rays from the
+//! contact lines included.
 //!
 //! Triangles of (nearly) one plane share one guard plane: the guard of the group is evaluated in
 //! f32 against a threshold raised by the f32 evaluation error and by the largest difference
@@ -40,8 +44,10 @@
 //!
 //! Shading points on P itself (or coplanar with it) pass: the shadow ray's origin is pushed off
 //! the surface toward the target's side by (1 + max|p_i|)·`RAY_EPSILON` ≥ 8.9·10⁻⁵, far more
-//! than g_P (4·10⁻⁵ on cornell-tube). Points within ~g_P of Π_P on other primitives (the edges
-//! where walls and boxes touch) fail the guard and take the full walk.
+//! than g_P (~3·10⁻⁵ on cornell-tube, D ≈ 6.9). Points within ~g_P of Π_P on other primitives
+//! (the edges where walls and boxes touch) fail the guard and take the full walk. A light culls
+//! triangles of at most [`MAX_GUARDS`] planes (the packet guard costs the same per plane and
+//! lane whatever the walk saves).
 
 use crate::bvh::{Bvh, RayLanes, PACKET};
 use crate::shapes::{Primitive, Ray};
@@ -324,7 +330,7 @@ impl ShadowCulling {
             if lanes == 0 {
                 continue;
             }
-            let safe = lanes & passes_lanes(&ls.guards, rays);
+            let safe = lanes & passes_lanes(&ls.guards, ls.used, rays);
             if safe != 0 {
                 if !bvh.is_empty() {
                     occluded |= bvh.occluded_lanes(rays, safe);
@@ -347,13 +353,28 @@ fn passes(guards: &[Guard; MAX_GUARDS], o: Vec3) -> bool {
         .all(|g| g.n[0] * o.x + g.n[1] * o.y + g.n[2] * o.z >= g.w)
 }
 
-/// The lanes whose origin passes every guard (all [`PACKET`] lanes computed, lane masks as
-/// u32 words so that the loop runs on vector registers).
+/// The lanes whose origin passes the first `used` guards (the others pass every origin).
 #[inline(always)]
-fn passes_lanes(guards: &[Guard; MAX_GUARDS], rays: &RayLanes) -> u32 {
+fn passes_lanes(guards: &[Guard; MAX_GUARDS], used: usize, rays: &RayLanes) -> u32 {
+    // A constant number of planes per call: straight-line vector code.
+    match used {
+        0 => u32::MAX,
+        1 => passes_first::<1>(guards, rays),
+        2 => passes_first::<2>(guards, rays),
+        3 => passes_first::<3>(guards, rays),
+        4 => passes_first::<4>(guards, rays),
+        5 => passes_first::<5>(guards, rays),
+        _ => passes_first::<MAX_GUARDS>(guards, rays),
+    }
+}
+
+/// The lanes (all [`PACKET`] computed) whose origin passes guards 0..N.
+#[inline(always)]
+fn passes_first<const N: usize>(guards: &[Guard; MAX_GUARDS], rays: &RayLanes) -> u32 {
     let [ox, oy, oz] = &rays.o;
+    // Lane masks as u32 words (0 or !0): the loop runs on vector registers.
     let mut ok = [u32::MAX; PACKET];
-    for g in guards {
+    for g in &guards[..N] {
         let [nx, ny, nz] = g.n;
         for k in 0..PACKET {
             let s = nx * ox[k] + ny * oy[k] + nz * oz[k];
