@@ -71,29 +71,32 @@ impl Guard {
     };
 }
 
-/// Guard planes per light: a triangle whose plane would need more is kept (the packet guard
+/// Guard planes per light (a light that culls fewer than a third of the primitives culls
+/// none: the guard would cost more than the walk saves): a triangle whose plane would need more is kept (the packet guard
 /// costs ~2 instructions per plane and lane whether used or not).
 pub const MAX_GUARDS: usize = 6;
 
-/// The shadow BVH of one light.
+/// A culled shadow BVH, shared by the lights that cull the same triangles with the same
+/// guards.
 #[derive(Clone, Debug)]
-pub struct LightShadows {
-    /// The kept primitives' BVH; `None`: nothing culled, the scene's BVH is used.
-    bvh: Option<Bvh>,
+struct ShadowSet {
+    /// The kept primitives' BVH (empty: nothing occludes, no walk).
+    bvh: Bvh,
     /// The guard planes of the culled triangles, the first `used` of them ([`Guard::PASS`]
     /// after): a fixed number, so that the packet guard is straight-line vector code.
     guards: [Guard; MAX_GUARDS],
     used: usize,
-    /// The culled triangles.
+    /// Indices (into the scene's primitives) and copies of the culled triangles.
+    culled_index: Vec<usize>,
     culled: Vec<Primitive>,
 }
 
 /// Per-light shadow BVHs (see the module documentation).
 #[derive(Clone, Debug, Default)]
 pub struct ShadowCulling {
-    lights: Vec<LightShadows>,
-    /// Whether any light culls anything (else every walk is the scene's BVH).
-    any: bool,
+    sets: Vec<ShadowSet>,
+    /// Per light: its set, or `None` when it culls nothing (the scene's BVH is walked).
+    light_set: Vec<Option<usize>>,
 }
 
 /// A triangle's plane in f64: unit normal, a vertex, sin θ between its edges.
@@ -199,10 +202,11 @@ impl ShadowCulling {
         for &(a, b) in lights {
             let (a, b) = (a.as_dvec3(), b.as_dvec3());
             let mut kept = Vec::new();
+            let mut culled_index = Vec::new();
             // Guard planes: (plane, threshold on h over the group plane).
             let mut groups: Vec<(Plane, f64)> = Vec::new();
             let mut culled = Vec::new();
-            for p in &finite {
+            for (i, p) in finite.iter().enumerate() {
                 let cull = match p {
                     Primitive::Triangle { v, .. } => Plane::of(v).and_then(|pl| {
                         let pl = if pl.h(a) < 0.0 { pl.flipped() } else { pl };
@@ -218,6 +222,7 @@ impl ShadowCulling {
                     None => kept.push((*p).clone()),
                     Some((pl, need)) => {
                         culled.push((*p).clone());
+                        culled_index.push(i);
                         // Join a group whose plane differs from this one by at most 10⁻⁶·D
                         // over the scene box (affine: the maximum is at a corner).
                         let dev = |q: &Plane| {
@@ -236,6 +241,7 @@ impl ShadowCulling {
                             // No guard plane left: the triangle is kept.
                             None => {
                                 culled.pop();
+                                culled_index.pop();
                                 kept.push((*p).clone());
                             }
                         }
@@ -254,52 +260,76 @@ impl ShadowCulling {
                     }
                 };
             }
-            out.any |= !culled.is_empty();
-            out.lights.push(LightShadows {
-                bvh: (!culled.is_empty()).then(|| Bvh::build(kept)),
-                guards,
-                used: groups.len(),
-                culled,
-            });
+            // Measured (callgrind, docs/performance.md): culling 4 of 15 triangles
+            // (glossy-principled) saves less in the walk than the guard costs; a third or more
+            // (cornell-tube 14 of 34, the floors) pays.
+            if culled.is_empty() || 3 * culled.len() < finite.len() {
+                out.light_set.push(None);
+                continue;
+            }
+            let used = groups.len();
+            let same = |t: &ShadowSet| {
+                t.culled_index == culled_index && t.used == used && t.guards == guards
+            };
+            match out.sets.iter().position(same) {
+                Some(k) => out.light_set.push(Some(k)),
+                None => {
+                    out.light_set.push(Some(out.sets.len()));
+                    out.sets.push(ShadowSet {
+                        bvh: Bvh::build(kept),
+                        guards,
+                        used,
+                        culled_index,
+                        culled,
+                    });
+                }
+            }
         }
         out
     }
 
+    fn set(&self, j: usize) -> Option<&ShadowSet> {
+        self.light_set
+            .get(j)
+            .copied()
+            .flatten()
+            .map(|k| &self.sets[k])
+    }
+
     /// The triangles culled for light `j` (none for an unknown light).
     pub fn culled(&self, j: usize) -> &[Primitive] {
-        self.lights.get(j).map_or(&[], |l| &l.culled)
+        self.set(j).map_or(&[], |t| &t.culled)
     }
 
     /// The guard planes of light `j`'s culled BVH.
     pub fn guards(&self, j: usize) -> &[Guard] {
-        self.lights.get(j).map_or(&[], |l| &l.guards[..l.used])
+        self.set(j).map_or(&[], |t| &t.guards[..t.used])
+    }
+
+    /// How many distinct culled BVHs the lights walk.
+    pub fn sets(&self) -> usize {
+        self.sets.len()
     }
 
     /// Whether a shadow ray from origin `o` toward light `j` walks the light's culled BVH.
     pub fn walks_culled(&self, j: usize, o: Vec3) -> bool {
-        self.lights
-            .get(j)
-            .is_some_and(|l| l.bvh.is_some() && passes(&l.guards, o))
+        self.set(j).is_some_and(|t| passes(&t.guards, o))
     }
 
     /// Whether shadow ray `ray` toward light `j` meets a primitive of the scene: the answer of
     /// `full.occluded(ray)`, by the light's culled BVH where the ray passes its guard.
     #[inline]
     pub fn occluded(&self, full: &Bvh, j: usize, ray: &Ray) -> bool {
-        match self.lights.get(j) {
-            Some(LightShadows {
-                bvh: Some(bvh),
-                guards,
-                ..
-            }) if passes(guards, ray.o) => !bvh.is_empty() && bvh.occluded(ray),
+        match self.set(j) {
+            Some(t) if passes(&t.guards, ray.o) => !t.bvh.is_empty() && t.bvh.occluded(ray),
             _ => full.occluded(ray),
         }
     }
 
     /// [`Self::occluded`] for the lanes of `mask`, lane k toward light `light[k]` (or every
-    /// lane toward `uniform` when given): one packet walk of each light's culled BVH for its
-    /// lanes that pass the guard, one walk of `full` for the others. The same bits as
-    /// `full.occluded_lanes(rays, mask)`.
+    /// lane toward `uniform` when given): one packet walk of each culled BVH (lights that cull
+    /// the same triangles share one) for its lanes that pass the guard, one walk of `full` for
+    /// the others. The same bits as `full.occluded_lanes(rays, mask)`.
     #[inline(always)]
     pub fn occluded_lanes(
         &self,
@@ -309,20 +339,25 @@ impl ShadowCulling {
         rays: &RayLanes,
         mask: u32,
     ) -> u32 {
-        if !self.any || mask == 0 {
+        if self.sets.is_empty() || mask == 0 {
             return full.occluded_lanes(rays, mask);
         }
         let mut rest = mask;
         let mut occluded = 0;
-        for (j, ls) in self.lights.iter().enumerate() {
-            let Some(bvh) = &ls.bvh else { continue };
+        for (s, t) in self.sets.iter().enumerate() {
             let lanes = match uniform {
-                Some(u) if u == j => rest,
-                Some(_) => 0,
+                Some(u) => {
+                    if self.light_set.get(u).copied().flatten() == Some(s) {
+                        rest
+                    } else {
+                        0
+                    }
+                }
                 None => {
                     let mut m = 0u32;
                     for (k, &l) in light.iter().enumerate() {
-                        m |= ((l as usize == j) as u32) << k;
+                        let on = self.light_set.get(l as usize).copied().flatten() == Some(s);
+                        m |= (on as u32) << k;
                     }
                     m & rest
                 }
@@ -330,10 +365,10 @@ impl ShadowCulling {
             if lanes == 0 {
                 continue;
             }
-            let safe = lanes & passes_lanes(&ls.guards, ls.used, rays);
+            let safe = lanes & passes_lanes(&t.guards, t.used, rays);
             if safe != 0 {
-                if !bvh.is_empty() {
-                    occluded |= bvh.occluded_lanes(rays, safe);
+                if !t.bvh.is_empty() {
+                    occluded |= t.bvh.occluded_lanes(rays, safe);
                 }
                 rest &= !safe;
             }
