@@ -17,7 +17,9 @@
 //! `--lights one` ([`crate::light_choice`], two or more lights) a single pass in which each
 //! lane samples the light its ξ_c chose, with K/p — per-lane segments in the 8-wide batch for
 //! the batch lanes, each lane's own light for the lanes sampled with the scalar code — so one
-//! packet shadow walk per kind of sample and light sample.
+//! packet shadow walk per kind of sample and light sample (per culled shadow BVH of
+//! [`crate::shadow_culling`] the lanes' lights use, and one of the full BVH for the lanes near
+//! a culled plane).
 //!
 //! [`render_isa`] renders every scene and method with one light sample and white noise;
 //! [`crate::render::render`] uses it where it pays ([`applies`]): the batch techniques on every
@@ -1167,7 +1169,8 @@ impl CandidateLanes {
 
     /// The lanes whose line point is visible: the scalar integrator's shadow rays
     /// (`shadow_ray_to`) toward lane k's light `lights.light[k]`, in one packet walk per
-    /// light's shadow BVH ([`crate::shadow_culling`]).
+    /// culled shadow BVH the lanes' lights use, plus one of the full BVH for the others
+    /// ([`crate::shadow_culling`]).
     #[inline(always)]
     fn visible(&self, rs: &RenderScene, shading: &ShadingLanes, lights: &LightLanes) -> u32 {
         if self.mask == 0 {

@@ -9,7 +9,8 @@
 //! 2. every point of every primitive of the scene (triangle vertices; the bounding-box corners
 //!    of spheres, disks and cylinders) lies at h_P ≥ −τ, τ = 10⁻⁵·D (D: the diagonal of the
 //!    scene's box grown by 1): shading points lie in the closed positive half-space up to
-//!    rounding.
+//!    rounding. Checked on the corners of the primitives' bounding box (sufficient), then,
+//!    where they fail and the scene has at most [`EXACT_CHECK`] primitives, point by point.
 //!
 //! A segment between two points of the open half-space h_P > 0 does not meet Π_P, so in exact
 //! arithmetic no shadow ray toward L meets P. Condition 2 only makes the culling *useful*
@@ -70,6 +71,10 @@ impl Guard {
         w: f32::NEG_INFINITY,
     };
 }
+
+/// Scenes of at most this many primitives check condition 2 point by point where the box
+/// corners do not settle it; larger ones use the box corners only.
+const EXACT_CHECK: usize = 4096;
 
 /// Guard planes per light (a light that culls fewer than a third of the primitives culls
 /// none: the guard would cost more than the walk saves): a triangle whose plane would need more is kept (the packet guard
@@ -178,17 +183,28 @@ impl ShadowCulling {
         if finite.is_empty() {
             return Self::default();
         }
-        // The scene box (primitives and lights) grown by 1: ray origins lie in it.
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        let points: Vec<DVec3> = finite.iter().flat_map(|p| hull_points(p)).collect();
-        for &x in points.iter().chain(
-            &lights
-                .iter()
-                .flat_map(|l| [l.0.as_dvec3(), l.1.as_dvec3()])
-                .collect::<Vec<_>>(),
-        ) {
-            lo = lo.min(x);
-            hi = hi.max(x);
+        // The primitives' box; with the lights and grown by 1 it holds every ray origin.
+        let (mut plo, mut phi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in &finite {
+            let b = p.bounds();
+            plo = plo.min(b.min.as_dvec3());
+            phi = phi.max(b.max.as_dvec3());
+        }
+        let primitive_corners = corners(plo, phi);
+        // Condition 2 is checked on the primitives' box corners (enough: every point lies in
+        // the box and h is affine), and where they fail on every hull point when the scene is
+        // small (O(triangles²) per light).
+        let points: Vec<DVec3> = if finite.len() <= EXACT_CHECK {
+            finite.iter().flat_map(|p| hull_points(p)).collect()
+        } else {
+            Vec::new()
+        };
+        let (mut lo, mut hi) = (plo, phi);
+        for l in lights {
+            for x in [l.0.as_dvec3(), l.1.as_dvec3()] {
+                lo = lo.min(x);
+                hi = hi.max(x);
+            }
         }
         let grow = 1.0 + 1e-3 * (hi - lo).max_element();
         let (lo, hi) = (lo - grow, hi + grow);
@@ -213,7 +229,9 @@ impl ShadowCulling {
                         let g = 64.0 * U * diameter / pl.sin;
                         let light_clear =
                             pl.h(a) >= 2.0 * (g + slack) && pl.h(b) >= 2.0 * (g + slack);
-                        let closed = light_clear && points.iter().all(|&x| pl.h(x) >= -tau);
+                        let closed = light_clear
+                            && (primitive_corners.iter().all(|&x| pl.h(x) >= -tau)
+                                || (!points.is_empty() && points.iter().all(|&x| pl.h(x) >= -tau)));
                         closed.then_some((pl, g + slack))
                     }),
                     _ => None,
