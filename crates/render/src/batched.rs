@@ -17,7 +17,9 @@
 //! `--lights one` ([`crate::light_choice`], two or more lights) a single pass in which each
 //! lane samples the light its ξ_c chose, with K/p — per-lane segments in the 8-wide batch for
 //! the batch lanes, each lane's own light for the lanes sampled with the scalar code — so one
-//! packet shadow walk per kind of sample and light sample.
+//! packet shadow walk per kind of sample and light sample (per culled shadow BVH of
+//! [`crate::shadow_culling`] the lanes' lights use, and one of the full BVH for the lanes near
+//! a culled plane).
 //!
 //! [`render_isa`] renders every scene and method with one light sample and white noise;
 //! [`crate::render::render`] uses it where it pays ([`applies`]): the batch techniques on every
@@ -570,7 +572,9 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         }
         let samples = ctx.light_samples(&light, &shading, batch_lanes);
         let (shadow, mask) = shadow_rays(&shading, &samples);
-        let occluded = rs.bvh.occluded_lanes(&shadow, mask);
+        let occluded =
+            rs.shadows
+                .occluded_lanes(&rs.bvh, &light.light, light.uniform, &shadow, mask);
         let lit = mask & !occluded;
         // Lambertian lanes: K·f(v, ω)·cos θ/p(ω), p per radius (dΩ_R), and only finite
         // contributions (adding +0 elsewhere leaves a sum that starts at +0 bitwise unchanged).
@@ -1137,7 +1141,9 @@ impl<'a> Context<'a> {
         total: &mut Lanes3,
     ) -> u64 {
         let samples = self.scalar_samples(shading, lanes, lights);
-        let visible = samples.each_ref().map(|s| s.visible(self.rs, shading));
+        let visible = samples
+            .each_ref()
+            .map(|s| s.visible(self.rs, shading, lights));
         let mut dropped = 0;
         let mut m = lanes;
         while m != 0 {
@@ -1245,9 +1251,11 @@ impl CandidateLanes {
     }
 
     /// The lanes whose line point is visible: the scalar integrator's shadow rays
-    /// (`shadow_ray_to`), in one packet walk.
+    /// (`shadow_ray_to`) toward lane k's light `lights.light[k]`, in one packet walk per
+    /// culled shadow BVH the lanes' lights use, plus one of the full BVH for the others
+    /// ([`crate::shadow_culling`]).
     #[inline(always)]
-    fn visible(&self, rs: &RenderScene, shading: &ShadingLanes) -> u32 {
+    fn visible(&self, rs: &RenderScene, shading: &ShadingLanes, lights: &LightLanes) -> u32 {
         if self.mask == 0 {
             return 0;
         }
@@ -1263,7 +1271,9 @@ impl CandidateLanes {
             rays.set(k, &ray);
             mask |= (ok as u32) << k;
         }
-        mask & !rs.bvh.occluded_lanes(&rays, mask)
+        mask & !rs
+            .shadows
+            .occluded_lanes(&rs.bvh, &lights.light, lights.uniform, &rays, mask)
     }
 }
 

@@ -28,6 +28,7 @@ use crate::light_choice::{LightChoice, LightSelection};
 use crate::render::RenderOptions;
 use crate::scene::{Bsdf, Rgb};
 use crate::shading::{estimate_resolved, single_technique, ShadingPoint};
+use crate::shadow_culling::ShadowCulling;
 use crate::shapes::{Ray, SurfacePoint};
 use crate::visible_line::VisibleLines;
 use glam::Vec3;
@@ -44,6 +45,9 @@ pub const SHADOW_EPSILON: f32 = 10.0 * RAY_EPSILON;
 pub struct RenderScene {
     pub camera: Camera,
     pub bvh: Bvh,
+    /// The shadow BVH of each light ([`crate::shadow_culling`]): shadow rays toward light j
+    /// walk `shadows` with `bvh` as the fallback; same answers as `bvh`.
+    pub shadows: ShadowCulling,
     /// Per `Scene::shapes` entry: its BSDF and flip_normals.
     pub surfaces: Vec<(Bsdf, bool)>,
     /// Per `Scene::shapes` entry: f = ρ/π when its BSDF is Lambertian (`Bsdf::lambertian`), the
@@ -175,18 +179,18 @@ fn sum_over_light_samples(
     scene: &RenderScene,
     opts: &RenderOptions,
     rng: &mut SampleStream,
-    mut estimate: impl FnMut(&Segment, Vec3, u32, &mut SampleStream) -> Vec3,
+    mut estimate: impl FnMut(usize, &Segment, Vec3, u32, &mut SampleStream) -> Vec3,
 ) -> Vec3 {
     let mut total = Vec3::ZERO;
     if scene.chooses_one(opts.lights) {
         for _ in 0..opts.light_samples {
             let xi = rng.next_f32_unstratified();
             let (j, k) = chosen_light(&scene.lights, &scene.choice, xi);
-            total += estimate(&scene.lights[j].0, k, 1, rng);
+            total += estimate(j, &scene.lights[j].0, k, 1, rng);
         }
     } else {
-        for (segment, k) in &scene.lights {
-            total += estimate(segment, *k, opts.light_samples, rng);
+        for (j, (segment, k)) in scene.lights.iter().enumerate() {
+            total += estimate(j, segment, *k, opts.light_samples, rng);
         }
     }
     total
@@ -216,21 +220,26 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     };
     let mut dropped = 0u32;
     let mut total;
-    let mut visible = |w: Vec3, dist: f32| {
-        shadow_ray_to(&sp, sp.p + dist * w).is_some_and(|shadow| !scene.bvh.occluded(&shadow))
+    // Shadow rays toward light j walk its culled shadow BVH (same answers as `scene.bvh`).
+    let sp = &sp;
+    let visible = |j: usize| {
+        move |w: Vec3, dist: f32| {
+            shadow_ray_to(sp, sp.p + dist * w)
+                .is_some_and(|shadow| !scene.shadows.occluded(&scene.bvh, j, &shadow))
+        }
     };
     let light_samples = opts.light_samples;
     let one = scene.chooses_one(opts.lights);
     match scene.lambert[shape] {
         Some(f) => {
             // K·(ρ/π)·cos θ/p(ω), p per radius (dΩ_R).
-            total = sum_over_light_samples(scene, opts, rng, |segment, k, samples, rng| {
+            total = sum_over_light_samples(scene, opts, rng, |j, segment, k, samples, rng| {
                 single_technique(
                     pieces.technique.prepare(segment, sp.p, n).as_ref(),
                     n,
                     samples,
                     rng,
-                    &mut visible,
+                    &mut visible(j),
                     |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
                     &mut dropped,
                 )
@@ -243,7 +252,7 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             let point = ShadingPoint::for_method(pieces.bsdf, opts.method, bsdf, sp.p, n, wi);
             // `every`: each light's estimate is its iterations' mean; `one`: the mean of the
             // light samples is taken here.
-            total = sum_over_light_samples(scene, opts, rng, |segment, k, samples, rng| {
+            total = sum_over_light_samples(scene, opts, rng, |j, segment, k, samples, rng| {
                 estimate_resolved(
                     pieces,
                     opts.method,
@@ -252,7 +261,7 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
                     k,
                     samples,
                     rng,
-                    &mut visible,
+                    &mut visible(j),
                     &mut dropped,
                 )
             });

@@ -21,6 +21,7 @@ pub mod render;
 pub mod scene;
 pub mod shading;
 pub mod shading_cost;
+pub mod shadow_culling;
 pub mod shapes;
 pub mod visible_line;
 pub mod xml;

@@ -15,6 +15,7 @@ use crate::integrator::{radiance, RenderScene};
 use crate::light_choice::{LightChoice, LightSelection};
 use crate::method::Method;
 use crate::scene::{Bsdf, Geometry, Scene};
+use crate::shadow_culling::ShadowCulling;
 use crate::shapes::{transformed_normal, Primitive};
 use crate::visible_line::{PixelLine, VisibleLines};
 use glam::Vec3;
@@ -209,6 +210,14 @@ impl RenderScene {
             visible,
             dropped: Default::default(),
             camera,
+            shadows: ShadowCulling::new(
+                &prims,
+                &scene
+                    .lights
+                    .iter()
+                    .map(|l| (l.begin, l.end))
+                    .collect::<Vec<_>>(),
+            ),
             bvh: Bvh::build(prims),
             surfaces: scene
                 .shapes
