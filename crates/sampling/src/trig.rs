@@ -341,32 +341,69 @@ mod tests {
         );
     }
 
-    /// The coarse f32 atan2 (f32 division) is within 2 ulp of the correctly rounded value, and
-    /// its branch-free variant is the same function bit for bit.
+    /// The spacing of the f32 values around x (f64, finite): next above minus next below |x|
+    /// where |x| is an f32 value, else the gap of the two f32 values that bracket it.
+    fn f32_ulp(x: f64) -> f64 {
+        let r = (x.abs() as f32).min(f32::MAX);
+        let (lo, hi) = if (r as f64) > x.abs() {
+            (f32::from_bits(r.to_bits() - 1), r)
+        } else {
+            (r, f32::from_bits(r.to_bits() + 1))
+        };
+        hi as f64 - lo as f64
+    }
+
+    /// The coarse f32 atan2 (f32 division) is within 2 ulp (the true spacing of the f32 values
+    /// around the exact result) of the correctly rounded value over the whole f32 range, from
+    /// subnormals to `f32::MAX` (where num + den overflows f32), and its branch-free variant is
+    /// the same function bit for bit.
     #[test]
     fn coarse_atan2_within_two_ulp() {
         let mut rng = Pcg32::new(13, 9);
-        let mut worst = 0.0f64;
-        for k in 0..400_000 {
-            let scale = |r: f32| 10f32.powi((r * 12.0) as i32 - 6);
-            let y = (rng.next_f32() - 0.5) * scale(rng.next_f32());
-            let x = (rng.next_f32() - 0.5) * scale(rng.next_f32());
-            // Every 4th pair near the reduction threshold tan(π/8) and the diagonal.
-            let y = if k % 4 == 0 {
-                x * (0.3 + 0.8 * rng.next_f32())
-            } else {
-                y
-            };
+        let mut worst = (0.0f64, 0.0f32, 0.0f32);
+        let mut check = |y: f32, x: f32| {
             let (a, b) = (atan2_coarse(y, x), atan2_coarse_select(y, x));
             assert_eq!(a.to_bits(), b.to_bits(), "atan2_coarse({y}, {x})");
             let exact = (y as f64).atan2(x as f64);
-            let ulp = (exact as f32).abs().max(f32::MIN_POSITIVE) as f64 * f32::EPSILON as f64;
-            let err = (a as f64 - exact).abs() / ulp;
+            let err = (a as f64 - exact).abs() / f32_ulp(exact);
             assert!(
                 err <= 2.0,
-                "atan2_coarse({y}, {x}) = {a}, exact {exact}: {err} ulp"
+                "atan2_coarse({y:e}, {x:e}) = {a}, exact {exact}: {err} ulp"
             );
-            worst = worst.max(err);
+            if err > worst.0 {
+                worst = (err, y, x);
+            }
+        };
+        // Magnitudes 10^k, k ∈ [−45, 38]: subnormals (below 1.2e-38) to 1e38.
+        let value =
+            |r: f32, k: f32| (((2.0 * r - 1.0) as f64) * 10f64.powi((k * 84.0) as i32 - 45)) as f32;
+        for k in 0..1_000_000 {
+            let x = value(rng.next_f32(), rng.next_f32());
+            // Every 4th pair near the reduction threshold tan(π/8) and the diagonal, every 4th
+            // with both of the same magnitude (near the top, num + den overflows f32).
+            let y = match k % 4 {
+                0 => x * (0.3 + 0.8 * rng.next_f32()),
+                1 => (2.0 * rng.next_f32() - 1.0) * x,
+                _ => value(rng.next_f32(), rng.next_f32()),
+            };
+            check(y, x);
+        }
+        let m = f32::MAX;
+        let sub = f32::from_bits(1);
+        for &(y, x) in &[
+            (2e38f32, 3.4e38f32),
+            (m, m),
+            (-m, m),
+            (m, 0.5 * m),
+            (0.7 * m, -m),
+            (3.0 * sub, 4.0 * sub),
+            (sub, sub),
+            (5.0 * sub, -7.0 * sub),
+            (sub, 1e38),
+            (1e-38, 1.0),
+        ] {
+            check(y, x);
+            check(x, y);
         }
         for &(y, x) in &[
             (0.0f32, 0.0f32),
@@ -380,7 +417,10 @@ mod tests {
         assert!(
             atan2_coarse(f32::NAN, 1.0).is_nan() && atan2_coarse_select(1.0, f32::NAN).is_nan()
         );
-        eprintln!("worst error of atan2_coarse: {worst:.2} ulp");
+        eprintln!(
+            "worst error of atan2_coarse: {:.3} ulp at ({:e}, {:e})",
+            worst.0, worst.1, worst.2
+        );
     }
 
     /// `divide_f32` is the plain f32 arithmetic (f32 sum, difference and quotient) bit for bit
