@@ -224,6 +224,39 @@ mod tests {
         ]
     }
 
+    /// `prepare` is homogeneous of degree 0 in the normal, like the exact sampler it wraps: n·s
+    /// gives bit for bit the samples of n for a power of two s, and for other s samples whose
+    /// CDF values (the base's exact CDF) differ by at most twice the stopping tolerance (each
+    /// is within it of ξ) plus 1e-6.
+    #[test]
+    fn prepare_is_homogeneous_in_the_normal() {
+        for (seg, x, n) in configs() {
+            let base = Li2018::prepare(&seg, x, n).unwrap();
+            for s in [2f32.powi(-60), 0.5, 1024.0, 0.3, 3.7, 1e30] {
+                let p = Li2018::prepare(&seg, x, n * s).unwrap();
+                let exact = s.to_bits() & 0x007f_ffff == 0;
+                for i in 0..=64 {
+                    let xi = (i as f32 + 0.01) / 64.02;
+                    let ((l, _), (l0, _)) = (p.sample_l(xi), base.sample_l(xi));
+                    if exact {
+                        assert_eq!(l.to_bits(), l0.to_bits(), "s = {s:e}, ξ = {xi}");
+                        let (d, d0) = (p.sample(xi), base.sample(xi));
+                        assert_eq!(
+                            d.to_array().map(f32::to_bits),
+                            d0.to_array().map(f32::to_bits)
+                        );
+                    } else {
+                        let (u, u0) = (base.exact.cdf_of_l(l), base.exact.cdf_of_l(l0));
+                        assert!(
+                            (u - u0).abs() <= 2.0 * TOLERANCE + 1e-6,
+                            "s = {s:e}, ξ = {xi}: CDF {u} vs {u0}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     /// The closed form F(l) of the paper, in f64, against midpoint quadrature of
     /// ∫ (n·ω) dΩ_R = ∫ (n·c + l n_s)/r · 2d/r³ dl.
     #[test]
