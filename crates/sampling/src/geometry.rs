@@ -662,8 +662,9 @@ pub(crate) fn normal_is_valid(n: Vec3) -> bool {
 
 /// n·2^k with the integer k that puts the largest |component| into [1, 2): a normal of the
 /// same direction and a length in [1, 2√3), without rounding (a power-of-two scaling is exact)
-/// and without the square root and division of [`unit_normal`]. For the samplers whose
-/// arithmetic is homogeneous in n (projected solid angle: its density (n·ω)/Ω⊥ and its
+/// except for components below 2⁻¹²⁶ of the largest, which become f32 subnormals (rounded; below
+/// 2⁻¹⁵⁰ of it, zero), and without the square root and division of [`unit_normal`]. For the
+/// samplers whose arithmetic is homogeneous in n (projected solid angle: its density (n·ω)/Ω⊥ and its
 /// inversion are of degree 0 in n). Meaningless (but no panic) where `n` is not
 /// [`normal_is_valid`].
 #[inline(always)]

@@ -108,7 +108,8 @@ impl Li2018 {
         let converged = g.abs() < TOLERANCE;
         let lo = if g < 0.0 { l } else { s.lo };
         let hi = if g < 0.0 { s.hi } else { l };
-        // F'(l)/total = 2d(n·c + l n_s)/(r⁴ Ω⊥_R)  (total = F(l_e) − F(l_b) = Ω⊥_R).
+        // F'(l)/total = 2d(n·c + l n_s)/(r⁴ |n| Ω⊥_R) for the sampler's scaled (not unit) n:
+        // total = F(l_e) − F(l_b) = |n|·Ω⊥_R, and `inv_psa` = 1/(|n| Ω⊥_R) of the same n.
         let r2 = l * l + d * d;
         let slope = 2.0 * d * (self.n_dot_c + l * self.ns) / (r2 * r2) * self.exact.inv_psa;
         let newton = l - g / slope;

@@ -65,7 +65,8 @@
 //! f64 instantiation keeps std's functions and the full series.
 
 use crate::geometry::{
-    arc_tolerance, normal_is_valid, power_of_two_scaled, tau_in_arc, EndValues, LineFrame, Segment,
+    arc_tolerance, normal_is_valid, power_of_two_scaled, tau_in_arc, unit_normal_lane, EndValues,
+    LineFrame, Segment,
 };
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
@@ -749,7 +750,8 @@ impl ProjectedSolidAngle {
     }
 
     /// On an already clipped frame (frame clipped to the horizon of n; n of any length that
-    /// [`crate::unit_normal`] accepts).
+    /// [`crate::unit_normal`] accepts: debug-asserted in [`Self::on_frame_with`], an invalid n
+    /// is a caller's bug here; [`Self::lane`] runs invalid lanes on purpose).
     #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
         Self::on_frame_with(frame, EndValues::of(&frame), n, iterations)
@@ -763,6 +765,7 @@ impl ProjectedSolidAngle {
         n: Vec3,
         iterations: u32,
     ) -> Option<Self> {
+        debug_assert!(normal_is_valid(n), "on_frame_with: invalid normal {n}");
         let (sampler, valid) = Self::lane(frame, ends, n, iterations, atan2_f64);
         valid.then_some(sampler)
     }
@@ -844,9 +847,11 @@ impl ProjectedSolidAngle {
         1.0 / (self.inv_psa * self.n.length())
     }
 
-    /// The unit normal the sampler was prepared with.
+    /// The unit normal the sampler was prepared with, normalised in f64 like
+    /// [`crate::unit_normal`] (an f32 `normalize` gave (0, 0, 0.99999994) for (0, 0, 3.7)).
     pub fn normal(&self) -> Vec3 {
-        self.n.normalize()
+        // `n` is valid in every constructed sampler.
+        unit_normal_lane(self.n).0
     }
 
     /// Exact CDF at the line parameter l (clamped to the support): the fraction of Ω⊥_R between
@@ -1196,6 +1201,10 @@ mod tests {
             }
         }
         assert_eq!(compared, 5 * (3 * (4 + 65 * 5) + 3 * (4 + 65 * 3)));
+        // normal() is normalised in f64: the unit vector of (0, 0, 3.7) is exactly z.
+        let (seg, x, _) = configs()[0];
+        let p = ProjectedSolidAngle::prepare(&seg, x, Vec3::new(0.0, 0.0, 3.7)).unwrap();
+        assert_eq!(p.normal(), Vec3::Z);
     }
 
     #[test]
