@@ -163,12 +163,6 @@ fn atan2_select_with(y: f64, x: f64, divide: impl Fn(bool, f64, f64) -> f64) -> 
     }
 }
 
-/// [`atan2`] with selects instead of branches (see [`atan2_f64_select`]).
-#[inline(always)]
-pub fn atan2_select(y: f32, x: f32) -> f32 {
-    atan2_f64_select(y as f64, x as f64) as f32
-}
-
 /// atan2(y, x) for f32 arguments with the reduced argument formed in f32 (only the comparison
 /// with tan(π/8) and the polynomial in f64 as in [`atan2`]; the reduction's sum and difference
 /// rounded to f32 and divided in f32): within 2 ulp of the correctly rounded value instead of 1
