@@ -1,16 +1,76 @@
 //! Test-only references: the evaluation code that was made branch-free, as it was written
 //! before (commit f343024: early returns, skipped terms). The branch-free code must give the
 //! same bits; the lane test (`lanes.rs`) cannot show that, since `Bsdf::eval` is the lane code.
-//! Only what changed is copied; unchanged helpers are called.
+//! Only what changed is copied; unchanged helpers are called. The helpers that became generic
+//! over f32/f64 (commit 9b0ddbb → glossy-f32: `schlick_weight`, `conductor`, `safe_sqrt`,
+//! `Blend::weight`, the conductor's Fresnel per channel, `sin2`, `c`, `lerp`, `rgb`) are copied
+//! as they were at 9b0ddbb, so that the generic versions are compared with the f64 originals
+//! rather than with themselves.
 
-use crate::diffuse::rgb;
-use crate::fresnel::{self, safe_sqrt, schlick_r0, schlick_weight};
-use crate::microfacet::{self, c, sin2};
-use crate::principled::{lerp, LUMINANCE};
+use crate::fresnel::{self, schlick_r0};
+use crate::microfacet;
+use crate::principled::LUMINANCE;
 use crate::test_util::{bsdfs, pairs};
-use crate::{twosided, Bsdf, Principled, RoughConductor};
+use crate::{twosided, Blend, Bsdf, ConductorFresnel, Principled, RoughConductor};
 use glam::DVec3;
 use num_traits::Float;
+
+fn c<T: Float>(x: f64) -> T {
+    T::from(x).expect("constant representable")
+}
+
+fn sin2(w: DVec3) -> f64 {
+    w.x * w.x + w.y * w.y
+}
+
+fn rgb(c: [f32; 3]) -> DVec3 {
+    DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)
+}
+
+fn lerp(a: f64, b: f64, t: f64) -> f64 {
+    a + t * (b - a)
+}
+
+fn safe_sqrt(x: f64) -> f64 {
+    x.max(0.0).sqrt()
+}
+
+fn schlick_weight(cos: f64) -> f64 {
+    let m = (1.0 - cos).clamp(0.0, 1.0);
+    let m2 = m * m;
+    m2 * m2 * m
+}
+
+fn conductor(cos_theta_i: f64, eta: f64, k: f64) -> f64 {
+    let cos2 = cos_theta_i * cos_theta_i;
+    let sin2 = 1.0 - cos2;
+    let sin4 = sin2 * sin2;
+    let temp1 = eta * eta - k * k - sin2;
+    let a2pb2 = safe_sqrt(temp1 * temp1 + 4.0 * k * k * eta * eta);
+    let a = safe_sqrt(0.5 * (a2pb2 + temp1));
+    let term1 = a2pb2 + cos2;
+    let term2 = 2.0 * cos_theta_i * a;
+    let r_s = (term1 - term2) / (term1 + term2);
+    let term3 = a2pb2 * cos2 + sin4;
+    let term4 = term2 * sin2;
+    let r_p = r_s * (term3 - term4) / (term3 + term4);
+    0.5 * (r_s + r_p)
+}
+
+fn conductor_fresnel(c: &RoughConductor, cos_vh: f64) -> DVec3 {
+    match &c.fresnel {
+        ConductorFresnel::One => DVec3::ONE,
+        ConductorFresnel::Complex { eta, k } => DVec3::new(
+            conductor(cos_vh, eta[0] as f64, k[0] as f64),
+            conductor(cos_vh, eta[1] as f64, k[1] as f64),
+            conductor(cos_vh, eta[2] as f64, k[2] as f64),
+        ),
+    }
+}
+
+fn blend_weight(b: &Blend) -> f64 {
+    (b.weight as f64).clamp(0.0, 1.0)
+}
 
 fn d<T: Float>(alpha: T, sin2_theta_h: T, cos_theta_h: T) -> T {
     if !(cos_theta_h > T::zero()) {
@@ -143,7 +203,7 @@ fn rough_conductor(c: &RoughConductor, v: DVec3, l: DVec3) -> DVec3 {
     if lobe == 0.0 {
         return DVec3::ZERO;
     }
-    c.fresnel(cos_vh) * rgb(c.specular_reflectance) * lobe
+    conductor_fresnel(c, cos_vh) * rgb(c.specular_reflectance) * lobe
 }
 
 /// `Bsdf::eval` before the lanes: recursive, one direction pair at a time.
@@ -158,7 +218,7 @@ fn eval(bsdf: &Bsdf, v: DVec3, l: DVec3) -> DVec3 {
         Bsdf::RoughConductor(c) => rough_conductor(c, v, l),
         Bsdf::Principled(p) => principled(p, v, l),
         Bsdf::Blend(b) => {
-            let w = b.weight();
+            let w = blend_weight(b);
             eval(&b.bsdfs[0], v, l) * (1.0 - w) + eval(&b.bsdfs[1], v, l) * w
         }
         Bsdf::TwoSided(inner) => {
@@ -179,6 +239,39 @@ fn leaves(bsdf: &Bsdf) -> Vec<&Bsdf> {
         Bsdf::Blend(b) => b.bsdfs.iter().flat_map(leaves).collect(),
         Bsdf::TwoSided(inner) => leaves(inner),
         leaf => vec![leaf],
+    }
+}
+
+/// `Blend::weight` (now shared with the f32 path) is the f64 clamp of the file's f32 weight.
+#[test]
+fn blend_weight_equals_the_f64_clamp() {
+    for w in [
+        -2.0f32,
+        -0.0,
+        0.0,
+        0.3,
+        0.35,
+        1.0,
+        7.0,
+        f32::NAN,
+        f32::INFINITY,
+    ] {
+        let b = Blend {
+            weight: w,
+            bsdfs: Box::new([
+                Bsdf::Diffuse {
+                    reflectance: [0.5; 3],
+                },
+                Bsdf::Diffuse {
+                    reflectance: [0.5; 3],
+                },
+            ]),
+        };
+        let (new, old) = (b.weight(), blend_weight(&b));
+        assert!(
+            new.to_bits() == old.to_bits() || (new.is_nan() && old.is_nan()),
+            "{w}"
+        );
     }
 }
 
@@ -245,6 +338,26 @@ fn branch_free_pieces_equal_the_early_returns() {
                     microfacet::g1(a, s, c, w).to_bits(),
                     g1(a, s, c, w).to_bits()
                 );
+            }
+            for cos in [cos_vh, -cos_vh, v.z, -l.z, 1.0 + l.z, 1e-300] {
+                let same = |a: f64, b: f64, what: &str| {
+                    assert_eq!(a.to_bits(), b.to_bits(), "{what}({cos})");
+                };
+                same(
+                    fresnel::schlick_weight(cos),
+                    schlick_weight(cos),
+                    "schlick_weight",
+                );
+                same(fresnel::safe_sqrt(cos), safe_sqrt(cos), "safe_sqrt");
+                same(microfacet::sin2(v.into()), sin2(v), "sin2");
+                if let Bsdf::RoughConductor(c) = leaf {
+                    let (new, old) = (c.fresnel(cos), conductor_fresnel(c, cos));
+                    assert_eq!(bits(new), bits(old), "{c:?}: F({cos})");
+                    for (eta, k) in [(0.143, 3.983), (1.5, 0.0), (0.2, 3.0), (0.0, 1.0)] {
+                        let (new, old) = (fresnel::conductor(cos, eta, k), conductor(cos, eta, k));
+                        same(new, old, "conductor");
+                    }
+                }
             }
             let Some(p) = principled else { continue };
             let eta = p.eta as f64;

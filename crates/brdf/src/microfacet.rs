@@ -13,13 +13,12 @@
 //!   [`sample_visible_normal`]; it integrates to 1 over the whole sphere (l may fall below the
 //!   horizon, where the lobe is zero).
 //!
-//! The scalar formulas are generic ([`num_traits::Float`]) so that the f64 fitter and the f32
+//! The scalar formulas are generic ([`Real`]: f32, f64) so that the f64 fitter and the f32
 //! renderer evaluate the same expression; they take sin²θ from vector components, as Mitsuba does,
 //! so that small α near the normal keeps its precision.
 
 use crate::real::{Real, V3};
 use glam::DVec3;
-use num_traits::Float;
 
 /// Mitsuba clamps roughness from below to this value.
 pub const MIN_ALPHA: f64 = 1e-4;
@@ -27,16 +26,11 @@ pub const MIN_ALPHA: f64 = 1e-4;
 /// Mitsuba flushes D to zero where D·cos θ_h ≤ this value ("numerical issues in other stages").
 pub(crate) const D_FLUSH: f64 = 1e-20;
 
-#[inline]
-pub(crate) fn c<T: Float>(x: f64) -> T {
-    T::from(x).expect("constant representable")
-}
-
 /// α clamped from below as Mitsuba does (NaN stays NaN).
 #[inline]
-pub fn clamp_alpha<T: Float>(alpha: T) -> T {
-    if alpha < c(MIN_ALPHA) {
-        c(MIN_ALPHA)
+pub fn clamp_alpha<T: Real>(alpha: T) -> T {
+    if alpha < T::c(MIN_ALPHA) {
+        T::c(MIN_ALPHA)
     } else {
         alpha
     }
@@ -47,11 +41,11 @@ pub fn clamp_alpha<T: Float>(alpha: T) -> T {
 /// horizon and where Mitsuba flushes it. Branch-free (computed, then selected), so that the
 /// lanes of [`crate::Bsdf::eval_lanes`] vectorise.
 #[inline(always)]
-pub fn d<T: Float>(alpha: T, sin2_theta_h: T, cos_theta_h: T) -> T {
+pub fn d<T: Real>(alpha: T, sin2_theta_h: T, cos_theta_h: T) -> T {
     let a2 = alpha * alpha;
     let denom = sin2_theta_h + a2 * cos_theta_h * cos_theta_h;
-    let value = a2 / (c::<T>(std::f64::consts::PI) * denom * denom);
-    if cos_theta_h > T::zero() && value * cos_theta_h > c(D_FLUSH) {
+    let value = a2 / (T::c(std::f64::consts::PI) * denom * denom);
+    if cos_theta_h > T::zero() && value * cos_theta_h > T::c(D_FLUSH) {
         value
     } else {
         T::zero()
@@ -61,9 +55,9 @@ pub fn d<T: Float>(alpha: T, sin2_theta_h: T, cos_theta_h: T) -> T {
 /// Smith's G1(w, h) for GGX: 2 / (1 + √(1 + α² tan²θ_w)), tan²θ_w = sin²θ_w / cos²θ_w; 1 when
 /// sin²θ_w = 0; 0 when (w·h)·cos θ_w ≤ 0. Branch-free, as [`d`].
 #[inline(always)]
-pub fn g1<T: Float>(alpha: T, sin2_theta_w: T, cos_theta_w: T, w_dot_h: T) -> T {
+pub fn g1<T: Real>(alpha: T, sin2_theta_w: T, cos_theta_w: T, w_dot_h: T) -> T {
     let tan2_alpha2 = alpha * alpha * sin2_theta_w / (cos_theta_w * cos_theta_w);
-    let value = c::<T>(2.0) / (T::one() + (T::one() + tan2_alpha2).sqrt());
+    let value = T::c(2.0) / (T::one() + (T::one() + tan2_alpha2).sqrt());
     let value = if sin2_theta_w == T::zero() {
         T::one()
     } else {
@@ -76,8 +70,9 @@ pub fn g1<T: Float>(alpha: T, sin2_theta_w: T, cos_theta_w: T, w_dot_h: T) -> T 
     }
 }
 
+/// sin²θ of a unit vector w in the shading frame: w_x² + w_y² (no cancellation near the pole).
 #[inline(always)]
-pub(crate) fn sin2(w: DVec3) -> f64 {
+pub(crate) fn sin2<T: Real>(w: V3<T>) -> T {
     w.x * w.x + w.y * w.y
 }
 
@@ -109,7 +104,6 @@ pub fn ggx_lobe<T: Real>(alpha: T, v: V3<T>, l: V3<T>) -> (T, T) {
     } else {
         V3::zero()
     };
-    let sin2 = |w: V3<T>| w.x * w.x + w.y * w.y;
     let dh = d(alpha, sin2(h), h.z);
     let cos_vh = v.dot(h);
     let g = g1(alpha, sin2(v), v.z, cos_vh) * g1(alpha, sin2(l), l.z, l.dot(h));
@@ -163,7 +157,7 @@ pub fn reflection_pdf(alpha: f64, v: DVec3, l: DVec3) -> f64 {
     if h == DVec3::ZERO {
         return 0.0;
     }
-    g1(alpha, sin2(v), v.z, v.dot(h)) * d(alpha, sin2(h), h.z) / (4.0 * v.z)
+    g1(alpha, sin2(v.into()), v.z, v.dot(h)) * d(alpha, sin2(h.into()), h.z) / (4.0 * v.z)
 }
 
 #[cfg(test)]
@@ -197,12 +191,17 @@ mod tests {
         let h = dir(0.2, 0.1);
         let tan2 = 1.0f64.tan().powi(2);
         let expected = 2.0 / (1.0 + (1.0 + alpha * alpha * tan2).sqrt());
-        let got = g1(alpha, sin2(w), w.z, w.dot(h));
+        let got = g1(alpha, sin2(w.into()), w.z, w.dot(h));
         assert!((got - expected).abs() < 1e-14);
-        assert_eq!(g1(alpha, sin2(w), w.z, -w.dot(h)), 0.0);
+        assert_eq!(g1(alpha, sin2(w.into()), w.z, -w.dot(h)), 0.0);
         assert_eq!(g1(alpha, 0.0, 1.0, 1.0), 1.0);
         // f32 and f64 evaluate the same expression.
-        let got32 = g1(alpha as f32, sin2(w) as f32, w.z as f32, w.dot(h) as f32);
+        let got32 = g1(
+            alpha as f32,
+            sin2(w.into()) as f32,
+            w.z as f32,
+            w.dot(h) as f32,
+        );
         assert!((got32 as f64 - expected).abs() < 1e-6);
     }
 

@@ -134,6 +134,29 @@ pub fn bsdfs() -> Vec<Bsdf> {
     out
 }
 
+/// Pairs (v, l) with l at angles k·α·(step) from the mirror direction of v, k = 0, 1, …, where
+/// a lobe of roughness α is steep (the sharp conductor's α = 1e-4 has no random pair there):
+/// several elevations and azimuths of v, offsets in and across the plane of incidence.
+pub fn mirror_pairs(alpha: f64) -> Vec<(DVec3, DVec3)> {
+    let mut out = Vec::new();
+    for &(theta, phi) in &[(0.0, 0.0), (0.3, 0.4), (0.9, -2.0), (1.3, 2.7), (1.5, 1.0)] {
+        let (st, ct) = f64::sin_cos(theta);
+        let (sp, cp) = f64::sin_cos(phi);
+        let v = DVec3::new(st * cp, st * sp, ct);
+        let m = DVec3::new(-v.x, -v.y, v.z);
+        // Two unit vectors perpendicular to m: in and across the plane of incidence.
+        let across = DVec3::Z.cross(m).try_normalize().unwrap_or(DVec3::Y);
+        let within = across.cross(m);
+        for t in [within, across, (within + across).normalize()] {
+            for k in 0..=40 {
+                let (s, c) = f64::sin_cos(0.25 * k as f64 * alpha);
+                out.push((v, c * m + s * t));
+            }
+        }
+    }
+    out
+}
+
 /// Directions: random unit vectors on the sphere (both sides) and the degenerate cases
 /// (v = −l: no half vector; l = v = n; grazing; exactly in the horizon).
 pub fn pairs() -> Vec<(DVec3, DVec3)> {

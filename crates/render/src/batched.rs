@@ -4,8 +4,8 @@
 //! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
 //! rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes' arrays, lanes on
 //! other surfaces (rough conductor, principled, blends) with the scalar path's shading frame
-//! ([`shading_frame`]) for all lanes at once and its BSDF evaluation eight or sixteen lanes at
-//! a time per BSDF ([`Bsdf::eval_lanes`], f32 SIMD lanes: the scalar path's `Bsdf::eval_f32`
+//! ([`shading_frame`]) for all lanes at once and its BSDF evaluation on all sixteen lanes at
+//! once per BSDF ([`Bsdf::eval_lanes`], f32 SIMD lanes: the scalar path's `Bsdf::eval_f32`
 //! is its one-lane case) and [`single_contribution`]'s arithmetic; a packet may mix both.
 //!
 //! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle, Hart),
@@ -769,7 +769,7 @@ fn glossy_point(method: Method, bsdf: &Bsdf, p: Vec3, n: Vec3, wi: Vec3) -> Shad
 /// Adds the contributions of the lit lanes (`lit`) on non-Lambertian surfaces for their light
 /// (lane k's K = `k_light[·][k]`) to `total`: the scalar single-technique contribution
 /// ([`single_contribution`]), finite ones only; returns how many were dropped. The lanes that
-/// share a BSDF are evaluated together, all sixteen or the half packets that hold them
+/// share a BSDF are evaluated together, on all sixteen lanes of the packet
 /// ([`Bsdf::eval_lanes`]: the scalar path's arithmetic per lane, the same bits, in f32 SIMD
 /// lanes of the kernel's instruction set, into which this is inlined), then K·f·cos/p on all
 /// lanes at once.

@@ -760,6 +760,17 @@ mod tests {
         d.x.set(7, Vec3::ZERO);
         d.n.set(7, Vec3::Z);
         out.push(d);
+        // Normals at the ends of `normal_is_valid`: infinite, too short (1e-25, rejected),
+        // huge (1e38, valid: scaled by 2^-126 into [1, 2)), the shortest valid, subnormal ones.
+        let mut e = out[1];
+        e.n.set(0, Vec3::new(0.0, f32::INFINITY, 1.0));
+        e.n.set(1, Vec3::new(1e-25, 0.0, 1e-25));
+        e.n.set(2, Vec3::new(0.3e38, -0.2e38, 1e38));
+        e.n.set(3, Vec3::splat(1e38));
+        e.n.set(4, Vec3::new(0.0, 0.0, 1.1e-20));
+        e.n.set(5, Vec3::new(f32::from_bits(3), 0.0, 2e-20));
+        e.n.set(6, Vec3::new(f32::NEG_INFINITY, 0.0, f32::INFINITY));
+        out.push(e);
         out
     }
 

@@ -662,8 +662,9 @@ pub(crate) fn normal_is_valid(n: Vec3) -> bool {
 
 /// n·2^k with the integer k that puts the largest |component| into [1, 2): a normal of the
 /// same direction and a length in [1, 2√3), without rounding (a power-of-two scaling is exact)
-/// and without the square root and division of [`unit_normal`]. For the samplers whose
-/// arithmetic is homogeneous in n (projected solid angle: its density (n·ω)/Ω⊥ and its
+/// except for components below 2⁻¹²⁶ of the largest, which become f32 subnormals (rounded; below
+/// 2⁻¹⁵⁰ of it, zero), and without the square root and division of [`unit_normal`]. For the
+/// samplers whose arithmetic is homogeneous in n (projected solid angle: its density (n·ω)/Ω⊥ and its
 /// inversion are of degree 0 in n). Meaningless (but no panic) where `n` is not
 /// [`normal_is_valid`].
 #[inline(always)]
@@ -693,6 +694,62 @@ pub fn unit_normal(n: Vec3) -> Option<Vec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The largest |component| lands in [1, 2) for every f32 exponent, subnormals included, by
+    /// an exact power of two (direction and ratios kept bit for bit); no panic on 0, inf, NaN.
+    #[test]
+    fn power_of_two_scaled_puts_the_largest_component_into_one_two() {
+        for e in -149..=127 {
+            for (i, m) in [1.0f32, 1.5, 1.999_999_9, 1.234_567]
+                .into_iter()
+                .enumerate()
+            {
+                let big = (m as f64 * 2f64.powi(e)) as f32;
+                if big == 0.0 || !big.is_finite() {
+                    continue;
+                }
+                let n = [
+                    Vec3::new(big, -0.25 * big, 0.5 * big),
+                    Vec3::new(0.0, -big, 0.0),
+                    Vec3::new(0.75 * big, 0.0, -big),
+                ][i % 3];
+                let s = power_of_two_scaled(n);
+                let largest = s.abs().max_element();
+                assert!((1.0..2.0).contains(&largest), "2^{e}·{m}: {n} -> {s}");
+                // Exact where the scaled components stay normal (every input ratio here does).
+                let k = (largest as f64 / big.abs() as f64).log2();
+                assert_eq!(k, k.round(), "2^{e}·{m}: factor 2^{k}");
+                assert_eq!(
+                    s.as_dvec3() / s.abs().max_element() as f64,
+                    n.as_dvec3() / big.abs() as f64
+                );
+            }
+        }
+        for n in [
+            Vec3::ZERO,
+            Vec3::splat(f32::INFINITY),
+            Vec3::new(f32::NAN, 1.0, 0.0),
+        ] {
+            let _ = power_of_two_scaled(n);
+        }
+    }
+
+    /// The accepted normals: length in (1e-20, ∞), compared in squares in f64.
+    #[test]
+    fn normal_is_valid_boundaries() {
+        assert!(normal_is_valid(Vec3::Z));
+        assert!(normal_is_valid(Vec3::new(0.0, 1.01e-20, 0.0)));
+        assert!(!normal_is_valid(Vec3::new(0.0, 0.99e-20, 0.0)));
+        assert!(!normal_is_valid(Vec3::new(0.7e-20, 0.0, 0.7e-20)));
+        assert!(normal_is_valid(Vec3::new(0.72e-20, 0.0, 0.72e-20)));
+        assert!(normal_is_valid(Vec3::splat(f32::MAX)));
+        assert!(normal_is_valid(Vec3::new(f32::from_bits(1), 0.0, 1e-19)));
+        assert!(!normal_is_valid(Vec3::ZERO));
+        assert!(!normal_is_valid(Vec3::new(1.0, f32::INFINITY, 0.0)));
+        assert!(!normal_is_valid(Vec3::new(0.0, 0.0, f32::NEG_INFINITY)));
+        assert!(!normal_is_valid(Vec3::new(f32::NAN, 1.0, 0.0)));
+        assert!(!normal_is_valid(Vec3::new(1.0, 1.0, f32::NAN)));
+    }
 
     fn sanity_frame() -> LineFrame {
         let seg = Segment::new(Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0));

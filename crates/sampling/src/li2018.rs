@@ -108,7 +108,8 @@ impl Li2018 {
         let converged = g.abs() < TOLERANCE;
         let lo = if g < 0.0 { l } else { s.lo };
         let hi = if g < 0.0 { s.hi } else { l };
-        // F'(l)/total = 2d(n·c + l n_s)/(r⁴ Ω⊥_R)  (total = F(l_e) − F(l_b) = Ω⊥_R).
+        // F'(l)/total = 2d(n·c + l n_s)/(r⁴ |n| Ω⊥_R) for the sampler's scaled (not unit) n:
+        // total = F(l_e) − F(l_b) = |n|·Ω⊥_R, and `inv_psa` = 1/(|n| Ω⊥_R) of the same n.
         let r2 = l * l + d * d;
         let slope = 2.0 * d * (self.n_dot_c + l * self.ns) / (r2 * r2) * self.exact.inv_psa;
         let newton = l - g / slope;
@@ -222,6 +223,39 @@ mod tests {
                 Vec3::Z,
             ),
         ]
+    }
+
+    /// `prepare` is homogeneous of degree 0 in the normal, like the exact sampler it wraps: n·s
+    /// gives bit for bit the samples of n for a power of two s, and for other s samples whose
+    /// CDF values (the base's exact CDF) differ by at most twice the stopping tolerance (each
+    /// is within it of ξ) plus 1e-6.
+    #[test]
+    fn prepare_is_homogeneous_in_the_normal() {
+        for (seg, x, n) in configs() {
+            let base = Li2018::prepare(&seg, x, n).unwrap();
+            for s in [2f32.powi(-60), 0.5, 1024.0, 0.3, 3.7, 1e30] {
+                let p = Li2018::prepare(&seg, x, n * s).unwrap();
+                let exact = s.to_bits() & 0x007f_ffff == 0;
+                for i in 0..=64 {
+                    let xi = (i as f32 + 0.01) / 64.02;
+                    let ((l, _), (l0, _)) = (p.sample_l(xi), base.sample_l(xi));
+                    if exact {
+                        assert_eq!(l.to_bits(), l0.to_bits(), "s = {s:e}, ξ = {xi}");
+                        let (d, d0) = (p.sample(xi), base.sample(xi));
+                        assert_eq!(
+                            d.to_array().map(f32::to_bits),
+                            d0.to_array().map(f32::to_bits)
+                        );
+                    } else {
+                        let (u, u0) = (base.exact.cdf_of_l(l), base.exact.cdf_of_l(l0));
+                        assert!(
+                            (u - u0).abs() <= 2.0 * TOLERANCE + 1e-6,
+                            "s = {s:e}, ξ = {xi}: CDF {u} vs {u0}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     /// The closed form F(l) of the paper, in f64, against midpoint quadrature of

@@ -65,7 +65,8 @@
 //! f64 instantiation keeps std's functions and the full series.
 
 use crate::geometry::{
-    arc_tolerance, normal_is_valid, power_of_two_scaled, tau_in_arc, EndValues, LineFrame, Segment,
+    arc_tolerance, normal_is_valid, power_of_two_scaled, tau_in_arc, unit_normal_lane, EndValues,
+    LineFrame, Segment,
 };
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
@@ -749,7 +750,8 @@ impl ProjectedSolidAngle {
     }
 
     /// On an already clipped frame (frame clipped to the horizon of n; n of any length that
-    /// [`crate::unit_normal`] accepts).
+    /// [`crate::unit_normal`] accepts: debug-asserted in [`Self::on_frame_with`], an invalid n
+    /// is a caller's bug here; [`Self::lane`] runs invalid lanes on purpose).
     #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
         Self::on_frame_with(frame, EndValues::of(&frame), n, iterations)
@@ -763,6 +765,7 @@ impl ProjectedSolidAngle {
         n: Vec3,
         iterations: u32,
     ) -> Option<Self> {
+        debug_assert!(normal_is_valid(n), "on_frame_with: invalid normal {n}");
         let (sampler, valid) = Self::lane(frame, ends, n, iterations, atan2_f64);
         valid.then_some(sampler)
     }
@@ -844,9 +847,11 @@ impl ProjectedSolidAngle {
         1.0 / (self.inv_psa * self.n.length())
     }
 
-    /// The unit normal the sampler was prepared with.
+    /// The unit normal the sampler was prepared with, normalised in f64 like
+    /// [`crate::unit_normal`] (an f32 `normalize` gave (0, 0, 0.99999994) for (0, 0, 3.7)).
     pub fn normal(&self) -> Vec3 {
-        self.n.normalize()
+        // `n` is valid in every constructed sampler.
+        unit_normal_lane(self.n).0
     }
 
     /// Exact CDF at the line parameter l (clamped to the support): the fraction of Ω⊥_R between
@@ -1140,6 +1145,66 @@ mod tests {
         assert_eq!(p.sample_tau(1.0), p.core.width);
         assert_eq!(p.sample_tau(-3.0), 0.0);
         assert_eq!(p.sample_tau(f32::NAN), 0.0);
+    }
+
+    /// `prepare` is homogeneous of degree 0 in the normal (it scales n by a power of two,
+    /// [`power_of_two_scaled`]): n·s gives the sampler of n bit for bit where s is a power of
+    /// two (also 2⁻⁶⁰, whose normal is far below f32's unit range), and within 1e-6 otherwise
+    /// (n·s itself rounds, and so does the arithmetic on another scaled n), in the samples,
+    /// `pdf`, `inverse`, `projected_solid_angle()` and `normal()`. Ω⊥ relatively; ξ, unit
+    /// vectors and samples (in the CDF's measure: their ξ under the base sampler) absolutely; the
+    /// density (n̂·ω)/Ω⊥ relative to its largest value 1/Ω⊥ (the forward
+    /// error of the f32 dot product n·ω: near a clipped end, n·ω ≈ 0 is a cancellation, where
+    /// its relative error reaches ~2e-6 between two scalings).
+    #[test]
+    fn prepare_is_homogeneous_in_the_normal() {
+        let mut compared = 0;
+        for (seg, x, n) in configs() {
+            let base = ProjectedSolidAngle::prepare(&seg, x, n).unwrap();
+            let psa = base.projected_solid_angle();
+            for s in [2f32.powi(-60), 0.5, 1024.0, 0.3, 3.7, 1e30] {
+                let p = ProjectedSolidAngle::prepare(&seg, x, n * s).unwrap();
+                let exact = s.to_bits() & 0x007f_ffff == 0;
+                let mut same = |a: f32, b: f32, scale: f32, what: &str| {
+                    if exact {
+                        assert_eq!(a.to_bits(), b.to_bits(), "{what}, s = {s:e}: {a} vs {b}");
+                    } else {
+                        assert!(
+                            (a - b).abs() <= 1e-6 * scale,
+                            "{what}, s = {s:e}: {a} vs {b} ({:e} of {scale})",
+                            (a - b).abs() / scale
+                        );
+                    }
+                    compared += 1;
+                };
+                same(p.projected_solid_angle(), psa, psa, "Ω⊥");
+                for k in 0..3 {
+                    same(p.normal()[k], base.normal()[k], 1.0, "normal()");
+                }
+                for i in 0..=64 {
+                    let xi = (i as f32 + 0.01) / 64.02;
+                    let (d, d0) = (p.sample(xi), base.sample(xi));
+                    if exact {
+                        for k in 0..3 {
+                            same(d[k], d0[k], 1.0, "sample");
+                        }
+                    } else {
+                        // In the sampler's measure (the base's CDF): a direction moves by
+                        // Δξ/pdf, up to 9e-6 here where the density is low.
+                        let (u, u0) = (base.inverse(d).unwrap(), base.inverse(d0).unwrap());
+                        same(u, u0, 1.0, "sample's ξ");
+                    }
+                    same(p.pdf(d0), base.pdf(d0), 1.0 / psa, "pdf");
+                    let (a, b) = (p.inverse(d0).unwrap(), base.inverse(d0).unwrap());
+                    same(a, b, 1.0, "inverse");
+                }
+            }
+        }
+        assert_eq!(compared, 5 * (3 * (4 + 65 * 5) + 3 * (4 + 65 * 3)));
+        // normal() is normalised in f64: the unit vector of (0, 0, 3.7) is exactly z.
+        let (seg, x, _) = configs()[0];
+        let p = ProjectedSolidAngle::prepare(&seg, x, Vec3::new(0.0, 0.0, 3.7)).unwrap();
+        assert_eq!(p.normal(), Vec3::Z);
     }
 
     #[test]

@@ -5,13 +5,15 @@
 //! every libm call forces the caller to spill all live SSE registers (all are caller-saved), which
 //! dominated the Halley loop around `sincosf`. Both are replaced by short f64 polynomials, accurate
 //! far beyond f32 (so results are the correctly rounded f32 values except within ~1e-3 ulp of a
-//! tie), with relative accuracy kept where the f32 callers need it (sin x and 1 − cos x near 0).
+//! tie; the exception is [`atan2_coarse`], whose f32 division leaves it within 2 ulp), with
+//! relative accuracy kept where the f32 callers need it (sin x and 1 − cos x near 0).
 //!
 //! atan2: octant reduction to t = min/max ∈ [0, 1], then t > tan(π/8) is mapped to
 //! (t − 1)/(t + 1) ∈ [−tan(π/8), 0] with atan t = π/4 + atan((t − 1)/(t + 1)), and atan on
 //! |t| ≤ tan(π/8) is t·P(t²) with P the degree-6 Chebyshev fit of atan(√v)/√v on
 //! v ∈ [0, tan²(π/8)] (relative error ≤ 2.2e-11, checked below against f64 `atan2`). All in f64,
-//! so the f32 result is the correctly rounded value except within ~1e-4 ulp of a tie.
+//! so the f32 result of [`atan2`] is the correctly rounded value except within ~1e-4 ulp of a tie
+//! ([`atan2_coarse`] divides in f32: within 2 ulp).
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
@@ -65,14 +67,20 @@ fn divide_f64(reduce: bool, num: f64, den: f64) -> f64 {
         / std::hint::select_unpredictable(reduce, num + den, den)
 }
 
-/// The same for f32 num and den, in f32 (for [`atan2_coarse`]): on 8 SIMD lanes one f32
-/// division (a third of an f64 division's time in the divider of an AVX-512 core), and on the
-/// scalar path no conversion before it.
+/// The same for num and den that are f32 values, divided in f32 (for [`atan2_coarse`]): on 8 SIMD
+/// lanes one f32 division (a third of an f64 division's time in the divider of an AVX-512 core).
+/// num ∓ den are formed in f64, where they are exact (where they are used, num ≥ tan(π/8)·den,
+/// so the exponents differ by at most 2), and rounded to f32, which is the f32 sum's rounding;
+/// in f32 the sum would overflow for num + den > `f32::MAX` (atan2(2e38, 3.4e38) was π/4).
+/// Above den = 1 both are halved before the rounding (exact there: no result is subnormal), so
+/// the quotient is the f32 one bit for bit wherever that did not overflow; below, halving is
+/// skipped, as it would round subnormal differences.
 #[inline(always)]
 fn divide_f32(reduce: bool, num: f64, den: f64) -> f64 {
-    let (num, den) = (num as f32, den as f32);
-    (std::hint::select_unpredictable(reduce, num - den, num)
-        / std::hint::select_unpredictable(reduce, num + den, den)) as f64
+    let half = std::hint::select_unpredictable(den > 1.0, 0.5, 1.0);
+    (std::hint::select_unpredictable(reduce, ((num - den) * half) as f32, num as f32)
+        / std::hint::select_unpredictable(reduce, ((num + den) * half) as f32, den as f32))
+        as f64
 }
 
 /// [`atan2_f64`] with a given division of the reduced argument.
@@ -155,15 +163,10 @@ fn atan2_select_with(y: f64, x: f64, divide: impl Fn(bool, f64, f64) -> f64) -> 
     }
 }
 
-/// [`atan2`] with selects instead of branches (see [`atan2_f64_select`]).
-#[inline(always)]
-pub fn atan2_select(y: f32, x: f32) -> f32 {
-    atan2_f64_select(y as f64, x as f64) as f32
-}
-
-/// atan2(y, x) for f32 arguments with the reduced argument divided in f32 (the polynomial and
-/// the reduction in f64 as in [`atan2`]): within 2 ulp of the correctly rounded value instead of
-/// 1 (test `coarse_atan2_within_two_ulp`), for one f32 division instead of an f64 one. For the
+/// atan2(y, x) for f32 arguments with the reduced argument formed in f32 (only the comparison
+/// with tan(π/8) and the polynomial in f64 as in [`atan2`]; the reduction's sum and difference
+/// rounded to f32 and divided in f32): within 2 ulp of the correctly rounded value instead of 1
+/// (test `coarse_atan2_within_two_ulp`), for one f32 division instead of an f64 one. For the
 /// projected-solid-angle start value, which two Halley steps correct (in the ξ guard band it is
 /// the sample: the backward-error sweep covers it).
 #[inline]
@@ -332,32 +335,69 @@ mod tests {
         );
     }
 
-    /// The coarse f32 atan2 (f32 division) is within 2 ulp of the correctly rounded value, and
-    /// its branch-free variant is the same function bit for bit.
+    /// The spacing of the f32 values around x (f64, finite): next above minus next below |x|
+    /// where |x| is an f32 value, else the gap of the two f32 values that bracket it.
+    fn f32_ulp(x: f64) -> f64 {
+        let r = (x.abs() as f32).min(f32::MAX);
+        let (lo, hi) = if (r as f64) > x.abs() {
+            (f32::from_bits(r.to_bits() - 1), r)
+        } else {
+            (r, f32::from_bits(r.to_bits() + 1))
+        };
+        hi as f64 - lo as f64
+    }
+
+    /// The coarse f32 atan2 (f32 division) is within 2 ulp (the true spacing of the f32 values
+    /// around the exact result) of the correctly rounded value over the whole f32 range, from
+    /// subnormals to `f32::MAX` (where num + den overflows f32), and its branch-free variant is
+    /// the same function bit for bit.
     #[test]
     fn coarse_atan2_within_two_ulp() {
         let mut rng = Pcg32::new(13, 9);
-        let mut worst = 0.0f64;
-        for k in 0..400_000 {
-            let scale = |r: f32| 10f32.powi((r * 12.0) as i32 - 6);
-            let y = (rng.next_f32() - 0.5) * scale(rng.next_f32());
-            let x = (rng.next_f32() - 0.5) * scale(rng.next_f32());
-            // Every 4th pair near the reduction threshold tan(π/8) and the diagonal.
-            let y = if k % 4 == 0 {
-                x * (0.3 + 0.8 * rng.next_f32())
-            } else {
-                y
-            };
+        let mut worst = (0.0f64, 0.0f32, 0.0f32);
+        let mut check = |y: f32, x: f32| {
             let (a, b) = (atan2_coarse(y, x), atan2_coarse_select(y, x));
             assert_eq!(a.to_bits(), b.to_bits(), "atan2_coarse({y}, {x})");
             let exact = (y as f64).atan2(x as f64);
-            let ulp = (exact as f32).abs().max(f32::MIN_POSITIVE) as f64 * f32::EPSILON as f64;
-            let err = (a as f64 - exact).abs() / ulp;
+            let err = (a as f64 - exact).abs() / f32_ulp(exact);
             assert!(
                 err <= 2.0,
-                "atan2_coarse({y}, {x}) = {a}, exact {exact}: {err} ulp"
+                "atan2_coarse({y:e}, {x:e}) = {a}, exact {exact}: {err} ulp"
             );
-            worst = worst.max(err);
+            if err > worst.0 {
+                worst = (err, y, x);
+            }
+        };
+        // Magnitudes 10^k, k ∈ [−45, 38]: subnormals (below 1.2e-38) to 1e38.
+        let value =
+            |r: f32, k: f32| (((2.0 * r - 1.0) as f64) * 10f64.powi((k * 84.0) as i32 - 45)) as f32;
+        for k in 0..1_000_000 {
+            let x = value(rng.next_f32(), rng.next_f32());
+            // Every 4th pair near the reduction threshold tan(π/8) and the diagonal, every 4th
+            // with both of the same magnitude (near the top, num + den overflows f32).
+            let y = match k % 4 {
+                0 => x * (0.3 + 0.8 * rng.next_f32()),
+                1 => (2.0 * rng.next_f32() - 1.0) * x,
+                _ => value(rng.next_f32(), rng.next_f32()),
+            };
+            check(y, x);
+        }
+        let m = f32::MAX;
+        let sub = f32::from_bits(1);
+        for &(y, x) in &[
+            (2e38f32, 3.4e38f32),
+            (m, m),
+            (-m, m),
+            (m, 0.5 * m),
+            (0.7 * m, -m),
+            (3.0 * sub, 4.0 * sub),
+            (sub, sub),
+            (5.0 * sub, -7.0 * sub),
+            (sub, 1e38),
+            (1e-38, 1.0),
+        ] {
+            check(y, x);
+            check(x, y);
         }
         for &(y, x) in &[
             (0.0f32, 0.0f32),
@@ -371,7 +411,46 @@ mod tests {
         assert!(
             atan2_coarse(f32::NAN, 1.0).is_nan() && atan2_coarse_select(1.0, f32::NAN).is_nan()
         );
-        eprintln!("worst error of atan2_coarse: {worst:.2} ulp");
+        eprintln!(
+            "worst error of atan2_coarse: {:.3} ulp at ({:e}, {:e})",
+            worst.0, worst.1, worst.2
+        );
+    }
+
+    /// `divide_f32` is the plain f32 arithmetic (f32 sum, difference and quotient) bit for bit
+    /// wherever that does not overflow, so the sampler's start values did not change when the
+    /// overflow was mended; where it overflowed, the quotient is the right one.
+    #[test]
+    fn divide_f32_is_f32_arithmetic_where_that_is_finite() {
+        let plain = |reduce: bool, num: f32, den: f32| {
+            if reduce {
+                (num - den) / (num + den)
+            } else {
+                num / den
+            }
+        };
+        let mut rng = Pcg32::new(17, 1);
+        let mut compared = 0u32;
+        for k in 0..1_000_000 {
+            let den = (rng.next_f32() as f64 * 10f64.powi((k % 84) - 45)) as f32;
+            let num = den * (0.3 + 0.7 * rng.next_f32());
+            let reduce = num as f64 > TAN_PI_8 * den as f64;
+            let want = plain(reduce, num, den);
+            if (num + den).is_finite() && !want.is_nan() {
+                let got = divide_f32(reduce, num as f64, den as f64);
+                assert_eq!(
+                    got.to_bits(),
+                    (want as f64).to_bits(),
+                    "{reduce} {num:e} {den:e}"
+                );
+                compared += 1;
+            }
+        }
+        assert!(compared > 900_000, "{compared}");
+        let q = divide_f32(true, 2e38f32 as f64, 3.4e38f32 as f64);
+        let exact = (2e38f32 as f64 - 3.4e38f32 as f64) / (2e38f32 as f64 + 3.4e38f32 as f64);
+        assert!((q - exact).abs() <= exact.abs() * 1.2e-7, "{q} vs {exact}");
+        assert!((atan2_coarse(2e38, 3.4e38) - 0.531_724_1).abs() < 1e-6);
     }
 
     /// The branch-free variant is the same function, bit for bit.
