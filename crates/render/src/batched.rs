@@ -645,8 +645,9 @@ fn shading_points<'a>(
     let mut tri = Triangles::default();
     // The hit lanes are taken a primitive at a time (a packet's sixteen samples of one or two
     // pixels hit few primitives): its lanes found by comparing the primitive index on all lanes
-    // at once, its shape and triangle written into them by selects. Lane-by-lane stores of
-    // the vertices stalled the first vector load after them (store forwarding).
+    // at once, its shape and triangle written into them by selects (lane by lane in groups
+    // of at most SMALL_GROUP lanes). Lane-by-lane stores of every hit lane's vertices
+    // stalled the first vector load after them (store forwarding).
     let mut shape_of = [0u32; LANES];
     // The shape every hit lane lies on, if one.
     let (mut first_shape, mut one_shape) = (None, true);
@@ -850,7 +851,7 @@ fn glossy_contributions(
 /// (`normals`: lanes that have them), the sign of `flip_normals`. The lanes of one triangle are
 /// written together ([`Triangles::set`]): the first triangle into every lane (so that all lanes
 /// are initialised without zeroing the arrays first), the later ones by selects over the
-/// lanes; the normals only once a triangle has them (they are not read otherwise). Lanes
+/// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once a triangle has them (they are not read otherwise). Lanes
 /// outside `mask` (`normals`) hold another triangle's values, computed on and not kept.
 struct Triangles {
     mask: u32,
