@@ -647,23 +647,42 @@ fn shading_points<'a>(
         [[0.0f32; LANES]; 3],
     );
     let mut tri = Triangles::default();
-    let mut shape_of = [0usize; LANES];
+    // The hit lanes are taken a primitive at a time (a packet's sixteen samples of one or two
+    // pixels hit few primitives): its lanes found by comparing the primitive index on all lanes
+    // at once, its shape and triangle written into them by selects (lane by lane in groups
+    // of at most SMALL_GROUP lanes). Lane-by-lane stores of every hit lane's vertices
+    // stalled the first vector load after them (store forwarding).
+    let mut shape_of = [0u32; LANES];
+    // The shape every hit lane lies on, if one.
+    let (mut first_shape, mut one_shape) = (None, true);
     let mut m = hits.mask;
     while m != 0 {
-        let k = m.trailing_zeros() as usize;
-        m &= m - 1;
-        let prim = rs.bvh.primitive(hits.prim[k]);
-        let shape = prim.shape() as usize;
-        shape_of[k] = shape;
-        let flip = rs.surfaces[shape].1;
+        let i = hits.prim[m.trailing_zeros() as usize];
+        let mut group = 0u32;
+        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+        for k in 0..LANES {
+            group |= ((hits.prim[k] == i) as u32) << k;
+        }
+        group &= m;
+        m &= !group;
+        let prim = rs.bvh.primitive(i);
+        let shape = prim.shape();
+        one_shape &= *first_shape.get_or_insert(shape) == shape;
+        select_lanes(&mut shape_of, group, shape);
+        let flip = rs.surfaces[shape as usize].1;
         match prim {
-            Primitive::Triangle { v, n, .. } => tri.set(k, v, n.as_ref(), flip),
+            Primitive::Triangle { v, n, .. } => tri.set(group, v, n.as_ref(), flip),
             _ => {
-                let Some(hit) = hits.get(k) else { continue };
-                let sp = prim.surface_point(&rays.get(k), &hit, flip);
-                set3(&mut p, k, sp.p);
-                set3(&mut ng, k, sp.ng);
-                set3(&mut ns, k, sp.ns);
+                let mut g = group;
+                while g != 0 {
+                    let k = g.trailing_zeros() as usize;
+                    g &= g - 1;
+                    let Some(hit) = hits.get(k) else { continue };
+                    let sp = prim.surface_point(&rays.get(k), &hit, flip);
+                    set3(&mut p, k, sp.p);
+                    set3(&mut ng, k, sp.ng);
+                    set3(&mut ns, k, sp.ns);
+                }
             }
         }
     }
@@ -672,7 +691,10 @@ fn shading_points<'a>(
     }
     // (One exit, and `out` borrowed field by field: an early return or `&mut out` copied the
     // whole ShadingLanes on return, +28 instructions per sample on glossy-principled.)
-    if let Some(shape) = lambert_shape_of_every_hit(rs, hits.mask, &shape_of) {
+    let lambert_shape = first_shape
+        .filter(|&s| one_shape && rs.lambert[s as usize].is_some())
+        .map(|s| s as usize);
+    if let Some(shape) = lambert_shape {
         // `reflecting_normal` and the stores of the loop below on all lanes at once: lane k is
         // active where n_s·ω_i > 0 (n = n_s) or, on a two-sided BSDF, n_s·ω_i < 0 (n = −n_s),
         // with ω_i = −d and the dot product in glam's order (the same bits); the other lanes
@@ -701,7 +723,7 @@ fn shading_points<'a>(
         while m != 0 {
             let k = m.trailing_zeros() as usize;
             m &= m - 1;
-            let shape = shape_of[k];
+            let shape = shape_of[k] as usize;
             let wi = -get3(&rays.d, k);
             let bsdf = &rs.surfaces[shape].0;
             let Some(n) = reflecting_normal(bsdf, get3(&ns, k), wi) else {
@@ -739,25 +761,6 @@ fn shading_points<'a>(
         }
     }
     out
-}
-
-/// The shape every lane of `mask` hit (`shape_of[k]`), when it is one and Lambertian: a
-/// floor or a wall under the whole packet, as in most packets of the committed scenes.
-#[inline(always)]
-fn lambert_shape_of_every_hit(
-    rs: &RenderScene,
-    mask: u32,
-    shape_of: &[usize; LANES],
-) -> Option<usize> {
-    if mask == 0 {
-        return None;
-    }
-    let first = shape_of[mask.trailing_zeros() as usize];
-    let mut others = 0u32;
-    for (k, &shape) in shape_of.iter().enumerate() {
-        others |= ((shape != first) as u32) << k;
-    }
-    (others & mask == 0 && rs.lambert[first].is_some()).then_some(first)
 }
 
 /// The scalar integrator's shading point; not inlined, as [`Context::scalar_samples`].
@@ -849,10 +852,11 @@ fn glossy_contributions(
 }
 
 /// The triangles hit by the lanes of a packet (structure of arrays): vertices, vertex normals
-/// (`normals`: lanes that have them), the sign of `flip_normals`. The vertex and normal
-/// arrays are written lane by lane as hits come (`set`) and only then completed with zeros in
-/// the lanes left out ([`Triangles::surface_points`]) rather than zeroed whole per packet
-/// first; the normals not at all when no lane has them (they are not read then).
+/// (`normals`: lanes that have them), the sign of `flip_normals`. The lanes of one triangle are
+/// written together ([`Triangles::set`]): the first triangle into every lane (so that all lanes
+/// are initialised without zeroing the arrays first), the later ones by selects over the
+/// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once a triangle has them (they are not read otherwise). Lanes
+/// outside `mask` (`normals`) hold another triangle's values, computed on and not kept.
 struct Triangles {
     mask: u32,
     v: MaybeUninit<[Lanes3; 3]>,
@@ -873,49 +877,72 @@ impl Default for Triangles {
     }
 }
 
-/// Writes the three vectors `v` into lane k of `lanes`.
+/// Groups of at most this many lanes are written lane by lane, larger ones by a select over
+/// all sixteen lanes (nine selects cost about as much as the stores of five lanes).
+const SMALL_GROUP: u32 = 4;
+
+/// `x` in the lanes of `group` (bit k: lane k) of `lanes`.
 #[inline(always)]
-fn write_lane(lanes: &mut MaybeUninit<[Lanes3; 3]>, k: usize, v: &[Vec3; 3]) {
-    let lanes = lanes.as_mut_ptr();
-    for (j, vj) in v.iter().enumerate() {
-        // SAFETY: `lanes` points to a live array and the indices are in bounds (k < LANES,
-        // checked); f32 has no destructor, so an uninitialised element may be written over.
-        unsafe {
-            (*lanes)[j][0][k] = vj.x;
-            (*lanes)[j][1][k] = vj.y;
-            (*lanes)[j][2][k] = vj.z;
+fn select_lanes<T: Copy>(lanes: &mut [T; LANES], group: u32, x: T) {
+    if group.count_ones() <= SMALL_GROUP {
+        let mut g = group;
+        while g != 0 {
+            lanes[g.trailing_zeros() as usize] = x;
+            g &= g - 1;
         }
+        return;
+    }
+    for (k, l) in lanes.iter_mut().enumerate() {
+        *l = if group >> k & 1 == 1 { x } else { *l };
     }
 }
 
-/// Writes zeros into every lane of `lanes` not in `written` (bit k: lane k), so that all lanes
-/// are initialised.
+/// Writes the three vectors `v` into the lanes of `group` (bit k: lane k) of `lanes`, or into
+/// every lane when `written` = 0 (`lanes` not yet initialised; afterwards it is).
 #[inline(always)]
-fn zero_lanes_outside(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32) {
-    let full = ((1u64 << LANES) - 1) as u32;
-    let mut m = full & !written;
-    while m != 0 {
-        let k = m.trailing_zeros() as usize;
-        m &= m - 1;
-        write_lane(lanes, k, &[Vec3::ZERO; 3]);
+fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v: &[Vec3; 3]) {
+    if written == 0 {
+        lanes.write(v.map(|vj| vj.to_array().map(|c| [c; LANES])));
+        return;
+    }
+    // SAFETY: `written` ≠ 0: a first call initialised every lane.
+    let lanes = unsafe { lanes.assume_init_mut() };
+    if group.count_ones() <= SMALL_GROUP {
+        let mut g = group;
+        while g != 0 {
+            let k = g.trailing_zeros() as usize;
+            g &= g - 1;
+            for (lj, vj) in lanes.iter_mut().zip(v) {
+                set3(lj, k, *vj);
+            }
+        }
+        return;
+    }
+    for (lj, vj) in lanes.iter_mut().zip(v) {
+        for (l, c) in lj.iter_mut().zip(vj.to_array()) {
+            for (k, x) in l.iter_mut().enumerate() {
+                *x = if group >> k & 1 == 1 { c } else { *x };
+            }
+        }
     }
 }
 
 impl Triangles {
+    /// Triangle `v` (vertex normals `n`) in the lanes of `group`.
     #[inline(always)]
-    fn set(&mut self, k: usize, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
-        self.mask |= 1 << k;
-        write_lane(&mut self.v, k, v);
+    fn set(&mut self, group: u32, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
+        write_group(&mut self.v, self.mask, group, v);
+        self.mask |= group;
         if let Some(n) = n {
-            self.normals |= 1 << k;
-            write_lane(&mut self.n, k, n);
+            write_group(&mut self.n, self.normals, group, n);
+            self.normals |= group;
         }
-        self.sign[k] = if flip { -1.0 } else { 1.0 };
+        select_lanes(&mut self.sign, group, if flip { -1.0 } else { 1.0 });
     }
 
     /// `Primitive::surface_point` of the triangle lanes, the same operations lane by lane (so
     /// the same bits), in one loop over all lanes that the compiler vectorises; other lanes
-    /// are left as they are.
+    /// are left as they are. Only with `mask` ≠ 0.
     #[inline(always)]
     fn surface_points(
         &mut self,
@@ -924,16 +951,15 @@ impl Triangles {
         ng: &mut Lanes3,
         ns: &mut Lanes3,
     ) {
-        zero_lanes_outside(&mut self.v, self.mask);
-        // SAFETY: every lane was written, by `set` or just above.
+        debug_assert!(self.mask != 0);
+        // SAFETY: `set` initialised every lane (mask ≠ 0).
         let v = unsafe { self.v.assume_init_ref() };
         if self.normals == 0 {
             // Zero normals, as the lanes without them: the shading normal is the geometric.
             self.lanes(v, None, hits, p, ng, ns);
             return;
         }
-        zero_lanes_outside(&mut self.n, self.normals);
-        // SAFETY: as above.
+        // SAFETY: as above (normals ≠ 0).
         let n = unsafe { self.n.assume_init_ref() };
         self.lanes(v, Some(n), hits, p, ng, ns);
     }
