@@ -1039,6 +1039,32 @@ mod x86 {
 
 #[cfg(test)]
 mod tests {
+    /// `$check::<K>()` for each vector kernel this CPU runs (AVX-512, AVX2 + FMA), each call
+    /// compiled with its kernel's target features.
+    macro_rules! on_every_vector_kernel {
+        ($check:ident) => {
+            #[cfg(target_arch = "x86_64")]
+            {
+                use linlight_sampling::batch::Isa;
+                if Isa::Avx512.supported() {
+                    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+                    unsafe fn run() {
+                        $check::<Avx512>();
+                    }
+                    // SAFETY: detected above.
+                    unsafe { run() };
+                }
+                if Isa::Avx2.supported() {
+                    #[target_feature(enable = "avx2,fma")]
+                    unsafe fn run() {
+                        $check::<Avx2>();
+                    }
+                    // SAFETY: detected above.
+                    unsafe { run() };
+                }
+            }
+        };
+    }
     use super::*;
     use crate::shapes::{intersect_triangle_edges, Ray};
     use linlight_sampling::rng::Pcg32;
@@ -1090,26 +1116,7 @@ mod tests {
     /// coherence), box hits, triangle hits (t, b1, b2 bit for bit) and closest-hit updates.
     #[test]
     fn kernels_agree_with_portable() {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use linlight_sampling::batch::Isa;
-            if Isa::Avx512.supported() {
-                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-                unsafe fn run() {
-                    compare::<Avx512>();
-                }
-                // SAFETY: detected above.
-                unsafe { run() };
-            }
-            if Isa::Avx2.supported() {
-                #[target_feature(enable = "avx2,fma")]
-                unsafe fn run() {
-                    compare::<Avx2>();
-                }
-                // SAFETY: detected above.
-                unsafe { run() };
-            }
-        }
+        on_every_vector_kernel!(compare);
         // The portable kernel against the scalar single-ray tests (triangles; every other
         // comparison is of the portable kernel with itself).
         compare::<Portable>();
@@ -1121,26 +1128,7 @@ mod tests {
     /// directions, empty intervals.
     #[test]
     fn sphere_lanes_match_single_rays() {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use linlight_sampling::batch::Isa;
-            if Isa::Avx512.supported() {
-                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-                unsafe fn run() {
-                    compare_spheres::<Avx512>();
-                }
-                // SAFETY: detected above.
-                unsafe { run() };
-            }
-            if Isa::Avx2.supported() {
-                #[target_feature(enable = "avx2,fma")]
-                unsafe fn run() {
-                    compare_spheres::<Avx2>();
-                }
-                // SAFETY: detected above.
-                unsafe { run() };
-            }
-        }
+        on_every_vector_kernel!(compare_spheres);
         compare_spheres::<Portable>();
     }
 
