@@ -616,7 +616,8 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
 const MAX_BLOCKS: usize = 4;
 
 /// The shading points of the lanes that hit a surface reflecting toward the camera: the
-/// scalar integrator's `surface_point` and `reflecting_normal`, lane by lane. A glossy lane gets
+/// scalar integrator's `surface_point` and `reflecting_normal`, the hit lanes taken one primitive
+/// at a time (one index compare over the lanes per primitive). A glossy lane gets
 /// the scalar path's [`ShadingPoint`] when `points` names the method (sampled lane by lane),
 /// else its shading frame, which only [`glossy_contributions`] (batch kernels) reads.
 #[inline(always)]

@@ -4,8 +4,9 @@
 //! # The rule (decided once per light when the scene is prepared)
 //! Let P be a triangle with plane Π_P, unit normal N̂ (oriented toward the light) and signed
 //! distance h_P(x) = N̂·(x − v₀). P is *culled* for light L when
-//! 1. both ends of L's segment lie at h_P ≥ 2·g_P (the light is strictly on the positive side,
-//!    with the guard margin g_P below), and
+//! 1. both ends of L's segment lie at h_P ≥ 2·(g_P + 8uS) + 10⁻³·|L| (the light is strictly on
+//!    the positive side, with the guard margin g_P below, and a margin of 10⁻³ of the segment's
+//!    length for shadow-ray targets that overshoot the segment's end in f32), and
 //! 2. every point of every primitive of the scene (triangle vertices; the bounding-box corners
 //!    of spheres, disks and cylinders) lies at h_P ≥ −τ, τ = 10⁻⁵·D (D: the diagonal of the
 //!    scene's box grown by 1): shading points lie in the closed positive half-space up to
@@ -19,20 +20,23 @@
 //!
 //! # The guard (per shadow ray, the rounding argument)
 //! A shadow ray (o, d, t ∈ (0, t_max)) toward L walks L's culled BVH only when its origin passes
-//! every culled plane's guard, h_P(o) ≥ g_P + 8uD (u = 2⁻²⁴); otherwise it walks the scene's full
-//! BVH. Its end o + t_max·d lies within a few u·D of the segment from o to a point of L (the ray
-//! stops short of its target), so both its ends are at h_P ≥ g_P. Möller–Trumbore
+//! every culled plane's guard, h_P(o) ≥ g_P + 8uS (u = 2⁻²⁴; S = max(D, the largest |x| of the
+//! grown scene box): f32 rounding of origins and targets grows with |x|, not only with D);
+//! otherwise it walks the scene's full BVH. Its end o + t_max·d lies within a few u·S of the
+//! segment from o to a point of L (the ray stops short of its target by SHADOW_EPSILON of its
+//! length; the light's margin covers targets overshooting the segment's end), so both its ends
+//! are at h_P ≥ g_P. Möller–Trumbore
 //! ([`crate::shapes::intersect_triangle_edges`], with or without fused multiply-adds) computes
 //! t = num/det with num ≈ (o − v₀)·N, det ≈ −d·N, N = e₁ × e₂, within E_n ≤ 12u·|o − v₀||e₁||e₂|
 //! and E_d ≤ 12u·|e₁||e₂| of their exact values (|d| = 1; a rounded difference, a cross product
 //! and a dot product, each term bounded by the norms). If both ends of the ray are at h_P ≥ g_P
 //! with
-//!   g_P = 64·u·D / sin θ_P    (θ_P: the angle between e₁ and e₂; |N| = |e₁||e₂| sin θ_P),
+//!   g_P = 64·u·S / sin θ_P    (θ_P: the angle between e₁ and e₂; |N| = |e₁||e₂| sin θ_P),
 //! then num has the sign of h_P(o) > 0 and the computed t is ≤ 0 (det ≤ 0), or, when the ray
 //! heads toward Π_P, at least (h_P(o)|N| − E_n)/(|d·N| + E_d) > t_max because
 //! t_max·|d·N̂| ≤ h_P(o) − h_P(end), or, heading away with a det of the wrong sign
 //! (|det| ≤ 2E_d), at least (h_P(o)|N| − E_n)/(2E_d) > t_max. Both need
-//! h_P ≥ 12u·(|o − v₀| + 2·t_max)/sin θ_P + O(u²) ≤ 36·u·D/sin θ_P, so g_P has a factor 1.8 to
+//! h_P ≥ 12u·(|o − v₀| + 2·t_max)/sin θ_P + O(u²) ≤ 36·u·S/sin θ_P, so g_P has a factor 1.8 to
 //! spare (fused multiply-adds only shrink the errors). So P never reports a hit in (0, t_max)
 //! for a ray that passes the guard, any-hit over the kept primitives equals any-hit over all
 //! (the box tests are conservative, so the tree's shape does not matter), and images are bit
@@ -206,13 +210,20 @@ impl ShadowCulling {
                 hi = hi.max(x);
             }
         }
-        let grow = 1.0 + 1e-3 * (hi - lo).max_element();
+        // Grown so that it also holds every shadow ray's origin, which the integrator pushes
+        // off its surface by (1 + max|p|)·RAY_EPSILON.
+        let far = lo.abs().max(hi.abs()).length();
+        let grow = (1.0 + 1e-3 * (hi - lo).max_element())
+            .max(2.0 * (1.0 + far) * crate::integrator::RAY_EPSILON as f64);
         let (lo, hi) = (lo - grow, hi + grow);
         let box_corners = corners(lo, hi);
         let diameter = (hi - lo).length();
         let max_norm = box_corners.iter().map(|c| c.length()).fold(0.0, f64::max);
+        // f32 rounding of origins and targets grows with their distance from the world origin,
+        // not only with the scene's size: the margins use the larger of the two.
+        let scale = diameter.max(max_norm);
         let tau = 1e-5 * diameter;
-        let slack = 8.0 * U * diameter;
+        let slack = 8.0 * U * scale;
 
         let mut out = Self::default();
         for &(a, b) in lights {
@@ -226,9 +237,12 @@ impl ShadowCulling {
                 let cull = match p {
                     Primitive::Triangle { v, .. } => Plane::of(v).and_then(|pl| {
                         let pl = if pl.h(a) < 0.0 { pl.flipped() } else { pl };
-                        let g = 64.0 * U * diameter / pl.sin;
-                        let light_clear =
-                            pl.h(a) >= 2.0 * (g + slack) && pl.h(b) >= 2.0 * (g + slack);
+                        let g = 64.0 * U * scale / pl.sin;
+                        // Beyond 2·(g + slack), a margin of 10⁻³ of the segment's length: a
+                        // shadow ray's target (p + dist·ω from the sampler, in f32) can
+                        // overshoot the segment's end where ω is nearly along the line.
+                        let clear = 2.0 * (g + slack) + 1e-3 * (b - a).length();
+                        let light_clear = pl.h(a) >= clear && pl.h(b) >= clear;
                         let closed = light_clear
                             && (primitive_corners.iter().all(|&x| pl.h(x) >= -tau)
                                 || (!points.is_empty() && points.iter().all(|&x| pl.h(x) >= -tau)));
