@@ -47,12 +47,15 @@
 //! f32 against a threshold raised by the f32 evaluation error and by the largest difference
 //! between a member's h_P and the group plane's over the scene box.
 //!
-//! Shading points on P itself (or coplanar with it) pass: the shadow ray's origin is pushed off
-//! the surface toward the target's side by (1 + max|p_i|)·`RAY_EPSILON` ≥ 8.9·10⁻⁵, far more
-//! than g_P (~3·10⁻⁵ on cornell-tube, D ≈ 6.9). Points within ~g_P of Π_P on other primitives
-//! (the edges where walls and boxes touch) fail the guard and take the full walk. A light culls
-//! triangles of at most [`MAX_GUARDS`] planes (the packet guard costs the same per plane and
-//! lane whatever the walk saves).
+//! Shading points on P itself (or coplanar with it) pass when the push-off of the shadow ray's
+//! origin, (1 + max|p_i|)·`RAY_EPSILON` toward the target's side (`RAY_EPSILON` = 1500u), is larger
+//! than the guard, about (64/sin θ_P + 15)·u·S: on cornell-tube (D ≈ 6.9, right-angled triangles) ≥
+//! 8.9·10⁻⁵ against g_P ≈ 3·10⁻⁵. Slivers (sin θ_P ≲ 0.05·S/(1 + |p|)) and points near the world
+//! origin of a scene much larger than 1 (S ≫ 1 + |p|) fail it and take the full walk: slower, never
+//! wrong. Points within ~g_P of Π_P on other primitives (the edges where walls and boxes touch)
+//! fail the guard and take the full walk too. A light culls triangles of at most [`MAX_GUARDS`]
+//! planes, and nothing unless it culls at least a third of the primitives (see
+//! [`ShadowCulling::new`]).
 
 use crate::bvh::{Bvh, RayLanes, PACKET};
 use crate::shapes::{Primitive, Ray};
@@ -80,8 +83,7 @@ impl Guard {
 /// corners do not settle it; larger ones use the box corners only.
 const EXACT_CHECK: usize = 4096;
 
-/// Guard planes per light (a light that culls fewer than a third of the primitives culls
-/// none: the guard would cost more than the walk saves): a triangle whose plane would need more is kept (the packet guard
+/// Guard planes per light: a triangle whose plane would need more is kept (the packet guard
 /// costs ~2 instructions per plane and lane whether used or not).
 pub const MAX_GUARDS: usize = 6;
 
@@ -95,7 +97,8 @@ struct ShadowSet {
     /// after): a fixed number, so that the packet guard is straight-line vector code.
     guards: [Guard; MAX_GUARDS],
     used: usize,
-    /// Indices (into the scene's primitives) and copies of the culled triangles.
+    /// Indices (into the scene's primitives of finite bounds, in order) and copies of the
+    /// culled triangles.
     culled_index: Vec<usize>,
     culled: Vec<Primitive>,
 }
@@ -176,6 +179,8 @@ fn f32_at_least(x: f64) -> f32 {
 
 impl ShadowCulling {
     /// The culled shadow BVH of each light (segment `begin`–`end`), from the scene's primitives.
+    /// A light that culls fewer than a third of the primitives culls none (its shadow rays walk
+    /// the scene's BVH): the guard would cost more than the walk saves.
     pub fn new(prims: &[Primitive], lights: &[(Vec3, Vec3)]) -> Self {
         let finite: Vec<&Primitive> = prims
             .iter()
