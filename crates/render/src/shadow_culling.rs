@@ -465,18 +465,7 @@ mod tests {
     use super::*;
     use crate::integrator::{shadow_ray_to, RenderScene};
     use crate::shapes::SurfacePoint;
-
-    /// Splitmix64 in [0, 1).
-    struct Rng(u64);
-    impl Rng {
-        fn f(&mut self) -> f32 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
+    use linlight_sampling::rng::Pcg32;
 
     fn tri(a: [f32; 3], b: [f32; 3], c: [f32; 3], shape: u32) -> Primitive {
         Primitive::Triangle {
@@ -611,7 +600,7 @@ mod tests {
             let prims: Vec<Primitive> = (0..bvh.len())
                 .map(|i| bvh.primitive(i as u32).clone())
                 .collect();
-            let mut rng = Rng(0x5eed ^ path.as_os_str().len() as u64);
+            let mut rng = Pcg32::new(0x5eed, path.as_os_str().len() as u64);
             let mut points: Vec<SurfacePoint> = Vec::new();
             let point = |v: [Vec3; 3], b1: f32, b2: f32, shape: u32| {
                 let b0 = 1.0 - b1 - b2;
@@ -630,7 +619,7 @@ mod tests {
                     continue;
                 };
                 for i in 0..per_triangle {
-                    let (mut b1, mut b2) = (rng.f(), rng.f());
+                    let (mut b1, mut b2) = (rng.next_f32(), rng.next_f32());
                     if b1 + b2 > 1.0 {
                         (b1, b2) = (1.0 - b1, 1.0 - b2);
                     }
@@ -661,7 +650,9 @@ mod tests {
                     (l.min(b.min), h.max(b.max))
                 });
             for _ in 0..4000 {
-                let at = |r: &mut Rng| lo + (hi - lo) * Vec3::new(r.f(), r.f(), r.f());
+                let at = |r: &mut Pcg32| {
+                    lo + (hi - lo) * Vec3::new(r.next_f32(), r.next_f32(), r.next_f32())
+                };
                 let (o, t) = (at(&mut rng), at(&mut rng));
                 let ray = Ray {
                     o,
@@ -700,7 +691,7 @@ mod tests {
                         let s = match i {
                             0 => 0.0,
                             1 => 1.0,
-                            _ => rng.f(),
+                            _ => rng.next_f32(),
                         };
                         let target = segment.begin + s * (segment.end - segment.begin);
                         let Some(ray) = shadow_ray_to(sp, target) else {
