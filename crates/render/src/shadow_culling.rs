@@ -562,6 +562,139 @@ mod tests {
         assert!(!c.walks_culled(0, up(1e-5).o));
     }
 
+    /// The closed box [−1, 1]² × [0, 2] as six quads, shapes 0–5: floor, ceiling, walls
+    /// x = −1, x = 1, y = −1, y = 1.
+    fn closed_box() -> Vec<Primitive> {
+        let wall_x =
+            |x: f32, shape| quad([x, -1., 0.], [x, 1., 0.], [x, 1., 2.], [x, -1., 2.], shape);
+        [
+            floor_z(0.0, 0),
+            floor_z(2.0, 1),
+            wall_x(-1.0, 2),
+            wall_x(1.0, 3),
+            wall_y(-1.0, 4),
+            wall_y(1.0, 5),
+        ]
+        .concat()
+    }
+
+    /// The shadow rays the renderer casts — toward `p + dist·ω` with ω and dist from every
+    /// technique's sampler (`single_sample`), not toward exact points of the segment — in a
+    /// closed box whose wall y = 1 the light's end nearly touches: the light runs along y
+    /// toward that wall and ends as close to it as still lets the wall be culled. Shading
+    /// points on the opposite wall near the line's extension see the light end-on, where the
+    /// sampled distance (d / ĉ·ω) is ill-conditioned and targets overshoot the segment's end;
+    /// others on the wall y = 1 around the light's end and on the walls near it. Every ray
+    /// answers as the full BVH, and no culled triangle reports a hit for a ray that walks the
+    /// culled BVH. (Targets overshoot the end by ~10⁻⁶ here, well inside the light's margin; a
+    /// `distance_to_line` 0.3 % too long fails the test, the committed-scene test passes it.)
+    #[test]
+    fn sampler_built_shadow_rays_near_a_wall_the_light_nearly_touches() {
+        use crate::shading::single_sample;
+        use linlight_sampling::{Segment, Technique};
+        let prims = closed_box();
+        let full = Bvh::build(prims.clone());
+        let light = |gap: f32| (Vec3::new(0.0, -0.5, 1.0), Vec3::new(0.0, 1.0 - gap, 1.0));
+        let wall_culled = |gap: f32| {
+            let c = ShadowCulling::new(&prims, &[light(gap)]);
+            c.culled(0).iter().any(|p| p.shape() == 5)
+        };
+        // The smallest gap (to a relative 10⁻⁴) at which the wall y = 1 is culled.
+        let (mut lo, mut hi) = (0.0f32, 0.5f32);
+        assert!(!wall_culled(lo) && wall_culled(hi));
+        while hi - lo > 1e-4 * hi {
+            let mid = 0.5 * (lo + hi);
+            if wall_culled(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let (begin, end) = light(hi);
+        let sh = ShadowCulling::new(&prims, &[(begin, end)]);
+        assert_eq!(culled_shapes(&sh, 0), vec![0, 1, 2, 3, 4, 5]);
+        let segment = Segment::new(begin, end);
+        let mut rng = Pcg32::new(0x5eed, 7);
+        // (point, geometric normal toward the box's inside, shape).
+        let mut points: Vec<(Vec3, Vec3, u32)> = Vec::new();
+        for i in 0..4000 {
+            // Log-uniform distance r ∈ [10⁻⁷, 10⁻¹] from the line's axis (x = 0, z = 1).
+            let r = 10f32.powf(-7.0 + 6.0 * rng.next_f32());
+            let phi = std::f32::consts::TAU * rng.next_f32();
+            let (dx, dz) = (r * phi.cos(), r * phi.sin());
+            match i % 4 {
+                // The opposite wall around the line's extension: the light seen end-on.
+                0 | 1 => points.push((Vec3::new(dx, -1.0, 1.0 + dz), Vec3::Y, 4)),
+                // The wall y = 1 around the light's end.
+                2 => points.push((Vec3::new(dx, 1.0, 1.0 + dz), -Vec3::Y, 5)),
+                // The floor and the side walls within r of the wall y = 1.
+                _ => {
+                    let u = 2.0 * rng.next_f32() - 1.0;
+                    let y = 1.0 - r;
+                    points.push(match (i / 4) % 3 {
+                        0 => (Vec3::new(u, y, 0.0), Vec3::Z, 0),
+                        1 => (Vec3::new(-1.0, y, 1.0 + u), Vec3::X, 2),
+                        _ => (Vec3::new(1.0, y, 1.0 + u), -Vec3::X, 3),
+                    });
+                }
+            }
+        }
+        let (mut rays, mut walked_culled, mut overshoot, mut diffs, mut culled_hits) =
+            (0u64, 0u64, 0u64, 0u64, 0u64);
+        let mut farthest = 0.0f32;
+        for &(p, ng, shape) in &points {
+            let sp = SurfacePoint {
+                p,
+                ng,
+                ns: ng,
+                shape,
+            };
+            for technique in Technique::ALL {
+                let Some(sampler) = technique.prepare(&segment, p, ng) else {
+                    continue;
+                };
+                for i in 0..8 {
+                    let xi = match i {
+                        0 => 0.0,
+                        1 => 1.0,
+                        2 => 1.0 - f32::EPSILON / 2.0,
+                        _ => rng.next_f32(),
+                    };
+                    let Some(sample) = single_sample(&sampler, ng, xi) else {
+                        continue;
+                    };
+                    // The integrator's target (`radiance`'s `visible`, the batched renderer's
+                    // `shadow_rays`).
+                    let target = p + sample.dist * sample.w;
+                    let Some(ray) = shadow_ray_to(&sp, target) else {
+                        continue;
+                    };
+                    rays += 1;
+                    overshoot += (target.y > end.y) as u64;
+                    farthest = farthest.max(target.y - end.y);
+                    diffs += (sh.occluded(&full, 0, &ray) != full.occluded(&ray)) as u64;
+                    if sh.walks_culled(0, ray.o) {
+                        walked_culled += 1;
+                        culled_hits += sh
+                            .culled(0)
+                            .iter()
+                            .filter(|p| p.intersect(&ray).is_some())
+                            .count() as u64;
+                    }
+                }
+            }
+        }
+        let report = format!(
+            "gap {hi:e}: {rays} rays, {walked_culled} walked the culled BVH, {overshoot} \
+             targets beyond the light's end (by up to {farthest:e}); differences {diffs}, culled hits \
+             {culled_hits}"
+        );
+        eprintln!("{report}");
+        assert_eq!((diffs, culled_hits), (0, 0), "{report}");
+        // Not vacuous: most rays take the culled walk, and targets do overshoot.
+        assert!(walked_culled * 2 > rays && overshoot > 100, "{report}");
+    }
+
     fn nudge(x: f32, steps: i32) -> f32 {
         let mut y = x;
         for _ in 0..steps.abs() {
