@@ -248,39 +248,39 @@ impl ShadowCulling {
                         // overshoot the segment's end where ω is nearly along the line.
                         let clear = 2.0 * (g + slack) + 1e-3 * (b - a).length();
                         let light_clear = pl.h(a) >= clear && pl.h(b) >= clear;
-                        let closed = light_clear
-                            && (primitive_corners.iter().all(|&x| pl.h(x) >= -tau)
-                                || (!points.is_empty() && points.iter().all(|&x| pl.h(x) >= -tau)));
-                        closed.then_some((pl, g + slack))
-                    }),
-                    _ => None,
-                };
-                match cull {
-                    None => kept.push((*p).clone()),
-                    Some((pl, need)) => {
-                        culled.push((*p).clone());
-                        culled_index.push(i);
-                        // Join a group whose plane differs from this one by at most 10⁻⁶·D
-                        // over the scene box (affine: the maximum is at a corner).
+                        // The group whose plane differs from this one by at most 10⁻⁶·D over
+                        // the scene box (affine: the maximum is at a corner), or a new one if
+                        // there is room: decided before the points are scanned, since a
+                        // triangle with no guard plane left is kept anyway.
                         let dev = |q: &Plane| {
                             box_corners
                                 .iter()
                                 .map(|&c| (pl.h(c) - q.h(c)).abs())
                                 .fold(0.0, f64::max)
                         };
-                        let room = groups.len() < MAX_GUARDS;
-                        match groups.iter_mut().find(|(q, _)| dev(q) <= 1e-6 * diameter) {
-                            Some((q, w)) => {
-                                let d = dev(q);
-                                *w = w.max(need + d);
-                            }
-                            None if room => groups.push((pl, need)),
-                            // No guard plane left: the triangle is kept.
-                            None => {
-                                culled.pop();
-                                culled_index.pop();
-                                kept.push((*p).clone());
-                            }
+                        let group = groups.iter().position(|(q, _)| dev(q) <= 1e-6 * diameter);
+                        let guarded = group.is_some() || groups.len() < MAX_GUARDS;
+                        let closed = light_clear
+                            && guarded
+                            && (primitive_corners.iter().all(|&x| pl.h(x) >= -tau)
+                                || (!points.is_empty() && points.iter().all(|&x| pl.h(x) >= -tau)));
+                        let need = g + slack;
+                        let joined = group.map(|k| (k, need + dev(&groups[k].0)));
+                        closed.then_some(match joined {
+                            Some((k, need)) => (k, need, None),
+                            None => (groups.len(), need, Some(pl)),
+                        })
+                    }),
+                    _ => None,
+                };
+                match cull {
+                    None => kept.push((*p).clone()),
+                    Some((k, need, new_plane)) => {
+                        culled.push((*p).clone());
+                        culled_index.push(i);
+                        match new_plane {
+                            Some(pl) => groups.push((pl, need)),
+                            None => groups[k].1 = groups[k].1.max(need),
                         }
                     }
                 }
@@ -341,11 +341,6 @@ impl ShadowCulling {
     /// The guard planes of light `j`'s culled BVH.
     pub fn guards(&self, j: usize) -> &[Guard] {
         self.set(j).map_or(&[], |t| &t.guards[..t.used])
-    }
-
-    /// How many distinct culled BVHs the lights walk.
-    pub fn sets(&self) -> usize {
-        self.sets.len()
     }
 
     /// Whether a shadow ray from origin `o` toward light `j` walks the light's culled BVH.
