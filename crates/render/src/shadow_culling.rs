@@ -47,12 +47,15 @@
 //! f32 against a threshold raised by the f32 evaluation error and by the largest difference
 //! between a member's h_P and the group plane's over the scene box.
 //!
-//! Shading points on P itself (or coplanar with it) pass: the shadow ray's origin is pushed off
-//! the surface toward the target's side by (1 + max|p_i|)·`RAY_EPSILON` ≥ 8.9·10⁻⁵, far more
-//! than g_P (~3·10⁻⁵ on cornell-tube, D ≈ 6.9). Points within ~g_P of Π_P on other primitives
-//! (the edges where walls and boxes touch) fail the guard and take the full walk. A light culls
-//! triangles of at most [`MAX_GUARDS`] planes (the packet guard costs the same per plane and
-//! lane whatever the walk saves).
+//! Shading points on P itself (or coplanar with it) pass when the push-off of the shadow ray's
+//! origin, (1 + max|p_i|)·`RAY_EPSILON` toward the target's side (`RAY_EPSILON` = 1500u), is larger
+//! than the guard, about (64/sin θ_P + 15)·u·S: on cornell-tube (D ≈ 6.9, right-angled triangles) ≥
+//! 8.9·10⁻⁵ against g_P ≈ 3·10⁻⁵. Slivers (sin θ_P ≲ 0.05·S/(1 + |p|)) and points near the world
+//! origin of a scene much larger than 1 (S ≫ 1 + |p|) fail it and take the full walk: slower, never
+//! wrong. Points within ~g_P of Π_P on other primitives (the edges where walls and boxes touch)
+//! fail the guard and take the full walk too. A light culls triangles of at most [`MAX_GUARDS`]
+//! planes, and nothing unless it culls at least a third of the primitives (see
+//! [`ShadowCulling::new`]).
 
 use crate::bvh::{Bvh, RayLanes, PACKET};
 use crate::shapes::{Primitive, Ray};
@@ -80,8 +83,7 @@ impl Guard {
 /// corners do not settle it; larger ones use the box corners only.
 const EXACT_CHECK: usize = 4096;
 
-/// Guard planes per light (a light that culls fewer than a third of the primitives culls
-/// none: the guard would cost more than the walk saves): a triangle whose plane would need more is kept (the packet guard
+/// Guard planes per light: a triangle whose plane would need more is kept (the packet guard
 /// costs ~2 instructions per plane and lane whether used or not).
 pub const MAX_GUARDS: usize = 6;
 
@@ -95,7 +97,8 @@ struct ShadowSet {
     /// after): a fixed number, so that the packet guard is straight-line vector code.
     guards: [Guard; MAX_GUARDS],
     used: usize,
-    /// Indices (into the scene's primitives) and copies of the culled triangles.
+    /// Indices (into the scene's primitives of finite bounds, in order) and copies of the
+    /// culled triangles.
     culled_index: Vec<usize>,
     culled: Vec<Primitive>,
 }
@@ -176,6 +179,8 @@ fn f32_at_least(x: f64) -> f32 {
 
 impl ShadowCulling {
     /// The culled shadow BVH of each light (segment `begin`–`end`), from the scene's primitives.
+    /// A light that culls fewer than a third of the primitives culls none (its shadow rays walk
+    /// the scene's BVH): the guard would cost more than the walk saves.
     pub fn new(prims: &[Primitive], lights: &[(Vec3, Vec3)]) -> Self {
         let finite: Vec<&Primitive> = prims
             .iter()
@@ -243,39 +248,39 @@ impl ShadowCulling {
                         // overshoot the segment's end where ω is nearly along the line.
                         let clear = 2.0 * (g + slack) + 1e-3 * (b - a).length();
                         let light_clear = pl.h(a) >= clear && pl.h(b) >= clear;
-                        let closed = light_clear
-                            && (primitive_corners.iter().all(|&x| pl.h(x) >= -tau)
-                                || (!points.is_empty() && points.iter().all(|&x| pl.h(x) >= -tau)));
-                        closed.then_some((pl, g + slack))
-                    }),
-                    _ => None,
-                };
-                match cull {
-                    None => kept.push((*p).clone()),
-                    Some((pl, need)) => {
-                        culled.push((*p).clone());
-                        culled_index.push(i);
-                        // Join a group whose plane differs from this one by at most 10⁻⁶·D
-                        // over the scene box (affine: the maximum is at a corner).
+                        // The group whose plane differs from this one by at most 10⁻⁶·D over
+                        // the scene box (affine: the maximum is at a corner), or a new one if
+                        // there is room: decided before the points are scanned, since a
+                        // triangle with no guard plane left is kept anyway.
                         let dev = |q: &Plane| {
                             box_corners
                                 .iter()
                                 .map(|&c| (pl.h(c) - q.h(c)).abs())
                                 .fold(0.0, f64::max)
                         };
-                        let room = groups.len() < MAX_GUARDS;
-                        match groups.iter_mut().find(|(q, _)| dev(q) <= 1e-6 * diameter) {
-                            Some((q, w)) => {
-                                let d = dev(q);
-                                *w = w.max(need + d);
-                            }
-                            None if room => groups.push((pl, need)),
-                            // No guard plane left: the triangle is kept.
-                            None => {
-                                culled.pop();
-                                culled_index.pop();
-                                kept.push((*p).clone());
-                            }
+                        let group = groups.iter().position(|(q, _)| dev(q) <= 1e-6 * diameter);
+                        let guarded = group.is_some() || groups.len() < MAX_GUARDS;
+                        let closed = light_clear
+                            && guarded
+                            && (primitive_corners.iter().all(|&x| pl.h(x) >= -tau)
+                                || (!points.is_empty() && points.iter().all(|&x| pl.h(x) >= -tau)));
+                        let need = g + slack;
+                        let joined = group.map(|k| (k, need + dev(&groups[k].0)));
+                        closed.then_some(match joined {
+                            Some((k, need)) => (k, need, None),
+                            None => (groups.len(), need, Some(pl)),
+                        })
+                    }),
+                    _ => None,
+                };
+                match cull {
+                    None => kept.push((*p).clone()),
+                    Some((k, need, new_plane)) => {
+                        culled.push((*p).clone());
+                        culled_index.push(i);
+                        match new_plane {
+                            Some(pl) => groups.push((pl, need)),
+                            None => groups[k].1 = groups[k].1.max(need),
                         }
                     }
                 }
@@ -336,11 +341,6 @@ impl ShadowCulling {
     /// The guard planes of light `j`'s culled BVH.
     pub fn guards(&self, j: usize) -> &[Guard] {
         self.set(j).map_or(&[], |t| &t.guards[..t.used])
-    }
-
-    /// How many distinct culled BVHs the lights walk.
-    pub fn sets(&self) -> usize {
-        self.sets.len()
     }
 
     /// Whether a shadow ray from origin `o` toward light `j` walks the light's culled BVH.
@@ -460,18 +460,7 @@ mod tests {
     use super::*;
     use crate::integrator::{shadow_ray_to, RenderScene};
     use crate::shapes::SurfacePoint;
-
-    /// Splitmix64 in [0, 1).
-    struct Rng(u64);
-    impl Rng {
-        fn f(&mut self) -> f32 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
+    use linlight_sampling::rng::Pcg32;
 
     fn tri(a: [f32; 3], b: [f32; 3], c: [f32; 3], shape: u32) -> Primitive {
         Primitive::Triangle {
@@ -568,6 +557,139 @@ mod tests {
         assert!(!c.walks_culled(0, up(1e-5).o));
     }
 
+    /// The closed box [−1, 1]² × [0, 2] as six quads, shapes 0–5: floor, ceiling, walls
+    /// x = −1, x = 1, y = −1, y = 1.
+    fn closed_box() -> Vec<Primitive> {
+        let wall_x =
+            |x: f32, shape| quad([x, -1., 0.], [x, 1., 0.], [x, 1., 2.], [x, -1., 2.], shape);
+        [
+            floor_z(0.0, 0),
+            floor_z(2.0, 1),
+            wall_x(-1.0, 2),
+            wall_x(1.0, 3),
+            wall_y(-1.0, 4),
+            wall_y(1.0, 5),
+        ]
+        .concat()
+    }
+
+    /// The shadow rays the renderer casts — toward `p + dist·ω` with ω and dist from every
+    /// technique's sampler (`single_sample`), not toward exact points of the segment — in a
+    /// closed box whose wall y = 1 the light's end nearly touches: the light runs along y
+    /// toward that wall and ends as close to it as still lets the wall be culled. Shading
+    /// points on the opposite wall near the line's extension see the light end-on, where the
+    /// sampled distance (d / ĉ·ω) is ill-conditioned and targets overshoot the segment's end;
+    /// others on the wall y = 1 around the light's end and on the walls near it. Every ray
+    /// answers as the full BVH, and no culled triangle reports a hit for a ray that walks the
+    /// culled BVH. (Targets overshoot the end by ~10⁻⁶ here, well inside the light's margin; a
+    /// `distance_to_line` 0.3 % too long fails the test, the committed-scene test passes it.)
+    #[test]
+    fn sampler_built_shadow_rays_near_a_wall_the_light_nearly_touches() {
+        use crate::shading::single_sample;
+        use linlight_sampling::{Segment, Technique};
+        let prims = closed_box();
+        let full = Bvh::build(prims.clone());
+        let light = |gap: f32| (Vec3::new(0.0, -0.5, 1.0), Vec3::new(0.0, 1.0 - gap, 1.0));
+        let wall_culled = |gap: f32| {
+            let c = ShadowCulling::new(&prims, &[light(gap)]);
+            c.culled(0).iter().any(|p| p.shape() == 5)
+        };
+        // The smallest gap (to a relative 10⁻⁴) at which the wall y = 1 is culled.
+        let (mut lo, mut hi) = (0.0f32, 0.5f32);
+        assert!(!wall_culled(lo) && wall_culled(hi));
+        while hi - lo > 1e-4 * hi {
+            let mid = 0.5 * (lo + hi);
+            if wall_culled(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let (begin, end) = light(hi);
+        let sh = ShadowCulling::new(&prims, &[(begin, end)]);
+        assert_eq!(culled_shapes(&sh, 0), vec![0, 1, 2, 3, 4, 5]);
+        let segment = Segment::new(begin, end);
+        let mut rng = Pcg32::new(0x5eed, 7);
+        // (point, geometric normal toward the box's inside, shape).
+        let mut points: Vec<(Vec3, Vec3, u32)> = Vec::new();
+        for i in 0..4000 {
+            // Log-uniform distance r ∈ [10⁻⁷, 10⁻¹] from the line's axis (x = 0, z = 1).
+            let r = 10f32.powf(-7.0 + 6.0 * rng.next_f32());
+            let phi = std::f32::consts::TAU * rng.next_f32();
+            let (dx, dz) = (r * phi.cos(), r * phi.sin());
+            match i % 4 {
+                // The opposite wall around the line's extension: the light seen end-on.
+                0 | 1 => points.push((Vec3::new(dx, -1.0, 1.0 + dz), Vec3::Y, 4)),
+                // The wall y = 1 around the light's end.
+                2 => points.push((Vec3::new(dx, 1.0, 1.0 + dz), -Vec3::Y, 5)),
+                // The floor and the side walls within r of the wall y = 1.
+                _ => {
+                    let u = 2.0 * rng.next_f32() - 1.0;
+                    let y = 1.0 - r;
+                    points.push(match (i / 4) % 3 {
+                        0 => (Vec3::new(u, y, 0.0), Vec3::Z, 0),
+                        1 => (Vec3::new(-1.0, y, 1.0 + u), Vec3::X, 2),
+                        _ => (Vec3::new(1.0, y, 1.0 + u), -Vec3::X, 3),
+                    });
+                }
+            }
+        }
+        let (mut rays, mut walked_culled, mut overshoot, mut diffs, mut culled_hits) =
+            (0u64, 0u64, 0u64, 0u64, 0u64);
+        let mut farthest = 0.0f32;
+        for &(p, ng, shape) in &points {
+            let sp = SurfacePoint {
+                p,
+                ng,
+                ns: ng,
+                shape,
+            };
+            for technique in Technique::ALL {
+                let Some(sampler) = technique.prepare(&segment, p, ng) else {
+                    continue;
+                };
+                for i in 0..8 {
+                    let xi = match i {
+                        0 => 0.0,
+                        1 => 1.0,
+                        2 => 1.0 - f32::EPSILON / 2.0,
+                        _ => rng.next_f32(),
+                    };
+                    let Some(sample) = single_sample(&sampler, ng, xi) else {
+                        continue;
+                    };
+                    // The integrator's target (`radiance`'s `visible`, the batched renderer's
+                    // `shadow_rays`).
+                    let target = p + sample.dist * sample.w;
+                    let Some(ray) = shadow_ray_to(&sp, target) else {
+                        continue;
+                    };
+                    rays += 1;
+                    overshoot += (target.y > end.y) as u64;
+                    farthest = farthest.max(target.y - end.y);
+                    diffs += (sh.occluded(&full, 0, &ray) != full.occluded(&ray)) as u64;
+                    if sh.walks_culled(0, ray.o) {
+                        walked_culled += 1;
+                        culled_hits += sh
+                            .culled(0)
+                            .iter()
+                            .filter(|p| p.intersect(&ray).is_some())
+                            .count() as u64;
+                    }
+                }
+            }
+        }
+        let report = format!(
+            "gap {hi:e}: {rays} rays, {walked_culled} walked the culled BVH, {overshoot} \
+             targets beyond the light's end (by up to {farthest:e}); differences {diffs}, culled hits \
+             {culled_hits}"
+        );
+        eprintln!("{report}");
+        assert_eq!((diffs, culled_hits), (0, 0), "{report}");
+        // Not vacuous: most rays take the culled walk, and targets do overshoot.
+        assert!(walked_culled * 2 > rays && overshoot > 100, "{report}");
+    }
+
     fn nudge(x: f32, steps: i32) -> f32 {
         let mut y = x;
         for _ in 0..steps.abs() {
@@ -606,7 +728,7 @@ mod tests {
             let prims: Vec<Primitive> = (0..bvh.len())
                 .map(|i| bvh.primitive(i as u32).clone())
                 .collect();
-            let mut rng = Rng(0x5eed ^ path.as_os_str().len() as u64);
+            let mut rng = Pcg32::new(0x5eed, path.as_os_str().len() as u64);
             let mut points: Vec<SurfacePoint> = Vec::new();
             let point = |v: [Vec3; 3], b1: f32, b2: f32, shape: u32| {
                 let b0 = 1.0 - b1 - b2;
@@ -625,7 +747,7 @@ mod tests {
                     continue;
                 };
                 for i in 0..per_triangle {
-                    let (mut b1, mut b2) = (rng.f(), rng.f());
+                    let (mut b1, mut b2) = (rng.next_f32(), rng.next_f32());
                     if b1 + b2 > 1.0 {
                         (b1, b2) = (1.0 - b1, 1.0 - b2);
                     }
@@ -656,7 +778,9 @@ mod tests {
                     (l.min(b.min), h.max(b.max))
                 });
             for _ in 0..4000 {
-                let at = |r: &mut Rng| lo + (hi - lo) * Vec3::new(r.f(), r.f(), r.f());
+                let at = |r: &mut Pcg32| {
+                    lo + (hi - lo) * Vec3::new(r.next_f32(), r.next_f32(), r.next_f32())
+                };
                 let (o, t) = (at(&mut rng), at(&mut rng));
                 let ray = Ray {
                     o,
@@ -695,7 +819,7 @@ mod tests {
                         let s = match i {
                             0 => 0.0,
                             1 => 1.0,
-                            _ => rng.f(),
+                            _ => rng.next_f32(),
                         };
                         let target = segment.begin + s * (segment.end - segment.begin);
                         let Some(ray) = shadow_ray_to(sp, target) else {

@@ -273,111 +273,70 @@ mod x86 {
     /// Intel AVX-512 (F, VL, DQ, BW): a packet is one register per component.
     pub(in crate::bvh) struct Avx512;
 
-    // The `Kernel` methods are `inline(always)` wrappers of functions compiled for AVX-512: once
-    // inlined into `Bvh::*_lanes`' AVX-512 instantiation the intrinsics inline too.
-    impl Kernel for Avx512 {
-        #[inline(always)]
-        fn packet(lanes: &RayLanes, active: u32) -> RayPacket<'_> {
-            // SAFETY (every method): called only from the walks compiled for AVX-512 after
-            // detection (`Bvh::occluded_lanes`, `Bvh::intersect_lanes`).
-            unsafe { avx512::packet(lanes, active) }
-        }
-        #[inline(always)]
-        fn box_hits(p: &RayPacket, node: &Node, lane: usize) -> (u32, f32) {
-            unsafe { avx512::box_hits(p, node, lane) }
-        }
-        #[inline(always)]
-        fn triangle(
-            lanes: &RayLanes,
-            t_min: &[f32; PACKET],
-            t_max: &[f32; PACKET],
-            tri: &[Vec3; 3],
-        ) -> LaneHits {
-            unsafe { avx512::triangle(lanes, t_min, t_max, tri) }
-        }
-        #[inline(always)]
-        fn sphere(
-            lanes: &RayLanes,
-            t_min: &[f32; PACKET],
-            t_max: &[f32; PACKET],
-            center: Vec3,
-            r2: f64,
-        ) -> LaneHits {
-            unsafe { avx512::sphere(lanes, t_min, t_max, center, r2) }
-        }
-        #[inline(always)]
-        fn take_closest(
-            best: &mut PacketHits,
-            t_max: &mut [f32; PACKET],
-            hits: &LaneHits,
-            mask: u32,
-            prim: u32,
-        ) -> u32 {
-            unsafe { avx512::take_closest(best, t_max, hits, mask, prim) }
-        }
-        #[inline(always)]
-        fn take_nearer(best: &mut PacketHits, hits: &LaneHits, prim: u32) {
-            unsafe { avx512::take_nearer(best, hits, prim) }
-        }
-        #[inline(always)]
-        fn max(a: &[f32; PACKET]) -> f32 {
-            unsafe { avx512::max(a) }
-        }
-    }
-
     /// AVX2 + FMA (FMA unused: the lane arithmetic must round like the scalar code): a packet
     /// is two 8-lane registers per component.
     pub(in crate::bvh) struct Avx2;
 
-    impl Kernel for Avx2 {
-        #[inline(always)]
-        fn packet(lanes: &RayLanes, active: u32) -> RayPacket<'_> {
-            // SAFETY (every method): called only from the walks compiled for AVX2 after
-            // detection (`Bvh::occluded_lanes`, `Bvh::intersect_lanes`).
-            unsafe { avx2::packet(lanes, active) }
-        }
-        #[inline(always)]
-        fn box_hits(p: &RayPacket, node: &Node, lane: usize) -> (u32, f32) {
-            unsafe { avx2::box_hits(p, node, lane) }
-        }
-        #[inline(always)]
-        fn triangle(
-            lanes: &RayLanes,
-            t_min: &[f32; PACKET],
-            t_max: &[f32; PACKET],
-            tri: &[Vec3; 3],
-        ) -> LaneHits {
-            unsafe { avx2::triangle(lanes, t_min, t_max, tri) }
-        }
-        #[inline(always)]
-        fn sphere(
-            lanes: &RayLanes,
-            t_min: &[f32; PACKET],
-            t_max: &[f32; PACKET],
-            center: Vec3,
-            r2: f64,
-        ) -> LaneHits {
-            unsafe { avx2::sphere(lanes, t_min, t_max, center, r2) }
-        }
-        #[inline(always)]
-        fn take_closest(
-            best: &mut PacketHits,
-            t_max: &mut [f32; PACKET],
-            hits: &LaneHits,
-            mask: u32,
-            prim: u32,
-        ) -> u32 {
-            unsafe { avx2::take_closest(best, t_max, hits, mask, prim) }
-        }
-        #[inline(always)]
-        fn take_nearer(best: &mut PacketHits, hits: &LaneHits, prim: u32) {
-            unsafe { avx2::take_nearer(best, hits, prim) }
-        }
-        #[inline(always)]
-        fn max(a: &[f32; PACKET]) -> f32 {
-            unsafe { avx2::max(a) }
-        }
+    /// `impl Kernel for $kernel`: `inline(always)` wrappers of the functions of module `$m`,
+    /// compiled for the kernel's extension: once inlined into `Bvh::*_lanes`' instantiation for
+    /// that extension the intrinsics inline too.
+    macro_rules! forward_kernel {
+        ($kernel:ident, $m:ident) => {
+            impl Kernel for $kernel {
+                #[inline(always)]
+                fn packet(lanes: &RayLanes, active: u32) -> RayPacket<'_> {
+                    // SAFETY (every method): called only from the walks compiled for the
+                    // kernel's extension after detection (`Bvh::occluded_lanes`,
+                    // `Bvh::intersect_lanes`).
+                    unsafe { $m::packet(lanes, active) }
+                }
+                #[inline(always)]
+                fn box_hits(p: &RayPacket, node: &Node, lane: usize) -> (u32, f32) {
+                    unsafe { $m::box_hits(p, node, lane) }
+                }
+                #[inline(always)]
+                fn triangle(
+                    lanes: &RayLanes,
+                    t_min: &[f32; PACKET],
+                    t_max: &[f32; PACKET],
+                    tri: &[Vec3; 3],
+                ) -> LaneHits {
+                    unsafe { $m::triangle(lanes, t_min, t_max, tri) }
+                }
+                #[inline(always)]
+                fn sphere(
+                    lanes: &RayLanes,
+                    t_min: &[f32; PACKET],
+                    t_max: &[f32; PACKET],
+                    center: Vec3,
+                    r2: f64,
+                ) -> LaneHits {
+                    unsafe { $m::sphere(lanes, t_min, t_max, center, r2) }
+                }
+                #[inline(always)]
+                fn take_closest(
+                    best: &mut PacketHits,
+                    t_max: &mut [f32; PACKET],
+                    hits: &LaneHits,
+                    mask: u32,
+                    prim: u32,
+                ) -> u32 {
+                    unsafe { $m::take_closest(best, t_max, hits, mask, prim) }
+                }
+                #[inline(always)]
+                fn take_nearer(best: &mut PacketHits, hits: &LaneHits, prim: u32) {
+                    unsafe { $m::take_nearer(best, hits, prim) }
+                }
+                #[inline(always)]
+                fn max(a: &[f32; PACKET]) -> f32 {
+                    unsafe { $m::max(a) }
+                }
+            }
+        };
     }
+
+    forward_kernel!(Avx512, avx512);
+    forward_kernel!(Avx2, avx2);
 
     mod avx512 {
         use super::*;
