@@ -175,7 +175,7 @@ struct Context<'a> {
     /// The single technique, or the projected solid angle of LTC and MIS on Lambertian
     /// surfaces ([`lambert_technique`]).
     technique: Technique,
-    /// Whether `technique` has a batch kernel (projected solid angle, Li et al.).
+    /// Whether `technique` has a batch kernel ([`has_batch_kernel`]).
     batch: bool,
     /// LTC's and MIS's combination (two samples per light on non-Lambertian lanes); `None`
     /// for single techniques.
@@ -213,10 +213,11 @@ fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
         .collect()
 }
 
-/// Eight-lane ([`BATCH`]) halves of sixteen-lane arrays.
+/// A 3-vector in each of the [`LANES`] lanes of a packet: `[x, y, z]`, each `[f32; LANES]`.
 type Lanes3 = [[f32; LANES]; 3];
 
-/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`.
+/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`: half b of a packet's lanes, as the
+/// eight-lane ([`BATCH`]) batch kernels take them.
 #[inline(always)]
 fn half_lanes(v: &[f32; LANES], b: usize) -> [f32; BATCH] {
     std::array::from_fn(|i| v[b * BATCH + i])
@@ -856,8 +857,9 @@ fn glossy_contributions(
 /// (`normals`: lanes that have them), the sign of `flip_normals`. The lanes of one triangle are
 /// written together ([`Triangles::set`]): the first triangle into every lane (so that all lanes
 /// are initialised without zeroing the arrays first), the later ones by selects over the
-/// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once a triangle has them (they are not read otherwise). Lanes
-/// outside `mask` (`normals`) hold another triangle's values, computed on and not kept.
+/// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once
+/// a triangle has them (they are not read otherwise). Lanes outside `mask` (`normals`) hold
+/// another triangle's values, computed on and not kept.
 struct Triangles {
     mask: u32,
     v: MaybeUninit<[Lanes3; 3]>,
