@@ -694,15 +694,15 @@ fn shading_points<'a>(
     // (One exit, and `out` borrowed field by field: an early return or `&mut out` copied the
     // whole ShadingLanes on return, +28 instructions per sample on glossy-principled.)
     let lambert_shape = first_shape
-        .filter(|&s| one_shape && rs.lambert[s as usize].is_some())
-        .map(|s| s as usize);
-    if let Some(shape) = lambert_shape {
+        .filter(|_| one_shape)
+        .and_then(|s| Some((s as usize, rs.lambert[s as usize]?)));
+    if let Some((shape, f)) = lambert_shape {
         // `reflecting_normal` and the stores of the loop below on all lanes at once: lane k is
         // active where n_s·ω_i > 0 (n = n_s) or, on a two-sided BSDF, n_s·ω_i < 0 (n = −n_s),
         // with ω_i = −d and the dot product in glam's order (the same bits); the other lanes
         // keep their zeros.
         let two_sided = rs.surfaces[shape].0.is_two_sided();
-        let f = rs.lambert[shape].unwrap_or(Vec3::ZERO).to_array();
+        let f = f.to_array();
         let mut active = 0u32;
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
         for k in 0..LANES {
@@ -786,8 +786,8 @@ fn glossy_contributions(
     k_light: &Lanes3,
     total: &mut Lanes3,
 ) -> u64 {
-    let mut todo = lit & shading.glossy_mask;
-    if todo == 0 {
+    let glossy = lit & shading.glossy_mask;
+    if glossy == 0 {
         return 0;
     }
     // ω in the shading frames (ShadingPoint::local), all lanes at once.
@@ -806,7 +806,7 @@ fn glossy_contributions(
     // 512-bit register; the lanes outside its group are computed and not kept).
     let v = [shading.v[0], [0.0; LANES], shading.v[1]];
     let mut f_cos = [[0.0f32; LANES]; 3];
-    let all = todo;
+    let mut todo = glossy;
     while todo != 0 {
         let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
             todo &= todo - 1;
@@ -823,7 +823,7 @@ fn glossy_contributions(
         group &= todo;
         todo &= !group;
         let f = bsdf.eval_lanes(&v, &l);
-        if group == all {
+        if group == glossy {
             // One BSDF on every glossy lit lane (the loop below reads no other lane).
             f_cos = f;
             break;
@@ -838,7 +838,6 @@ fn glossy_contributions(
     }
     // K·(f·cos)/p (single_contribution's arithmetic) on all lanes, the finite ones of the lit
     // glossy lanes added (+0 elsewhere leaves the sums, which start at +0, bitwise unchanged).
-    let glossy = lit & shading.glossy_mask;
     let mut dropped = 0u32;
     #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
     for k in 0..LANES {
@@ -947,13 +946,7 @@ impl Triangles {
     /// the same bits), in one loop over all lanes that the compiler vectorises; other lanes
     /// are left as they are. Only with `mask` ≠ 0.
     #[inline(always)]
-    fn surface_points(
-        &mut self,
-        hits: &PacketHits,
-        p: &mut Lanes3,
-        ng: &mut Lanes3,
-        ns: &mut Lanes3,
-    ) {
+    fn surface_points(&self, hits: &PacketHits, p: &mut Lanes3, ng: &mut Lanes3, ns: &mut Lanes3) {
         debug_assert!(self.mask != 0);
         // SAFETY: `set` initialised every lane (mask ≠ 0).
         let v = unsafe { self.v.assume_init_ref() };
