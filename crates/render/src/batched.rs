@@ -909,9 +909,22 @@ fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v
     }
     // SAFETY: `written` ≠ 0: a first call initialised every lane.
     let lanes = unsafe { lanes.assume_init_mut() };
+    if group.count_ones() <= SMALL_GROUP {
+        let mut g = group;
+        while g != 0 {
+            let k = g.trailing_zeros() as usize;
+            g &= g - 1;
+            for (lj, vj) in lanes.iter_mut().zip(v) {
+                set3(lj, k, *vj);
+            }
+        }
+        return;
+    }
     for (lj, vj) in lanes.iter_mut().zip(v) {
         for (l, c) in lj.iter_mut().zip(vj.to_array()) {
-            select_lanes(l, group, c);
+            for (k, x) in l.iter_mut().enumerate() {
+                *x = if group >> k & 1 == 1 { c } else { *x };
+            }
         }
     }
 }
