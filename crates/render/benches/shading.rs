@@ -10,9 +10,9 @@
 //!
 //! Instruction-count mode for callgrind (`--toggle-collect='*shade_*'`):
 //! `LINLIGHT_SHADING_ONLY=<row>:<config>` with row a technique name, `psa-x8`, `li-x8` or
-//! `clipped-x8`, config
-//! `128x1` or `1x128`, shades once and prints the number of samples (instructions per sample
-//! = Ir / samples). Batches run the kernel the CPU supports (under valgrind: AVX2).
+//! `clipped-x8`, config `128x1` or `1x128`, shades once and prints the number of samples
+//! (instructions per sample = Ir / samples). Batches run the kernel the CPU supports (under
+//! valgrind: AVX2).
 //!
 //! Run: `cargo bench -p linlight-render --bench shading`.
 

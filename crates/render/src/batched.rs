@@ -175,7 +175,7 @@ struct Context<'a> {
     /// The single technique, or the projected solid angle of LTC and MIS on Lambertian
     /// surfaces ([`lambert_technique`]).
     technique: Technique,
-    /// Whether `technique` has a batch kernel (projected solid angle, Li et al.).
+    /// Whether `technique` has a batch kernel ([`has_batch_kernel`]).
     batch: bool,
     /// LTC's and MIS's combination (two samples per light on non-Lambertian lanes); `None`
     /// for single techniques.
@@ -213,10 +213,11 @@ fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
         .collect()
 }
 
-/// Eight-lane ([`BATCH`]) halves of sixteen-lane arrays.
+/// A 3-vector in each of the [`LANES`] lanes of a packet: `[x, y, z]`, each `[f32; LANES]`.
 type Lanes3 = [[f32; LANES]; 3];
 
-/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`.
+/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`: half b of a packet's lanes, as the
+/// eight-lane ([`BATCH`]) batch kernels take them.
 #[inline(always)]
 fn half_lanes(v: &[f32; LANES], b: usize) -> [f32; BATCH] {
     std::array::from_fn(|i| v[b * BATCH + i])
@@ -693,15 +694,15 @@ fn shading_points<'a>(
     // (One exit, and `out` borrowed field by field: an early return or `&mut out` copied the
     // whole ShadingLanes on return, +28 instructions per sample on glossy-principled.)
     let lambert_shape = first_shape
-        .filter(|&s| one_shape && rs.lambert[s as usize].is_some())
-        .map(|s| s as usize);
-    if let Some(shape) = lambert_shape {
+        .filter(|_| one_shape)
+        .and_then(|s| Some((s as usize, rs.lambert[s as usize]?)));
+    if let Some((shape, f)) = lambert_shape {
         // `reflecting_normal` and the stores of the loop below on all lanes at once: lane k is
         // active where n_s·ω_i > 0 (n = n_s) or, on a two-sided BSDF, n_s·ω_i < 0 (n = −n_s),
         // with ω_i = −d and the dot product in glam's order (the same bits); the other lanes
         // keep their zeros.
         let two_sided = rs.surfaces[shape].0.is_two_sided();
-        let f = rs.lambert[shape].unwrap_or(Vec3::ZERO).to_array();
+        let f = f.to_array();
         let mut active = 0u32;
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
         for k in 0..LANES {
@@ -785,8 +786,8 @@ fn glossy_contributions(
     k_light: &Lanes3,
     total: &mut Lanes3,
 ) -> u64 {
-    let mut todo = lit & shading.glossy_mask;
-    if todo == 0 {
+    let glossy = lit & shading.glossy_mask;
+    if glossy == 0 {
         return 0;
     }
     // ω in the shading frames (ShadingPoint::local), all lanes at once.
@@ -805,7 +806,7 @@ fn glossy_contributions(
     // 512-bit register; the lanes outside its group are computed and not kept).
     let v = [shading.v[0], [0.0; LANES], shading.v[1]];
     let mut f_cos = [[0.0f32; LANES]; 3];
-    let all = todo;
+    let mut todo = glossy;
     while todo != 0 {
         let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
             todo &= todo - 1;
@@ -822,7 +823,7 @@ fn glossy_contributions(
         group &= todo;
         todo &= !group;
         let f = bsdf.eval_lanes(&v, &l);
-        if group == all {
+        if group == glossy {
             // One BSDF on every glossy lit lane (the loop below reads no other lane).
             f_cos = f;
             break;
@@ -837,7 +838,6 @@ fn glossy_contributions(
     }
     // K·(f·cos)/p (single_contribution's arithmetic) on all lanes, the finite ones of the lit
     // glossy lanes added (+0 elsewhere leaves the sums, which start at +0, bitwise unchanged).
-    let glossy = lit & shading.glossy_mask;
     let mut dropped = 0u32;
     #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
     for k in 0..LANES {
@@ -856,8 +856,9 @@ fn glossy_contributions(
 /// (`normals`: lanes that have them), the sign of `flip_normals`. The lanes of one triangle are
 /// written together ([`Triangles::set`]): the first triangle into every lane (so that all lanes
 /// are initialised without zeroing the arrays first), the later ones by selects over the
-/// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once a triangle has them (they are not read otherwise). Lanes
-/// outside `mask` (`normals`) hold another triangle's values, computed on and not kept.
+/// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once
+/// a triangle has them (they are not read otherwise). Lanes outside `mask` (`normals`) hold
+/// another triangle's values, computed on and not kept.
 struct Triangles {
     mask: u32,
     v: MaybeUninit<[Lanes3; 3]>,
@@ -945,13 +946,7 @@ impl Triangles {
     /// the same bits), in one loop over all lanes that the compiler vectorises; other lanes
     /// are left as they are. Only with `mask` ≠ 0.
     #[inline(always)]
-    fn surface_points(
-        &mut self,
-        hits: &PacketHits,
-        p: &mut Lanes3,
-        ng: &mut Lanes3,
-        ns: &mut Lanes3,
-    ) {
+    fn surface_points(&self, hits: &PacketHits, p: &mut Lanes3, ng: &mut Lanes3, ns: &mut Lanes3) {
         debug_assert!(self.mask != 0);
         // SAFETY: `set` initialised every lane (mask ≠ 0).
         let v = unsafe { self.v.assume_init_ref() };

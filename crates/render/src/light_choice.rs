@@ -262,7 +262,8 @@ mod tests {
                 in_interval(k, j);
                 assert_eq!(inv, (1.0 / c.probability(j)) as f32);
             }
-            // Eight different ξ at once (the packet path's call).
+            // Eight different ξ at once (`pick_lanes` on lanes of their own ξ, as `pick_rows`
+            // calls it for more than SELECT_LIGHTS lights).
             for chunk in ks.chunks_exact(8) {
                 let picked = c.pick_lanes(&std::array::from_fn::<f32, 8, _>(|i| xi_of(chunk[i])));
                 for (&k, &j) in chunk.iter().zip(&picked) {
