@@ -133,7 +133,7 @@ mod tests {
             let f = lanes(&v, &l);
             for k in 0..chunk.len() {
                 let (lane, want) = (get(&f, k), scalar(get(&v, k), get(&l, k)));
-                let bits = |x: V3<T>| [x.x, x.y, x.z].map(|c| c.wide().to_bits());
+                let bits = |x: V3<T>| [x.x, x.y, x.z].map(|c| c.to_f64().map(f64::to_bits));
                 assert_eq!(
                     bits(lane),
                     bits(want),
