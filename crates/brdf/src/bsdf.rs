@@ -70,8 +70,9 @@ impl Bsdf {
     /// f(v, l)·|l_z|: the BSDF value times the cosine at the light direction, exactly what
     /// Mitsuba's `BSDF.eval(ctx, si, wo)` returns with `si.wi = v`, `wo = l`. Both directions
     /// are unit vectors in the shading frame (z = shading normal), v toward the viewer, l toward
-    /// the light. Per RGB channel, f64 (reference quadrature, tests; the renderer evaluates in
-    /// f32: [`Bsdf::eval_f32`]).
+    /// the light. Per RGB channel, f64: for reference computations (the render crate's line
+    /// quadrature, its power controls' deliberately wrong models) and tests; the renderer
+    /// shades in f32 ([`Bsdf::eval_f32`], [`Bsdf::eval_lanes`]).
     ///
     /// This is the lane code with one lane ([`Bsdf::eval_lanes`]), so that both give the same
     /// bits.
@@ -98,7 +99,7 @@ impl Bsdf {
 
     /// One lane of [`Bsdf::eval_lanes`] in either precision.
     fn eval_one<T: Real>(&self, v: V3<T>, l: V3<T>) -> V3<T> {
-        lanes::get(&self.eval_lanes::<T, 1>(&lanes::one(v), &lanes::one(l)), 0)
+        lanes::one_lane(v, l, |v, l| self.eval_lanes(v, l))
     }
 
     /// [`Bsdf::eval`] of N lanes at once in f32 or f64 (directions and values as structures of

@@ -4,12 +4,8 @@ use crate::real::{Real, V3};
 use crate::{Lobes, Rgb};
 use glam::DVec3;
 
-/// ρ/π · l_z (cosine included) for v_z > 0 and l_z > 0, else 0.
-pub fn eval(reflectance: Rgb, v: DVec3, l: DVec3) -> DVec3 {
-    eval_in(reflectance, v.into(), l.into()).into()
-}
-
-/// [`eval`] in either precision. Branch-free (computed, then selected) for the lanes of
+/// ρ/π · l_z (cosine included) for v_z > 0 and l_z > 0, else 0, in either precision (evaluate
+/// it with `Bsdf::eval`). Branch-free (computed, then selected) for the lanes of
 /// `Bsdf::eval_lanes`.
 #[inline(always)]
 pub(crate) fn eval_in<T: Real>(reflectance: Rgb, v: V3<T>, l: V3<T>) -> V3<T> {
@@ -41,15 +37,17 @@ pub(crate) fn rgb(c: Rgb) -> DVec3 {
 mod tests {
     use super::*;
     use crate::test_util::{hemisphere_integral, unit};
+    use crate::Bsdf;
 
     #[test]
     fn albedo_is_the_reflectance_and_back_is_black() {
         let rho = [0.2, 0.5, 0.8];
+        let eval = |v, l| Bsdf::Diffuse { reflectance: rho }.eval(v, l);
         let v = unit(0.3, -0.2, 0.7);
-        let a = hemisphere_integral(|l| eval(rho, v, l), 64);
+        let a = hemisphere_integral(|l| eval(v, l), 64);
         assert!((a - rgb(rho)).abs().max_element() < 1e-9, "{a}");
-        assert_eq!(eval(rho, -v, v), DVec3::ZERO);
-        assert_eq!(eval(rho, v, DVec3::new(v.x, v.y, -v.z)), DVec3::ZERO);
+        assert_eq!(eval(-v, v), DVec3::ZERO);
+        assert_eq!(eval(v, DVec3::new(v.x, v.y, -v.z)), DVec3::ZERO);
         assert_eq!(lobes(rho, v).diffuse, rgb(rho));
         assert_eq!(lobes(rho, -v), Lobes::BLACK);
     }

@@ -1,17 +1,18 @@
 //! Test-only references: the evaluation code that was made branch-free, as it was written
 //! before (commit f343024: early returns, skipped terms). The branch-free code must give the
 //! same bits; the lane test (`lanes.rs`) cannot show that, since `Bsdf::eval` is the lane code.
-//! Only what changed is copied; unchanged helpers are called. The helpers that became generic
-//! over f32/f64 (commit 9b0ddbb → glossy-f32: `schlick_weight`, `conductor`, `safe_sqrt`,
-//! `Blend::weight`, the conductor's Fresnel per channel, `sin2`, `c`, `lerp`, `rgb`) are copied
-//! as they were at 9b0ddbb, so that the generic versions are compared with the f64 originals
-//! rather than with themselves.
+//! Every helper that was rewritten since (made branch-free, or generic over f32/f64 in commit
+//! 9b0ddbb → glossy-f32: `schlick_weight`, `schlick_r0`, `conductor`, `safe_sqrt`,
+//! `clamp_alpha`, the models' α, `Blend::weight`, the conductor's Fresnel per channel,
+//! `twosided`'s flip, `sin2`, `c`, `lerp`, `rgb`) is copied as it was at 9b0ddbb, so that the
+//! new code is compared with the f64 originals rather than with itself; only constants
+//! (`LUMINANCE`, `D_FLUSH`, `MIN_ALPHA`) are shared.
 
-use crate::fresnel::{self, schlick_r0};
-use crate::microfacet;
+use crate::fresnel;
+use crate::microfacet::{self, MIN_ALPHA};
 use crate::principled::LUMINANCE;
 use crate::test_util::{bsdfs, pairs};
-use crate::{twosided, Blend, Bsdf, ConductorFresnel, Principled, RoughConductor};
+use crate::{Blend, Bsdf, ConductorFresnel, Principled, RoughConductor};
 use glam::DVec3;
 use num_traits::Float;
 
@@ -29,6 +30,36 @@ fn rgb(c: [f32; 3]) -> DVec3 {
 
 fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a + t * (b - a)
+}
+
+fn schlick_r0(eta: f64) -> f64 {
+    let r = (eta - 1.0) / (eta + 1.0);
+    r * r
+}
+
+fn clamp_alpha<T: Float>(alpha: T) -> T {
+    if alpha < c(MIN_ALPHA) {
+        c(MIN_ALPHA)
+    } else {
+        alpha
+    }
+}
+
+fn conductor_alpha(c: &RoughConductor) -> f64 {
+    clamp_alpha(c.alpha as f64)
+}
+
+fn principled_alpha(p: &Principled) -> f64 {
+    let r2 = (p.roughness * p.roughness).max(0.001);
+    clamp_alpha(r2 as f64)
+}
+
+fn flip(v: DVec3, l: DVec3) -> (DVec3, DVec3) {
+    if v.z.is_sign_negative() {
+        (DVec3::new(v.x, v.y, -v.z), DVec3::new(l.x, l.y, -l.z))
+    } else {
+        (v, l)
+    }
 }
 
 fn safe_sqrt(x: f64) -> f64 {
@@ -172,7 +203,7 @@ fn principled(p: &Principled, v: DVec3, l: DVec3) -> DVec3 {
         return DVec3::ZERO;
     }
     let mut value = DVec3::ZERO;
-    let (lobe, cos_vh) = ggx_cos_and_cos_vh(p.alpha(), v, l);
+    let (lobe, cos_vh) = ggx_cos_and_cos_vh(principled_alpha(p), v, l);
     if lobe != 0.0 && dielectric(cos_vh, p.eta as f64) > 0.0 {
         value += principled_fresnel(p, cos_vh) * lobe;
     }
@@ -199,7 +230,7 @@ fn principled(p: &Principled, v: DVec3, l: DVec3) -> DVec3 {
 }
 
 fn rough_conductor(c: &RoughConductor, v: DVec3, l: DVec3) -> DVec3 {
-    let (lobe, cos_vh) = ggx_cos_and_cos_vh(c.alpha(), v, l);
+    let (lobe, cos_vh) = ggx_cos_and_cos_vh(conductor_alpha(c), v, l);
     if lobe == 0.0 {
         return DVec3::ZERO;
     }
@@ -222,8 +253,7 @@ fn eval(bsdf: &Bsdf, v: DVec3, l: DVec3) -> DVec3 {
             eval(&b.bsdfs[0], v, l) * (1.0 - w) + eval(&b.bsdfs[1], v, l) * w
         }
         Bsdf::TwoSided(inner) => {
-            let (v, l) = twosided::flip::<f64>(v.into(), l.into());
-            let (v, l) = (v.into(), l.into());
+            let (v, l) = flip(v, l);
             eval(inner, v, l)
         }
     }
@@ -298,11 +328,12 @@ fn branch_free_pieces_equal_the_early_returns() {
     let all = bsdfs();
     let leaves: Vec<&Bsdf> = all.iter().flat_map(leaves).collect();
     for leaf in leaves {
-        let (alpha, principled) = match leaf {
-            Bsdf::RoughConductor(c) => (c.alpha(), None),
-            Bsdf::Principled(p) => (p.alpha(), Some(p)),
+        let (alpha, new_alpha, principled) = match leaf {
+            Bsdf::RoughConductor(c) => (conductor_alpha(c), c.alpha(), None),
+            Bsdf::Principled(p) => (principled_alpha(p), p.alpha(), Some(p)),
             _ => continue,
         };
+        assert_eq!(new_alpha.to_bits(), alpha.to_bits(), "α of {leaf:?}");
         for &(v, l) in &pairs {
             let h = (v + l).normalize_or_zero();
             let (cos_vh, cos_lh) = (v.dot(h), l.dot(h));
@@ -361,15 +392,16 @@ fn branch_free_pieces_equal_the_early_returns() {
             }
             let Some(p) = principled else { continue };
             let eta = p.eta as f64;
+            let r0 = schlick_r0(eta);
+            assert_eq!(
+                fresnel::schlick_r0(eta).to_bits(),
+                r0.to_bits(),
+                "R₀({eta})"
+            );
             for cos in [cos_vh, -cos_vh, v.z, -l.z] {
                 let (new, old) = (fresnel::dielectric(cos, eta), dielectric(cos, eta));
                 assert_eq!(new.to_bits(), old.to_bits(), "dielectric({cos}, {eta})");
-                for r0 in p
-                    .base_color
-                    .map(f64::from)
-                    .into_iter()
-                    .chain([schlick_r0(eta)])
-                {
+                for r0 in p.base_color.map(f64::from).into_iter().chain([r0]) {
                     let (new, old) = (fresnel::schlick(r0, cos, eta), schlick(r0, cos, eta));
                     assert_eq!(new.to_bits(), old.to_bits(), "schlick({r0}, {cos}, {eta})");
                 }

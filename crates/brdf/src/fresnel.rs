@@ -1,7 +1,7 @@
 //! Fresnel reflectances as Mitsuba 3.9.1 evaluates them (`include/mitsuba/render/fresnel.h` and
-//! the principled BSDF's helpers), in f32 or f64 ([`Real`]). All return the unpolarised reflectance ∈ [0, 1] for
-//! physical inputs; `cos_theta_i` is the cosine between the incident direction and the
-//! (micro)surface normal.
+//! the principled BSDF's helpers), in f32 or f64 ([`Real`]). All return the unpolarised
+//! reflectance ∈ [0, 1] for physical inputs; `cos_theta_i` is the cosine between the incident
+//! direction and the (micro)surface normal.
 
 use crate::real::Real;
 

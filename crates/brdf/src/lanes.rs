@@ -27,10 +27,15 @@ pub fn set<T: Real, const N: usize>(v: &mut Lanes3<T, N>, k: usize, x: V3<T>) {
     v[2][k] = x.z;
 }
 
-/// One lane holding `x`.
+/// The lane code `f` run on the one lane (v, l): the scalar evaluation, bit for bit lane k of
+/// `f` on N lanes whose lane k holds (v, l).
 #[inline(always)]
-pub fn one<T: Real>(x: V3<T>) -> Lanes3<T, 1> {
-    [[x.x], [x.y], [x.z]]
+pub fn one_lane<T: Real>(
+    v: V3<T>,
+    l: V3<T>,
+    f: impl FnOnce(&Lanes3<T, 1>, &Lanes3<T, 1>) -> Lanes3<T, 1>,
+) -> V3<T> {
+    get(&f(&[[v.x], [v.y], [v.z]], &[[l.x], [l.y], [l.z]]), 0)
 }
 
 /// `f(v_k, l_k)` for every lane k: the loop that vectorises when `f` is branch-free.
@@ -133,7 +138,7 @@ mod tests {
             let f = lanes(&v, &l);
             for k in 0..chunk.len() {
                 let (lane, want) = (get(&f, k), scalar(get(&v, k), get(&l, k)));
-                let bits = |x: V3<T>| [x.x, x.y, x.z].map(|c| c.wide().to_bits());
+                let bits = |x: V3<T>| [x.x, x.y, x.z].map(|c| c.to_f64().map(f64::to_bits));
                 assert_eq!(
                     bits(lane),
                     bits(want),

@@ -7,9 +7,11 @@
 //! cos θ_l = l_z, as Mitsuba's `BSDF::eval` does. Everything is zero unless v_z > 0 and l_z > 0
 //! (one-sided), which `twosided` lifts by mirroring both directions when the viewer is below.
 //!
-//! Models, one per module, each with its `eval` and lobe summary: [`diffuse`],
-//! [`roughconductor`], [`principled`], [`blendbsdf`], [`twosided`]; [`Bsdf`] dispatches over
-//! them and documents the lobe summary ([`Lobes`]) that MIS weights are built from. Shared
+//! Models, one per module, each with its evaluation (generic over the precision) and lobe
+//! summary: [`diffuse`], [`roughconductor`], [`principled`], [`blendbsdf`], [`twosided`];
+//! [`Bsdf`] dispatches over them ([`Bsdf::eval`] in f64, [`Bsdf::eval_f32`],
+//! [`Bsdf::eval_lanes`]) and documents the lobe summary ([`Lobes`]) that MIS weights are built
+//! from. Shared
 //! pieces: [`microfacet`] (GGX D, Smith G1, the F ≡ 1 lobe, visible-normal sampling) and
 //! [`fresnel`]; [`lanes`] (N evaluations at once, bit for bit the scalar ones); [`real`] (the
 //! precision: f64 for reference, f32 for the renderer, one piece of code).

@@ -3,7 +3,7 @@
 //! anything else), so it is one-sided. With w = (1 − metallic), front side (v_z > 0, l_z > 0):
 //!
 //! f·cos θ_l = F_p(v·h) · D(h) G1(v,h) G1(l,h) / (4 v_z)
-//!           + [w > 0] · w · l_z · base_color/π · lerp(f_diff + f_retro, f_ss, flatness)
+//!           + \[w > 0\] · w · l_z · base_color/π · lerp(f_diff + f_retro, f_ss, flatness)
 //!
 //! - GGX with separable Smith masking, α = max(0.001, roughness²);
 //! - F_p = w·(1 − spec_tint)·F_dielectric(v·h, η) + metallic·Schlick(base_color, v·h)

@@ -12,50 +12,36 @@
 use glam::{DVec3, Vec3};
 use num_traits::Float;
 use std::fmt::Debug;
-use std::ops::{Add, Div, Mul, Sub};
+use std::ops::{Add, Div, Mul};
 
 /// f32 or f64, with exact conversions from the f32 parameters the models store.
-pub trait Real: Float + Debug + Default + Send + Sync + 'static {
+pub trait Real: Float + Debug {
     /// The f64 constant `x` rounded to this type.
     fn c(x: f64) -> Self;
     /// An f32 parameter (exact in both types).
     fn of(x: f32) -> Self;
-    /// `x`'s value in f64 (exact).
-    fn wide(self) -> f64;
 }
 
-impl Real for f32 {
-    #[inline(always)]
-    fn c(x: f64) -> Self {
-        x as f32
-    }
-    #[inline(always)]
-    fn of(x: f32) -> Self {
-        x
-    }
-    #[inline(always)]
-    fn wide(self) -> f64 {
-        self as f64
-    }
+/// `Real` for each type: both conversions are `as` casts (the identity where the types agree).
+macro_rules! real {
+    ($($t:ty),*) => {$(
+        impl Real for $t {
+            #[inline(always)]
+            fn c(x: f64) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn of(x: f32) -> Self {
+                x as $t
+            }
+        }
+    )*};
 }
 
-impl Real for f64 {
-    #[inline(always)]
-    fn c(x: f64) -> Self {
-        x
-    }
-    #[inline(always)]
-    fn of(x: f32) -> Self {
-        x as f64
-    }
-    #[inline(always)]
-    fn wide(self) -> f64 {
-        self
-    }
-}
+real!(f32, f64);
 
 /// A 3-vector of [`Real`]: a direction in the shading frame or an RGB value.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct V3<T> {
     pub x: T,
     pub y: T,
@@ -113,14 +99,6 @@ impl<T: Real> Add for V3<T> {
     #[inline(always)]
     fn add(self, o: Self) -> Self {
         Self::new(self.x + o.x, self.y + o.y, self.z + o.z)
-    }
-}
-
-impl<T: Real> Sub for V3<T> {
-    type Output = Self;
-    #[inline(always)]
-    fn sub(self, o: Self) -> Self {
-        Self::new(self.x - o.x, self.y - o.y, self.z - o.z)
     }
 }
 

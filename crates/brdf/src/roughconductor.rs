@@ -63,11 +63,7 @@ impl RoughConductor {
 
     /// f(v, l)·l_z in the shading frame, as Mitsuba's `BSDF.eval` returns it (f64).
     pub fn eval(&self, v: DVec3, l: DVec3) -> DVec3 {
-        lanes::get(
-            &self.eval_lanes::<f64, 1>(&lanes::one(v.into()), &lanes::one(l.into())),
-            0,
-        )
-        .into()
+        lanes::one_lane(v.into(), l.into(), |v, l| self.eval_lanes(v, l)).into()
     }
 
     /// [`RoughConductor::eval`] for N lanes (structure of arrays x, y, z) in either precision:

@@ -87,8 +87,8 @@ fn blend(weight: f32, a: Bsdf, b: Bsdf) -> Bsdf {
     })
 }
 
-/// BSDFs for bit-exactness tests: every model and nesting the lanes write out (and one deeper), with the parameters that
-/// switch terms on and off.
+/// BSDFs for bit-exactness tests: every model and nesting the lanes write out (and one deeper),
+/// with the parameters that switch terms on and off.
 pub fn bsdfs() -> Vec<Bsdf> {
     let gold = ConductorFresnel::Complex {
         eta: [0.143, 0.375, 1.442],

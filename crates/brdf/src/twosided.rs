@@ -8,7 +8,7 @@ use glam::DVec3;
 
 /// Mitsuba's rule: l_z takes the sign of v_z relative to the flip, v_z becomes |v_z|.
 #[inline(always)]
-pub(crate) fn flip<T: Real>(v: V3<T>, l: V3<T>) -> (V3<T>, V3<T>) {
+fn flip<T: Real>(v: V3<T>, l: V3<T>) -> (V3<T>, V3<T>) {
     if v.z.is_sign_negative() {
         (V3::new(v.x, v.y, -v.z), V3::new(l.x, l.y, -l.z))
     } else {
