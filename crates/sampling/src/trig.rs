@@ -171,13 +171,13 @@ fn atan2_select_with(y: f64, x: f64, divide: impl Fn(bool, f64, f64) -> f64) -> 
 /// projected-solid-angle start value, which two Halley steps correct (in the ξ guard band it is
 /// the sample: the backward-error sweep covers it).
 #[inline]
-pub fn atan2_coarse(y: f32, x: f32) -> f32 {
+pub(crate) fn atan2_coarse(y: f32, x: f32) -> f32 {
     atan2_with(y as f64, x as f64, divide_f32) as f32
 }
 
 /// [`atan2_coarse`] with selects instead of branches (bitwise the same results).
 #[inline(always)]
-pub fn atan2_coarse_select(y: f32, x: f32) -> f32 {
+pub(crate) fn atan2_coarse_select(y: f32, x: f32) -> f32 {
     atan2_select_with(y as f64, x as f64, divide_f32) as f32
 }
 
