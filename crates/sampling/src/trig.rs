@@ -175,7 +175,10 @@ pub(crate) fn atan2_coarse(y: f32, x: f32) -> f32 {
     atan2_with(y as f64, x as f64, divide_f32) as f32
 }
 
-/// [`atan2_coarse`] with selects instead of branches (bitwise the same results).
+/// [`atan2_coarse`] with selects instead of branches (bitwise the same results), for the lanes
+/// of [`crate::batch`]. Not for the scalar path: there it measured slower than the branches
+/// (techniques bench, projected solid angle: 981 → 991 instructions per sample, minimum
+/// 129–133 → 136 ns), as for [`atan2_f64_select`].
 #[inline(always)]
 pub(crate) fn atan2_coarse_select(y: f32, x: f32) -> f32 {
     atan2_select_with(y as f64, x as f64, divide_f32) as f32
