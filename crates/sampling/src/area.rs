@@ -15,7 +15,7 @@
 //! configurations whose largest density is not representable in f32.
 //! Inverse: ξ = (l − l_begin)/ℓ.
 
-use crate::geometry::{unit_normal, FrameArc, LineFrame, Segment};
+use crate::geometry::{normal_is_valid, FrameArc, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use glam::Vec3;
 
@@ -43,7 +43,9 @@ impl Area {
     /// Uniform point on the whole segment (no horizon clipping). The normal is only validated,
     /// so that every technique rejects the same inputs.
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
-        unit_normal(n)?;
+        if !normal_is_valid(n) {
+            return None;
+        }
         Self::on_frame(LineFrame::new(segment, x)?)
     }
 

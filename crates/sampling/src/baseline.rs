@@ -1,7 +1,7 @@
 //! Baseline (technique 1): a point uniform on the segment with the density *forced to 1*.
 //! Deliberately biased; it exists only as the timing floor of the benchmarks.
 
-use crate::geometry::{unit_normal, LineFrame, Segment};
+use crate::geometry::{normal_is_valid, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use glam::Vec3;
 
@@ -12,7 +12,9 @@ pub struct Baseline {
 
 impl Baseline {
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
-        unit_normal(n)?;
+        if !normal_is_valid(n) {
+            return None;
+        }
         Some(Self {
             frame: LineFrame::new(segment, x)?,
         })

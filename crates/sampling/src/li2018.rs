@@ -19,7 +19,7 @@
 //! bracket with the sign of the residual and takes the Newton step l − G/F'(l) if it lands strictly
 //! inside the bracket, the bracket midpoint otherwise.
 
-use crate::geometry::{normal_is_valid, EndValues, LineFrame, Segment};
+use crate::geometry::{EndValues, LineFrame, Segment};
 use crate::projected_solid_angle::{ProjectedSolidAngle, DEFAULT_ITERATIONS};
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
@@ -43,22 +43,24 @@ pub struct Li2018 {
 }
 
 impl Li2018 {
+    /// The exact sampler's support, density and CDF ([`ProjectedSolidAngle::prepare`]: the same
+    /// inputs rejected, the normal scaled by a power of two, not normalised).
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
-        if !normal_is_valid(n) {
-            return None;
-        }
-        // Clipped with the normal as given, which is not normalised either (as
-        // `ProjectedSolidAngle::prepare`).
-        let (frame, ends) = LineFrame::clipped_with_ends(segment, x, n)?;
-        let exact = ProjectedSolidAngle::on_frame_with(frame, ends, n, DEFAULT_ITERATIONS)?;
-        // Of the sampler's (scaled) normal, which its `inv_psa` refers to.
+        ProjectedSolidAngle::prepare(segment, x, n).map(Self::on_exact)
+    }
+
+    /// Around a prepared exact sampler: the slope's coefficients of the sampler's (scaled)
+    /// normal, which its `inv_psa` refers to (the one construction of `prepare` and `lane`).
+    #[inline(always)]
+    fn on_exact(exact: ProjectedSolidAngle) -> Self {
+        let frame = &exact.frame;
         let (ns, nt) = frame.normal_coefficients(exact.n);
-        Some(Self {
-            exact,
+        Self {
             n_dot_c: frame.d * nt,
             ns,
+            exact,
             max_iterations: MAX_ITERATIONS,
-        })
+        }
     }
 
     /// Change the iteration limit. Analysis and testing only: the density is not corrected, so a
@@ -141,14 +143,7 @@ impl Li2018 {
             DEFAULT_ITERATIONS,
             crate::trig::atan2_f64_select,
         );
-        let (ns, nt) = frame.normal_coefficients(exact.n);
-        let li = Self {
-            exact,
-            n_dot_c: frame.d * nt,
-            ns,
-            max_iterations: MAX_ITERATIONS,
-        };
-        (li, ok)
+        (Self::on_exact(exact), ok)
     }
 
     /// Direction and density of the sample at line parameter l (the end of `sample_with_pdf`).

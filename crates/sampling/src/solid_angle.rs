@@ -8,7 +8,7 @@
 //! interval there holds only a few f32 values of s, and for ℓ/d ≳ 3000 s_end rounds to 1 so that
 //! an s-test would accept the whole rest of the line).
 
-use crate::geometry::{unit_normal, EndValues, FrameArc, LineFrame, Segment};
+use crate::geometry::{normal_is_valid, unit_normal, EndValues, FrameArc, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
 use crate::trig::atan2_f64;
 use glam::Vec3;
@@ -26,7 +26,9 @@ impl SolidAngle {
     /// Uniform in solid angle over the whole segment (no horizon clipping). The normal only
     /// decides nothing here; it is validated so that every technique rejects the same inputs.
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
-        unit_normal(n)?;
+        if !normal_is_valid(n) {
+            return None;
+        }
         Self::on_frame(LineFrame::new(segment, x)?)
     }
 

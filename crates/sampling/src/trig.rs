@@ -4,16 +4,17 @@
 //! projected-solid-angle samplers (~130 instructions per call, two to five calls per sample), and
 //! every libm call forces the caller to spill all live SSE registers (all are caller-saved), which
 //! dominated the Halley loop around `sincosf`. Both are replaced by short f64 polynomials, accurate
-//! far beyond f32 (so results are the correctly rounded f32 values except within ~1e-3 ulp of a
-//! tie; the exception is [`atan2_coarse`], whose f32 division leaves it within 2 ulp), with
-//! relative accuracy kept where the f32 callers need it (sin x and 1 − cos x near 0).
+//! far beyond f32 (so f32 results are the correctly rounded values except within ~1e-3 ulp of a
+//! tie; the exception is `atan2_coarse`, the projected-solid-angle start value's atan2, whose
+//! f32 division leaves it within 2 ulp), with relative accuracy kept where the f32 callers need
+//! it (sin x and 1 − cos x near 0).
 //!
 //! atan2: octant reduction to t = min/max ∈ [0, 1], then t > tan(π/8) is mapped to
 //! (t − 1)/(t + 1) ∈ [−tan(π/8), 0] with atan t = π/4 + atan((t − 1)/(t + 1)), and atan on
 //! |t| ≤ tan(π/8) is t·P(t²) with P the degree-6 Chebyshev fit of atan(√v)/√v on
 //! v ∈ [0, tan²(π/8)] (relative error ≤ 2.2e-11, checked below against f64 `atan2`). All in f64,
-//! so the f32 result of [`atan2`] is the correctly rounded value except within ~1e-4 ulp of a tie
-//! ([`atan2_coarse`] divides in f32: within 2 ulp).
+//! so [`atan2_f64`] of f32 arguments rounded to f32 is the correctly rounded value except within
+//! ~1e-4 ulp of a tie (`atan2_coarse` divides in f32: within 2 ulp).
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
@@ -164,19 +165,22 @@ fn atan2_select_with(y: f64, x: f64, divide: impl Fn(bool, f64, f64) -> f64) -> 
 }
 
 /// atan2(y, x) for f32 arguments with the reduced argument formed in f32 (only the comparison
-/// with tan(π/8) and the polynomial in f64 as in [`atan2`]; the reduction's sum and difference
+/// with tan(π/8) and the polynomial in f64 as in [`atan2_f64`]; the reduction's sum and difference
 /// rounded to f32 and divided in f32): within 2 ulp of the correctly rounded value instead of 1
 /// (test `coarse_atan2_within_two_ulp`), for one f32 division instead of an f64 one. For the
 /// projected-solid-angle start value, which two Halley steps correct (in the ξ guard band it is
 /// the sample: the backward-error sweep covers it).
 #[inline]
-pub fn atan2_coarse(y: f32, x: f32) -> f32 {
+pub(crate) fn atan2_coarse(y: f32, x: f32) -> f32 {
     atan2_with(y as f64, x as f64, divide_f32) as f32
 }
 
-/// [`atan2_coarse`] with selects instead of branches (bitwise the same results).
+/// [`atan2_coarse`] with selects instead of branches (bitwise the same results), for the lanes
+/// of [`crate::batch`]. Not for the scalar path: there it measured slower than the branches
+/// (techniques bench, projected solid angle: 981 → 991 instructions per sample, minimum
+/// 129–133 → 136 ns), as for [`atan2_f64_select`].
 #[inline(always)]
-pub fn atan2_coarse_select(y: f32, x: f32) -> f32 {
+pub(crate) fn atan2_coarse_select(y: f32, x: f32) -> f32 {
     atan2_select_with(y as f64, x as f64, divide_f32) as f32
 }
 
@@ -242,12 +246,6 @@ fn sin_cos_libm(x: f64) -> (f64, f64) {
     x.sin_cos()
 }
 
-/// atan2(y, x) for f32 arguments (see the module documentation).
-#[inline]
-pub fn atan2(y: f32, x: f32) -> f32 {
-    atan2_f64(y as f64, x as f64) as f32
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -266,9 +264,12 @@ mod tests {
             };
             assert!(rel < 5e-11, "atan2({y}, {x}) = {ours}, std {std}");
             worst = worst.max(rel);
-            // The f32 version is within an ulp of the correctly rounded value.
+            // Rounded to f32, within an ulp of the correctly rounded value.
             let (y32, x32) = (y as f32, x as f32);
-            let (a, b) = (atan2(y32, x32), (y32 as f64).atan2(x32 as f64) as f32);
+            let (a, b) = (
+                atan2_f64(y32 as f64, x32 as f64) as f32,
+                (y32 as f64).atan2(x32 as f64) as f32,
+            );
             assert!(
                 (a - b).abs() <= b.abs() * 1.2e-7,
                 "f32 atan2({y32}, {x32}): {a} vs {b}"
@@ -405,8 +406,9 @@ mod tests {
             (1.0, 0.0),
             (f32::INFINITY, f32::INFINITY),
         ] {
-            assert_eq!(atan2_coarse(y, x), atan2(y, x), "atan2_coarse({y}, {x})");
-            assert_eq!(atan2_coarse_select(y, x), atan2(y, x), "({y}, {x})");
+            let std = (y as f64).atan2(x as f64) as f32;
+            assert_eq!(atan2_coarse(y, x), std, "atan2_coarse({y}, {x})");
+            assert_eq!(atan2_coarse_select(y, x), std, "({y}, {x})");
         }
         assert!(
             atan2_coarse(f32::NAN, 1.0).is_nan() && atan2_coarse_select(1.0, f32::NAN).is_nan()
@@ -507,6 +509,6 @@ mod tests {
                 "atan2({y}, {x}) = {ours}, std {std}"
             );
         }
-        assert!(atan2_f64(f64::NAN, 1.0).is_nan() && atan2(1.0, f32::NAN).is_nan());
+        assert!(atan2_f64(f64::NAN, 1.0).is_nan() && atan2_f64(1.0, f64::NAN).is_nan());
     }
 }
