@@ -820,25 +820,25 @@ fn glossy_contributions(
     let v = [shading.v[0], [0.0; LANES], shading.v[1]];
     let mut f_cos = [[0.0f32; LANES]; 3];
     let mut todo = glossy;
-    if let Some(bsdf) = shading.one_bsdf {
-        // Every glossy lane on one shape: one evaluation, no grouping.
-        f_cos = bsdf.eval_lanes(&v, &l);
-        todo = 0;
-    }
     while todo != 0 {
-        let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
-            todo &= todo - 1;
-            continue;
+        let (bsdf, group) = if let Some(bsdf) = shading.one_bsdf {
+            // Every glossy lane on one shape: one evaluation, no grouping.
+            (bsdf, todo)
+        } else {
+            let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
+                todo &= todo - 1;
+                continue;
+            };
+            // The lanes of `todo` whose surface has this BSDF (pointers compared on all lanes
+            // at once).
+            let mut group = 0u32;
+            #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+            for k in 0..LANES {
+                let same = shading.bsdf[k].map_or(std::ptr::null(), |b| b as *const Bsdf);
+                group |= (std::ptr::eq(same, bsdf) as u32) << k;
+            }
+            (bsdf, group & todo)
         };
-        // The lanes of `todo` whose surface has this BSDF (pointers compared on all lanes at
-        // once).
-        let mut group = 0u32;
-        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-        for k in 0..LANES {
-            let same = shading.bsdf[k].map_or(std::ptr::null(), |b| b as *const Bsdf);
-            group |= (std::ptr::eq(same, bsdf) as u32) << k;
-        }
-        group &= todo;
         todo &= !group;
         let f = bsdf.eval_lanes(&v, &l);
         if group == glossy {
