@@ -922,7 +922,10 @@ fn select_lanes<T: Copy>(lanes: &mut [T; LANES], group: u32, x: T) {
 #[inline(always)]
 fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v: &[Vec3; 3]) {
     if written == 0 {
-        lanes.write(v.map(|vj| vj.to_array().map(|c| [c; LANES])));
+        // Written out: `v.map(…)` compiled to an out-of-line `try_map` call whose result came
+        // back through memory.
+        let splat = |x: Vec3| [[x.x; LANES], [x.y; LANES], [x.z; LANES]];
+        lanes.write([splat(v[0]), splat(v[1]), splat(v[2])]);
         return;
     }
     // SAFETY: `written` ≠ 0: a first call initialised every lane.
