@@ -901,6 +901,10 @@ fn select_lanes<T: Copy>(lanes: &mut [T; LANES], group: u32, x: T) {
 
 /// Writes the three vectors `v` into the lanes of `group` (bit k: lane k) of `lanes`, or into
 /// every lane when `written` = 0 (`lanes` not yet initialised; afterwards it is).
+///
+/// The small-group and select loops are written out here rather than calling `select_lanes`
+/// per component array: that tidier form measured +7 instructions per sample on mesh-occluder
+/// (590.5 → 597.9, callgrind, AVX2 kernels), more than the 0.5 % a tidying may cost.
 #[inline(always)]
 fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v: &[Vec3; 3]) {
     if written == 0 {
