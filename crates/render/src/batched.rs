@@ -262,8 +262,12 @@ struct ShadingLanes<'a> {
     /// the lanes sample in a batch kernel (they need only the frames below).
     glossy_mask: u32,
     glossy: [Option<ShadingPoint<'a>>; LANES],
-    /// The BSDF of the lanes in `glossy_mask`.
+    /// The BSDF of the lanes in `glossy_mask` (`None` everywhere when `one_bsdf` is set).
     bsdf: [Option<&'a Bsdf>; LANES],
+    /// The BSDF of every lane in `glossy_mask`, when all hit lanes lie on one glossy shape
+    /// (written with `glossy_mask` in one branch-free loop; lane by lane the stores of `n`
+    /// stalled the frames' vector loads after them, store forwarding).
+    one_bsdf: Option<&'a Bsdf>,
     /// The shading frames of all lanes ([`shading_frame`], computed at once where
     /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
     frame_x: Lanes3,
@@ -637,6 +641,7 @@ fn shading_points<'a>(
         glossy_mask: 0,
         glossy: [None; LANES],
         bsdf: [None; LANES],
+        one_bsdf: None,
         frame_x: [[0.0; LANES]; 3],
         frame_y: [[0.0; LANES]; 3],
         v: [[0.0; LANES]; 2],
@@ -693,16 +698,20 @@ fn shading_points<'a>(
     }
     // (One exit, and `out` borrowed field by field: an early return or `&mut out` copied the
     // whole ShadingLanes on return, +28 instructions per sample on glossy-principled.)
-    let lambert_shape = first_shape
-        .filter(|_| one_shape)
-        .and_then(|s| Some((s as usize, rs.lambert[s as usize]?)));
-    if let Some((shape, f)) = lambert_shape {
+    // One shape under every hit lane: Lambertian, or glossy where the lanes need no scalar
+    // ShadingPoint (`points` = None: batch techniques, which read the frames below).
+    let uniform_shape = first_shape
+        .filter(|&s| one_shape && (rs.lambert[s as usize].is_some() || points.is_none()));
+    if let Some(shape) = uniform_shape {
         // `reflecting_normal` and the stores of the loop below on all lanes at once: lane k is
         // active where n_s·ω_i > 0 (n = n_s) or, on a two-sided BSDF, n_s·ω_i < 0 (n = −n_s),
         // with ω_i = −d and the dot product in glam's order (the same bits); the other lanes
-        // keep their zeros.
-        let two_sided = rs.surfaces[shape].0.is_two_sided();
-        let f = f.to_array();
+        // keep their zeros (a glossy shape's lanes keep `lambert` at zero).
+        let shape = shape as usize;
+        let bsdf = &rs.surfaces[shape].0;
+        let two_sided = bsdf.is_two_sided();
+        let lambert = rs.lambert[shape];
+        let f = lambert.unwrap_or(Vec3::ZERO).to_array();
         let mut active = 0u32;
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
         for k in 0..LANES {
@@ -720,6 +729,10 @@ fn shading_points<'a>(
             }
         }
         out.active = active;
+        if lambert.is_none() {
+            out.glossy_mask = active;
+            out.one_bsdf = Some(bsdf);
+        }
     } else {
         let mut m = hits.mask;
         while m != 0 {
@@ -808,19 +821,24 @@ fn glossy_contributions(
     let mut f_cos = [[0.0f32; LANES]; 3];
     let mut todo = glossy;
     while todo != 0 {
-        let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
-            todo &= todo - 1;
-            continue;
+        let (bsdf, group) = if let Some(bsdf) = shading.one_bsdf {
+            // Every glossy lane on one shape: one evaluation, no grouping.
+            (bsdf, todo)
+        } else {
+            let Some(bsdf) = shading.bsdf[todo.trailing_zeros() as usize] else {
+                todo &= todo - 1;
+                continue;
+            };
+            // The lanes of `todo` whose surface has this BSDF (pointers compared on all lanes
+            // at once).
+            let mut group = 0u32;
+            #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
+            for k in 0..LANES {
+                let same = shading.bsdf[k].map_or(std::ptr::null(), |b| b as *const Bsdf);
+                group |= (std::ptr::eq(same, bsdf) as u32) << k;
+            }
+            (bsdf, group & todo)
         };
-        // The lanes of `todo` whose surface has this BSDF (pointers compared on all lanes at
-        // once).
-        let mut group = 0u32;
-        #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-        for k in 0..LANES {
-            let same = shading.bsdf[k].map_or(std::ptr::null(), |b| b as *const Bsdf);
-            group |= (std::ptr::eq(same, bsdf) as u32) << k;
-        }
-        group &= todo;
         todo &= !group;
         let f = bsdf.eval_lanes(&v, &l);
         if group == glossy {
@@ -908,7 +926,10 @@ fn select_lanes<T: Copy>(lanes: &mut [T; LANES], group: u32, x: T) {
 #[inline(always)]
 fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v: &[Vec3; 3]) {
     if written == 0 {
-        lanes.write(v.map(|vj| vj.to_array().map(|c| [c; LANES])));
+        // Written out: `v.map(…)` compiled to an out-of-line `try_map` call whose result came
+        // back through memory.
+        let splat = |x: Vec3| [[x.x; LANES], [x.y; LANES], [x.z; LANES]];
+        lanes.write([splat(v[0]), splat(v[1]), splat(v[2])]);
         return;
     }
     // SAFETY: `written` ≠ 0: a first call initialised every lane.
