@@ -156,84 +156,6 @@ struct BuildItem {
 /// rounded box test conservative (PBRT's robust ray–box test), so no hit inside a box is lost.
 const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// Extremes the kernels reduce over the active lanes of a packet for [`segment_box`], by slot:
-/// the minima of 0–2 min(o_a, e_a) per axis a and 3 t_min, the maxima of 4–6 max(o_a, e_a) and
-/// 7 max(|d_x|, |d_y|, |d_z|, t_max·2⁻¹²⁸); e_a = fl(o_a + fl(t_max·d_a)) (two roundings, no
-/// FMA) is the lane's end point, and min/max take o_a when e_a is NaN (`if e < o { e } else
-/// { o }`, as `minps`).
-const SEG_SLOTS: usize = 8;
-
-/// Largest |d_a| of a packet whose segment box is used ([`segment_box`]).
-const SEG_MAX_DIR: f32 = 1.5;
-
-/// The padded box of a packet's ray segments from the extremes of [`SEG_SLOTS`]: per axis
-/// (L − pad, H + pad), rounded, with L = min over active lanes of min(o, e), H = max of
-/// max(o, e), M = max(|L|, |H|), pad = 2⁻²⁰·M + 2⁻¹²⁶. Where the packet is not covered by the
-/// argument below (a NaN lane: the caller passes `usable` false; some |d_a| > 1.5, t_max = +∞
-/// or t_min < 0) the box is (−∞, +∞), and an axis with M = ∞ is (−∞, +∞): nothing is culled.
-///
-/// **Claim.** A box with lo_a > H_pad (or hi_a < L_pad) on some axis a fails the ray-by-ray box
-/// test (`Kernel::box_hits`, the test of `RayBoxes::hits`) of every active lane, so culling it
-/// changes no walk: the subtree would have been entered with no rays. Proof for lo_a > H_pad
-/// (the other side is its mirror image: negating axis a negates o, d and e exactly and swaps
-/// the planes; round-to-nearest is symmetric). Write u = 2⁻²⁴, t = t_max. The test's t0 only
-/// grows from t_min and its t1 only shrinks from t_max, so one axis with near > t1 or far < t0
-/// fails the lane; a lane with t < 0 fails (t1 ≤ t < 0 ≤ t_min ≤ t0), so let 0 ≤ t < ∞, and
-/// then e is NaN only if o is infinite, where M = ∞. Since H_pad ≥ H ≥ o, x = fl(lo − o) ≥
-/// (lo − o)(1 − u) > 0 (a subnormal difference of floats is exact) and lo − o ≥ 2⁻¹⁴⁹.
-/// - d > 0 with 1/d finite (near plane lo): 1/d ≥ 2/3 and inv = fl(1/d) ≥ (1/d)(1 − u). As
-///   shown below, lo − o > t·d/(1 − u)³ + 2⁻¹⁴⁸, so x·inv > t/(1 − u) + 2⁻¹⁴⁹. Then near =
-///   fl(x·inv) > t: relative error ≤ u in the normal range; below 2⁻¹²⁶, t is 0 or subnormal
-///   and x·inv exceeds the float t + 2⁻¹⁴⁹. So t0 ≥ near > t ≥ t1.
-/// - d = +0, or 1/d = +∞: near = x·∞ = +∞ = t0, and t1 ≤ t < +∞.
-/// - d < 0 with 1/d finite (far plane lo): |x·inv| ≥ 2⁻¹⁴⁹·fl(2/3) > 2⁻¹⁵⁰, so the rounded far
-///   distance is ≤ −2⁻¹⁴⁹ < 0 ≤ t_min ≤ t0 (this is what |d| ≤ 1.5 is for: with t_min = 0 a
-///   far distance rounded to −0 would pass).
-/// - d = −0, or 1/d = −∞: far = x·(−∞) = −∞.
-///
-/// The margin: e ≥ o + t·d − (2u + u²)·t·d − u·|o| − 2⁻¹⁴⁹ (two roundings, each relative u
-/// plus 2⁻¹⁵⁰ absolute), |o| ≤ M and t·d ≤ 2.0001·M + 2⁻¹⁴⁹ (o and e lie in [L, H], and t·d is
-/// e − o up to the roundings), and (1 − u)⁻³ − 1 ≤ 3.0001·u, so o + t·d/(1 − u)³ + 2⁻¹⁴⁸ ≤
-/// H + 12·u·M + 2⁻¹⁴⁶; the computed H_pad = fl(H + fl(pad)) ≥ H + (16·u·M + 2⁻¹²⁷)(1 − u)² −
-/// u·M, which is larger. The tests: `kernels::tests::segment_box_culls_only_boxes_every_lane_misses`
-/// (boxes at ±1–4 ulp of the bounds, where the unpadded box does drop entered boxes) and the
-/// walks with and without it in `shadow_culling::tests`.
-#[inline(always)]
-fn segment_box(m: [f32; SEG_SLOTS], usable: bool) -> ([f32; 3], [f32; 3]) {
-    let usable = usable & (m[3] >= 0.0) & (m[7] <= SEG_MAX_DIR);
-    let (mut lo, mut hi) = ([f32::NEG_INFINITY; 3], [f32::INFINITY; 3]);
-    if usable {
-        for a in 0..3 {
-            let (l, h) = (m[a], m[4 + a]);
-            let pad = l.abs().max(h.abs()) * (1.0 / 1_048_576.0) + f32::MIN_POSITIVE;
-            if pad < f32::INFINITY {
-                (lo[a], hi[a]) = (l - pad, h + pad);
-            }
-        }
-    }
-    (lo, hi)
-}
-
-/// The [`SEG_SLOTS`] values of one lane (ray o, d, t_min, t_max) before the reduction.
-#[inline(always)]
-fn segment_lane(o: [f32; 3], d: [f32; 3], t_min: f32, t_max: f32) -> [f32; SEG_SLOTS] {
-    let mut v = [0.0; SEG_SLOTS];
-    let mut big = t_max * T_SCALE;
-    for a in 0..3 {
-        let e = o[a] + t_max * d[a];
-        v[a] = if e < o[a] { e } else { o[a] };
-        v[4 + a] = if e > o[a] { e } else { o[a] };
-        let ad = d[a].abs();
-        big = if ad > big { ad } else { big };
-    }
-    v[3] = t_min;
-    v[7] = big;
-    v
-}
-
-/// 2⁻¹²⁸, the scale of t_max in slot 7 of [`SEG_SLOTS`]: t_max·2⁻¹²⁸ ≤ 1.5 iff t_max < +∞.
-const T_SCALE: f32 = 1.0 / 18_446_744_073_709_551_616.0 / 18_446_744_073_709_551_616.0;
-
 /// Per-ray constants of the box test.
 struct RayBoxes {
     o: [f32; 3],
@@ -367,13 +289,8 @@ struct RayPacket<'a> {
     coherent: bool,
     /// 1 where the common direction sign is negative.
     sign: [usize; 3],
-    /// Coherent packet: the origin bound giving the smallest entry (the upper bound for
-    /// positive directions, the lower for negative ones) and the one giving the largest exit
-    /// distance. Otherwise (the fields are free then, and a second pair cost the coherent
-    /// set-up ~16 instructions per packet): the lower and upper corner of a box that holds
-    /// every active ray's segment, padded for the rounding of the box tests
-    /// ([`segment_box`]; −∞ and +∞ where that cannot be shown), read by
-    /// [`Self::segment_hits`].
+    /// Origin bound giving the smallest entry (the upper bound for positive directions, the
+    /// lower for negative ones) and the one giving the largest exit distance.
     o_near: [f32; 3],
     o_far: [f32; 3],
     /// Bounds of the reciprocal directions.
@@ -433,16 +350,14 @@ impl<'a> RayPacket<'a> {
     }
 
     /// A packet tested ray by ray (`coherent` false): the rays' reciprocals and intervals
-    /// and the box of their segments (`seg`, from [`segment_box`], in `o_near` and `o_far`),
-    /// no interval bounds (they are read only by the interval tests). The kernels build it without reducing the
-    /// interval bounds once the direction signs are mixed or a lane is NaN.
+    /// only, no bounds (they are read only by the interval tests). The kernels build it
+    /// without reducing the bounds once the direction signs are mixed or a lane is NaN.
     #[inline(always)]
     fn incoherent(
         lanes: &'a RayLanes,
         inv: [[f32; PACKET]; 3],
         t_min: [f32; PACKET],
         t_max: [f32; PACKET],
-        (seg_lo, seg_hi): ([f32; 3], [f32; 3]),
     ) -> Self {
         RayPacket {
             lanes,
@@ -451,8 +366,8 @@ impl<'a> RayPacket<'a> {
             t_max,
             coherent: false,
             sign: [0; 3],
-            o_near: seg_lo,
-            o_far: seg_hi,
+            o_near: [0.0; 3],
+            o_far: [0.0; 3],
             inv_lo: [0.0; 3],
             inv_hi: [0.0; 3],
             t_lo: 0.0,
@@ -535,45 +450,10 @@ impl<'a> RayPacket<'a> {
         }
     }
 
-    /// Bit i: child i's box of `node` meets the box of the packet's segments (`o_near`,
-    /// `o_far` of a packet that is not coherent). A child whose bit is clear fails every active ray's box test
-    /// ([`segment_box`]), so it is not tested ray by ray.
-    #[inline(always)]
-    fn segment_hits(&self, node: &Node) -> u32 {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::*;
-            // SAFETY: SSE is part of x86-64; the loads read four floats each.
-            unsafe {
-                let mut m = _mm_castsi128_ps(_mm_set1_epi32(-1));
-                for a in 0..3 {
-                    let lo = _mm_loadu_ps(node.b[0][a].as_ptr());
-                    let hi = _mm_loadu_ps(node.b[1][a].as_ptr());
-                    m = _mm_and_ps(m, _mm_cmple_ps(lo, _mm_set1_ps(self.o_far[a])));
-                    m = _mm_and_ps(m, _mm_cmpge_ps(hi, _mm_set1_ps(self.o_near[a])));
-                }
-                _mm_movemask_ps(m) as u32
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let mut m = 0u32;
-            for i in 0..WIDTH {
-                let meets = (0..3).all(|a| {
-                    (node.b[0][a][i] <= self.o_far[a]) & (node.b[1][a][i] >= self.o_near[a])
-                });
-                m |= (meets as u32) << i;
-            }
-            m
-        }
-    }
-
     /// Per child of `node`: the rays of `mask` that may meet its box and their smallest entry
-    /// distance (for the whole packet by intervals, or ray by ray — with `SEG`, only for the
-    /// children whose box meets the box of the packet's segments: the any-hit walk's; the
-    /// closest-hit walk's rays, camera rays, have t_max = +∞ and no segment box).
+    /// distance (for the whole packet by intervals, or ray by ray).
     #[inline(always)]
-    fn children<K: Kernel, const SEG: bool>(&self, node: &Node, mask: u32) -> [(u32, f32); WIDTH] {
+    fn children<K: Kernel>(&self, node: &Node, mask: u32) -> [(u32, f32); WIDTH] {
         let mut out = [(0u32, f32::INFINITY); WIDTH];
         if self.coherent {
             let (t0, hit) = self.interval_hits(node);
@@ -581,16 +461,9 @@ impl<'a> RayPacket<'a> {
                 out[lane] = (if hit >> lane & 1 == 1 { mask } else { 0 }, t0[lane]);
             }
         } else {
-            let near = if SEG {
-                self.segment_hits(node)
-            } else {
-                u32::MAX
-            };
             for (lane, o) in out.iter_mut().enumerate() {
-                if near >> lane & 1 == 1 {
-                    let (hits, entry) = K::box_hits(self, node, lane);
-                    *o = (hits & mask, entry);
-                }
+                let (hits, entry) = K::box_hits(self, node, lane);
+                *o = (hits & mask, entry);
             }
         }
         out
@@ -861,32 +734,6 @@ impl Bvh {
     /// arithmetic is written per vector extension ([`kernels`]: AVX-512, AVX2, portable), the
     /// best the CPU has chosen at run time, as `linlight_sampling::batch` does.
     pub fn occluded_lanes(&self, lanes: &RayLanes, active: u32) -> u32 {
-        self.occluded_lanes_with::<true>(lanes, active)
-    }
-
-    /// [`Self::occluded_lanes`] without the segment-box culling of incoherent packets
-    /// (`SEG` false): the walk the culling must not change (tests).
-    #[cfg(test)]
-    pub(crate) fn occluded_lanes_unculled(&self, lanes: &RayLanes, active: u32) -> u32 {
-        self.occluded_lanes_with::<false>(lanes, active)
-    }
-
-    /// Whether the packet of the rays of `lanes` in `active` is tested ray by ray with a
-    /// usable box of its segments, and which of the root's children that box culls (tests:
-    /// the culling is exercised).
-    #[cfg(test)]
-    pub(crate) fn root_segment_culls(&self, lanes: &RayLanes, active: u32) -> Option<u32> {
-        use kernels::Kernel;
-        let p = kernels::Portable::packet(lanes, active);
-        let usable = !p.coherent && p.o_far.iter().all(|x| x.is_finite());
-        let root = self.nodes.first()?;
-        let used = (0..WIDTH).filter(|&i| root.b[0][0][i] <= root.b[1][0][i]);
-        let used = used.fold(0u32, |m, i| m | 1 << i);
-        usable.then(|| used & !p.segment_hits(root))
-    }
-
-    #[inline(always)]
-    fn occluded_lanes_with<const SEG: bool>(&self, lanes: &RayLanes, active: u32) -> u32 {
         let active = active & ((1u64 << PACKET) - 1) as u32;
         if self.nodes.is_empty() || active == 0 {
             return 0;
@@ -895,27 +742,27 @@ impl Bvh {
         {
             use linlight_sampling::batch::Isa;
             #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-            unsafe fn avx512<const SEG: bool>(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
-                bvh.occluded_walk::<kernels::Avx512, SEG>(lanes, active)
+            unsafe fn avx512(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
+                bvh.occluded_walk::<kernels::Avx512>(lanes, active)
             }
             #[target_feature(enable = "avx2,fma")]
-            unsafe fn avx2<const SEG: bool>(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
-                bvh.occluded_walk::<kernels::Avx2, SEG>(lanes, active)
+            unsafe fn avx2(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
+                bvh.occluded_walk::<kernels::Avx2>(lanes, active)
             }
             match self.walk_isa {
                 // SAFETY: `walk_isa` is a variant `Isa::supported` on this CPU (`Isa::detect`
                 // at build; tests set only supported ones), and that checks every feature the
                 // functions are compiled for.
-                Isa::Avx512 => unsafe { return avx512::<SEG>(self, lanes, active) },
-                Isa::Avx2 => unsafe { return avx2::<SEG>(self, lanes, active) },
+                Isa::Avx512 => unsafe { return avx512(self, lanes, active) },
+                Isa::Avx2 => unsafe { return avx2(self, lanes, active) },
                 Isa::Baseline => {}
             }
         }
-        self.occluded_walk::<kernels::Portable, SEG>(lanes, active)
+        self.occluded_walk::<kernels::Portable>(lanes, active)
     }
 
     #[inline(always)]
-    fn occluded_walk<K: Kernel, const SEG: bool>(&self, lanes: &RayLanes, active: u32) -> u32 {
+    fn occluded_walk<K: Kernel>(&self, lanes: &RayLanes, active: u32) -> u32 {
         if !self.tiny.is_empty() {
             return self.occluded_tiny::<K>(lanes, active);
         }
@@ -931,7 +778,7 @@ impl Bvh {
         loop {
             if let Some((index, mask)) = expand.take() {
                 let node = &self.nodes[index as usize];
-                let children = packet.children::<K, SEG>(node, mask);
+                let children = packet.children::<K>(node, mask);
                 // Any hit: no order, the entry distances are not needed (and, unused, not
                 // computed: the kernels' horizontal minima are dropped).
                 for (lane, (hits, _)) in children.into_iter().enumerate() {
@@ -1058,7 +905,7 @@ impl Bvh {
         loop {
             if let Some((index, mask)) = expand.take() {
                 let node = &self.nodes[index as usize];
-                let children = packet.children::<K, false>(node, mask);
+                let children = packet.children::<K>(node, mask);
                 // Hit slots sorted by entry distance, farthest first: the nearest is entered
                 // next, the others pushed so that the nearer ones are popped first.
                 let mut order = [0usize; WIDTH];
@@ -1412,12 +1259,12 @@ fn best_split(items: &[BuildItem], bounds: &Aabb, cbounds: &Aabb) -> Option<(usi
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
     use linlight_sampling::rng::Pcg32;
 
     /// The BVH once per packet-walk kernel this CPU runs (the baseline always).
-    pub(crate) fn walk_variants(bvh: &Bvh) -> Vec<Bvh> {
+    fn walk_variants(bvh: &Bvh) -> Vec<Bvh> {
         use linlight_sampling::batch::Isa;
         Isa::ALL
             .into_iter()

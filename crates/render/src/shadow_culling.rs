@@ -456,7 +456,7 @@ fn passes_first<const N: usize>(guards: &[Guard; MAX_GUARDS], rays: &RayLanes) -
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
     use crate::integrator::{shadow_ray_to, RenderScene};
     use crate::shapes::SurfacePoint;
@@ -690,7 +690,7 @@ pub(crate) mod tests {
         assert!(walked_culled * 2 > rays && overshoot > 100, "{report}");
     }
 
-    pub(crate) fn nudge(x: f32, steps: i32) -> f32 {
+    fn nudge(x: f32, steps: i32) -> f32 {
         let mut y = x;
         for _ in 0..steps.abs() {
             y = if steps > 0 {
@@ -802,20 +802,8 @@ pub(crate) mod tests {
             // The packet walks against the full BVH's packet walk (what the renderer walked
             // before). Returns (differences, lanes where the full packet walk differs from the
             // full scalar walk: rounding of the existing kernels, not asserted here).
-            // And on every walk kernel, the full BVH's packet walk with and without the
-            // segment-box culling of incoherent packets (`Bvh::occluded_lanes_unculled`).
-            let variants = crate::bvh::tests::walk_variants(bvh);
-            let (mut seg_diffs, mut seg_packets, mut root_culls) = (0u64, 0u64, 0u64);
-            let mut flush = |lanes: &RayLanes, lights: &[u32; PACKET], scalar: u32, n: usize| {
+            let flush = |lanes: &RayLanes, lights: &[u32; PACKET], scalar: u32, n: usize| {
                 let mask = ((1u64 << n) - 1) as u32;
-                for b in &variants {
-                    let d = b.occluded_lanes(lanes, mask) ^ b.occluded_lanes_unculled(lanes, mask);
-                    seg_diffs += d.count_ones() as u64;
-                }
-                if let Some(culled) = bvh.root_segment_culls(lanes, mask) {
-                    seg_packets += 1;
-                    root_culls += culled.count_ones() as u64;
-                }
                 let expect = bvh.occluded_lanes(lanes, mask);
                 let mut d = (sh.occluded_lanes(bvh, lights, None, lanes, mask) != expect) as u64;
                 if lights.iter().take(n).all(|&l| l == lights[0]) {
@@ -879,14 +867,12 @@ pub(crate) mod tests {
             report.push(format!(
                 "{name}: {} primitives, kept per light {kept:?}; {rays} rays, {walked_culled} \
                  walked the culled BVH; differences {diffs}, packet {packet_diffs}, culled hits \
-                 {culled_hits} (full packet vs full scalar walk: {packet_vs_scalar}); segment \
-                 box: {seg_packets} packets, {root_culls} root children culled, {seg_diffs} \
-                 lanes changed",
+                 {culled_hits} (full packet vs full scalar walk: {packet_vs_scalar})",
                 prims.len()
             ));
             assert_eq!(
-                (diffs, packet_diffs, culled_hits, seg_diffs),
-                (0, 0, 0, 0),
+                (diffs, packet_diffs, culled_hits),
+                (0, 0, 0),
                 "{}",
                 report.last().unwrap()
             );
@@ -895,10 +881,6 @@ pub(crate) mod tests {
                 // Walls (8 triangles), floor (2) and the boxes' bottoms (4, in the floor's plane).
                 assert_eq!(sh.culled(0).len(), 14, "{}", report.last().unwrap());
                 assert!(walked_culled * 2 > rays, "{}", report.last().unwrap());
-                // The segment-box culling is exercised (packets with a usable box that culls
-                // children of the root).
-                let r = report.last().unwrap();
-                assert!(seg_packets > 3000 && root_culls > 1000, "{r}");
             }
         }
         eprintln!("{}", report.join("\n"));
