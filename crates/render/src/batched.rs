@@ -480,19 +480,36 @@ fn fill_kernel(
 }
 
 /// Pushes the lanes' radiance into their pixels' accumulators in lane order (the scalar
-/// path's order, so the same bits). A packet's lanes of one pixel are consecutive: each run
-/// of them is pushed into a copy held in registers and stored once, instead of a load and a
-/// store of the accumulator per sample (a store-to-load round trip in the serial chain of
-/// the running mean). Inlined into one function per instruction set.
+/// path's order, so the same bits). A packet's lanes of one pixel are consecutive: the runs
+/// are found at once (one compare of neighbouring lanes' pixels), each run is pushed into a
+/// copy held in registers and stored once, instead of a load and a store of the accumulator
+/// per sample (a store-to-load round trip in the serial chain of the running mean), and a
+/// push is one 4-wide f64 update ([`Welford::push_quad`]). Inlined into one function per
+/// instruction set.
 #[inline(always)]
 fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
-    let mut k = 0;
-    while k < packet.len {
+    // Bit k: lane k starts a run of lanes of one pixel (found for all lanes at once).
+    let mut starts = 1u32;
+    for k in 1..LANES {
+        starts |= ((packet.pixel[k] != packet.pixel[k - 1]) as u32) << k;
+    }
+    let len = packet.len.min(LANES);
+    starts &= ((1u64 << len) - 1) as u32;
+    while starts != 0 {
+        let k = starts.trailing_zeros() as usize;
+        starts &= starts - 1;
+        let end = if starts != 0 {
+            starts.trailing_zeros() as usize
+        } else {
+            len
+        };
         let pixel = packet.pixel[k];
         let mut w = acc[pixel];
-        while k < packet.len && packet.pixel[k] == pixel {
-            w.push(get3(total, k).to_array().map(|c| c as f64));
-            k += 1;
+        #[allow(clippy::needless_range_loop)] // lane j of the three channel arrays
+        for j in k..end {
+            // One 4-wide push (B again in the unused lane): the bits of `push` of the three.
+            let b = total[2][j];
+            w.push_quad([total[0][j], total[1][j], b, b].map(|c| c as f64));
         }
         acc[pixel] = w;
     }
