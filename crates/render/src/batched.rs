@@ -665,7 +665,10 @@ fn shading_points<'a>(
         [[0.0f32; LANES]; 3],
         [[0.0f32; LANES]; 3],
     );
-    let mut tri = Triangles::default();
+    // The triangle lanes' arrays are locals of their own: as fields of `Triangles` built
+    // uninitialised, LLVM merged them with its zeroed fields into a 1152-byte `memset`.
+    let (mut tri_v, mut tri_n) = (MaybeUninit::uninit(), MaybeUninit::uninit());
+    let mut tri = Triangles::new(&mut tri_v, &mut tri_n);
     // The hit lanes are taken a primitive at a time (a packet's sixteen samples of one or two
     // pixels hit few primitives): its lanes found by comparing the primitive index on all lanes
     // at once, its shape and triangle written into them by selects (lane by lane in groups
@@ -876,20 +879,22 @@ fn glossy_contributions(
 /// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once
 /// a triangle has them (they are not read otherwise). Lanes outside `mask` (`normals`) hold
 /// another triangle's values, computed on and not kept.
-struct Triangles {
+struct Triangles<'t> {
     mask: u32,
-    v: MaybeUninit<[Lanes3; 3]>,
-    n: MaybeUninit<[Lanes3; 3]>,
+    v: &'t mut MaybeUninit<[Lanes3; 3]>,
+    n: &'t mut MaybeUninit<[Lanes3; 3]>,
     normals: u32,
     sign: [f32; LANES],
 }
 
-impl Default for Triangles {
-    fn default() -> Self {
+impl<'t> Triangles<'t> {
+    /// No lanes yet, the vertices and normals to be written into `v` and `n`.
+    #[inline(always)]
+    fn new(v: &'t mut MaybeUninit<[Lanes3; 3]>, n: &'t mut MaybeUninit<[Lanes3; 3]>) -> Self {
         Self {
             mask: 0,
-            v: MaybeUninit::uninit(),
-            n: MaybeUninit::uninit(),
+            v,
+            n,
             normals: 0,
             sign: [1.0; LANES],
         }
@@ -921,7 +926,15 @@ fn select_lanes<T: Copy>(lanes: &mut [T; LANES], group: u32, x: T) {
 #[inline(always)]
 fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v: &[Vec3; 3]) {
     if written == 0 {
-        lanes.write(v.map(|vj| vj.to_array().map(|c| [c; LANES])));
+        // Row by row in place: `lanes.write` of a whole array built first went through a
+        // temporary and a 576-byte `memcpy` call.
+        let rows = lanes.as_mut_ptr().cast::<[f32; LANES]>();
+        for (j, vj) in v.iter().enumerate() {
+            for (a, c) in vj.to_array().into_iter().enumerate() {
+                // SAFETY: row 3·j + a < 9 of the nine rows of `[Lanes3; 3]`.
+                unsafe { rows.add(3 * j + a).write([c; LANES]) };
+            }
+        }
         return;
     }
     // SAFETY: `written` ≠ 0: a first call initialised every lane.
@@ -946,14 +959,14 @@ fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v
     }
 }
 
-impl Triangles {
+impl Triangles<'_> {
     /// Triangle `v` (vertex normals `n`) in the lanes of `group`.
     #[inline(always)]
     fn set(&mut self, group: u32, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
-        write_group(&mut self.v, self.mask, group, v);
+        write_group(self.v, self.mask, group, v);
         self.mask |= group;
         if let Some(n) = n {
-            write_group(&mut self.n, self.normals, group, n);
+            write_group(self.n, self.normals, group, n);
             self.normals |= group;
         }
         select_lanes(&mut self.sign, group, if flip { -1.0 } else { 1.0 });
