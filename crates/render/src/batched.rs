@@ -923,6 +923,10 @@ fn select_lanes<T: Copy>(lanes: &mut [T; LANES], group: u32, x: T) {
 
 /// Writes the three vectors `v` into the lanes of `group` (bit k: lane k) of `lanes`, or into
 /// every lane when `written` = 0 (`lanes` not yet initialised; afterwards it is).
+///
+/// The small-group and select loops are written out here rather than calling `select_lanes`
+/// per component array: that tidier form measured +7 instructions per sample on mesh-occluder
+/// (590.5 → 597.9, callgrind, AVX2 kernels), more than the 0.5 % a tidying may cost.
 #[inline(always)]
 fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v: &[Vec3; 3]) {
     if written == 0 {
@@ -1359,9 +1363,7 @@ mod tests {
     use linlight_sampling::mis::Heuristic;
 
     fn scene(name: &str, res: u32) -> Scene {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../references/scenes")
-            .join(format!("{name}.xml"));
+        let path = crate::test_scenes::dir().join(format!("{name}.xml"));
         xml::load_scene(&path, &[("res".into(), res.to_string())]).expect(name)
     }
 
@@ -1379,16 +1381,10 @@ mod tests {
     /// header), with spp not a multiple of the packet (packets span pixels) and with passes.
     #[test]
     fn images_equal_the_scalar_path() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../references/scenes");
-        let mut names: Vec<String> = std::fs::read_dir(&dir)
-            .unwrap()
-            .filter_map(|e| {
-                let p = e.ok()?.path();
-                (p.extension()? == "xml").then(|| p.file_stem()?.to_str().map(String::from))?
-            })
+        let names: Vec<String> = crate::test_scenes::committed()
+            .iter()
+            .filter_map(|p| p.file_stem()?.to_str().map(String::from))
             .collect();
-        names.sort();
-        assert!(names.len() >= 5, "{names:?}");
         // Every method: the techniques with a batch kernel, those sampled lane by lane, LTC
         // and MIS with every heuristic.
         let methods: Vec<Method> = Technique::ALL

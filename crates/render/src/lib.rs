@@ -23,6 +23,8 @@ pub mod shading;
 pub mod shading_cost;
 pub mod shadow_culling;
 pub mod shapes;
+#[cfg(test)]
+mod test_scenes;
 pub mod visible_line;
 pub mod xml;
 

@@ -710,18 +710,8 @@ mod tests {
     /// walks the culled BVH.
     #[test]
     fn culled_walks_answer_as_the_full_bvh_on_every_committed_scene() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../references/scenes");
-        let mut names: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .filter_map(|e| {
-                let p = e.ok()?.path();
-                (p.extension()? == "xml").then_some(p)
-            })
-            .collect();
-        names.sort();
-        assert!(names.len() >= 5);
         let mut report = Vec::new();
-        for path in names {
+        for path in crate::test_scenes::committed() {
             let scene = crate::xml::load_scene(&path, &[]).unwrap();
             let rs = RenderScene::new(&scene).unwrap();
             let (bvh, sh) = (&rs.bvh, &rs.shadows);
