@@ -484,19 +484,36 @@ fn fill_kernel(
 }
 
 /// Pushes the lanes' radiance into their pixels' accumulators in lane order (the scalar
-/// path's order, so the same bits). A packet's lanes of one pixel are consecutive: each run
-/// of them is pushed into a copy held in registers and stored once, instead of a load and a
-/// store of the accumulator per sample (a store-to-load round trip in the serial chain of
-/// the running mean). Inlined into one function per instruction set.
+/// path's order, so the same bits). A packet's lanes of one pixel are consecutive: the runs
+/// are found at once (one compare of neighbouring lanes' pixels), each run is pushed into a
+/// copy held in registers and stored once, instead of a load and a store of the accumulator
+/// per sample (a store-to-load round trip in the serial chain of the running mean), and a
+/// push is one 4-wide f64 update ([`Welford::push_quad`]). Inlined into one function per
+/// instruction set.
 #[inline(always)]
 fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
-    let mut k = 0;
-    while k < packet.len {
+    // Bit k: lane k starts a run of lanes of one pixel (found for all lanes at once).
+    let mut starts = 1u32;
+    for k in 1..LANES {
+        starts |= ((packet.pixel[k] != packet.pixel[k - 1]) as u32) << k;
+    }
+    let len = packet.len.min(LANES);
+    starts &= ((1u64 << len) - 1) as u32;
+    while starts != 0 {
+        let k = starts.trailing_zeros() as usize;
+        starts &= starts - 1;
+        let end = if starts != 0 {
+            starts.trailing_zeros() as usize
+        } else {
+            len
+        };
         let pixel = packet.pixel[k];
         let mut w = acc[pixel];
-        while k < packet.len && packet.pixel[k] == pixel {
-            w.push(get3(total, k).to_array().map(|c| c as f64));
-            k += 1;
+        #[allow(clippy::needless_range_loop)] // lane j of the three channel arrays
+        for j in k..end {
+            // One 4-wide push (B again in the unused lane): the bits of `push` of the three.
+            let b = total[2][j];
+            w.push_quad([total[0][j], total[1][j], b, b].map(|c| c as f64));
         }
         acc[pixel] = w;
     }
@@ -653,7 +670,10 @@ fn shading_points<'a>(
         [[0.0f32; LANES]; 3],
         [[0.0f32; LANES]; 3],
     );
-    let mut tri = Triangles::default();
+    // The triangle lanes' arrays are locals of their own: as fields of `Triangles` built
+    // uninitialised, LLVM merged them with its zeroed fields into a 1152-byte `memset`.
+    let (mut tri_v, mut tri_n) = (MaybeUninit::uninit(), MaybeUninit::uninit());
+    let mut tri = Triangles::new(&mut tri_v, &mut tri_n);
     // The hit lanes are taken a primitive at a time (a packet's sixteen samples of one or two
     // pixels hit few primitives): its lanes found by comparing the primitive index on all lanes
     // at once, its shape and triangle written into them by selects (lane by lane in groups
@@ -877,20 +897,22 @@ fn glossy_contributions(
 /// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once
 /// a triangle has them (they are not read otherwise). Lanes outside `mask` (`normals`) hold
 /// another triangle's values, computed on and not kept.
-struct Triangles {
+struct Triangles<'t> {
     mask: u32,
-    v: MaybeUninit<[Lanes3; 3]>,
-    n: MaybeUninit<[Lanes3; 3]>,
+    v: &'t mut MaybeUninit<[Lanes3; 3]>,
+    n: &'t mut MaybeUninit<[Lanes3; 3]>,
     normals: u32,
     sign: [f32; LANES],
 }
 
-impl Default for Triangles {
-    fn default() -> Self {
+impl<'t> Triangles<'t> {
+    /// No lanes yet, the vertices and normals to be written into `v` and `n`.
+    #[inline(always)]
+    fn new(v: &'t mut MaybeUninit<[Lanes3; 3]>, n: &'t mut MaybeUninit<[Lanes3; 3]>) -> Self {
         Self {
             mask: 0,
-            v: MaybeUninit::uninit(),
-            n: MaybeUninit::uninit(),
+            v,
+            n,
             normals: 0,
             sign: [1.0; LANES],
         }
@@ -926,8 +948,11 @@ fn select_lanes<T: Copy>(lanes: &mut [T; LANES], group: u32, x: T) {
 #[inline(always)]
 fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v: &[Vec3; 3]) {
     if written == 0 {
-        // Written out: `v.map(…)` compiled to an out-of-line `try_map` call whose result came
-        // back through memory.
+        // An array literal: `v.map(…)` compiled to an out-of-line `try_map` call whose result
+        // came back through memory (a 576-byte `memcpy`). Writing the nine rows in place
+        // through a pointer measured the same or worse (callgrind, glossy-gap and acc-rng merged,
+        // each of which had removed that copy its own way: cornell-tube 631.8 vs 632.3, floor-tube 453.7 vs 447.2, glossy-principled 600.3 vs
+        // 596.6 instructions per sample), so the safe form stays.
         let splat = |x: Vec3| [[x.x; LANES], [x.y; LANES], [x.z; LANES]];
         lanes.write([splat(v[0]), splat(v[1]), splat(v[2])]);
         return;
@@ -945,23 +970,26 @@ fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v
         }
         return;
     }
+    // A select by bit masks: with `if` LLVM turned it into a store per lane behind a branch
+    // (≈ 850 instructions of scalar code); this loads and stores every lane, in vectors.
+    let masks: [u32; LANES] = std::array::from_fn(|k| 0u32.wrapping_sub(group >> k & 1));
     for (lj, vj) in lanes.iter_mut().zip(v) {
         for (l, c) in lj.iter_mut().zip(vj.to_array()) {
-            for (k, x) in l.iter_mut().enumerate() {
-                *x = if group >> k & 1 == 1 { c } else { *x };
+            for (x, m) in l.iter_mut().zip(masks) {
+                *x = f32::from_bits(c.to_bits() & m | x.to_bits() & !m);
             }
         }
     }
 }
 
-impl Triangles {
+impl Triangles<'_> {
     /// Triangle `v` (vertex normals `n`) in the lanes of `group`.
     #[inline(always)]
     fn set(&mut self, group: u32, v: &[Vec3; 3], n: Option<&[Vec3; 3]>, flip: bool) {
-        write_group(&mut self.v, self.mask, group, v);
+        write_group(self.v, self.mask, group, v);
         self.mask |= group;
         if let Some(n) = n {
-            write_group(&mut self.n, self.normals, group, n);
+            write_group(self.n, self.normals, group, n);
             self.normals |= group;
         }
         select_lanes(&mut self.sign, group, if flip { -1.0 } else { 1.0 });

@@ -3,23 +3,27 @@
 
 /// Running mean and sum of squared deviations of independent RGB samples, and their extremes
 /// (for the heavy-tail share).
+///
+/// The channels are stored as quads (R, G, B and a fourth lane that is never read) so that a push is one 4-wide operation per step where the target has 256-bit f64
+/// vectors: each lane still runs exactly the scalar operations of Welford's update (no fused
+/// multiply-add; IEEE operations are lane-wise), so the bits are those of three scalar chains.
 #[derive(Clone, Copy, Debug)]
 pub struct Welford {
     n: u64,
-    mean: [f64; 3],
-    m2: [f64; 3],
-    min: [f64; 3],
-    max: [f64; 3],
+    mean: [f64; 4],
+    m2: [f64; 4],
+    min: [f64; 4],
+    max: [f64; 4],
 }
 
 impl Default for Welford {
     fn default() -> Self {
         Self {
             n: 0,
-            mean: [0.0; 3],
-            m2: [0.0; 3],
-            min: [f64::INFINITY; 3],
-            max: [f64::NEG_INFINITY; 3],
+            mean: [0.0; 4],
+            m2: [0.0; 4],
+            min: [f64::INFINITY; 4],
+            max: [f64::NEG_INFINITY; 4],
         }
     }
 }
@@ -27,21 +31,37 @@ impl Default for Welford {
 impl Welford {
     #[inline]
     pub fn push(&mut self, x: [f64; 3]) {
+        self.push_quad([x[0], x[1], x[2], 0.0]);
+    }
+
+    /// [`Self::push`] of (R, G, B) = `x[0..3]`; `x[3]` goes into the unused lane (any value:
+    /// the lanes do not mix, and the fourth is never read).
+    #[inline(always)]
+    pub fn push_quad(&mut self, x: [f64; 4]) {
         self.n += 1;
         // Through i64: one conversion instruction without AVX-512 (u64 → f64 takes five),
         // the same value for every count below 2^63.
         let inv = 1.0 / self.n as i64 as f64;
-        for ((xc, mean), m2) in x.iter().zip(&mut self.mean).zip(&mut self.m2) {
-            let delta = xc - *mean;
-            *mean += delta * inv;
-            *m2 += delta * (xc - *mean);
-        }
-        // `f64::min`/`max` without their NaN fix-ups (a compare and a blend each): the
-        // extremes start at ±∞ and only take a number that compares below/above them, so a
-        // NaN sample leaves them as `min`/`max` would.
-        for ((lo, hi), xc) in self.min.iter_mut().zip(&mut self.max).zip(x) {
-            *lo = if xc < *lo { xc } else { *lo };
-            *hi = if xc > *hi { xc } else { *hi };
+        // One loop over the four lanes, each step the same on every lane (vectorised).
+        #[allow(clippy::needless_range_loop)] // lane c of x and of every field
+        for c in 0..4 {
+            let delta = x[c] - self.mean[c];
+            self.mean[c] += delta * inv;
+            self.m2[c] += delta * (x[c] - self.mean[c]);
+            // `f64::min`/`max` without their NaN fix-ups (a compare and a blend each, or
+            // x86's minpd/maxpd with these operand orders): the extremes start at ±∞ and only
+            // take a number that compares below/above them, so a NaN sample leaves them as
+            // `min`/`max` would.
+            self.min[c] = if x[c] < self.min[c] {
+                x[c]
+            } else {
+                self.min[c]
+            };
+            self.max[c] = if x[c] > self.max[c] {
+                x[c]
+            } else {
+                self.max[c]
+            };
         }
     }
 
@@ -50,7 +70,7 @@ impl Welford {
     }
 
     pub fn mean(&self) -> [f64; 3] {
-        self.mean
+        [self.mean[0], self.mean[1], self.mean[2]]
     }
 
     /// Unbiased estimate of the variance of the mean, M2/((n − 1)·n); 0 when n < 2 (the
@@ -60,7 +80,7 @@ impl Welford {
             return [0.0; 3];
         }
         let k = 1.0 / ((self.n - 1) as f64 * self.n as f64);
-        self.m2.map(|m| (m * k).max(0.0))
+        std::array::from_fn(|c| (self.m2[c] * k).max(0.0))
     }
 
     /// Heavy-tail share: max_i (x_i − x̄)² / Σ_i (x_i − x̄)², the part of the sum of squares
@@ -112,5 +132,26 @@ mod tests {
             rare.push([if i == 37 { 50.0 } else { 0.0 }; 3]);
         }
         assert!((rare.tail_share()[1] - 0.99).abs() < 1e-12);
+    }
+
+    /// The fourth lane of a quad push does not reach the three channels: the same bits as
+    /// `push` of the three, whatever it holds.
+    #[test]
+    fn quad_pushes_are_the_scalar_pushes() {
+        let (mut a, mut b) = (Welford::default(), Welford::default());
+        for i in 0..50 {
+            let x = [
+                0.1 * i as f64,
+                (i as f64).sin() * 1e3,
+                1.0 / (1.0 + i as f64),
+            ];
+            a.push(x);
+            b.push_quad([x[0], x[1], x[2], if i % 2 == 0 { f64::NAN } else { 1e300 }]);
+        }
+        let bits = |w: &Welford| {
+            [w.mean(), w.variance_of_mean(), w.tail_share()].map(|v| v.map(f64::to_bits))
+        };
+        assert_eq!(bits(&a), bits(&b));
+        assert_eq!(a.count(), b.count());
     }
 }
