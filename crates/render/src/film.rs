@@ -4,9 +4,10 @@
 /// Running mean and sum of squared deviations of independent RGB samples, and their extremes
 /// (for the heavy-tail share).
 ///
-/// The channels are stored as quads (R, G, B and a fourth lane that is never read) so that a push is one 4-wide operation per step where the target has 256-bit f64
-/// vectors: each lane still runs exactly the scalar operations of Welford's update (no fused
-/// multiply-add; IEEE operations are lane-wise), so the bits are those of three scalar chains.
+/// The channels are stored as quads (R, G, B and a fourth lane that is never read) so that a
+/// push is one 4-wide operation per step where the target has 256-bit f64 vectors: each lane
+/// still runs exactly the scalar operations of Welford's update (no fused multiply-add; IEEE
+/// operations are lane-wise), so the bits are those of three scalar chains.
 #[derive(Clone, Copy, Debug)]
 pub struct Welford {
     n: u64,
@@ -134,11 +135,14 @@ mod tests {
         assert!((rare.tail_share()[1] - 0.99).abs() < 1e-12);
     }
 
-    /// The fourth lane of a quad push does not reach the three channels: the same bits as
-    /// `push` of the three, whatever it holds.
+    /// The quad push gives the bits of three independent scalar Welford chains (the update as
+    /// it was written before the quads, kept here as the reference), and the fourth lane does
+    /// not reach the three channels, whatever it holds (NaN, 1e300).
     #[test]
     fn quad_pushes_are_the_scalar_pushes() {
         let (mut a, mut b) = (Welford::default(), Welford::default());
+        // Reference: per channel, mean and M2 updated one scalar at a time.
+        let (mut mean, mut m2) = ([0.0f64; 3], [0.0f64; 3]);
         for i in 0..50 {
             let x = [
                 0.1 * i as f64,
@@ -147,11 +151,23 @@ mod tests {
             ];
             a.push(x);
             b.push_quad([x[0], x[1], x[2], if i % 2 == 0 { f64::NAN } else { 1e300 }]);
+            let inv = 1.0 / (i + 1) as f64;
+            for c in 0..3 {
+                let delta = x[c] - mean[c];
+                mean[c] += delta * inv;
+                m2[c] += delta * (x[c] - mean[c]);
+            }
         }
         let bits = |w: &Welford| {
             [w.mean(), w.variance_of_mean(), w.tail_share()].map(|v| v.map(f64::to_bits))
         };
         assert_eq!(bits(&a), bits(&b));
         assert_eq!(a.count(), b.count());
+        let k = 1.0 / (49.0 * 50.0);
+        assert_eq!(a.mean().map(f64::to_bits), mean.map(f64::to_bits));
+        assert_eq!(
+            a.variance_of_mean().map(f64::to_bits),
+            m2.map(|m| (m * k).max(0.0).to_bits())
+        );
     }
 }
