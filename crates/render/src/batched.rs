@@ -950,9 +950,10 @@ fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v
     if written == 0 {
         // An array literal: `v.map(…)` compiled to an out-of-line `try_map` call whose result
         // came back through memory (a 576-byte `memcpy`). Writing the nine rows in place
-        // through a pointer measured the same or worse (callgrind, glossy-gap and acc-rng merged,
-        // each of which had removed that copy its own way: cornell-tube 631.8 vs 632.3, floor-tube 453.7 vs 447.2, glossy-principled 600.3 vs
-        // 596.6 instructions per sample), so the safe form stays.
+        // through a pointer measured the same or worse (callgrind, with glossy-gap and acc-rng
+        // merged, each of which had removed that copy its own way; instructions per sample,
+        // pointer vs literal: cornell-tube 631.8 vs 632.3, floor-tube 453.7 vs 447.2,
+        // glossy-principled 600.3 vs 596.6), so the safe form stays.
         let splat = |x: Vec3| [[x.x; LANES], [x.y; LANES], [x.z; LANES]];
         lanes.write([splat(v[0]), splat(v[1]), splat(v[2])]);
         return;
