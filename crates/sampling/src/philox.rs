@@ -24,18 +24,10 @@ const M1: u64 = 0xCD9E_8D57;
 const W0: u32 = 0x9E37_79B9;
 const W1: u32 = 0xBB67_AE85;
 
-/// Philox4x32 with 10 rounds: a bijection of `counter` for every `key` (one lane of
-/// [`philox4x32_10_lanes`]).
+/// Philox4x32 with 10 rounds: a bijection of `counter` for every `key`. The renderer's
+/// packets compute the same numbers sixteen lanes at once with [`philox4x32_10_pairs`].
 #[inline]
 pub fn philox4x32_10(counter: [u32; 4], key: [u32; 2]) -> [u32; 4] {
-    philox4x32_10_lanes(counter.map(|c| [c]), key).map(|[x]| x)
-}
-
-/// [`philox4x32_10`] of N counters at once: lane i's counter is `counter[·][i]`, its result
-/// `out[·][i]`. The rounds run over all lanes in turn, a loop the compiler vectorises (32×32 →
-/// 64-bit products in vector registers).
-#[inline(always)]
-pub fn philox4x32_10_lanes<const N: usize>(counter: [[u32; N]; 4], key: [u32; 2]) -> [[u32; N]; 4] {
     let [mut x0, mut x1, mut x2, mut x3] = counter;
     let [mut k0, mut k1] = key;
     for round in 0..10 {
@@ -43,13 +35,11 @@ pub fn philox4x32_10_lanes<const N: usize>(counter: [[u32; N]; 4], key: [u32; 2]
             k0 = k0.wrapping_add(W0);
             k1 = k1.wrapping_add(W1);
         }
-        for i in 0..N {
-            let p0 = M0 * x0[i] as u64;
-            let p1 = M1 * x2[i] as u64;
-            let (hi0, lo0) = ((p0 >> 32) as u32, p0 as u32);
-            let (hi1, lo1) = ((p1 >> 32) as u32, p1 as u32);
-            (x0[i], x1[i], x2[i], x3[i]) = (hi1 ^ x1[i] ^ k0, lo1, hi0 ^ x3[i] ^ k1, lo0);
-        }
+        let p0 = M0 * x0 as u64;
+        let p1 = M1 * x2 as u64;
+        let (hi0, lo0) = ((p0 >> 32) as u32, p0 as u32);
+        let (hi1, lo1) = ((p1 >> 32) as u32, p1 as u32);
+        (x0, x1, x2, x3) = (hi1 ^ x1 ^ k0, lo1, hi0 ^ x3 ^ k1, lo0);
     }
     [x0, x1, x2, x3]
 }
@@ -68,10 +58,10 @@ fn mul_hi_lo_pairs(w: u64, m: u64) -> (u64, u64) {
     ((low >> 32) | (high & !LO), (low & LO) | (high << 32))
 }
 
-/// [`philox4x32_10_lanes`] of 2·P counters, two lanes per 64-bit word: lane j of word i of
+/// [`philox4x32_10`] of 2·P counters, two lanes per 64-bit word: lane j of word i of
 /// `counter[r]` (and of the result) is the lane in that half (the two halves are treated
 /// alike, so any packing of two lanes into a word, e.g. a transmute of `[u32; 2P]`, works).
-/// The same numbers as [`philox4x32_10_lanes`], with cheaper products in vector registers.
+/// The same numbers as [`philox4x32_10`] lane by lane, with the products in vector registers.
 #[inline(always)]
 pub fn philox4x32_10_pairs<const P: usize>(counter: [[u64; P]; 4], key: [u32; 2]) -> [[u64; P]; 4] {
     let [mut x0, mut x1, mut x2, mut x3] = counter;
