@@ -65,14 +65,17 @@ use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
+use linlight_sampling::batch::{self, Isa, PsaInput, PsaOutput, Vec3xN, PACKET_LANES};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
 use std::mem::MaybeUninit;
 
 /// Camera samples rendered together: one ray packet.
 pub const LANES: usize = PACKET;
-const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet");
+const _: () = assert!(
+    LANES == PACKET_LANES,
+    "a packet's light samples in one batch packet"
+);
 
 /// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
 /// light sample per camera sample, white noise, and either a technique with a batch kernel
@@ -215,26 +218,6 @@ fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
 
 /// A 3-vector in each of the [`LANES`] lanes of a packet: `[x, y, z]`, each `[f32; LANES]`.
 type Lanes3 = [[f32; LANES]; 3];
-
-/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`: half b of a packet's lanes, as the
-/// eight-lane ([`BATCH`]) batch kernels take them.
-#[inline(always)]
-fn half_lanes(v: &[f32; LANES], b: usize) -> [f32; BATCH] {
-    std::array::from_fn(|i| v[b * BATCH + i])
-}
-
-/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of the three components of `v`.
-#[inline(always)]
-fn half3(v: &Lanes3, b: usize) -> Vec3x8 {
-    let [x, y, z] = v.each_ref().map(|c| half_lanes(c, b));
-    Vec3x8 { x, y, z }
-}
-
-/// Sixteen lanes from two halves.
-#[inline(always)]
-fn join_halves(a: &[f32; BATCH], b: &[f32; BATCH]) -> [f32; LANES] {
-    std::array::from_fn(|k| if k < BATCH { a[k] } else { b[k - BATCH] })
-}
 
 #[inline(always)]
 fn get3(v: &Lanes3, k: usize) -> Vec3 {
@@ -1141,24 +1124,24 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// The 8-wide batch of lanes `b·BATCH` … `b·BATCH + BATCH − 1` for
-    /// [`Self::light_samples`]. Lanes without a shading point have a zero normal: no
-    /// contribution.
+    /// The sampling problems of the packet's lanes for [`Self::light_samples`]. Lanes without
+    /// a shading point have a zero normal: no contribution.
     #[inline(always)]
-    fn batch_input(&self, lights: &LightLanes, shading: &ShadingLanes, b: usize) -> PsaBatchInput {
+    fn packet_input(&self, lights: &LightLanes, shading: &ShadingLanes) -> PsaInput<LANES> {
+        let vec3 = |[x, y, z]: Lanes3| Vec3xN { x, y, z };
         let (begin, end) = match lights.uniform {
             Some(j) => {
                 let segment = &self.rs.lights[j].0;
-                (Vec3x8::splat(segment.begin), Vec3x8::splat(segment.end))
+                (Vec3xN::splat(segment.begin), Vec3xN::splat(segment.end))
             }
-            None => (half3(lights.row3(1), b), half3(lights.row3(2), b)),
+            None => (vec3(*lights.row3(1)), vec3(*lights.row3(2))),
         };
-        PsaBatchInput {
+        PsaInput {
             begin,
             end,
-            x: half3(&shading.p, b),
-            n: half3(&shading.n, b),
-            xi: half_lanes(&lights.xi, b),
+            x: vec3(shading.p),
+            n: vec3(shading.n),
+            xi: lights.xi,
         }
     }
 
@@ -1173,35 +1156,27 @@ impl<'a> Context<'a> {
     ) -> SampleLanes {
         let technique = self.technique;
         debug_assert!(self.batch, "{technique:?} has no batch kernel");
-        // Every field written (no zeroed batches first).
-        let inputs = [
-            self.batch_input(lights, shading, 0),
-            self.batch_input(lights, shading, 1),
-        ];
-        let mut outputs = [PsaBatchOutput::default(); 2];
-        if technique == Technique::ProjectedSolidAngle {
-            batch::sample_projected_solid_angle_slice(self.isa, &inputs, &mut outputs);
+        let input = self.packet_input(lights, shading);
+        let out = if technique == Technique::ProjectedSolidAngle {
+            batch::sample_projected_solid_angle_packet(self.isa, &input)
         } else {
-            for (input, output) in inputs.iter().zip(&mut outputs) {
-                *output = match technique {
+            let [a, b] = [0, 1].map(|h| {
+                let input = input.batch(h);
+                match technique {
                     Technique::ClippedSolidAngle => {
-                        batch::sample_clipped_solid_angle_with(self.isa, input)
+                        batch::sample_clipped_solid_angle_with(self.isa, &input)
                     }
-                    Technique::Li2018 => batch::sample_li2018_with(self.isa, input).0,
+                    Technique::Li2018 => batch::sample_li2018_with(self.isa, &input).0,
                     _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
-                };
-            }
-        }
-        let [a, b] = &outputs;
+                }
+            });
+            PsaOutput::from_batches(&a, &b)
+        };
         SampleLanes {
-            mask: (a.mask as u32 | (b.mask as u32) << BATCH) & lanes,
-            dir: [
-                join_halves(&a.dir.x, &b.dir.x),
-                join_halves(&a.dir.y, &b.dir.y),
-                join_halves(&a.dir.z, &b.dir.z),
-            ],
-            pdf: join_halves(&a.pdf, &b.pdf),
-            distance: join_halves(&a.distance, &b.distance),
+            mask: out.mask & lanes,
+            dir: [out.dir.x, out.dir.y, out.dir.z],
+            pdf: out.pdf,
+            distance: out.distance,
         }
     }
 
