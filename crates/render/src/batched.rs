@@ -65,7 +65,10 @@ use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_sampling::batch::{self, Isa, PsaInput, PsaOutput, Vec3xN, PACKET_LANES};
+use linlight_sampling::batch::{
+    self, Isa, PsaBatchInput, PsaBatchOutput, PsaInput, Vec3x8, Vec3xN, LANES as BATCH,
+    PACKET_LANES,
+};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
 use std::mem::MaybeUninit;
@@ -74,8 +77,9 @@ use std::mem::MaybeUninit;
 pub const LANES: usize = PACKET;
 const _: () = assert!(
     LANES == PACKET_LANES,
-    "a packet's light samples in one batch packet"
+    "a packet's light samples in one packet"
 );
+const _: () = assert!(LANES == 2 * BATCH, "or in two light-sample batches");
 
 /// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
 /// light sample per camera sample, white noise, and either a technique with a batch kernel
@@ -218,6 +222,26 @@ fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
 
 /// A 3-vector in each of the [`LANES`] lanes of a packet: `[x, y, z]`, each `[f32; LANES]`.
 type Lanes3 = [[f32; LANES]; 3];
+
+/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`: half b of a packet's lanes, as the
+/// eight-lane ([`BATCH`]) batch kernels take them.
+#[inline(always)]
+fn half_lanes(v: &[f32; LANES], b: usize) -> [f32; BATCH] {
+    std::array::from_fn(|i| v[b * BATCH + i])
+}
+
+/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of the three components of `v`.
+#[inline(always)]
+fn half3(v: &Lanes3, b: usize) -> Vec3x8 {
+    let [x, y, z] = v.each_ref().map(|c| half_lanes(c, b));
+    Vec3x8 { x, y, z }
+}
+
+/// Sixteen lanes from two halves.
+#[inline(always)]
+fn join_halves(a: &[f32; BATCH], b: &[f32; BATCH]) -> [f32; LANES] {
+    std::array::from_fn(|k| if k < BATCH { a[k] } else { b[k - BATCH] })
+}
 
 #[inline(always)]
 fn get3(v: &Lanes3, k: usize) -> Vec3 {
@@ -1124,8 +1148,9 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// The sampling problems of the packet's lanes for [`Self::light_samples`]. Lanes without
-    /// a shading point have a zero normal: no contribution.
+    /// The sampling problems of the packet's lanes for [`Self::light_samples`]'s packet kernel
+    /// (projected solid angle). Lanes without a shading point have a zero normal: no
+    /// contribution.
     #[inline(always)]
     fn packet_input(&self, lights: &LightLanes, shading: &ShadingLanes) -> PsaInput<LANES> {
         let vec3 = |[x, y, z]: Lanes3| Vec3xN { x, y, z };
@@ -1145,6 +1170,26 @@ impl<'a> Context<'a> {
         }
     }
 
+    /// The same for the 8-wide batch of lanes `b·BATCH` … `b·BATCH + BATCH − 1` (the other
+    /// batch kernels), taken from the packet's lanes directly.
+    #[inline(always)]
+    fn batch_input(&self, lights: &LightLanes, shading: &ShadingLanes, b: usize) -> PsaBatchInput {
+        let (begin, end) = match lights.uniform {
+            Some(j) => {
+                let segment = &self.rs.lights[j].0;
+                (Vec3x8::splat(segment.begin), Vec3x8::splat(segment.end))
+            }
+            None => (half3(lights.row3(1), b), half3(lights.row3(2), b)),
+        };
+        PsaBatchInput {
+            begin,
+            end,
+            x: half3(&shading.p, b),
+            n: half3(&shading.n, b),
+            xi: half_lanes(&lights.xi, b),
+        }
+    }
+
     /// One sample of lane k's light `lights.light[k]` with ξ = `lights.xi[k]` for every lane
     /// with a shading point (the lanes of `lanes` and with a sample in the result's `mask`).
     #[inline(always)]
@@ -1156,27 +1201,41 @@ impl<'a> Context<'a> {
     ) -> SampleLanes {
         let technique = self.technique;
         debug_assert!(self.batch, "{technique:?} has no batch kernel");
-        let input = self.packet_input(lights, shading);
-        let out = if technique == Technique::ProjectedSolidAngle {
-            batch::sample_projected_solid_angle_packet(self.isa, &input)
-        } else {
-            let [a, b] = [0, 1].map(|h| {
-                let input = input.batch(h);
-                match technique {
-                    Technique::ClippedSolidAngle => {
-                        batch::sample_clipped_solid_angle_with(self.isa, &input)
-                    }
-                    Technique::Li2018 => batch::sample_li2018_with(self.isa, &input).0,
-                    _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
+        if technique == Technique::ProjectedSolidAngle {
+            let input = self.packet_input(lights, shading);
+            let out = batch::sample_projected_solid_angle_packet(self.isa, &input);
+            return SampleLanes {
+                mask: out.mask & lanes,
+                dir: [out.dir.x, out.dir.y, out.dir.z],
+                pdf: out.pdf,
+                distance: out.distance,
+            };
+        }
+        // Every field written (no zeroed batches first).
+        let inputs = [
+            self.batch_input(lights, shading, 0),
+            self.batch_input(lights, shading, 1),
+        ];
+        let mut outputs = [PsaBatchOutput::default(); 2];
+        for (input, output) in inputs.iter().zip(&mut outputs) {
+            *output = match technique {
+                Technique::ClippedSolidAngle => {
+                    batch::sample_clipped_solid_angle_with(self.isa, input)
                 }
-            });
-            PsaOutput::from_batches(&a, &b)
-        };
+                Technique::Li2018 => batch::sample_li2018_with(self.isa, input).0,
+                _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
+            };
+        }
+        let [a, b] = &outputs;
         SampleLanes {
-            mask: out.mask & lanes,
-            dir: [out.dir.x, out.dir.y, out.dir.z],
-            pdf: out.pdf,
-            distance: out.distance,
+            mask: (a.mask | b.mask << BATCH) & lanes,
+            dir: [
+                join_halves(&a.dir.x, &b.dir.x),
+                join_halves(&a.dir.y, &b.dir.y),
+                join_halves(&a.dir.z, &b.dir.z),
+            ],
+            pdf: join_halves(&a.pdf, &b.pdf),
+            distance: join_halves(&a.distance, &b.distance),
         }
     }
 
