@@ -9,8 +9,9 @@
 use criterion::{black_box, Criterion, Throughput};
 use glam::Vec3;
 use linlight_sampling::batch::{
-    sample_clipped_solid_angle_with, sample_projected_solid_angle_slice,
-    sample_projected_solid_angle_with, Isa, PsaBatchInput, PsaBatchOutput, LANES,
+    sample_clipped_solid_angle_with, sample_projected_solid_angle_packet,
+    sample_projected_solid_angle_slice, sample_projected_solid_angle_with, Isa, PsaBatchInput,
+    PsaBatchOutput, PsaInput, LANES, PACKET_LANES,
 };
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::rng::Pcg32;
@@ -109,7 +110,21 @@ fn batch_pass(kernel: Kernel, isa: Isa, batches: &[PsaBatchInput]) -> f32 {
     acc
 }
 
-/// One pass through the slice entry point (two batches interleaved per loop).
+/// One pass through the packet entry point (the renderer's: 16 lanes per call, built in place,
+/// not joined from two batches as the slice does).
+#[inline(never)]
+fn packet_pass(isa: Isa, packets: &[PsaInput<PACKET_LANES>]) -> f32 {
+    let mut acc = 0.0f32;
+    for p in packets {
+        let out = sample_projected_solid_angle_packet(isa, p);
+        for i in 0..PACKET_LANES {
+            acc += out.dir.x[i] + out.pdf[i];
+        }
+    }
+    acc
+}
+
+/// One pass through the slice entry point (two batches as one packet per call).
 #[inline(never)]
 fn slice_pass(isa: Isa, batches: &[PsaBatchInput], out: &mut [PsaBatchOutput]) -> f32 {
     sample_projected_solid_angle_slice(isa, batches, out);
@@ -207,6 +222,12 @@ fn main() {
     println!("  {:<40} {:>8}    {:>8}", "", "median", "minimum");
     let techniques: Vec<Technique> = active().collect();
     let batches = batches(&configurations);
+    let packets: Vec<PsaInput<PACKET_LANES>> = batches
+        .chunks_exact(2)
+        .map(|p| PsaInput::from_batches(&p[0], &p[1]))
+        .collect();
+    assert_eq!(2 * packets.len(), batches.len(), "whole packets");
+    let packets = &packets;
     let out = std::cell::RefCell::new(vec![PsaBatchOutput::default(); batches.len()]);
     let out = &out;
     let mut rows: Vec<Row> = techniques
@@ -233,6 +254,10 @@ fn main() {
         rows.push((
             format!("  psa, slice of batches {}", isa.name()),
             Box::new(move || slice_pass(isa, black_box(b), &mut out.borrow_mut())),
+        ));
+        rows.push((
+            format!("  psa, packets x{PACKET_LANES} {}", isa.name()),
+            Box::new(move || packet_pass(isa, black_box(packets))),
         ));
     }
     let times = plain_timing(&rows, configurations.len());
