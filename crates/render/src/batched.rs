@@ -1201,9 +1201,17 @@ impl<'a> Context<'a> {
     ) -> SampleLanes {
         let technique = self.technique;
         debug_assert!(self.batch, "{technique:?} has no batch kernel");
-        if technique == Technique::ProjectedSolidAngle {
+        if technique != Technique::Li2018 {
             let input = self.packet_input(lights, shading);
-            let out = batch::sample_projected_solid_angle_packet(self.isa, &input);
+            let out = match technique {
+                Technique::ProjectedSolidAngle => {
+                    batch::sample_projected_solid_angle_packet(self.isa, &input)
+                }
+                Technique::ClippedSolidAngle => {
+                    batch::sample_clipped_solid_angle_packet(self.isa, &input)
+                }
+                _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
+            };
             return SampleLanes {
                 mask: out.mask & lanes,
                 dir: [out.dir.x, out.dir.y, out.dir.z],
@@ -1218,13 +1226,7 @@ impl<'a> Context<'a> {
         ];
         let mut outputs = [PsaBatchOutput::default(); 2];
         for (input, output) in inputs.iter().zip(&mut outputs) {
-            *output = match technique {
-                Technique::ClippedSolidAngle => {
-                    batch::sample_clipped_solid_angle_with(self.isa, input)
-                }
-                Technique::Li2018 => batch::sample_li2018_with(self.isa, input).0,
-                _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
-            };
+            *output = batch::sample_li2018_with(self.isa, input).0;
         }
         let [a, b] = &outputs;
         SampleLanes {

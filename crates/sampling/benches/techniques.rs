@@ -9,9 +9,10 @@
 use criterion::{black_box, Criterion, Throughput};
 use glam::Vec3;
 use linlight_sampling::batch::{
-    sample_clipped_solid_angle_with, sample_projected_solid_angle_packet,
-    sample_projected_solid_angle_slice, sample_projected_solid_angle_with, Isa, PsaBatchInput,
-    PsaBatchOutput, PsaInput, LANES, PACKET_LANES,
+    sample_clipped_solid_angle_packet, sample_clipped_solid_angle_with,
+    sample_projected_solid_angle_packet, sample_projected_solid_angle_slice,
+    sample_projected_solid_angle_with, Isa, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput,
+    LANES, PACKET_LANES,
 };
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::rng::Pcg32;
@@ -110,13 +111,16 @@ fn batch_pass(kernel: Kernel, isa: Isa, batches: &[PsaBatchInput]) -> f32 {
     acc
 }
 
-/// One pass through the packet entry point (the renderer's: 16 lanes per call, built in place,
+/// A 16-lane packet kernel.
+type PacketKernel = fn(Isa, &PsaInput<PACKET_LANES>) -> PsaOutput<PACKET_LANES>;
+
+/// One pass through a packet entry point (the renderer's: 16 lanes per call, built in place,
 /// not joined from two batches as the slice does).
 #[inline(never)]
-fn packet_pass(isa: Isa, packets: &[PsaInput<PACKET_LANES>]) -> f32 {
+fn packet_pass(isa: Isa, packets: &[PsaInput<PACKET_LANES>], kernel: PacketKernel) -> f32 {
     let mut acc = 0.0f32;
     for p in packets {
-        let out = sample_projected_solid_angle_packet(isa, p);
+        let out = kernel(isa, p);
         for i in 0..PACKET_LANES {
             acc += out.dir.x[i] + out.pdf[i];
         }
@@ -255,10 +259,16 @@ fn main() {
             format!("  psa, slice of batches {}", isa.name()),
             Box::new(move || slice_pass(isa, black_box(b), &mut out.borrow_mut())),
         ));
-        rows.push((
-            format!("  psa, packets x{PACKET_LANES} {}", isa.name()),
-            Box::new(move || packet_pass(isa, black_box(packets))),
-        ));
+        let packet_kernels: [(&str, PacketKernel); 2] = [
+            ("psa", sample_projected_solid_angle_packet),
+            ("clipped", sample_clipped_solid_angle_packet),
+        ];
+        for (name, kernel) in packet_kernels {
+            rows.push((
+                format!("  {name}, packets x{PACKET_LANES} {}", isa.name()),
+                Box::new(move || packet_pass(isa, black_box(packets), kernel)),
+            ));
+        }
     }
     let times = plain_timing(&rows, configurations.len());
     let mut ns = std::collections::HashMap::new();

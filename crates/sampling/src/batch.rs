@@ -84,6 +84,7 @@ crate::isa_variants! {
     fn run_psa_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput = psa_sample_kernel;
     fn run_li_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) = li_sample_kernel;
     fn run_clipped(input: &PsaBatchInput) -> PsaBatchOutput = clipped_kernel;
+    fn run_clipped_two_chains(input: &PsaInput<PACKET_LANES>) -> PsaOutput<PACKET_LANES> = clipped_two_chains;
     fn run_clipped_prepare(input: &PsaBatchInput) -> ClippedBatch = clipped_prepare_kernel;
     fn run_clipped_sample(prepared: &ClippedBatch, xi: &[f32; LANES]) -> PsaBatchOutput = clipped_sample_kernel;
 }
@@ -714,6 +715,19 @@ pub fn sample_clipped_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBa
     run_clipped(isa, input)
 }
 
+/// Clipped solid angle sampling on the [`PACKET_LANES`] lanes of `input` with the chosen kernel
+/// (the baseline where the CPU does not run it), as two interleaved eight-lane chains (lanes
+/// i and i + 8 in one loop) on every ISA: lane i equals the scalar technique bit for bit, as
+/// the lanes of [`sample_clipped_solid_angle_with`] do. Unlike projected solid angle, one loop
+/// over all sixteen lanes does not pay with AVX-512: clipped solid angle's work is nearly all
+/// f64 (the arcs), which the compiler vectorises eight lanes at a time either way.
+pub fn sample_clipped_solid_angle_packet(
+    isa: Isa,
+    input: &PsaInput<PACKET_LANES>,
+) -> PsaOutput<PACKET_LANES> {
+    run_clipped_two_chains(isa, input)
+}
+
 /// Eight prepared clipped-solid-angle samplers as structure of arrays: what `SolidAngle`
 /// keeps per (light, shading point) for its samples — the frame's u, ĉ, d, the arc of the
 /// clipped interval in f64 ([`FrameArc`] without its support tolerance, which sampling does not
@@ -786,19 +800,55 @@ fn clipped_prepare_kernel(input: &PsaBatchInput) -> ClippedBatch {
     let mut valid = [false; LANES];
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
     for i in 0..LANES {
-        // Clipped with the unit normal, as the scalar `SolidAngle::prepare_clipped`.
-        let (n, normal_ok) = unit_normal_lane(input.n.get(i));
-        let (frame, ends, frame_ok) = LineFrame::lane(
-            input.begin.get(i),
-            input.end.get(i),
-            input.x.get(i),
-            Some(n),
-        );
-        let (sampler, ok) = SolidAngle::lane(frame, ends, atan2_f64_select);
+        let (sampler, ok) = clipped_lane(input, i);
         out.store(i, &sampler);
-        valid[i] = normal_ok && frame_ok && ok;
+        valid[i] = ok;
     }
     out.mask = pack(valid) as u8;
+    out
+}
+
+/// Lane i's clipped solid angle sampler (meaningless where the lane does not contribute) and
+/// whether it contributes.
+#[inline(always)]
+fn clipped_lane<const N: usize>(input: &PsaInput<N>, i: usize) -> (SolidAngle, bool) {
+    // Clipped with the unit normal, as the scalar `SolidAngle::prepare_clipped`.
+    let (n, normal_ok) = unit_normal_lane(input.n.get(i));
+    let (frame, ends, frame_ok) = LineFrame::lane(
+        input.begin.get(i),
+        input.end.get(i),
+        input.x.get(i),
+        Some(n),
+    );
+    let (sampler, ok) = SolidAngle::lane(frame, ends, atan2_f64_select);
+    (sampler, normal_ok && frame_ok && ok)
+}
+
+/// Lane i of clipped solid angle, prepared and sampled, into `out`; returns whether it
+/// contributes.
+#[inline(always)]
+fn clipped_sample_lane<const N: usize>(
+    input: &PsaInput<N>,
+    i: usize,
+    out: &mut PsaOutput<N>,
+) -> bool {
+    let (sampler, ok) = clipped_lane(input, i);
+    let (dir, pdf) = sampler.sample_lane(input.xi[i], atan2_f64_select);
+    let distance = sampler.frame.d / sampler.frame.c_hat.dot(dir);
+    store(out, i, (dir, pdf, distance, ok))
+}
+
+/// Clipped solid angle on the lanes of `input` as two interleaved chains, lanes i and i + N/2
+/// (see [`two_chains`]).
+#[inline(always)]
+fn clipped_two_chains<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
+    let mut out = PsaOutput::default();
+    let mut valid = [false; N];
+    for i in 0..N / 2 {
+        valid[i] = clipped_sample_lane(input, i, &mut out);
+        valid[i + N / 2] = clipped_sample_lane(input, i + N / 2, &mut out);
+    }
+    out.mask = pack(valid);
     out
 }
 
@@ -968,8 +1018,9 @@ mod tests {
     }
 
     /// The slice entry point (two batches as a packet, and an odd remainder) and the packet
-    /// entry point give the same outputs as one batch at a time, on every ISA (AVX-512's one
-    /// loop over sixteen lanes, the others' two chains).
+    /// entry points (projected and clipped solid angle) give the same outputs as one batch at a
+    /// time, on every ISA (projected solid angle: AVX-512's one loop over sixteen lanes, the
+    /// others' two chains).
     #[test]
     fn slices_and_packets_equal_single_batches() {
         let inputs = batches(7);
@@ -997,6 +1048,11 @@ mod tests {
                     .map(|b| sample_projected_solid_angle_with(isa, b));
                 for (h, single) in single.enumerate() {
                     assert_eq!(out.batch(h), single, "{isa:?} half {h}");
+                }
+                let clipped = sample_clipped_solid_angle_packet(isa, &packet);
+                let single = pair.iter().map(|b| sample_clipped_solid_angle_with(isa, b));
+                for (h, single) in single.enumerate() {
+                    assert_eq!(clipped.batch(h), single, "clipped {isa:?} half {h}");
                 }
                 assert_eq!(PsaOutput::from_batches(&out.batch(0), &out.batch(1)), out);
             }
