@@ -65,14 +65,21 @@ use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_sampling::batch::{self, Isa, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES as BATCH};
+use linlight_sampling::batch::{
+    self, Isa, PsaBatchInput, PsaBatchOutput, PsaInput, Vec3x8, Vec3xN, LANES as BATCH,
+    PACKET_LANES,
+};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
 use std::mem::MaybeUninit;
 
 /// Camera samples rendered together: one ray packet.
 pub const LANES: usize = PACKET;
-const _: () = assert!(LANES == 2 * BATCH, "two light-sample batches per packet");
+const _: () = assert!(
+    LANES == PACKET_LANES,
+    "a packet's light samples in one packet"
+);
+const _: () = assert!(LANES == 2 * BATCH, "or in two light-sample batches");
 
 /// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
 /// light sample per camera sample, white noise, and either a technique with a batch kernel
@@ -1141,9 +1148,30 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// The 8-wide batch of lanes `b·BATCH` … `b·BATCH + BATCH − 1` for
-    /// [`Self::light_samples`]. Lanes without a shading point have a zero normal: no
+    /// The sampling problems of the packet's lanes for [`Self::light_samples`]'s packet kernel
+    /// (projected solid angle). Lanes without a shading point have a zero normal: no
     /// contribution.
+    #[inline(always)]
+    fn packet_input(&self, lights: &LightLanes, shading: &ShadingLanes) -> PsaInput<LANES> {
+        let vec3 = |[x, y, z]: Lanes3| Vec3xN { x, y, z };
+        let (begin, end) = match lights.uniform {
+            Some(j) => {
+                let segment = &self.rs.lights[j].0;
+                (Vec3xN::splat(segment.begin), Vec3xN::splat(segment.end))
+            }
+            None => (vec3(*lights.row3(1)), vec3(*lights.row3(2))),
+        };
+        PsaInput {
+            begin,
+            end,
+            x: vec3(shading.p),
+            n: vec3(shading.n),
+            xi: lights.xi,
+        }
+    }
+
+    /// The same for the 8-wide batch of lanes `b·BATCH` … `b·BATCH + BATCH − 1` (the other
+    /// batch kernels), taken from the packet's lanes directly.
     #[inline(always)]
     fn batch_input(&self, lights: &LightLanes, shading: &ShadingLanes, b: usize) -> PsaBatchInput {
         let (begin, end) = match lights.uniform {
@@ -1173,28 +1201,36 @@ impl<'a> Context<'a> {
     ) -> SampleLanes {
         let technique = self.technique;
         debug_assert!(self.batch, "{technique:?} has no batch kernel");
+        if technique != Technique::Li2018 {
+            let input = self.packet_input(lights, shading);
+            let out = match technique {
+                Technique::ProjectedSolidAngle => {
+                    batch::sample_projected_solid_angle_packet(self.isa, &input)
+                }
+                Technique::ClippedSolidAngle => {
+                    batch::sample_clipped_solid_angle_packet(self.isa, &input)
+                }
+                _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
+            };
+            return SampleLanes {
+                mask: out.mask & lanes,
+                dir: [out.dir.x, out.dir.y, out.dir.z],
+                pdf: out.pdf,
+                distance: out.distance,
+            };
+        }
         // Every field written (no zeroed batches first).
         let inputs = [
             self.batch_input(lights, shading, 0),
             self.batch_input(lights, shading, 1),
         ];
         let mut outputs = [PsaBatchOutput::default(); 2];
-        if technique == Technique::ProjectedSolidAngle {
-            batch::sample_projected_solid_angle_slice(self.isa, &inputs, &mut outputs);
-        } else {
-            for (input, output) in inputs.iter().zip(&mut outputs) {
-                *output = match technique {
-                    Technique::ClippedSolidAngle => {
-                        batch::sample_clipped_solid_angle_with(self.isa, input)
-                    }
-                    Technique::Li2018 => batch::sample_li2018_with(self.isa, input).0,
-                    _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
-                };
-            }
+        for (input, output) in inputs.iter().zip(&mut outputs) {
+            *output = batch::sample_li2018_with(self.isa, input).0;
         }
         let [a, b] = &outputs;
         SampleLanes {
-            mask: (a.mask as u32 | (b.mask as u32) << BATCH) & lanes,
+            mask: (a.mask | b.mask << BATCH) & lanes,
             dir: [
                 join_halves(&a.dir.x, &b.dir.x),
                 join_halves(&a.dir.y, &b.dir.y),

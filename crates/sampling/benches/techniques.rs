@@ -9,8 +9,10 @@
 use criterion::{black_box, Criterion, Throughput};
 use glam::Vec3;
 use linlight_sampling::batch::{
-    sample_clipped_solid_angle_with, sample_projected_solid_angle_slice,
-    sample_projected_solid_angle_with, Isa, PsaBatchInput, PsaBatchOutput, LANES,
+    sample_clipped_solid_angle_packet, sample_clipped_solid_angle_with,
+    sample_projected_solid_angle_packet, sample_projected_solid_angle_slice,
+    sample_projected_solid_angle_with, Isa, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput,
+    LANES, PACKET_LANES,
 };
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::rng::Pcg32;
@@ -109,7 +111,24 @@ fn batch_pass(kernel: Kernel, isa: Isa, batches: &[PsaBatchInput]) -> f32 {
     acc
 }
 
-/// One pass through the slice entry point (two batches interleaved per loop).
+/// A 16-lane packet kernel.
+type PacketKernel = fn(Isa, &PsaInput<PACKET_LANES>) -> PsaOutput<PACKET_LANES>;
+
+/// One pass through a packet entry point (the renderer's: 16 lanes per call, built in place,
+/// not joined from two batches as the slice does).
+#[inline(never)]
+fn packet_pass(isa: Isa, packets: &[PsaInput<PACKET_LANES>], kernel: PacketKernel) -> f32 {
+    let mut acc = 0.0f32;
+    for p in packets {
+        let out = kernel(isa, p);
+        for i in 0..PACKET_LANES {
+            acc += out.dir.x[i] + out.pdf[i];
+        }
+    }
+    acc
+}
+
+/// One pass through the slice entry point (two batches as one packet per call).
 #[inline(never)]
 fn slice_pass(isa: Isa, batches: &[PsaBatchInput], out: &mut [PsaBatchOutput]) -> f32 {
     sample_projected_solid_angle_slice(isa, batches, out);
@@ -207,6 +226,12 @@ fn main() {
     println!("  {:<40} {:>8}    {:>8}", "", "median", "minimum");
     let techniques: Vec<Technique> = active().collect();
     let batches = batches(&configurations);
+    let packets: Vec<PsaInput<PACKET_LANES>> = batches
+        .chunks_exact(2)
+        .map(|p| PsaInput::from_batches(&p[0], &p[1]))
+        .collect();
+    assert_eq!(2 * packets.len(), batches.len(), "whole packets");
+    let packets = &packets;
     let out = std::cell::RefCell::new(vec![PsaBatchOutput::default(); batches.len()]);
     let out = &out;
     let mut rows: Vec<Row> = techniques
@@ -234,6 +259,16 @@ fn main() {
             format!("  psa, slice of batches {}", isa.name()),
             Box::new(move || slice_pass(isa, black_box(b), &mut out.borrow_mut())),
         ));
+        let packet_kernels: [(&str, PacketKernel); 2] = [
+            ("psa", sample_projected_solid_angle_packet),
+            ("clipped", sample_clipped_solid_angle_packet),
+        ];
+        for (name, kernel) in packet_kernels {
+            rows.push((
+                format!("  {name}, packets x{PACKET_LANES} {}", isa.name()),
+                Box::new(move || packet_pass(isa, black_box(packets), kernel)),
+            ));
+        }
     }
     let times = plain_timing(&rows, configurations.len());
     let mut ns = std::collections::HashMap::new();
