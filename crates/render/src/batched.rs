@@ -216,6 +216,30 @@ fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
 /// A 3-vector in each of the [`LANES`] lanes of a packet: `[x, y, z]`, each `[f32; LANES]`.
 type Lanes3 = [[f32; LANES]; 3];
 
+/// `T` at a 64-byte boundary. The packet's lane arrays are read and written as whole
+/// registers (16 f32 lanes: 64 bytes with AVX-512); at the 4-byte alignment of `[f32; 16]`
+/// most of those accesses split a cache line, and a store split over two lines does not
+/// forward to the whole-register load that reads it back. Locals of lanes are wrapped in it;
+/// structs of lanes are `#[repr(C, align(64))]` with their arrays first.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct Aligned<T>(T);
+
+impl<T> std::ops::Deref for Aligned<T> {
+    type Target = T;
+    #[inline(always)]
+    fn deref(&self) -> &T {
+        &self.0
+    }
+}
+
+impl<T> std::ops::DerefMut for Aligned<T> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut T {
+        &mut self.0
+    }
+}
+
 /// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`: half b of a packet's lanes, as the
 /// eight-lane ([`BATCH`]) batch kernels take them.
 #[inline(always)]
@@ -248,8 +272,11 @@ fn set3(v: &mut Lanes3, k: usize, x: Vec3) {
 
 /// The shading points of a packet, lane k from camera sample k (structure of arrays). Lanes
 /// outside `active` (no hit, or a surface that does not reflect toward the camera) hold zeros.
+///
+/// The lane arrays come first and the struct is aligned to 64 bytes, so that every array
+/// starts a cache line (see [`Aligned`]).
+#[repr(C, align(64))]
 struct ShadingLanes<'a> {
-    active: u32,
     p: Lanes3,
     /// Geometric normal (offsets shadow-ray origins).
     ng: Lanes3,
@@ -257,6 +284,12 @@ struct ShadingLanes<'a> {
     n: Lanes3,
     /// f = ρ/π on Lambertian lanes (zero on the others and outside `active`).
     lambert: Lanes3,
+    /// The shading frames of all lanes ([`shading_frame`], computed at once where
+    /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
+    frame_x: Lanes3,
+    frame_y: Lanes3,
+    v: [[f32; LANES]; 2],
+    active: u32,
     /// The active lanes on non-Lambertian surfaces: `glossy[k]` is the scalar path's shading
     /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere and where
     /// the lanes sample in a batch kernel (they need only the frames below).
@@ -268,11 +301,6 @@ struct ShadingLanes<'a> {
     /// (written with `glossy_mask` in one branch-free loop; lane by lane the stores of `n`
     /// stalled the frames' vector loads after them, store forwarding).
     one_bsdf: Option<&'a Bsdf>,
-    /// The shading frames of all lanes ([`shading_frame`], computed at once where
-    /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
-    frame_x: Lanes3,
-    frame_y: Lanes3,
-    v: [[f32; LANES]; 2],
 }
 
 /// The light each lane samples in one pass over the lights: the light's index, its
@@ -281,12 +309,13 @@ struct ShadingLanes<'a> {
 /// `xi` for the batch lanes (one per light), `scalar_xi` for the lanes sampled with the scalar
 /// code (one, or two for LTC and MIS on non-Lambertian surfaces; the second is 0 otherwise);
 /// `uniform`: the light of every lane, when they share one (`every`).
+#[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct LightLanes {
-    uniform: Option<usize>,
-    light: [u32; LANES],
     rows: [[f32; LANES]; 9],
+    light: [u32; LANES],
     xi: [f32; LANES],
     scalar_xi: [[f32; LANES]; 2],
+    uniform: Option<usize>,
 }
 
 impl LightLanes {
@@ -313,11 +342,12 @@ impl LightLanes {
 /// The light samples of a packet for one [`LightLanes`]: direction, density, distance to the
 /// line along the direction; `mask`: lanes with a sample.
 #[derive(Default)]
+#[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct SampleLanes {
-    mask: u32,
     dir: Lanes3,
     pdf: [f32; LANES],
     distance: [f32; LANES],
+    mask: u32,
 }
 
 impl<'a> Context<'a> {
@@ -392,13 +422,14 @@ impl<'a> Context<'a> {
 /// `pixel[k]` at full-film (`fx[k]`, `fy[k]`), film index `index[k]`; lanes ≥ `len` repeat the
 /// last sample and are ignored.
 #[derive(Default)]
+#[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct Packet {
-    len: usize,
     pixel: [usize; LANES],
     fx: [u32; LANES],
     fy: [u32; LANES],
     index: [u32; LANES],
     sample: [u32; LANES],
+    len: usize,
 }
 
 impl Packet {
@@ -455,6 +486,7 @@ impl Packet {
 /// Radiance of each lane of a packet, the lanes whose camera ray reached a reflecting
 /// surface (they used one number per light), and among them those that used two (LTC and MIS
 /// on non-Lambertian surfaces).
+#[repr(C, align(64))] // `total` on its own cache lines ([`Aligned`])
 struct Radiance {
     total: Lanes3,
     shaded: u32,
@@ -530,7 +562,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
     // ξ_c and the chosen light's one or two), from the lanes' own streams.
     // Only the blocks the packet uses are computed, and only they are read (`number`); the
     // others stay uninitialised rather than zeroed per packet (a 1 KiB memset).
-    let mut words = [std::mem::MaybeUninit::<[[u32; LANES]; 4]>::uninit(); MAX_BLOCKS];
+    let mut words = Aligned([std::mem::MaybeUninit::<[[u32; LANES]; 4]>::uninit(); MAX_BLOCKS]);
     let one = rs.chooses_one(ctx.opts.lights);
     let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, ctx.per_light)).div_ceil(4);
     let kept = blocks.min(MAX_BLOCKS);
@@ -557,9 +589,9 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         }
     };
 
-    let (u, v) = (number(0), number(1));
-    let px: [f32; LANES] = std::array::from_fn(|k| packet.fx[k] as f32 + u[k]);
-    let py: [f32; LANES] = std::array::from_fn(|k| packet.fy[k] as f32 + v[k]);
+    let (u, v) = (Aligned(number(0)), Aligned(number(1)));
+    let px: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fx[k] as f32 + u[k]));
+    let py: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fy[k] as f32 + v[k]));
     let mut rays = RayLanes::default();
     rs.camera.ray_lanes(&px, &py, &mut rays);
     let hits = rs.bvh.intersect_lanes(&rays, active);
@@ -579,7 +611,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         (None, false) => (0, shading.active, 0),
     };
 
-    let mut total = [[0.0f32; LANES]; 3];
+    let mut total = Aligned([[0.0f32; LANES]; 3]);
     let mut dropped = 0u64;
     // One pass per light (`every`), or one with each lane's chosen light (`one`): the scalar
     // lanes' samples lane by lane, the batch lanes' in the batch kernels, one packet shadow
@@ -627,7 +659,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             .fetch_add(dropped, std::sync::atomic::Ordering::Relaxed);
     }
     Radiance {
-        total,
+        total: total.0,
         shaded: shading.active,
         two_per_light,
     }
@@ -666,13 +698,16 @@ fn shading_points<'a>(
     // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
     // all lanes at once below, other primitives with their own `surface_point`.
     let (mut p, mut ng, mut ns) = (
-        [[0.0f32; LANES]; 3],
-        [[0.0f32; LANES]; 3],
-        [[0.0f32; LANES]; 3],
+        Aligned([[0.0f32; LANES]; 3]),
+        Aligned([[0.0f32; LANES]; 3]),
+        Aligned([[0.0f32; LANES]; 3]),
     );
     // The triangle lanes' arrays are locals of their own: as fields of `Triangles` built
     // uninitialised, LLVM merged them with its zeroed fields into a 1152-byte `memset`.
-    let (mut tri_v, mut tri_n) = (MaybeUninit::uninit(), MaybeUninit::uninit());
+    let (mut tri_v, mut tri_n) = (
+        Aligned(MaybeUninit::uninit()),
+        Aligned(MaybeUninit::uninit()),
+    );
     let mut tri = Triangles::new(&mut tri_v, &mut tri_n);
     // The hit lanes are taken a primitive at a time (a packet's sixteen samples of one or two
     // pixels hit few primitives): its lanes found by comparing the primitive index on all lanes
@@ -897,12 +932,13 @@ fn glossy_contributions(
 /// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once
 /// a triangle has them (they are not read otherwise). Lanes outside `mask` (`normals`) hold
 /// another triangle's values, computed on and not kept.
+#[repr(C, align(64))] // `sign` on its own cache line ([`Aligned`])
 struct Triangles<'t> {
+    sign: [f32; LANES],
     mask: u32,
     v: &'t mut MaybeUninit<[Lanes3; 3]>,
     n: &'t mut MaybeUninit<[Lanes3; 3]>,
     normals: u32,
-    sign: [f32; LANES],
 }
 
 impl<'t> Triangles<'t> {
@@ -1174,15 +1210,15 @@ impl<'a> Context<'a> {
         let technique = self.technique;
         debug_assert!(self.batch, "{technique:?} has no batch kernel");
         // Every field written (no zeroed batches first).
-        let inputs = [
+        let inputs = Aligned([
             self.batch_input(lights, shading, 0),
             self.batch_input(lights, shading, 1),
-        ];
-        let mut outputs = [PsaBatchOutput::default(); 2];
+        ]);
+        let mut outputs = Aligned([PsaBatchOutput::default(); 2]);
         if technique == Technique::ProjectedSolidAngle {
-            batch::sample_projected_solid_angle_slice(self.isa, &inputs, &mut outputs);
+            batch::sample_projected_solid_angle_slice(self.isa, &inputs.0, &mut outputs.0);
         } else {
-            for (input, output) in inputs.iter().zip(&mut outputs) {
+            for (input, output) in inputs.iter().zip(outputs.iter_mut()) {
                 *output = match technique {
                     Technique::ClippedSolidAngle => {
                         batch::sample_clipped_solid_angle_with(self.isa, input)
@@ -1192,7 +1228,7 @@ impl<'a> Context<'a> {
                 };
             }
         }
-        let [a, b] = &outputs;
+        let [a, b] = &outputs.0;
         SampleLanes {
             mask: (a.mask as u32 | (b.mask as u32) << BATCH) & lanes,
             dir: [
@@ -1313,11 +1349,12 @@ impl<'a> Context<'a> {
 /// Samples found lane by lane with the scalar code: lane k (in `mask`) adds `c[k]` when the
 /// line point along `dir[k]` at `distance[k]` is visible.
 #[derive(Default)]
+#[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct CandidateLanes {
-    mask: u32,
     dir: Lanes3,
-    distance: [f32; LANES],
     c: Lanes3,
+    distance: [f32; LANES],
+    mask: u32,
 }
 
 impl CandidateLanes {
