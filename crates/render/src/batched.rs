@@ -364,23 +364,53 @@ impl<'a> Context<'a> {
         let total = pixels.len() * spp;
         // Most tiles see no line: then no lane has visible lines to add.
         let lines = seen.iter().any(|l| !l.is_empty());
-        let mut start = 0;
-        let mut packet = Packet::default();
-        while start < total {
+        if total == 0 {
+            return;
+        }
+        // Two packets in flight: the current one, and the next, filled and its `Primary`
+        // computed by `run_packet` of the current one (see there); they swap after each packet.
+        let (mut packets, mut primaries) = (
+            [Packet::default(), Packet::default()],
+            [Primary::default(), Primary::default()],
+        );
+        let [mut packet, mut next] = packets.each_mut();
+        let [mut primary, mut next_primary] = primaries.each_mut();
+        let fill = |packet: &mut Packet, start: usize| {
             let len = LANES.min(total - start);
             fill_packet(
                 self.isa,
-                &mut packet,
+                packet,
                 pixels,
                 (spp, self.full_width),
                 (start, len),
             );
-            let mut radiance = run_packet(self.isa, self, &packet, pass);
-            if lines {
-                self.visible_lines(&packet, seen, pass, &mut radiance);
+        };
+        fill(packet, 0);
+        self::primary(self.isa, self, packet, pass, primary);
+        let mut start = 0;
+        while start < total {
+            let next_start = start + packet.len;
+            let more = next_start < total;
+            if more {
+                fill(next, next_start);
             }
-            accumulate(self.isa, acc, &packet, &radiance.total);
-            start += len;
+            let current = (&*packet, &*primary);
+            let mut radiance = run_packet(
+                self.isa,
+                self,
+                current,
+                more.then_some(&*next),
+                next_primary,
+                pass,
+            );
+            if lines {
+                self.visible_lines(packet, seen, pass, &mut radiance);
+            }
+            accumulate(self.isa, acc, packet, &radiance.total);
+            start = next_start;
+            // The references, not the packets.
+            std::mem::swap(&mut packet, &mut next);
+            std::mem::swap(&mut primary, &mut next_primary);
         }
     }
 
@@ -494,7 +524,14 @@ struct Radiance {
 }
 
 linlight_sampling::isa_variants! {
-    fn run_packet(ctx: &Context, packet: &Packet, pass: u32) -> Radiance = packet_kernel;
+    fn run_packet(
+        ctx: &Context,
+        current: (&Packet, &Primary),
+        next: Option<&Packet>,
+        next_primary: &mut Primary,
+        pass: u32
+    ) -> Radiance = packet_kernel;
+    fn primary(ctx: &Context, packet: &Packet, pass: u32, out: &mut Primary) -> () = primary_kernel;
     fn accumulate(acc: &mut [Welford], packet: &Packet, total: &Lanes3) -> () = accumulate_kernel;
     fn fill_packet(
         packet: &mut Packet,
@@ -551,33 +588,33 @@ fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
     }
 }
 
-/// Radiance of the camera samples of `packet` (see the module documentation), every stage
-/// over all lanes. Inlined into one function per instruction set.
+/// Radiance of the camera samples of `packet` (see the module documentation) from its
+/// `primary` (numbers and camera rays), every stage over all lanes; and, first, the
+/// [`Primary`] of the `next` packet into `next_primary` (software pipelining: its serial
+/// chains overlap this packet's walk). Inlined into one function per instruction set.
 #[inline(always)]
-fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
+fn packet_kernel(
+    ctx: &Context,
+    (packet, primary): (&Packet, &Primary),
+    next: Option<&Packet>,
+    next_primary: &mut Primary,
+    pass: u32,
+) -> Radiance {
     let rs = ctx.rs;
     let lights = &rs.lights;
     let active = ((1u64 << packet.len) - 1) as u32;
-    // Film position (2 numbers) and the lights' numbers (one or two per light, or the choice
-    // ξ_c and the chosen light's one or two), from the lanes' own streams.
-    // Only the blocks the packet uses are computed, and only they are read (`number`); the
-    // others stay uninitialised rather than zeroed per packet (a 1 KiB memset).
-    let mut words = Aligned([std::mem::MaybeUninit::<[[u32; LANES]; 4]>::uninit(); MAX_BLOCKS]);
-    let one = rs.chooses_one(ctx.opts.lights);
-    let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, ctx.per_light)).div_ceil(4);
-    let kept = blocks.min(MAX_BLOCKS);
-    for (b, w) in words.iter_mut().enumerate().take(kept) {
-        w.write(CounterRng::camera_sample_block(
-            ctx.opts.seed,
-            pass,
-            &packet.index,
-            &packet.sample,
-            b as u32,
-        ));
+    // The next packet's numbers and camera rays first: two serial chains (ten Philox rounds;
+    // the divisions and square roots of the rays) that the core overlaps with this packet's
+    // walk instead of waiting on them at the start of the next packet.
+    if let Some(next) = next {
+        primary_kernel(ctx, next, pass, next_primary);
     }
+    let one = rs.chooses_one(ctx.opts.lights);
+    let kept = ctx.kept_blocks();
+    let words = &primary.words;
     let number = |dim: usize| -> [f32; LANES] {
         if dim / 4 < kept {
-            // SAFETY: blocks below `kept` were written above.
+            // SAFETY: blocks below `kept` were written (`primary_kernel`).
             let block = unsafe { words[dim / 4].assume_init_ref() };
             block[dim % 4].map(unit_f32)
         } else {
@@ -588,17 +625,12 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             })
         }
     };
-
-    let (u, v) = (Aligned(number(0)), Aligned(number(1)));
-    let px: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fx[k] as f32 + u[k]));
-    let py: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fy[k] as f32 + v[k]));
-    let mut rays = RayLanes::default();
-    rs.camera.ray_lanes(&px, &py, &mut rays);
-    let hits = rs.bvh.intersect_lanes(&rays, active);
+    let rays = &primary.rays;
+    let hits = rs.bvh.intersect_lanes(rays, active);
     // Shading points for the lanes sampled with the scalar code; the batch kernels' lanes need
     // only the frames.
     let points = (ctx.combination.is_some() || !ctx.batch).then_some(ctx.opts.method);
-    let shading = shading_points(rs, points, &rays, &hits);
+    let shading = shading_points(rs, points, rays, &hits);
     // Lanes sampled by a batch kernel, lanes sampled with the scalar code lane by lane (a
     // technique without a batch kernel; LTC and MIS on non-Lambertian surfaces).
     let (batch_lanes, scalar_lanes, two_per_light) = match (ctx.combination, ctx.batch) {
@@ -662,6 +694,57 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         total: total.0,
         shaded: shading.active,
         two_per_light,
+    }
+}
+
+/// What a packet draws before anything else: the Philox blocks of its lanes' numbers (the
+/// first `Context::kept_blocks`; the others uninitialised) and its camera rays.
+#[repr(C, align(64))]
+struct Primary {
+    rays: RayLanes,
+    words: [MaybeUninit<[[u32; LANES]; 4]>; MAX_BLOCKS],
+}
+
+impl Default for Primary {
+    fn default() -> Self {
+        Self {
+            rays: RayLanes::default(),
+            words: [MaybeUninit::uninit(); MAX_BLOCKS],
+        }
+    }
+}
+
+/// The [`Primary`] of `packet` into `out`: film position (2 numbers) and the lights' numbers
+/// (one or two per light, or the choice ξ_c and the chosen light's one or two) from the
+/// lanes' own streams, and the camera rays through the film positions. Only the blocks the
+/// packet uses are computed (and only they are read); the others stay uninitialised rather
+/// than zeroed per packet (a 1 KiB memset).
+#[inline(always)]
+fn primary_kernel(ctx: &Context, packet: &Packet, pass: u32, out: &mut Primary) {
+    for (b, w) in out.words.iter_mut().enumerate().take(ctx.kept_blocks()) {
+        w.write(CounterRng::camera_sample_block(
+            ctx.opts.seed,
+            pass,
+            &packet.index,
+            &packet.sample,
+            b as u32,
+        ));
+    }
+    // SAFETY: block 0 was written (`kept_blocks` ≥ 1).
+    let [u, v, ..] = unsafe { out.words[0].assume_init_ref() }.map(|w| Aligned(w.map(unit_f32)));
+    let px: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fx[k] as f32 + u[k]));
+    let py: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fy[k] as f32 + v[k]));
+    ctx.rs.camera.ray_lanes(&px, &py, &mut out.rays);
+}
+
+impl Context<'_> {
+    /// The Philox blocks of four numbers a packet draws at once: 2 (film position) + the
+    /// lights' numbers, at most [`MAX_BLOCKS`] (≥ 1).
+    #[inline(always)]
+    fn kept_blocks(&self) -> usize {
+        let rs = self.rs;
+        let blocks = (2 + rs.light_numbers(self.opts.lights, 1, self.per_light)).div_ceil(4);
+        blocks.min(MAX_BLOCKS)
     }
 }
 
