@@ -591,7 +591,7 @@ fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
 /// Radiance of the camera samples of `packet` (see the module documentation) from its
 /// `primary` (numbers and camera rays), every stage over all lanes; and, first, the
 /// [`Primary`] of the `next` packet into `next_primary` (software pipelining: its serial
-/// chains overlap this packet's walk). Inlined into one function per instruction set.
+/// chains overlap this packet's work). Inlined into one function per instruction set.
 #[inline(always)]
 fn packet_kernel(
     ctx: &Context,
@@ -603,12 +603,9 @@ fn packet_kernel(
     let rs = ctx.rs;
     let lights = &rs.lights;
     let active = ((1u64 << packet.len) - 1) as u32;
-    // The next packet's numbers and camera rays first: two serial chains (ten Philox rounds;
-    // the divisions and square roots of the rays) that the core overlaps with this packet's
-    // walk instead of waiting on them at the start of the next packet.
-    if let Some(next) = next {
-        primary_kernel(ctx, next, pass, next_primary);
-    }
+    // The next packet's numbers and camera rays, computed once below (before this packet's
+    // first batch of light samples, else at the end).
+    let mut next = next;
     let one = rs.chooses_one(ctx.opts.lights);
     let kept = ctx.kept_blocks();
     let words = &primary.words;
@@ -656,6 +653,13 @@ fn packet_kernel(
         if batch_lanes == 0 {
             continue;
         }
+        // The next packet's Primary here: two serial chains (ten Philox rounds; the divisions
+        // and square roots of the rays) that the core overlaps with this packet's batch and
+        // shadow walk, instead of waiting on them at the start of the next packet. (At the
+        // start of this packet they overlapped its camera walk: cornell-tube 2-4 % slower.)
+        if let Some(next) = next.take() {
+            primary_kernel(ctx, next, pass, next_primary);
+        }
         let samples = ctx.light_samples(&light, &shading, batch_lanes);
         let (shadow, mask) = shadow_rays(&shading, &samples);
         let occluded =
@@ -684,6 +688,10 @@ fn packet_kernel(
         }
         dropped += lambert_dropped.count_ones() as u64;
         dropped += glossy_contributions(&shading, &samples, lit, light.k(), &mut total);
+    }
+    // No batch lanes in this packet.
+    if let Some(next) = next {
+        primary_kernel(ctx, next, pass, next_primary);
     }
     if dropped > 0 {
         rs.dropped
