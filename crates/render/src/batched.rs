@@ -739,7 +739,13 @@ fn primary_kernel(ctx: &Context, packet: &Packet, pass: u32, out: &mut Primary) 
         ));
     }
     // SAFETY: block 0 was written (`kept_blocks` ≥ 1).
-    let [u, v, ..] = unsafe { out.words[0].assume_init_ref() }.map(|w| Aligned(w.map(unit_f32)));
+    let block = unsafe { out.words[0].assume_init_ref() };
+    // (Not `block.map(…)`: an array's `map` over the four words compiled to an out-of-line
+    // `try_map` call, 1.1 % of the CPU time.)
+    let (u, v) = (
+        Aligned(block[0].map(unit_f32)),
+        Aligned(block[1].map(unit_f32)),
+    );
     let px: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fx[k] as f32 + u[k]));
     let py: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fy[k] as f32 + v[k]));
     ctx.rs.camera.ray_lanes(&px, &py, &mut out.rays);
