@@ -40,6 +40,10 @@
 //! scene, method and light selection. Pixels accumulate their samples in the same order
 //! (Welford in f64).
 //!
+//! Two packets of a tile pass are in flight: while packet i is shaded, the numbers and camera
+//! rays of packet i + 1 (`Primary`) are computed, so that their serial chains (Philox's
+//! rounds, the rays' divisions and square roots) overlap packet i's work.
+//!
 //! Cost: `scripts/bench-render` (M samples/s against Mitsuba 3 on every committed scene);
 //! instruction counts per sample with `valgrind --tool=callgrind` (see docs/performance.md).
 //!
