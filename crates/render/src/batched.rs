@@ -40,6 +40,10 @@
 //! scene, method and light selection. Pixels accumulate their samples in the same order
 //! (Welford in f64).
 //!
+//! Two packets of a tile pass are in flight: while packet i is shaded, the numbers and camera
+//! rays of packet i + 1 (`Primary`) are computed, so that their serial chains (Philox's
+//! rounds, the rays' divisions and square roots) overlap packet i's work.
+//!
 //! Cost: `scripts/bench-render` (M samples/s against Mitsuba 3 on every committed scene);
 //! instruction counts per sample with `valgrind --tool=callgrind` (see docs/performance.md).
 //!
@@ -223,6 +227,30 @@ fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
 /// A 3-vector in each of the [`LANES`] lanes of a packet: `[x, y, z]`, each `[f32; LANES]`.
 type Lanes3 = [[f32; LANES]; 3];
 
+/// `T` at a 64-byte boundary. The packet's lane arrays are read and written as whole
+/// registers (16 f32 lanes: 64 bytes with AVX-512); at the 4-byte alignment of `[f32; 16]`
+/// most of those accesses split a cache line, and a store split over two lines does not
+/// forward to the whole-register load that reads it back. Locals of lanes are wrapped in it;
+/// structs of lanes are `#[repr(C, align(64))]` with their arrays first.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct Aligned<T>(T);
+
+impl<T> std::ops::Deref for Aligned<T> {
+    type Target = T;
+    #[inline(always)]
+    fn deref(&self) -> &T {
+        &self.0
+    }
+}
+
+impl<T> std::ops::DerefMut for Aligned<T> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut T {
+        &mut self.0
+    }
+}
+
 /// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`: half b of a packet's lanes, as the
 /// eight-lane ([`BATCH`]) batch kernels take them.
 #[inline(always)]
@@ -255,8 +283,11 @@ fn set3(v: &mut Lanes3, k: usize, x: Vec3) {
 
 /// The shading points of a packet, lane k from camera sample k (structure of arrays). Lanes
 /// outside `active` (no hit, or a surface that does not reflect toward the camera) hold zeros.
+///
+/// The lane arrays come first and the struct is aligned to 64 bytes, so that every array
+/// starts a cache line (see [`Aligned`]).
+#[repr(C, align(64))]
 struct ShadingLanes<'a> {
-    active: u32,
     p: Lanes3,
     /// Geometric normal (offsets shadow-ray origins).
     ng: Lanes3,
@@ -264,6 +295,12 @@ struct ShadingLanes<'a> {
     n: Lanes3,
     /// f = ρ/π on Lambertian lanes (zero on the others and outside `active`).
     lambert: Lanes3,
+    /// The shading frames of all lanes ([`shading_frame`], computed at once where
+    /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
+    frame_x: Lanes3,
+    frame_y: Lanes3,
+    v: [[f32; LANES]; 2],
+    active: u32,
     /// The active lanes on non-Lambertian surfaces: `glossy[k]` is the scalar path's shading
     /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere and where
     /// the lanes sample in a batch kernel (they need only the frames below).
@@ -275,11 +312,6 @@ struct ShadingLanes<'a> {
     /// (written with `glossy_mask` in one branch-free loop; lane by lane the stores of `n`
     /// stalled the frames' vector loads after them, store forwarding).
     one_bsdf: Option<&'a Bsdf>,
-    /// The shading frames of all lanes ([`shading_frame`], computed at once where
-    /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
-    frame_x: Lanes3,
-    frame_y: Lanes3,
-    v: [[f32; LANES]; 2],
 }
 
 /// The light each lane samples in one pass over the lights: the light's index, its
@@ -288,12 +320,13 @@ struct ShadingLanes<'a> {
 /// `xi` for the batch lanes (one per light), `scalar_xi` for the lanes sampled with the scalar
 /// code (one, or two for LTC and MIS on non-Lambertian surfaces; the second is 0 otherwise);
 /// `uniform`: the light of every lane, when they share one (`every`).
+#[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct LightLanes {
-    uniform: Option<usize>,
-    light: [u32; LANES],
     rows: [[f32; LANES]; 9],
+    light: [u32; LANES],
     xi: [f32; LANES],
     scalar_xi: [[f32; LANES]; 2],
+    uniform: Option<usize>,
 }
 
 impl LightLanes {
@@ -320,11 +353,12 @@ impl LightLanes {
 /// The light samples of a packet for one [`LightLanes`]: direction, density, distance to the
 /// line along the direction; `mask`: lanes with a sample.
 #[derive(Default)]
+#[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct SampleLanes {
-    mask: u32,
     dir: Lanes3,
     pdf: [f32; LANES],
     distance: [f32; LANES],
+    mask: u32,
 }
 
 impl<'a> Context<'a> {
@@ -341,23 +375,53 @@ impl<'a> Context<'a> {
         let total = pixels.len() * spp;
         // Most tiles see no line: then no lane has visible lines to add.
         let lines = seen.iter().any(|l| !l.is_empty());
-        let mut start = 0;
-        let mut packet = Packet::default();
-        while start < total {
+        if total == 0 {
+            return;
+        }
+        // Two packets in flight: the current one, and the next, filled and its `Primary`
+        // computed by `run_packet` of the current one (see there); they swap after each packet.
+        let (mut packets, mut primaries) = (
+            [Packet::default(), Packet::default()],
+            [Primary::default(), Primary::default()],
+        );
+        let [mut packet, mut next] = packets.each_mut();
+        let [mut primary, mut next_primary] = primaries.each_mut();
+        let fill = |packet: &mut Packet, start: usize| {
             let len = LANES.min(total - start);
             fill_packet(
                 self.isa,
-                &mut packet,
+                packet,
                 pixels,
                 (spp, self.full_width),
                 (start, len),
             );
-            let mut radiance = run_packet(self.isa, self, &packet, pass);
-            if lines {
-                self.visible_lines(&packet, seen, pass, &mut radiance);
+        };
+        fill(packet, 0);
+        self::primary(self.isa, self, packet, pass, primary);
+        let mut start = 0;
+        while start < total {
+            let next_start = start + packet.len;
+            let more = next_start < total;
+            if more {
+                fill(next, next_start);
             }
-            accumulate(self.isa, acc, &packet, &radiance.total);
-            start += len;
+            let current = (&*packet, &*primary);
+            let mut radiance = run_packet(
+                self.isa,
+                self,
+                current,
+                more.then_some(&*next),
+                next_primary,
+                pass,
+            );
+            if lines {
+                self.visible_lines(packet, seen, pass, &mut radiance);
+            }
+            accumulate(self.isa, acc, packet, &radiance.total);
+            start = next_start;
+            // The references, not the packets.
+            std::mem::swap(&mut packet, &mut next);
+            std::mem::swap(&mut primary, &mut next_primary);
         }
     }
 
@@ -399,13 +463,14 @@ impl<'a> Context<'a> {
 /// `pixel[k]` at full-film (`fx[k]`, `fy[k]`), film index `index[k]`; lanes ≥ `len` repeat the
 /// last sample and are ignored.
 #[derive(Default)]
+#[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct Packet {
-    len: usize,
     pixel: [usize; LANES],
     fx: [u32; LANES],
     fy: [u32; LANES],
     index: [u32; LANES],
     sample: [u32; LANES],
+    len: usize,
 }
 
 impl Packet {
@@ -462,6 +527,7 @@ impl Packet {
 /// Radiance of each lane of a packet, the lanes whose camera ray reached a reflecting
 /// surface (they used one number per light), and among them those that used two (LTC and MIS
 /// on non-Lambertian surfaces).
+#[repr(C, align(64))] // `total` on its own cache lines ([`Aligned`])
 struct Radiance {
     total: Lanes3,
     shaded: u32,
@@ -469,7 +535,14 @@ struct Radiance {
 }
 
 linlight_sampling::isa_variants! {
-    fn run_packet(ctx: &Context, packet: &Packet, pass: u32) -> Radiance = packet_kernel;
+    fn run_packet(
+        ctx: &Context,
+        current: (&Packet, &Primary),
+        next: Option<&Packet>,
+        next_primary: &mut Primary,
+        pass: u32
+    ) -> Radiance = packet_kernel;
+    fn primary(ctx: &Context, packet: &Packet, pass: u32, out: &mut Primary) -> () = primary_kernel;
     fn accumulate(acc: &mut [Welford], packet: &Packet, total: &Lanes3) -> () = accumulate_kernel;
     fn fill_packet(
         packet: &mut Packet,
@@ -526,33 +599,30 @@ fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
     }
 }
 
-/// Radiance of the camera samples of `packet` (see the module documentation), every stage
-/// over all lanes. Inlined into one function per instruction set.
+/// Radiance of the camera samples of `packet` (see the module documentation) from its
+/// `primary` (numbers and camera rays), every stage over all lanes; and, first, the
+/// [`Primary`] of the `next` packet into `next_primary` (software pipelining: its serial
+/// chains overlap this packet's work). Inlined into one function per instruction set.
 #[inline(always)]
-fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
+fn packet_kernel(
+    ctx: &Context,
+    (packet, primary): (&Packet, &Primary),
+    next: Option<&Packet>,
+    next_primary: &mut Primary,
+    pass: u32,
+) -> Radiance {
     let rs = ctx.rs;
     let lights = &rs.lights;
     let active = ((1u64 << packet.len) - 1) as u32;
-    // Film position (2 numbers) and the lights' numbers (one or two per light, or the choice
-    // ξ_c and the chosen light's one or two), from the lanes' own streams.
-    // Only the blocks the packet uses are computed, and only they are read (`number`); the
-    // others stay uninitialised rather than zeroed per packet (a 1 KiB memset).
-    let mut words = [std::mem::MaybeUninit::<[[u32; LANES]; 4]>::uninit(); MAX_BLOCKS];
+    // The next packet's numbers and camera rays, computed once below (before this packet's
+    // first batch of light samples, else at the end).
+    let mut next = next;
     let one = rs.chooses_one(ctx.opts.lights);
-    let blocks = (2 + rs.light_numbers(ctx.opts.lights, 1, ctx.per_light)).div_ceil(4);
-    let kept = blocks.min(MAX_BLOCKS);
-    for (b, w) in words.iter_mut().enumerate().take(kept) {
-        w.write(CounterRng::camera_sample_block(
-            ctx.opts.seed,
-            pass,
-            &packet.index,
-            &packet.sample,
-            b as u32,
-        ));
-    }
+    let kept = ctx.kept_blocks();
+    let words = &primary.words;
     let number = |dim: usize| -> [f32; LANES] {
         if dim / 4 < kept {
-            // SAFETY: blocks below `kept` were written above.
+            // SAFETY: blocks below `kept` were written (`primary_kernel`).
             let block = unsafe { words[dim / 4].assume_init_ref() };
             block[dim % 4].map(unit_f32)
         } else {
@@ -563,17 +633,12 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
             })
         }
     };
-
-    let (u, v) = (number(0), number(1));
-    let px: [f32; LANES] = std::array::from_fn(|k| packet.fx[k] as f32 + u[k]);
-    let py: [f32; LANES] = std::array::from_fn(|k| packet.fy[k] as f32 + v[k]);
-    let mut rays = RayLanes::default();
-    rs.camera.ray_lanes(&px, &py, &mut rays);
-    let hits = rs.bvh.intersect_lanes(&rays, active);
+    let rays = &primary.rays;
+    let hits = rs.bvh.intersect_lanes(rays, active);
     // Shading points for the lanes sampled with the scalar code; the batch kernels' lanes need
     // only the frames.
     let points = (ctx.combination.is_some() || !ctx.batch).then_some(ctx.opts.method);
-    let shading = shading_points(rs, points, &rays, &hits);
+    let shading = shading_points(rs, points, rays, &hits);
     // Lanes sampled by a batch kernel, lanes sampled with the scalar code lane by lane (a
     // technique without a batch kernel; LTC and MIS on non-Lambertian surfaces).
     let (batch_lanes, scalar_lanes, two_per_light) = match (ctx.combination, ctx.batch) {
@@ -586,7 +651,7 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         (None, false) => (0, shading.active, 0),
     };
 
-    let mut total = [[0.0f32; LANES]; 3];
+    let mut total = Aligned([[0.0f32; LANES]; 3]);
     let mut dropped = 0u64;
     // One pass per light (`every`), or one with each lane's chosen light (`one`): the scalar
     // lanes' samples lane by lane, the batch lanes' in the batch kernels, one packet shadow
@@ -598,6 +663,13 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         }
         if batch_lanes == 0 {
             continue;
+        }
+        // The next packet's Primary here: two serial chains (ten Philox rounds; the divisions
+        // and square roots of the rays) that the core overlaps with this packet's batch and
+        // shadow walk, instead of waiting on them at the start of the next packet. (At the
+        // start of this packet they overlapped its camera walk: cornell-tube 2-4 % slower.)
+        if let Some(next) = next.take() {
+            primary_kernel(ctx, next, pass, next_primary);
         }
         let samples = ctx.light_samples(&light, &shading, batch_lanes);
         let (shadow, mask) = shadow_rays(&shading, &samples);
@@ -628,15 +700,76 @@ fn packet_kernel(ctx: &Context, packet: &Packet, pass: u32) -> Radiance {
         dropped += lambert_dropped.count_ones() as u64;
         dropped += glossy_contributions(&shading, &samples, lit, light.k(), &mut total);
     }
+    // No batch lanes in this packet.
+    if let Some(next) = next {
+        primary_kernel(ctx, next, pass, next_primary);
+    }
     if dropped > 0 {
         rs.dropped
             .0
             .fetch_add(dropped, std::sync::atomic::Ordering::Relaxed);
     }
     Radiance {
-        total,
+        total: total.0,
         shaded: shading.active,
         two_per_light,
+    }
+}
+
+/// What a packet draws before anything else: the Philox blocks of its lanes' numbers (the
+/// first `Context::kept_blocks`; the others uninitialised) and its camera rays.
+#[repr(C, align(64))]
+struct Primary {
+    rays: RayLanes,
+    words: [MaybeUninit<[[u32; LANES]; 4]>; MAX_BLOCKS],
+}
+
+impl Default for Primary {
+    fn default() -> Self {
+        Self {
+            rays: RayLanes::default(),
+            words: [MaybeUninit::uninit(); MAX_BLOCKS],
+        }
+    }
+}
+
+/// The [`Primary`] of `packet` into `out`: film position (2 numbers) and the lights' numbers
+/// (one or two per light, or the choice ξ_c and the chosen light's one or two) from the
+/// lanes' own streams, and the camera rays through the film positions. Only the blocks the
+/// packet uses are computed (and only they are read); the others stay uninitialised rather
+/// than zeroed per packet (a 1 KiB memset).
+#[inline(always)]
+fn primary_kernel(ctx: &Context, packet: &Packet, pass: u32, out: &mut Primary) {
+    for (b, w) in out.words.iter_mut().enumerate().take(ctx.kept_blocks()) {
+        w.write(CounterRng::camera_sample_block(
+            ctx.opts.seed,
+            pass,
+            &packet.index,
+            &packet.sample,
+            b as u32,
+        ));
+    }
+    // SAFETY: block 0 was written (`kept_blocks` ≥ 1).
+    let block = unsafe { out.words[0].assume_init_ref() };
+    // (Not `block.map(…)`: an array's `map` over the four words compiled to an out-of-line
+    // `try_map` call, 1.1 % of the CPU time.)
+    let (u, v) = (
+        Aligned(block[0].map(unit_f32)),
+        Aligned(block[1].map(unit_f32)),
+    );
+    let px: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fx[k] as f32 + u[k]));
+    let py: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fy[k] as f32 + v[k]));
+    ctx.rs.camera.ray_lanes(&px, &py, &mut out.rays);
+}
+
+impl Context<'_> {
+    /// The Philox blocks of four numbers a packet draws at once: 2 (film position) + the
+    /// lights' numbers, at most [`MAX_BLOCKS`] (≥ 1).
+    #[inline(always)]
+    fn kept_blocks(&self) -> usize {
+        let rs = self.rs;
+        let blocks = (2 + rs.light_numbers(self.opts.lights, 1, self.per_light)).div_ceil(4);
+        blocks.min(MAX_BLOCKS)
     }
 }
 
@@ -673,13 +806,16 @@ fn shading_points<'a>(
     // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
     // all lanes at once below, other primitives with their own `surface_point`.
     let (mut p, mut ng, mut ns) = (
-        [[0.0f32; LANES]; 3],
-        [[0.0f32; LANES]; 3],
-        [[0.0f32; LANES]; 3],
+        Aligned([[0.0f32; LANES]; 3]),
+        Aligned([[0.0f32; LANES]; 3]),
+        Aligned([[0.0f32; LANES]; 3]),
     );
     // The triangle lanes' arrays are locals of their own: as fields of `Triangles` built
     // uninitialised, LLVM merged them with its zeroed fields into a 1152-byte `memset`.
-    let (mut tri_v, mut tri_n) = (MaybeUninit::uninit(), MaybeUninit::uninit());
+    let (mut tri_v, mut tri_n) = (
+        Aligned(MaybeUninit::uninit()),
+        Aligned(MaybeUninit::uninit()),
+    );
     let mut tri = Triangles::new(&mut tri_v, &mut tri_n);
     // The hit lanes are taken a primitive at a time (a packet's sixteen samples of one or two
     // pixels hit few primitives): its lanes found by comparing the primitive index on all lanes
@@ -904,12 +1040,13 @@ fn glossy_contributions(
 /// lanes (lane by lane when a group has at most [`SMALL_GROUP`] lanes); the normals only once
 /// a triangle has them (they are not read otherwise). Lanes outside `mask` (`normals`) hold
 /// another triangle's values, computed on and not kept.
+#[repr(C, align(64))] // `sign` on its own cache line ([`Aligned`])
 struct Triangles<'t> {
+    sign: [f32; LANES],
     mask: u32,
     v: &'t mut MaybeUninit<[Lanes3; 3]>,
     n: &'t mut MaybeUninit<[Lanes3; 3]>,
     normals: u32,
-    sign: [f32; LANES],
 }
 
 impl<'t> Triangles<'t> {
@@ -1220,15 +1357,15 @@ impl<'a> Context<'a> {
             };
         }
         // Every field written (no zeroed batches first).
-        let inputs = [
+        let inputs = Aligned([
             self.batch_input(lights, shading, 0),
             self.batch_input(lights, shading, 1),
-        ];
-        let mut outputs = [PsaBatchOutput::default(); 2];
-        for (input, output) in inputs.iter().zip(&mut outputs) {
+        ]);
+        let mut outputs = Aligned([PsaBatchOutput::default(); 2]);
+        for (input, output) in inputs.iter().zip(outputs.iter_mut()) {
             *output = batch::sample_li2018_with(self.isa, input).0;
         }
-        let [a, b] = &outputs;
+        let [a, b] = &outputs.0;
         SampleLanes {
             mask: (a.mask | b.mask << BATCH) & lanes,
             dir: [
@@ -1349,11 +1486,12 @@ impl<'a> Context<'a> {
 /// Samples found lane by lane with the scalar code: lane k (in `mask`) adds `c[k]` when the
 /// line point along `dir[k]` at `distance[k]` is visible.
 #[derive(Default)]
+#[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct CandidateLanes {
-    mask: u32,
     dir: Lanes3,
-    distance: [f32; LANES],
     c: Lanes3,
+    distance: [f32; LANES],
+    mask: u32,
 }
 
 impl CandidateLanes {
