@@ -11,17 +11,19 @@
 //!
 //! Instruction-count mode for callgrind (`--toggle-collect='*shade_*'`):
 //! `LINLIGHT_SHADING_ONLY=<row>:<config>` with row a technique name, `psa-x8`, `li-x8`,
-//! `clipped-x8`, `psa-x16`, `li-x16` or `clipped-x16`, config `128x1` or `1x128`, shades once
-//! and prints the number of samples
+//! `clipped-x8`, `psa-x16`, `li-x16`, `clipped-x16`, or `shade-x8` / `shade-x16` (the x8 / x16
+//! shading loops with a stand-in sampler: what those rows cost besides their sampler), config
+//! `128x1` or `1x128`, shades once and prints the number of samples
 //! (instructions per sample = Ir / samples). Batches run the kernel the CPU supports (under
 //! valgrind: AVX2).
 //!
 //! Run: `cargo bench -p linlight-render --bench shading`.
 
 use linlight_render::shading_cost::{
-    hit_points, lights, measure, shade_batched, shade_packet, shade_scalar, Batched, RowKind, SPP,
+    hit_points, lights, measure, shade_batched, shade_packet, shade_scalar, shade_stand_in,
+    Batched, RowKind, SPP,
 };
-use linlight_sampling::batch::Isa;
+use linlight_sampling::batch::{Isa, LANES, PACKET_LANES};
 use linlight_sampling::Technique;
 
 fn count_mode(spec: &str, stride: usize) {
@@ -43,6 +45,8 @@ fn count_mode(spec: &str, stride: usize) {
         "psa-x16" => shade_packet(Batched::ProjectedSolidAngle, isa, &h, lights, spp).0,
         "li-x16" => shade_packet(Batched::Li2018, isa, &h, lights, spp).0,
         "clipped-x16" => shade_packet(Batched::ClippedSolidAngle, isa, &h, lights, spp).0,
+        "shade-x8" => shade_stand_in(LANES, &h, lights, spp),
+        "shade-x16" => shade_stand_in(PACKET_LANES, &h, lights, spp),
         t => shade_scalar(t.parse().expect("technique"), &h, lights, spp),
     };
     println!(

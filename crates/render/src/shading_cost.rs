@@ -442,6 +442,37 @@ fn shade_prepared<P>(
     sum
 }
 
+/// The shading loops of [`shade_batched`] (`lanes` = [`LANES`]) or [`shade_packet`] (`lanes` =
+/// [`PACKET_LANES`]) with a stand-in sampler (the direction to the point at ξ along the segment,
+/// density 1, no preparation): what a row costs besides its sampler (the count mode's `shade-x8` and
+/// `shade-x16` rows; not a technique, not in the table).
+#[inline(never)]
+pub fn shade_stand_in(lanes: usize, h: &HitPoints, lights: &[(Segment, Vec3)], spp: usize) -> f32 {
+    if lanes == LANES {
+        shade_prepared(h, lights, spp, |input| *input, |_| u32::MAX, stand_in)
+    } else if spp == 1 {
+        shade_packets_fused(h, lights, |input| stand_in(input, &input.xi))
+    } else {
+        shade_packets_prepared(h, lights, spp, |input| *input, |_| u32::MAX, stand_in)
+    }
+}
+
+#[inline(always)]
+fn stand_in<const N: usize>(input: &PsaInput<N>, xi: &[f32; N]) -> PsaOutput<N> {
+    let mut out = PsaOutput::default();
+    for l in 0..N {
+        let m = input.begin.get(l).lerp(input.end.get(l), xi[l]);
+        out.dir.set(l, (m - input.x.get(l)).normalize_or_zero());
+        out.pdf[l] = if input.n.get(l) == Vec3::ZERO {
+            0.0
+        } else {
+            1.0
+        };
+    }
+    out.mask = u32::MAX >> (32 - N);
+    out
+}
+
 /// What a row of the table times.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RowKind {
