@@ -89,7 +89,7 @@ fn main() {
             c.load
         );
         println!(
-            "  {:<28} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}",
+            "  {:<36} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}",
             "technique", "ns/sample", "(min)", "ms/frame", "(min)", "/clipped", "(min)"
         );
         for row in &c.rows {
@@ -97,7 +97,7 @@ fn main() {
             let (ms, ms_min) = c.ms_per_frame(row);
             let (r, r_min) = c.ratio_to_clipped(row);
             println!(
-                "  {:<28} {ns:>10.2} {ns_min:>10.2} {ms:>12.1} {ms_min:>12.1} {r:>8.3} {r_min:>8.3}",
+                "  {:<36} {ns:>10.2} {ns_min:>10.2} {ms:>12.1} {ms_min:>12.1} {r:>8.3} {r_min:>8.3}",
                 row.name
             );
         }
