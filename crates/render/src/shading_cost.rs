@@ -460,8 +460,8 @@ pub fn shade_stand_in(lanes: usize, h: &HitPoints, lights: &[(Segment, Vec3)], s
 #[inline(always)]
 fn stand_in<const N: usize>(input: &PsaInput<N>, xi: &[f32; N]) -> PsaOutput<N> {
     let mut out = PsaOutput::default();
-    for l in 0..N {
-        let m = input.begin.get(l).lerp(input.end.get(l), xi[l]);
+    for (l, &xi) in xi.iter().enumerate() {
+        let m = input.begin.get(l).lerp(input.end.get(l), xi);
         out.dir.set(l, (m - input.x.get(l)).normalize_or_zero());
         out.pdf[l] = if input.n.get(l) == Vec3::ZERO {
             0.0
