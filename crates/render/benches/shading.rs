@@ -1,7 +1,8 @@
 //! The paper's timing table: `linlight_render::shading_cost` (every technique shading the cached
 //! hit points of a 1920×1080 frame, Lambert + GGX, no shadow rays, 128 lights × 1 spp and
 //! 1 light × 128 spp), printed as ns per sample, ms per frame, ratios to clipped solid angle,
-//! and Peters / clipped and Li / Peters both scalar and x8 (like for like).
+//! and Peters / clipped and Li / Peters scalar, x8 (8-wide batches) and x16 (16-lane packets of
+//! hit points, the renderer's form), each like for like.
 //! `linlight figures --only timings` draws the same measurement as a table.
 //!
 //! Timing: by default every 8th pixel of every 8th row (32 400 pixels, 4.1 M samples per row
@@ -9,17 +10,20 @@
 //! across the rows (`LINLIGHT_SHADING_REPEATS`).
 //!
 //! Instruction-count mode for callgrind (`--toggle-collect='*shade_*'`):
-//! `LINLIGHT_SHADING_ONLY=<row>:<config>` with row a technique name, `psa-x8`, `li-x8` or
-//! `clipped-x8`, config `128x1` or `1x128`, shades once and prints the number of samples
+//! `LINLIGHT_SHADING_ONLY=<row>:<config>` with row a technique name, `psa-x8`, `li-x8`,
+//! `clipped-x8`, `psa-x16`, `li-x16`, `clipped-x16`, or `shade-x8` / `shade-x16` (the x8 / x16
+//! shading loops with a stand-in sampler: what those rows cost besides their sampler), config
+//! `128x1` or `1x128`, shades once and prints the number of samples
 //! (instructions per sample = Ir / samples). Batches run the kernel the CPU supports (under
 //! valgrind: AVX2).
 //!
 //! Run: `cargo bench -p linlight-render --bench shading`.
 
 use linlight_render::shading_cost::{
-    hit_points, lights, measure, shade_batched, shade_scalar, Batched, RowKind, SPP,
+    hit_points, lights, measure, shade_batched, shade_packet, shade_scalar, shade_stand_in,
+    Batched, RowKind, SPP,
 };
-use linlight_sampling::batch::Isa;
+use linlight_sampling::batch::{Isa, LANES, PACKET_LANES};
 use linlight_sampling::Technique;
 
 fn count_mode(spec: &str, stride: usize) {
@@ -38,6 +42,11 @@ fn count_mode(spec: &str, stride: usize) {
         "psa-x8" => shade_batched(Batched::ProjectedSolidAngle, isa, &h, lights, spp).0,
         "li-x8" => shade_batched(Batched::Li2018, isa, &h, lights, spp).0,
         "clipped-x8" => shade_batched(Batched::ClippedSolidAngle, isa, &h, lights, spp).0,
+        "psa-x16" => shade_packet(Batched::ProjectedSolidAngle, isa, &h, lights, spp).0,
+        "li-x16" => shade_packet(Batched::Li2018, isa, &h, lights, spp).0,
+        "clipped-x16" => shade_packet(Batched::ClippedSolidAngle, isa, &h, lights, spp).0,
+        "shade-x8" => shade_stand_in(LANES, &h, lights, spp),
+        "shade-x16" => shade_stand_in(PACKET_LANES, &h, lights, spp),
         t => shade_scalar(t.parse().expect("technique"), &h, lights, spp),
     };
     println!(
@@ -80,7 +89,7 @@ fn main() {
             c.load
         );
         println!(
-            "  {:<28} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}",
+            "  {:<36} {:>10} {:>10} {:>12} {:>12} {:>8} {:>8}",
             "technique", "ns/sample", "(min)", "ms/frame", "(min)", "/clipped", "(min)"
         );
         for row in &c.rows {
@@ -88,11 +97,11 @@ fn main() {
             let (ms, ms_min) = c.ms_per_frame(row);
             let (r, r_min) = c.ratio_to_clipped(row);
             println!(
-                "  {:<28} {ns:>10.2} {ns_min:>10.2} {ms:>12.1} {ms_min:>12.1} {r:>8.3} {r_min:>8.3}",
+                "  {:<36} {ns:>10.2} {ns_min:>10.2} {ms:>12.1} {ms_min:>12.1} {r:>8.3} {r_min:>8.3}",
                 row.name
             );
         }
-        // Numerator / denominator, each scalar and as the x8 batch.
+        // Numerator / denominator, each scalar, as the x8 batch and as the x16 packet.
         let pairs = [
             (
                 "projected-solid-angle / clipped-solid-angle",
@@ -108,14 +117,15 @@ fn main() {
         for (label, (a, ab), (b, bb)) in pairs {
             let scalar = c.ratio(RowKind::Scalar(a), RowKind::Scalar(b));
             let simd = c.ratio(RowKind::Batched(ab), RowKind::Batched(bb));
+            let packet = c.ratio(RowKind::Packet(ab), RowKind::Packet(bb));
             print!(
-                "  {label}: scalar {:.3} (min {:.3}), x8 {:.3} (min {:.3})",
-                scalar.0, scalar.1, simd.0, simd.1
+                "  {label}: scalar {:.3} (min {:.3}), x8 {:.3} (min {:.3}), x16 {:.3} (min {:.3})",
+                scalar.0, scalar.1, simd.0, simd.1, packet.0, packet.1
             );
             if a == Technique::Li2018 {
                 print!(
-                    "; x8 li2018 ran {:.2} iterations per batch",
-                    c.li_iterations_per_batch
+                    "; li2018 ran {:.2} iterations per x8 batch, {:.2} per x16 packet",
+                    c.li_iterations_per_batch, c.li_iterations_per_packet
                 );
             }
             println!();

@@ -3,7 +3,8 @@
 //! technique (the baseline included) in two configurations — 128 lights × 1 sample per pixel,
 //! and 1 light × 128 samples per pixel — and for the 8-wide batches of projected solid angle,
 //! Li et al. 2018 and clipped solid angle (lanes = 8 lights, or 8 samples of one light; Li
-//! iterating until the slowest lane converges, as a GPU warp does).
+//! iterating until the slowest lane converges, as a GPU warp does), and for their 16-lane
+//! packets, the renderer's form (lanes = 16 hit points, one light; [`shade_packet`]).
 //!
 //! Scene (procedural, the paper's "roughness planes"): a floor z = 0 and a back wall y = 6 seen
 //! by a pinhole camera, GGX roughness α in ten stripes from 0.05 to 1 across the image, a
@@ -21,7 +22,9 @@
 use glam::Vec3;
 use linlight_brdf::microfacet;
 use linlight_sampling::batch::{
-    ClippedBatch, Isa, PreparedBatch, PsaBatchInput, PsaBatchOutput, Vec3x8, LANES,
+    sample_clipped_solid_angle_packet, sample_projected_solid_angle_packet, ClippedBatch, Isa,
+    PreparedBatch, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput, Vec3x8, Vec3xN, LANES,
+    PACKET_LANES,
 };
 use linlight_sampling::{LineSampler, Segment, Technique};
 use std::hint::black_box;
@@ -232,6 +235,161 @@ pub fn shade_batched(
     (sum, iterations)
 }
 
+/// Lanes of a packet.
+const P: usize = PACKET_LANES;
+
+/// Packet shading, the renderer's form: lanes = [`PACKET_LANES`] consecutive hit points (the
+/// last packet padded with lanes of zero normal, which do not contribute), one light for all
+/// lanes. 128 lights × 1 spp: every (packet, light) is one fused prepare + sample, as the
+/// renderer's `sample_projected_solid_angle_packet` / `sample_clipped_solid_angle_packet` (Li et
+/// al.: a 16-lane prepared batch and one sample — the renderer runs Li as two 8-lane batches).
+/// 1 light × 128 spp: one 16-lane prepared batch per packet ([`PreparedBatch`] /
+/// [`ClippedBatch`] with 16 lanes), sampled 128 times. Returns the sum and Li's iteration count.
+#[inline(never)]
+pub fn shade_packet(
+    which: Batched,
+    isa: Isa,
+    h: &HitPoints,
+    lights: &[(Segment, Vec3)],
+    spp: usize,
+) -> (f32, u64) {
+    let mut iterations = 0u64;
+    let psa = |input: &PsaInput<P>| PreparedBatch::prepare(isa, input);
+    let sum = match (which, spp) {
+        (Batched::ProjectedSolidAngle, 1) => shade_packets_fused(h, lights, |input| {
+            sample_projected_solid_angle_packet(isa, input)
+        }),
+        (Batched::ClippedSolidAngle, 1) => shade_packets_fused(h, lights, |input| {
+            sample_clipped_solid_angle_packet(isa, input)
+        }),
+        (Batched::Li2018, 1) => shade_packets_fused(h, lights, |input| {
+            let (out, k) = psa(input).sample_li2018(isa, &input.xi);
+            iterations += k as u64;
+            out
+        }),
+        (Batched::ProjectedSolidAngle, _) => shade_packets_prepared(
+            h,
+            lights,
+            spp,
+            psa,
+            |p| p.mask,
+            |p, xi| p.sample_projected_solid_angle(isa, xi),
+        ),
+        (Batched::Li2018, _) => shade_packets_prepared(
+            h,
+            lights,
+            spp,
+            psa,
+            |p| p.mask,
+            |p, xi| {
+                let (out, k) = p.sample_li2018(isa, xi);
+                iterations += k as u64;
+                out
+            },
+        ),
+        (Batched::ClippedSolidAngle, _) => shade_packets_prepared(
+            h,
+            lights,
+            spp,
+            |input| ClippedBatch::prepare(isa, input),
+            |p| p.mask,
+            |p, xi| p.sample(isa, xi),
+        ),
+    };
+    (sum, iterations)
+}
+
+/// The packet's shading: lane l is hit point `first + l` (clamped; padding lanes have pdf 0),
+/// all lanes lit by one light of radiance `k`.
+#[inline(always)]
+fn shade_packet_lanes(out: &PsaOutput<P>, h: &HitPoints, first: usize, k: f32) -> f32 {
+    let last = h.p.len() - 1;
+    let mut c = [0.0f32; P];
+    for (l, c) in c.iter_mut().enumerate() {
+        let i = (first + l).min(last);
+        let f = brdf_cos(h.n[i], h.v[i], out.dir.get(l), h.alpha[i]);
+        *c = if out.pdf[l] > 0.0 {
+            k * f / out.pdf[l]
+        } else {
+            0.0
+        };
+    }
+    c.iter().sum()
+}
+
+/// The input of the packet of hit points `first..`: shading points and normals (zero normals in
+/// padding lanes past the last hit point, so that they do not contribute).
+#[inline(always)]
+fn packet_input(h: &HitPoints, first: usize) -> PsaInput<P> {
+    let mut input = PsaInput::default();
+    let last = h.p.len() - 1;
+    for l in 0..P {
+        let i = (first + l).min(last);
+        input.x.set(l, h.p[i]);
+        input.n.set(
+            l,
+            if first + l <= last {
+                h.n[i]
+            } else {
+                Vec3::ZERO
+            },
+        );
+    }
+    input
+}
+
+/// [`shade_packet`] with one fused prepare + sample per (packet, light).
+#[inline(always)]
+fn shade_packets_fused(
+    h: &HitPoints,
+    lights: &[(Segment, Vec3)],
+    mut sample: impl FnMut(&PsaInput<P>) -> PsaOutput<P>,
+) -> f32 {
+    let mut sum = 0.0f32;
+    for first in (0..h.p.len()).step_by(P) {
+        let mut input = packet_input(h, first);
+        for (j, (segment, radiance)) in lights.iter().enumerate() {
+            input.begin = Vec3xN::splat(segment.begin);
+            input.end = Vec3xN::splat(segment.end);
+            input.xi = std::array::from_fn(|l| xi(first + l, j, 0));
+            let out = sample(&input);
+            if out.mask != 0 {
+                sum += shade_packet_lanes(&out, h, first, radiance.x);
+            }
+        }
+    }
+    sum
+}
+
+/// [`shade_packet`] with one prepared packet per (packet, light) and `spp` samples of it.
+#[inline(always)]
+fn shade_packets_prepared<Q>(
+    h: &HitPoints,
+    lights: &[(Segment, Vec3)],
+    spp: usize,
+    prepare: impl Fn(&PsaInput<P>) -> Q,
+    mask: impl Fn(&Q) -> u32,
+    mut sample: impl FnMut(&Q, &[f32; P]) -> PsaOutput<P>,
+) -> f32 {
+    let mut sum = 0.0f32;
+    for first in (0..h.p.len()).step_by(P) {
+        let mut input = packet_input(h, first);
+        for (j, (segment, radiance)) in lights.iter().enumerate() {
+            input.begin = Vec3xN::splat(segment.begin);
+            input.end = Vec3xN::splat(segment.end);
+            let prepared = prepare(&input);
+            if mask(&prepared) == 0 {
+                continue;
+            }
+            for s in 0..spp {
+                let xi: [f32; P] = std::array::from_fn(|l| xi(first + l, j, s));
+                sum += shade_packet_lanes(&sample(&prepared, &xi), h, first, radiance.x);
+            }
+        }
+    }
+    sum
+}
+
 /// [`shade_batched`] for one kind of prepared batch `P` (one instance per kind, so that no
 /// per-batch dispatch or copy of the prepared state is timed).
 #[inline(always)]
@@ -240,7 +398,7 @@ fn shade_prepared<P>(
     lights: &[(Segment, Vec3)],
     spp: usize,
     prepare: impl Fn(&PsaBatchInput) -> P,
-    mask: impl Fn(&P) -> u8,
+    mask: impl Fn(&P) -> u32,
     mut sample: impl FnMut(&P, &[f32; LANES]) -> PsaBatchOutput,
 ) -> f32 {
     let mut sum = 0.0f32;
@@ -284,11 +442,45 @@ fn shade_prepared<P>(
     sum
 }
 
+/// The shading loops of [`shade_batched`] (`lanes` = [`LANES`]) or [`shade_packet`] (`lanes` =
+/// [`PACKET_LANES`]) with a stand-in sampler (the direction to the point at ξ along the segment,
+/// density 1, no preparation): what a row costs besides its sampler (the count mode's `shade-x8` and
+/// `shade-x16` rows; not a technique, not in the table).
+#[inline(never)]
+pub fn shade_stand_in(lanes: usize, h: &HitPoints, lights: &[(Segment, Vec3)], spp: usize) -> f32 {
+    if lanes == LANES {
+        shade_prepared(h, lights, spp, |input| *input, |_| u32::MAX, stand_in)
+    } else if spp == 1 {
+        shade_packets_fused(h, lights, |input| stand_in(input, &input.xi))
+    } else {
+        shade_packets_prepared(h, lights, spp, |input| *input, |_| u32::MAX, stand_in)
+    }
+}
+
+#[inline(always)]
+fn stand_in<const N: usize>(input: &PsaInput<N>, xi: &[f32; N]) -> PsaOutput<N> {
+    let mut out = PsaOutput::default();
+    for (l, &xi) in xi.iter().enumerate() {
+        let m = input.begin.get(l).lerp(input.end.get(l), xi);
+        out.dir.set(l, (m - input.x.get(l)).normalize_or_zero());
+        out.pdf[l] = if input.n.get(l) == Vec3::ZERO {
+            0.0
+        } else {
+            1.0
+        };
+    }
+    out.mask = u32::MAX >> (32 - N);
+    out
+}
+
 /// What a row of the table times.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RowKind {
     Scalar(Technique),
+    /// The 8-wide batch ([`shade_batched`]).
     Batched(Batched),
+    /// The 16-lane packet ([`shade_packet`]).
+    Packet(Batched),
 }
 
 /// Timings of one row: seconds per timed pass (all hit points), median and minimum.
@@ -313,6 +505,8 @@ pub struct ConfigTiming {
     pub rows: Vec<RowTiming>,
     /// Newton–bisection iterations per batch of the x8 Li et al. row.
     pub li_iterations_per_batch: f64,
+    /// Newton–bisection iterations per packet of the x16 Li et al. row.
+    pub li_iterations_per_packet: f64,
     /// The 1-minute load average when the configuration finished.
     pub load: String,
 }
@@ -393,6 +587,18 @@ pub fn measure(stride: usize, repeats: usize, progress: &dyn Fn(usize, usize)) -
                 format!("clipped-solid-angle x8 ({})", isa.name()),
                 RowKind::Batched(Batched::ClippedSolidAngle),
             ),
+            (
+                format!("projected-solid-angle x16 ({})", isa.name()),
+                RowKind::Packet(Batched::ProjectedSolidAngle),
+            ),
+            (
+                format!("li2018 x16 ({})", isa.name()),
+                RowKind::Packet(Batched::Li2018),
+            ),
+            (
+                format!("clipped-solid-angle x16 ({})", isa.name()),
+                RowKind::Packet(Batched::ClippedSolidAngle),
+            ),
         ])
         .collect();
     let total = 2 * repeats * kinds.len();
@@ -403,7 +609,7 @@ pub fn measure(stride: usize, repeats: usize, progress: &dyn Fn(usize, usize)) -
         ("1 light x 128 spp", &all_lights[..1], SPP),
     ] {
         let samples = (h.p.len() * lights.len() * spp) as f64;
-        let mut li_iterations = 0u64;
+        let (mut li_iterations, mut li_packet_iterations) = (0u64, 0u64);
         let mut times = vec![Vec::new(); kinds.len()];
         for _ in 0..repeats {
             for (k, (_, kind)) in kinds.iter().enumerate() {
@@ -417,6 +623,13 @@ pub fn measure(stride: usize, repeats: usize, progress: &dyn Fn(usize, usize)) -
                         black_box(sum);
                         if b == Batched::Li2018 {
                             li_iterations = it;
+                        }
+                    }
+                    RowKind::Packet(b) => {
+                        let (sum, it) = shade_packet(b, isa, &h, lights, spp);
+                        black_box(sum);
+                        if b == Batched::Li2018 {
+                            li_packet_iterations = it;
                         }
                     }
                 }
@@ -446,6 +659,8 @@ pub fn measure(stride: usize, repeats: usize, progress: &dyn Fn(usize, usize)) -
             frame_scale,
             rows,
             li_iterations_per_batch: li_iterations as f64 / (samples / LANES as f64),
+            li_iterations_per_packet: li_packet_iterations as f64
+                / (h.p.len().div_ceil(P) * lights.len() * spp) as f64,
             load: load_average(),
         });
     }

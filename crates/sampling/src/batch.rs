@@ -42,30 +42,32 @@ pub const PACKET_LANES: usize = 2 * LANES;
 /// `fn $name(isa, args…)`: `$kernel(args…)` compiled for the chosen ISA — inlined into a
 /// function with that ISA's target features — or for the baseline when the CPU lacks it.
 /// Exported for the batched renderer (`linlight_render::batched`), whose kernels are chosen the
-/// same way; `$kernel` should be `#[inline(always)]` down to its vectorised loops.
+/// same way; `$kernel` should be `#[inline(always)]` down to its vectorised loops. An optional
+/// `<const N: usize>` after the name makes the function (and its ISA variants) generic over a
+/// lane count.
 #[macro_export]
 macro_rules! isa_variants {
-    ($(fn $name:ident($($a:ident: $t:ty),*) -> $r:ty = $kernel:path;)*) => {$(
-        fn $name(isa: $crate::batch::Isa, $($a: $t),*) -> $r {
+    ($(fn $name:ident $(<const $n:ident: usize>)? ($($a:ident: $t:ty),*) -> $r:ty = $kernel:path;)*) => {$(
+        fn $name $(<const $n: usize>)? (isa: $crate::batch::Isa, $($a: $t),*) -> $r {
             #[allow(unused_imports)]
             use $crate::batch::Isa;
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-                unsafe fn avx512($($a: $t),*) -> $r {
+                unsafe fn avx512 $(<const $n: usize>)? ($($a: $t),*) -> $r {
                     $kernel($($a),*)
                 }
                 #[target_feature(enable = "avx2,fma")]
-                unsafe fn avx2($($a: $t),*) -> $r {
+                unsafe fn avx2 $(<const $n: usize>)? ($($a: $t),*) -> $r {
                     $kernel($($a),*)
                 }
                 if isa == Isa::Avx512 && isa.supported() {
                     // SAFETY: the features the function is compiled for were just detected.
-                    return unsafe { avx512($($a),*) };
+                    return unsafe { avx512 $(::<$n>)? ($($a),*) };
                 }
                 if isa == Isa::Avx2 && isa.supported() {
                     // SAFETY: as above.
-                    return unsafe { avx2($($a),*) };
+                    return unsafe { avx2 $(::<$n>)? ($($a),*) };
                 }
             }
             let _ = isa;
@@ -80,13 +82,13 @@ crate::isa_variants! {
     fn run_packet_two_chains(input: &PsaInput<PACKET_LANES>) -> PsaOutput<PACKET_LANES> = two_chains;
     fn run_slice_one_loop(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) -> () = slice::<true>;
     fn run_slice_two_chains(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) -> () = slice::<false>;
-    fn run_prepare(input: &PsaBatchInput) -> PreparedBatch = prepare_kernel;
-    fn run_psa_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput = psa_sample_kernel;
-    fn run_li_sample(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) = li_sample_kernel;
+    fn run_prepare<const N: usize>(input: &PsaInput<N>) -> PreparedBatch<N> = prepare_kernel;
+    fn run_psa_sample<const N: usize>(prepared: &PreparedBatch<N>, xi: &[f32; N]) -> PsaOutput<N> = psa_sample_kernel;
+    fn run_li_sample<const N: usize>(prepared: &PreparedBatch<N>, xi: &[f32; N]) -> (PsaOutput<N>, u32) = li_sample_kernel;
     fn run_clipped(input: &PsaBatchInput) -> PsaBatchOutput = clipped_kernel;
     fn run_clipped_two_chains(input: &PsaInput<PACKET_LANES>) -> PsaOutput<PACKET_LANES> = clipped_two_chains;
-    fn run_clipped_prepare(input: &PsaBatchInput) -> ClippedBatch = clipped_prepare_kernel;
-    fn run_clipped_sample(prepared: &ClippedBatch, xi: &[f32; LANES]) -> PsaBatchOutput = clipped_sample_kernel;
+    fn run_clipped_prepare<const N: usize>(input: &PsaInput<N>) -> ClippedBatch<N> = clipped_prepare_kernel;
+    fn run_clipped_sample<const N: usize>(prepared: &ClippedBatch<N>, xi: &[f32; N]) -> PsaOutput<N> = clipped_sample_kernel;
 }
 
 /// N 3-vectors as structure of arrays.
@@ -414,54 +416,86 @@ fn slice<const ONE_LOOP: bool>(inputs: &[PsaBatchInput], outputs: &mut [PsaBatch
     }
 }
 
-/// Eight prepared samplers as structure of arrays: what [`ProjectedSolidAngle::prepare`] (and
-/// [`Li2018::prepare`], which shares it) keep per (light, shading point), to draw any number of
-/// samples with [`PreparedBatch::sample_projected_solid_angle`] or
-/// [`PreparedBatch::sample_li2018`]. Lanes outside `mask` hold meaningless values.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PreparedBatch {
-    u: Vec3x8,
-    c_hat: Vec3x8,
-    n: Vec3x8,
-    d: [f32; LANES],
-    l_begin: [f32; LANES],
-    l_end: [f32; LANES],
-    s_begin: [f32; LANES],
-    s_end: [f32; LANES],
+/// N prepared samplers (a batch: [`LANES`] = 8 by default; a packet: [`PACKET_LANES`]) as
+/// structure of arrays: what [`ProjectedSolidAngle::prepare`] (and [`Li2018::prepare`], which
+/// shares it) keep per (light, shading point), to draw any number of samples with
+/// [`PreparedBatch::sample_projected_solid_angle`] or [`PreparedBatch::sample_li2018`]. Lanes
+/// outside `mask` hold meaningless values. The sample kernel is one loop over the N lanes: with
+/// 16 lanes on AVX-512 its f32 half (start value, Halley steps, direction) fills one zmm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreparedBatch<const N: usize = LANES> {
+    u: Vec3xN<N>,
+    c_hat: Vec3xN<N>,
+    n: Vec3xN<N>,
+    d: [f32; N],
+    l_begin: [f32; N],
+    l_end: [f32; N],
+    s_begin: [f32; N],
+    s_end: [f32; N],
     // PsaCore
-    ns: [f32; LANES],
-    nt: [f32; LANES],
-    s_b: [f32; LANES],
-    c_b: [f32; LANES],
-    delta_s: [f32; LANES],
-    width: [f32; LANES],
-    p0: [f32; LANES],
-    p1: [f32; LANES],
-    total: [f32; LANES],
-    inv_psa: [f32; LANES],
-    tolerance: [f32; LANES],
+    ns: [f32; N],
+    nt: [f32; N],
+    s_b: [f32; N],
+    c_b: [f32; N],
+    delta_s: [f32; N],
+    width: [f32; N],
+    p0: [f32; N],
+    p1: [f32; N],
+    total: [f32; N],
+    inv_psa: [f32; N],
+    tolerance: [f32; N],
     /// Li et al.: n·c and n·u (f32 dot products, not the core's f64-rounded n_s).
-    n_dot_c: [f32; LANES],
-    n_dot_u: [f32; LANES],
-    /// Bit i set: lane i contributes.
-    pub mask: u8,
+    n_dot_c: [f32; N],
+    n_dot_u: [f32; N],
+    /// Bit i set: lane i contributes (N ≤ 32).
+    pub mask: u32,
 }
 
-impl PreparedBatch {
+impl<const N: usize> Default for PreparedBatch<N> {
+    fn default() -> Self {
+        let zero = [0.0; N];
+        Self {
+            u: Vec3xN::default(),
+            c_hat: Vec3xN::default(),
+            n: Vec3xN::default(),
+            d: zero,
+            l_begin: zero,
+            l_end: zero,
+            s_begin: zero,
+            s_end: zero,
+            ns: zero,
+            nt: zero,
+            s_b: zero,
+            c_b: zero,
+            delta_s: zero,
+            width: zero,
+            p0: zero,
+            p1: zero,
+            total: zero,
+            inv_psa: zero,
+            tolerance: zero,
+            n_dot_c: zero,
+            n_dot_u: zero,
+            mask: 0,
+        }
+    }
+}
+
+impl<const N: usize> PreparedBatch<N> {
     /// Prepare every lane of `input` (its `xi` is not used) with the chosen kernel.
-    pub fn prepare(isa: Isa, input: &PsaBatchInput) -> Self {
+    pub fn prepare(isa: Isa, input: &PsaInput<N>) -> Self {
         run_prepare(isa, input)
     }
 
     /// One sample per lane for `xi` (projected solid angle, two Halley steps): lane i equals
     /// the scalar sampler's `sample_with_pdf(xi[i])`.
-    pub fn sample_projected_solid_angle(&self, isa: Isa, xi: &[f32; LANES]) -> PsaBatchOutput {
+    pub fn sample_projected_solid_angle(&self, isa: Isa, xi: &[f32; N]) -> PsaOutput<N> {
         run_psa_sample(isa, self, xi)
     }
 
-    /// One sample per lane for `xi` by Li et al. 2018, iterating until the slowest lane has
-    /// converged (as on a GPU); also returns the number of iterations run.
-    pub fn sample_li2018(&self, isa: Isa, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) {
+    /// One sample per lane for `xi` by Li et al. 2018, iterating until the slowest of the N
+    /// lanes has converged (as on a GPU); also returns the number of iterations run.
+    pub fn sample_li2018(&self, isa: Isa, xi: &[f32; N]) -> (PsaOutput<N>, u32) {
         run_li_sample(isa, self, xi)
     }
 
@@ -524,11 +558,11 @@ impl PreparedBatch {
 }
 
 #[inline(always)]
-fn prepare_kernel(input: &PsaBatchInput) -> PreparedBatch {
+fn prepare_kernel<const N: usize>(input: &PsaInput<N>) -> PreparedBatch<N> {
     let mut out = PreparedBatch::default();
-    let mut valid = [false; LANES];
+    let mut valid = [false; N];
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
-    for i in 0..LANES {
+    for i in 0..N {
         // The normal as given, not normalised (see `ProjectedSolidAngle::lane`).
         let n = input.n.get(i);
         let normal_ok = normal_is_valid(n);
@@ -542,15 +576,15 @@ fn prepare_kernel(input: &PsaBatchInput) -> PreparedBatch {
         out.store(i, &li);
         valid[i] = normal_ok && frame_ok && ok;
     }
-    out.mask = pack(valid) as u8;
+    out.mask = pack(valid);
     out
 }
 
 #[inline(always)]
-fn psa_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> PsaBatchOutput {
+fn psa_sample_kernel<const N: usize>(prepared: &PreparedBatch<N>, xi: &[f32; N]) -> PsaOutput<N> {
     let mut pending = Pending::default();
     #[allow(clippy::needless_range_loop)]
-    for i in 0..LANES {
+    for i in 0..N {
         pending.set(i, &prepared.psa(i), xi[i], prepared.mask & (1 << i) != 0);
     }
     pending.finish()
@@ -658,12 +692,14 @@ impl<const N: usize> Pending<N> {
 }
 
 #[inline(always)]
-fn li_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOutput, u32) {
+fn li_sample_kernel<const N: usize>(
+    prepared: &PreparedBatch<N>,
+    xi: &[f32; N],
+) -> (PsaOutput<N>, u32) {
     // The iteration state as structure of arrays (so that the step loop vectorises).
-    let (mut l, mut lo, mut hi, mut done) =
-        ([0.0f32; LANES], [0.0; LANES], [0.0; LANES], [0u32; LANES]);
-    let mut xs = [0.0f32; LANES];
-    for i in 0..LANES {
+    let (mut l, mut lo, mut hi, mut done) = ([0.0f32; N], [0.0; N], [0.0; N], [0u32; N]);
+    let mut xs = [0.0f32; N];
+    for i in 0..N {
         let s = prepared.li(i).start_state();
         (l[i], lo[i], hi[i]) = (s.l, s.lo, s.hi);
         // Lanes without a contribution start converged (inactive, as threads of a GPU warp).
@@ -672,7 +708,7 @@ fn li_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOut
     }
     let mut iterations = 0;
     while iterations < MAX_ITERATIONS && done.contains(&0) {
-        for i in 0..LANES {
+        for i in 0..N {
             let state = LiState {
                 l: l[i],
                 lo: lo[i],
@@ -684,14 +720,14 @@ fn li_sample_kernel(prepared: &PreparedBatch, xi: &[f32; LANES]) -> (PsaBatchOut
         }
         iterations += 1;
     }
-    let state: [LiState; LANES] = std::array::from_fn(|i| LiState {
+    let state: [LiState; N] = std::array::from_fn(|i| LiState {
         l: l[i],
         ..LiState::default()
     });
-    let mut out = PsaBatchOutput::default();
-    let mut valid = [false; LANES];
+    let mut out = PsaOutput::default();
+    let mut valid = [false; N];
     #[allow(clippy::needless_range_loop)]
-    for i in 0..LANES {
+    for i in 0..N {
         let li = prepared.li(i);
         let (dir, pdf) = li.finish(state[i].l);
         let f = li.support();
@@ -731,32 +767,50 @@ pub fn sample_clipped_solid_angle_packet(
     run_clipped_two_chains(isa, input)
 }
 
-/// Eight prepared clipped-solid-angle samplers as structure of arrays: what `SolidAngle`
-/// keeps per (light, shading point) for its samples — the frame's u, ĉ, d, the arc of the
-/// clipped interval in f64 ([`FrameArc`] without its support tolerance, which sampling does not
-/// read) and 1/Ω_R. Lanes outside `mask` hold meaningless values.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ClippedBatch {
-    u: Vec3x8,
-    c_hat: Vec3x8,
-    d: [f32; LANES],
-    s_b: [f64; LANES],
-    c_b: [f64; LANES],
-    width: [f64; LANES],
-    delta_s: [f64; LANES],
-    inv_solid_angle: [f32; LANES],
-    /// Bit i set: lane i contributes.
-    pub mask: u8,
+/// N prepared clipped-solid-angle samplers (a batch: [`LANES`] = 8 by default; a packet:
+/// [`PACKET_LANES`]) as structure of arrays: what `SolidAngle` keeps per (light, shading point)
+/// for its samples — the frame's u, ĉ, d, the arc of the clipped interval in f64 ([`FrameArc`]
+/// without its support tolerance, which sampling does not read) and 1/Ω_R. Lanes outside `mask`
+/// hold meaningless values. The sample kernel is one loop over the N lanes (its arcs are f64:
+/// eight lanes per zmm whatever N is).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClippedBatch<const N: usize = LANES> {
+    u: Vec3xN<N>,
+    c_hat: Vec3xN<N>,
+    d: [f32; N],
+    s_b: [f64; N],
+    c_b: [f64; N],
+    width: [f64; N],
+    delta_s: [f64; N],
+    inv_solid_angle: [f32; N],
+    /// Bit i set: lane i contributes (N ≤ 32).
+    pub mask: u32,
 }
 
-impl ClippedBatch {
+impl<const N: usize> Default for ClippedBatch<N> {
+    fn default() -> Self {
+        Self {
+            u: Vec3xN::default(),
+            c_hat: Vec3xN::default(),
+            d: [0.0; N],
+            s_b: [0.0; N],
+            c_b: [0.0; N],
+            width: [0.0; N],
+            delta_s: [0.0; N],
+            inv_solid_angle: [0.0; N],
+            mask: 0,
+        }
+    }
+}
+
+impl<const N: usize> ClippedBatch<N> {
     /// Prepare every lane of `input` (its `xi` is not used) with the chosen kernel.
-    pub fn prepare(isa: Isa, input: &PsaBatchInput) -> Self {
+    pub fn prepare(isa: Isa, input: &PsaInput<N>) -> Self {
         run_clipped_prepare(isa, input)
     }
 
     /// One sample per lane for `xi`: lane i equals the scalar sampler's `sample_with_pdf(xi[i])`.
-    pub fn sample(&self, isa: Isa, xi: &[f32; LANES]) -> PsaBatchOutput {
+    pub fn sample(&self, isa: Isa, xi: &[f32; N]) -> PsaOutput<N> {
         run_clipped_sample(isa, self, xi)
     }
 
@@ -798,16 +852,16 @@ impl ClippedBatch {
 }
 
 #[inline(always)]
-fn clipped_prepare_kernel(input: &PsaBatchInput) -> ClippedBatch {
+fn clipped_prepare_kernel<const N: usize>(input: &PsaInput<N>) -> ClippedBatch<N> {
     let mut out = ClippedBatch::default();
-    let mut valid = [false; LANES];
+    let mut valid = [false; N];
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
-    for i in 0..LANES {
+    for i in 0..N {
         let (sampler, ok) = clipped_lane(input, i);
         out.store(i, &sampler);
         valid[i] = ok;
     }
-    out.mask = pack(valid) as u8;
+    out.mask = pack(valid);
     out
 }
 
@@ -856,11 +910,14 @@ fn clipped_two_chains<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
 }
 
 #[inline(always)]
-fn clipped_sample_kernel(prepared: &ClippedBatch, xi: &[f32; LANES]) -> PsaBatchOutput {
-    let mut out = PsaBatchOutput::default();
-    let mut valid = [false; LANES];
+fn clipped_sample_kernel<const N: usize>(
+    prepared: &ClippedBatch<N>,
+    xi: &[f32; N],
+) -> PsaOutput<N> {
+    let mut out = PsaOutput::default();
+    let mut valid = [false; N];
     #[allow(clippy::needless_range_loop)]
-    for i in 0..LANES {
+    for i in 0..N {
         let (dir, pdf) = prepared.sampler(i).sample_lane(xi[i], atan2_f64_select);
         let distance = prepared.d[i] / prepared.c_hat.get(i).dot(dir);
         let ok = prepared.mask & (1 << i) != 0;
@@ -1062,7 +1119,17 @@ mod tests {
         }
     }
 
-    /// Prepared once, sampled several times: the same as preparing and sampling together.
+    /// The batches of [`batches`] joined pairwise into packets (every batch in both halves).
+    fn packets(count: usize) -> Vec<PsaInput<PACKET_LANES>> {
+        let b = batches(count);
+        b.windows(2)
+            .map(|pair| PsaInput::from_batches(&pair[0], &pair[1]))
+            .collect()
+    }
+
+    /// Prepared once, sampled several times: the same as preparing and sampling together, for
+    /// batches (against the 8-lane fused kernels) and packets (16-lane prepared batches against
+    /// the renderer's packet kernels).
     #[test]
     fn prepared_batches_sample_like_the_fused_kernel() {
         for input in batches(300) {
@@ -1080,18 +1147,48 @@ mod tests {
                 }
             }
         }
+        for input in packets(150) {
+            for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
+                let prepared = PreparedBatch::prepare(isa, &input);
+                let clipped = ClippedBatch::prepare(isa, &input);
+                for k in 0..3 {
+                    let xi: [f32; PACKET_LANES] =
+                        std::array::from_fn(|i| input.xi[(i + 5 * k) % PACKET_LANES]);
+                    let packet = PsaInput { xi, ..input };
+                    let fused = sample_projected_solid_angle_packet(isa, &packet);
+                    assert_eq!(
+                        prepared.sample_projected_solid_angle(isa, &xi),
+                        fused,
+                        "{isa:?}"
+                    );
+                    let fused = sample_clipped_solid_angle_packet(isa, &packet);
+                    assert_eq!(clipped.sample(isa, &xi), fused, "clipped {isa:?}");
+                }
+            }
+        }
     }
 
     /// Li et al. on every lane equals the scalar technique bit for bit, and the batch runs as
-    /// many iterations as its slowest contributing lane.
+    /// many iterations as its slowest contributing lane: eight lanes, and sixteen (a prepared
+    /// packet).
     #[test]
     fn li2018_lanes_equal_the_scalar_technique() {
+        li2018_lanes_equal(&batches(1500), sample_li2018_with);
+        li2018_lanes_equal(&packets(600), |isa, input| {
+            PreparedBatch::prepare(isa, input).sample_li2018(isa, &input.xi)
+        });
+    }
+
+    fn li2018_lanes_equal<const N: usize>(
+        inputs: &[PsaInput<N>],
+        kernel: fn(Isa, &PsaInput<N>) -> (PsaOutput<N>, u32),
+    ) {
         let mut total = (0u64, 0u64);
-        for input in batches(1500) {
+        for input in inputs {
             for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
-                let (out, iterations) = sample_li2018_with(isa, &input);
+                let (out, iterations) = kernel(isa, input);
                 let mut slowest = 0;
-                for i in 0..LANES {
+                for i in 0..N {
                     let seg = Segment::new(input.begin.get(i), input.end.get(i));
                     match Li2018::prepare(&seg, input.x.get(i), input.n.get(i)) {
                         Some(li) => {
@@ -1119,10 +1216,11 @@ mod tests {
 
     /// Every lane equals the scalar technique bit for bit (direction, density, distance,
     /// mask), on every compiled variant this CPU can run, for projected solid angle and for
-    /// clipped solid angle.
+    /// clipped solid angle: the fused 8-lane kernels, the renderer's 16-lane packet kernels,
+    /// and the 16-lane prepared batches (prepare, then one sample).
     #[test]
     fn lanes_equal_the_scalar_technique() {
-        let kernels: [(Technique, Kernel); 2] = [
+        let kernels: [(Technique, Kernel<LANES>); 2] = [
             (
                 Technique::ProjectedSolidAngle,
                 sample_projected_solid_angle_with,
@@ -1132,24 +1230,49 @@ mod tests {
                 sample_clipped_solid_angle_with,
             ),
         ];
+        let inputs = batches(3000);
         for (technique, kernel) in kernels {
-            lanes_equal(technique, kernel);
+            lanes_equal(technique, kernel, &inputs);
+        }
+        let wide: [(Technique, Kernel<PACKET_LANES>); 4] = [
+            (
+                Technique::ProjectedSolidAngle,
+                sample_projected_solid_angle_packet,
+            ),
+            (Technique::ProjectedSolidAngle, |isa, input| {
+                PreparedBatch::prepare(isa, input).sample_projected_solid_angle(isa, &input.xi)
+            }),
+            (
+                Technique::ClippedSolidAngle,
+                sample_clipped_solid_angle_packet,
+            ),
+            (Technique::ClippedSolidAngle, |isa, input| {
+                ClippedBatch::prepare(isa, input).sample(isa, &input.xi)
+            }),
+        ];
+        let inputs = packets(1500);
+        for (technique, kernel) in wide {
+            lanes_equal(technique, kernel, &inputs);
         }
     }
 
-    /// A fused 8-wide kernel (prepare and one sample per lane).
-    type Kernel = fn(Isa, &PsaBatchInput) -> PsaBatchOutput;
+    /// A kernel of N lanes (prepare and one sample per lane).
+    type Kernel<const N: usize> = fn(Isa, &PsaInput<N>) -> PsaOutput<N>;
 
-    fn lanes_equal(technique: Technique, kernel: Kernel) {
+    fn lanes_equal<const N: usize>(
+        technique: Technique,
+        kernel: Kernel<N>,
+        inputs: &[PsaInput<N>],
+    ) {
         let mut valid = 0;
         let mut invalid = 0;
-        for input in batches(3000) {
+        for input in inputs {
             let outputs = Isa::ALL
                 .into_iter()
                 .filter(|isa| isa.supported())
-                .map(|isa| (isa, kernel(isa, &input)));
+                .map(|isa| (isa, kernel(isa, input)));
             for (isa, out) in outputs {
-                for i in 0..LANES {
+                for i in 0..N {
                     let seg = Segment::new(input.begin.get(i), input.end.get(i));
                     let scalar = technique.prepare(&seg, input.x.get(i), input.n.get(i));
                     match scalar {
