@@ -68,36 +68,31 @@ impl Welford {
     /// [`Self::push`] of (R, G, B) = `x[0..3]`; `x[3]` goes into the unused lane (any value:
     /// the lanes do not mix, and the fourth is never read).
     ///
-    /// Welford's update with the mean written as a convex combination, one rounding:
-    /// mean ← fma(mean, 1 − 1/n, x·(1/n)), then M2 ← M2 + δ·(x − mean) with δ = x − mean
-    /// before the update (Welford's M2 step, unchanged). The serial chain of the running mean
-    /// is then one fused multiply-add per sample instead of a subtraction, a product and a sum
-    /// (1/n, 1 − 1/n and x/n do not depend on it): the batched renderer pushes a packet's
-    /// sixteen lanes of one pixel one after the other, and that chain was most of the push's
-    /// time. Same statistic as the textbook form mean + δ/n: each step is a convex
-    /// combination of the previous mean and x with weights rounded once (1/n, 1 − 1/n, each
-    /// within u = 2⁻⁵³ relative), so each step adds a few u·|mean| of rounding (the textbook
-    /// step about one): after n samples O(n·u·|mean|) at worst, √n·u·|mean| as a random walk
-    /// (`fused_mean_keeps_welfords_accuracy`: 10⁴ samples of mean 10⁶, 28 ε·|mean| against
-    /// the textbook's 8, 6e-15 relative). M2 keeps Welford's stability (Chan, Golub & LeVeque
-    /// 1983: relative error O(n·κ·u) after n samples, κ the data's condition number; the test:
-    /// 3e-12 relative against the textbook's 8e-13). Images therefore differ from the
-    /// textbook update's at rounding level only. The extremes use `f64::min`/`max` (a NaN
-    /// sample leaves them; the samples are finite anyway).
+    /// Welford's update with the mean's step fused: mean ← fma(δ, 1/n, mean), δ = x − mean
+    /// (one rounding instead of two: δ·(1/n) is not rounded on its own), then Welford's M2
+    /// step M2 ← M2 + δ·(x − mean). The serial chain of the running mean is a subtraction and
+    /// a fused multiply-add per sample instead of a subtraction, a product and a sum (1/n does
+    /// not depend on it): the batched renderer pushes a packet's sixteen lanes of one pixel one
+    /// after the other, and that chain was most of the push's time. Same statistic, same
+    /// error bounds as the textbook step mean + δ/n (1/n rounded within u = 2⁻⁵³ relative, each
+    /// step's result rounded once; M2 keeps Welford's stability, Chan, Golub & LeVeque 1983:
+    /// relative error O(n·κ·u) after n samples, κ the data's condition number;
+    /// `fused_mean_keeps_welfords_accuracy`), and constant samples keep an exact mean and a
+    /// zero M2 (δ = 0). Images differ from the unfused update's at rounding level only. The
+    /// extremes use `f64::min`/`max` (a NaN sample leaves them; the samples are finite anyway):
+    /// written as compare-selects, LLVM merged min and max into one select chain longer than
+    /// the mean's.
     #[inline(always)]
     pub fn push_quad(&mut self, x: [f64; 4]) {
         self.n += 1;
         let inv = reciprocal(self.n);
-        let keep = 1.0 - inv;
         // One loop over the four lanes, each step the same on every lane (vectorised).
         #[allow(clippy::needless_range_loop)] // lane c of x and of every field
         for c in 0..4 {
             let delta = x[c] - self.mean[c];
-            self.mean[c] = self.mean[c].mul_add(keep, x[c] * inv);
+            self.mean[c] = delta.mul_add(inv, self.mean[c]);
             self.m2[c] += delta * (x[c] - self.mean[c]);
-            // As `min`/`max` (a compare, a min and a masked move each): written as
-            // compare-selects, LLVM merged min and max into one select chain longer than the
-            // mean's.
+            // A compare, a min/max and a masked move each (see above).
             self.min[c] = self.min[c].min(x[c]);
             self.max[c] = self.max[c].max(x[c]);
         }
@@ -173,7 +168,8 @@ mod tests {
     }
 
     /// The quad push gives the bits of three independent scalar chains of the update written
-    /// out here as the reference (mean by one fused multiply-add, Welford's M2 step), and the
+    /// out here as the reference (the mean's step by one fused multiply-add, Welford's M2
+    /// step), and the
     /// fourth lane does not reach the three channels, whatever it holds (NaN, 1e300).
     #[test]
     fn quad_pushes_are_the_scalar_pushes() {
@@ -191,7 +187,7 @@ mod tests {
             let inv = 1.0 / (i + 1) as f64;
             for c in 0..3 {
                 let delta = x[c] - mean[c];
-                mean[c] = mean[c].mul_add(1.0 - inv, x[c] * inv);
+                mean[c] = delta.mul_add(inv, mean[c]);
                 m2[c] += delta * (x[c] - mean[c]);
             }
         }
@@ -220,7 +216,7 @@ mod tests {
         }
     }
 
-    /// The fused mean stays within rounding of the exact mean, as the textbook update
+    /// The fused mean stays within rounding of the exact mean, as the unfused update
     /// (mean + δ/n) does, and M2 of the two-pass sum, on data far from zero (mean 1e6, spread
     /// 1: condition number ≈ 3.5e6), where the naive Σx² − (Σx)²/n would lose ≈ 13 digits.
     #[test]
@@ -239,8 +235,8 @@ mod tests {
         let n = xs.len() as f64;
         let exact = xs.iter().sum::<f64>() / n;
         let two_pass = xs.iter().map(|x| (x - exact).powi(2)).sum::<f64>();
-        // Rounding errors of a few ε·|mean| per step, as a random walk: √n·ε·|mean| (seen: 28,
-        // the textbook update 8.4).
+        // Rounding errors of about ε·|mean| per step, as a random walk: √n·ε·|mean| (seen: 8.4
+        // for both).
         let walk = (n.sqrt() * f64::EPSILON * exact).abs();
         assert!(
             (w.mean()[0] - exact).abs() <= walk,
@@ -248,7 +244,7 @@ mod tests {
             w.mean()[0]
         );
         assert!((mean - exact).abs() <= walk);
-        // M2 within 1e-10 relative of the two-pass sum (seen: 3e-12, the textbook 7.5e-13).
+        // M2 within 1e-10 relative of the two-pass sum (seen: 8.3e-13, the textbook 7.5e-13).
         let m2_fused = w.variance_of_mean()[0] * (n - 1.0) * n;
         assert!(
             (m2_fused - two_pass).abs() <= 1e-10 * two_pass,
