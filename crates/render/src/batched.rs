@@ -1,12 +1,14 @@
 //! The batched renderer: the camera samples of a tile are rendered [`LANES`] at a time, as
 //! Mitsuba's LLVM variants do with their wavefronts — random numbers and camera rays of all
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
-//! the 8-wide batch kernels of `linlight_sampling::batch`, one packet walk for their shadow
-//! rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes' arrays, lanes on
-//! other surfaces (rough conductor, principled, blends) with the scalar path's shading frame
-//! ([`shading_frame`]) for all lanes at once and its BSDF evaluation on all sixteen lanes at
-//! once per BSDF ([`Bsdf::eval_lanes`], f32 SIMD lanes: the scalar path's `Bsdf::eval_f32`
-//! is its one-lane case) and [`single_contribution`]'s arithmetic; a packet may mix both.
+//! the batch kernels of `linlight_sampling::batch` (the packet's sixteen lanes at once for
+//! projected and clipped solid angle, two 8-lane batches for Li et al.), one packet walk for
+//! their shadow rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes'
+//! arrays, lanes on other surfaces (rough conductor, principled, blends) with the scalar path's
+//! shading frame ([`shading_frame`]) for all lanes at once and its BSDF evaluation on all
+//! sixteen lanes at once per BSDF ([`Bsdf::eval_lanes`], f32 SIMD lanes: the scalar path's
+//! `Bsdf::eval_f32` is its one-lane case) and [`single_contribution`]'s arithmetic; a packet
+//! may mix both.
 //!
 //! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle, Hart),
 //! LTC and MIS on non-Lambertian surfaces — take their samples lane by lane with the scalar
@@ -15,7 +17,7 @@
 //!
 //! The lights: with `--lights every` one pass per light, every lane sampling that light; with
 //! `--lights one` ([`crate::light_choice`], two or more lights) a single pass in which each
-//! lane samples the light its ξ_c chose, with K/p — per-lane segments in the 8-wide batch for
+//! lane samples the light its ξ_c chose, with K/p — per-lane segments in the batch kernels for
 //! the batch lanes, each lane's own light for the lanes sampled with the scalar code — so one
 //! packet shadow walk per kind of sample and light sample (per culled shadow BVH of
 //! [`crate::shadow_culling`] the lanes' lights use, and one of the full BVH for the lanes near
@@ -99,7 +101,7 @@ pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
     renders(opts) && (batch_kernel || scene.shapes.iter().any(|s| s.bsdf.lambertian().is_some()))
 }
 
-/// The techniques with an 8-wide kernel in `linlight_sampling::batch`.
+/// The techniques with a batch kernel in `linlight_sampling::batch`.
 fn has_batch_kernel(technique: Technique) -> bool {
     matches!(
         technique,
