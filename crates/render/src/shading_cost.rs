@@ -189,6 +189,24 @@ pub enum Batched {
     ClippedSolidAngle,
 }
 
+impl Batched {
+    /// Every batched sampler, in the order of the benchmark's rows.
+    pub const ALL: [Batched; 3] = [
+        Batched::ProjectedSolidAngle,
+        Batched::Li2018,
+        Batched::ClippedSolidAngle,
+    ];
+
+    /// The technique whose lanes it samples (bit for bit) and whose name its rows carry.
+    pub fn technique(self) -> Technique {
+        match self {
+            Batched::ProjectedSolidAngle => Technique::ProjectedSolidAngle,
+            Batched::Li2018 => Technique::Li2018,
+            Batched::ClippedSolidAngle => Technique::ClippedSolidAngle,
+        }
+    }
+}
+
 /// Batched shading. 128 lights × 1 spp: lanes = 8 lights of a hit point, prepared and sampled
 /// once. 1 light × 128 spp: lanes = 8 samples of the one light, prepared once per hit point
 /// (every lane the same), sampled 16 times. Returns the sum and Li's iteration count.
@@ -574,32 +592,19 @@ pub fn measure(stride: usize, repeats: usize, progress: &dyn Fn(usize, usize)) -
     let kinds: Vec<(String, RowKind)> = Technique::ALL
         .into_iter()
         .map(|t| (t.name().to_string(), RowKind::Scalar(t)))
-        .chain([
-            (
-                format!("projected-solid-angle x8 ({})", isa.name()),
-                RowKind::Batched(Batched::ProjectedSolidAngle),
-            ),
-            (
-                format!("li2018 x8 ({})", isa.name()),
-                RowKind::Batched(Batched::Li2018),
-            ),
-            (
-                format!("clipped-solid-angle x8 ({})", isa.name()),
-                RowKind::Batched(Batched::ClippedSolidAngle),
-            ),
-            (
-                format!("projected-solid-angle x16 ({})", isa.name()),
-                RowKind::Packet(Batched::ProjectedSolidAngle),
-            ),
-            (
-                format!("li2018 x16 ({})", isa.name()),
-                RowKind::Packet(Batched::Li2018),
-            ),
-            (
-                format!("clipped-solid-angle x16 ({})", isa.name()),
-                RowKind::Packet(Batched::ClippedSolidAngle),
-            ),
-        ])
+        .chain(
+            [
+                ("x8", RowKind::Batched as fn(Batched) -> RowKind),
+                ("x16", RowKind::Packet),
+            ]
+            .into_iter()
+            .flat_map(|(width, kind)| {
+                Batched::ALL.map(|b| {
+                    let name = b.technique().name();
+                    (format!("{name} {width} ({})", isa.name()), kind(b))
+                })
+            }),
+        )
         .collect();
     let total = 2 * repeats * kinds.len();
     let mut done = 0;

@@ -88,8 +88,16 @@ fn batches(configurations: &[Configuration]) -> Vec<PsaBatchInput> {
         .collect()
 }
 
-/// An 8-wide kernel (prepare + sample + pdf of every lane).
-type Kernel = fn(Isa, &PsaBatchInput) -> PsaBatchOutput;
+/// A kernel of N lanes (prepare + sample + pdf of every lane): an 8-wide batch or, with
+/// N = 16, a packet entry point (the renderer's: 16 lanes per call, built in place, not joined
+/// from two batches as the slice does).
+type LaneKernel<const N: usize> = fn(Isa, &PsaInput<N>) -> PsaOutput<N>;
+
+/// An 8-wide kernel.
+type Kernel = LaneKernel<LANES>;
+
+/// A 16-lane packet kernel.
+type PacketKernel = LaneKernel<PACKET_LANES>;
 
 /// The batched techniques: row name and kernel.
 const KERNELS: [(&str, Kernel); 2] = [
@@ -97,31 +105,14 @@ const KERNELS: [(&str, Kernel); 2] = [
     ("clipped-solid-angle", sample_clipped_solid_angle_with),
 ];
 
-/// One pass of an 8-wide batch kernel over all configurations (same work as `pass` for its
+/// One pass of an N-lane kernel over all configurations (same work as `pass` for its
 /// technique, same checksum).
 #[inline(never)]
-fn batch_pass(kernel: Kernel, isa: Isa, batches: &[PsaBatchInput]) -> f32 {
+fn lanes_pass<const N: usize>(kernel: LaneKernel<N>, isa: Isa, inputs: &[PsaInput<N>]) -> f32 {
     let mut acc = 0.0f32;
-    for b in batches {
-        let out = kernel(isa, b);
-        for i in 0..LANES {
-            acc += out.dir.x[i] + out.pdf[i];
-        }
-    }
-    acc
-}
-
-/// A 16-lane packet kernel.
-type PacketKernel = fn(Isa, &PsaInput<PACKET_LANES>) -> PsaOutput<PACKET_LANES>;
-
-/// One pass through a packet entry point (the renderer's: 16 lanes per call, built in place,
-/// not joined from two batches as the slice does).
-#[inline(never)]
-fn packet_pass(isa: Isa, packets: &[PsaInput<PACKET_LANES>], kernel: PacketKernel) -> f32 {
-    let mut acc = 0.0f32;
-    for p in packets {
-        let out = kernel(isa, p);
-        for i in 0..PACKET_LANES {
+    for input in inputs {
+        let out = kernel(isa, input);
+        for i in 0..N {
             acc += out.dir.x[i] + out.pdf[i];
         }
     }
@@ -196,7 +187,7 @@ fn count_mode(name: &str, configurations: &[Configuration]) {
             .expect("LINLIGHT_BENCH_ONLY=[clipped-]batch-<avx512|avx2|baseline>");
         let batches = batches(configurations);
         for _ in 0..10 {
-            acc += black_box(batch_pass(kernel, isa, black_box(&batches)));
+            acc += black_box(lanes_pass(kernel, isa, black_box(&batches)));
         }
     } else {
         let technique =
@@ -252,7 +243,7 @@ fn main() {
             batch_rows.push((k, isa, rows.len(), kernel));
             rows.push((
                 format!("{name} batch x{LANES} {}", isa.name()),
-                Box::new(move || batch_pass(kernel, isa, black_box(b))),
+                Box::new(move || lanes_pass(kernel, isa, black_box(b))),
             ));
         }
         rows.push((
@@ -266,7 +257,7 @@ fn main() {
         for (name, kernel) in packet_kernels {
             rows.push((
                 format!("  {name}, packets x{PACKET_LANES} {}", isa.name()),
-                Box::new(move || packet_pass(isa, black_box(packets), kernel)),
+                Box::new(move || lanes_pass(kernel, isa, black_box(packets))),
             ));
         }
     }
