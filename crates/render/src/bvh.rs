@@ -727,11 +727,11 @@ impl Bvh {
     ///
     /// The packet walks the tree once: each node's four boxes are tested against the rays still
     /// unresolved (as intervals when the packet is coherent, else ray by ray, see
-    /// [`RayPacket`]), a subtree is entered with the rays that may meet its box, a leaf tests
+    /// `RayPacket`), a subtree is entered with the rays that may meet its box, a leaf tests
     /// its triangles and spheres against all of them at once (vectorised) and other primitives
     /// ray by ray, and the walk ends when every ray is occluded. A tree of at most `TINY` (12) triangles is
     /// not walked: each triangle is tested against all rays not yet occluded. The lane
-    /// arithmetic is written per vector extension ([`kernels`]: AVX-512, AVX2, portable), the
+    /// arithmetic is written per vector extension (`kernels`: AVX-512, AVX2, portable), the
     /// best the CPU has chosen at run time, as `linlight_sampling::batch` does.
     pub fn occluded_lanes(&self, lanes: &RayLanes, active: u32) -> u32 {
         let active = active & ((1u64 << PACKET) - 1) as u32;

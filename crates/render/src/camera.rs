@@ -103,7 +103,7 @@ impl Camera {
         })
     }
 
-    /// Camera-space direction (z = 1) through film position (sx, sy) ∈ [0,1]².
+    /// Camera-space direction (z = 1) through film position (sx, sy) ∈ \[0,1\]².
     #[inline]
     pub fn camera_direction(&self, sx: f32, sy: f32) -> Vec3 {
         let t = self.tan_half_x;

@@ -1,6 +1,6 @@
 //! The pieces of the integrator that tests may replace: the line technique, the specular
 //! sampler and the BSDF evaluation. Production renders use [`Hooks::new`] (through
-//! [`crate::render`]); [`crate::render_with`] renders with any [`Hooks`], which is how power
+//! [`crate::render`](fn@crate::render)); [`crate::render_with`] renders with any [`Hooks`], which is how power
 //! controls render deliberately wrong variants ([`crate::power_controls`] has the ready-made
 //! ones). Generic, so that the production path stays monomorphic.
 //!

@@ -158,7 +158,7 @@ impl<'a> ShadingPoint<'a> {
 pub enum Combination {
     /// A MIS heuristic (method `Mis`).
     Heuristic(Heuristic),
-    /// w_s = 1[p_s > 0], w_d = 1[p_s = 0] (method `Ltc`).
+    /// w_s = 1\[p_s > 0\], w_d = 1\[p_s = 0\] (method `Ltc`).
     SupportIndicator,
 }
 

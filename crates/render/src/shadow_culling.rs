@@ -11,7 +11,7 @@
 //!    of spheres, disks and cylinders) lies at h_P ≥ −τ, τ = 10⁻⁵·D (D: the diagonal of the
 //!    scene's box grown by 1): shading points lie in the closed positive half-space up to
 //!    rounding. Checked on the corners of the primitives' bounding box (sufficient), then,
-//!    where they fail and the scene has at most [`EXACT_CHECK`] primitives, point by point.
+//!    where they fail and the scene has at most `EXACT_CHECK` primitives, point by point.
 //!
 //! A segment between two points of the open half-space h_P > 0 does not meet Π_P, so in exact
 //! arithmetic no shadow ray toward L meets P. Condition 2 only makes the culling *useful*

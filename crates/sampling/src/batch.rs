@@ -6,10 +6,10 @@
 //! direction, and a mask of the lanes that contribute). Lane i is exactly what the scalar
 //! `Technique::ProjectedSolidAngle.prepare(..)` + `sample_with_pdf(ξ)` return for the same
 //! inputs — bit for bit, since both run the same branch-free building blocks
-//! ([`LineFrame::lane`], [`ProjectedSolidAngle::lane`], `PsaCore::solve_rotated_lane`; the
+//! (`LineFrame::lane`, `ProjectedSolidAngle::lane`, `PsaCore::solve_rotated_lane`; the
 //! scalar path takes cheap early branches in front of them where a branch pays) with the same
 //! operations (no fused multiply-adds are formed by the compiler); likewise clipped solid angle
-//! ([`sample_clipped_solid_angle_with`], [`ClippedBatch`]: [`LineFrame::lane`],
+//! ([`sample_clipped_solid_angle_with`], [`ClippedBatch`]: `LineFrame::lane`,
 //! `SolidAngle::lane` and its `sample_lane`, on the same inputs and outputs). A lane whose scalar
 //! preparation returns `None` has its bit cleared in [`PsaBatchOutput::mask`] and zero outputs.
 //!

@@ -611,7 +611,7 @@ fn clamp_s(s: f64) -> f32 {
 
 /// The antiderivative of the projected solid angle along a line, the one implementation of the
 /// crate: C(φ) = n_s sin²φ + n_t (sin φ cos φ + φ) at φ = atan2(l, d), so that
-/// ∫ (n·ω) dΩ_R = (1/d)[C] between two line parameters (n_s = n·u, n_t = n·ĉ). In f64 with
+/// ∫ (n·ω) dΩ_R = (1/d)\[C\] between two line parameters (n_s = n·u, n_t = n·ĉ). In f64 with
 /// std's atan2, for references and preparation (the sampler's hot path evaluates differences of
 /// C without cancellation instead: `projected_solid_angle::PsaCore`). A difference of two C
 /// values cancels for short or distant intervals; that is the caller's concern.

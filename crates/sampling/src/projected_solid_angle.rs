@@ -41,7 +41,7 @@
 //! step). The exact density (n·ω)/Ω⊥_R is what `pdf` reports; the samples follow it up to that
 //! backward error.
 //!
-//! The inversion core is generic over f32/f64 ([`Real`]) so that the backward-error sweep
+//! The inversion core is generic over f32/f64 (`Real`) so that the backward-error sweep
 //! ([`crate::backward_error`]) can run both precisions through the same code; the sampler uses
 //! f32.
 //!
@@ -49,7 +49,7 @@
 //! chain of dependent evaluations — the frame (f64 square roots and divisions), (sin, cos) at
 //! the interval's begin and Δs, the start value (two square roots, a division), two Halley steps
 //! (sin/cos of τ/2, δ − sin δ, sqrt, division) and the direction — so its latency, not its
-//! instruction count, sets the time. Hence: the f32 `atan2`/`sin_cos` of [`Real`] are short f64
+//! instruction count, sets the time. Hence: the f32 `atan2`/`sin_cos` of `Real` are short f64
 //! polynomials without libm calls ([`crate::trig`]; a libm call also spills every live SSE
 //! register); work that only the total needs (Δ's atan2, sin/cos(Δ/2)) and the start value's own
 //! atan2 run beside the chain, not in it: Δs comes from the frame's end values
@@ -750,8 +750,8 @@ impl ProjectedSolidAngle {
     }
 
     /// On an already clipped frame (frame clipped to the horizon of n; n of any length that
-    /// [`crate::unit_normal`] accepts: debug-asserted in [`Self::on_frame_with`], an invalid n
-    /// is a caller's bug here; [`Self::lane`] runs invalid lanes on purpose).
+    /// [`crate::unit_normal`] accepts: debug-asserted in `Self::on_frame_with`, an invalid n
+    /// is a caller's bug here; `Self::lane` runs invalid lanes on purpose).
     #[inline]
     pub fn on_frame(frame: LineFrame, n: Vec3, iterations: u32) -> Option<Self> {
         Self::on_frame_with(frame, EndValues::of(&frame), n, iterations)
@@ -829,8 +829,8 @@ impl ProjectedSolidAngle {
         (sampler, valid && inv_psa.is_finite() && inv_psa > 0.0)
     }
 
-    /// The sample for ξ with τ from [`PsaCore::solve_converged`] on the sampler's own core
-    /// widened to f64 ([`PsaCore::widened`]), as an f64 direction; no ξ guard. Slower than [`LineSampler::sample`] (a
+    /// The sample for ξ with τ from `PsaCore::solve_converged` on the sampler's own core
+    /// widened to f64 (`PsaCore::widened`), as an f64 direction; no ξ guard. Slower than [`LineSampler::sample`] (a
     /// libm-based f64 solve of several steps): for the few ξ where a caller needs the exact
     /// inverse CDF, e.g. the tails of [`crate::ltc::LtcLine`].
     pub fn sample_converged(&self, xi: f32) -> DVec3 {

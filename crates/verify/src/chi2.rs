@@ -434,7 +434,7 @@ pub struct Chi2Outcome {
     pub zero_bin_samples: u64,
 }
 
-/// χ² of observed counts against expected counts (expected[i] = N · mass[i], not rescaled: a
+/// χ² of observed counts against expected counts (expected\[i\] = N · mass\[i\], not rescaled: a
 /// density that integrates to 1.01 shifts every expectation). Bins with expected 0 are dropped;
 /// a sample in one forces p = 0. The remaining bins are sorted by expectation (ascending) and
 /// pooled until each cell expects ≥ [`MIN_EXPECTED`]; a remainder below it joins the last cell.

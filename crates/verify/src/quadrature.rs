@@ -239,7 +239,7 @@ impl Adaptive {
         }
     }
 
-    /// ∫ f over each interval [edges[i], edges[i+1]].
+    /// ∫ f over each interval \[edges\[i\], edges\[i+1\]\].
     pub fn integrate_partition(
         &self,
         edges: &[f64],

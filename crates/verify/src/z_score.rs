@@ -1,7 +1,7 @@
 //! Welch's t for a difference of two independent means with estimated variances, and its
 //! probability-integral transform to a standard normal score.
 //!
-//! Why not sum raw t²: with ν degrees of freedom E[t²] = ν/(ν−2), so Σt² over many pixels from
+//! Why not sum raw t²: with ν degrees of freedom E\[t²\] = ν/(ν−2), so Σt² over many pixels from
 //! few passes is inflated and a χ² test on it falsely rejects. Mapping each t through its own
 //! distribution function first, z = Φ⁻¹(F_t(t; ν)), gives exactly N(0, 1) scores under H₀.
 

@@ -13,7 +13,7 @@ pub const METRIC_EPSILON: f64 = 0.01;
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub struct ErrorMetrics {
     pub mse: f64,
-    /// E[MSE] for two unbiased images: mean of v_A + v_B.
+    /// E\[MSE\] for two unbiased images: mean of v_A + v_B.
     pub mse_noise: f64,
     pub rel_mse: f64,
     pub mape: f64,

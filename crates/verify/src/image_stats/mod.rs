@@ -8,7 +8,7 @@
 //! tests of the three channels are joined by Bonferroni, which holds under any dependence.
 //! B is the reference (the oracle): relative differences are (Ḡ_A − Ḡ_B)/Ḡ_B.
 //!
-//! Null hypothesis of the difference tests: E[m_A] = E[m_B] everywhere. They run on three
+//! Null hypothesis of the difference tests: E\[m_A\] = E\[m_B\] everywhere. They run on three
 //! scales, four tests per channel (five with light–surface contacts):
 //!   a. global mean per channel (Welch t-test on the image mean),
 //!   b. tile means (Welch t-tests, Holm over the tiles of a channel; two grids, the second
