@@ -1,9 +1,8 @@
 //! The batched renderer: the camera samples of a tile are rendered [`LANES`] at a time, as
 //! Mitsuba's LLVM variants do with their wavefronts — random numbers and camera rays of all
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
-//! the batch kernels of `linlight_sampling::batch` (the packet's sixteen lanes at once for
-//! projected and clipped solid angle, two 8-lane batches for Li et al.), one packet walk for
-//! their shadow rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes'
+//! the batch kernels of `linlight_sampling::batch` (the packet's sixteen lanes at once), one
+//! packet walk for their shadow rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes'
 //! arrays, lanes on other surfaces (rough conductor, principled, blends) with the scalar path's
 //! shading frame ([`shading_frame`]) for all lanes at once and its BSDF evaluation on all
 //! sixteen lanes at once per BSDF ([`Bsdf::eval_lanes`], f32 SIMD lanes: the scalar path's
@@ -71,10 +70,7 @@ use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_sampling::batch::{
-    self, Isa, PsaBatchInput, PsaBatchOutput, PsaInput, Vec3x8, Vec3xN, LANES as BATCH,
-    PACKET_LANES,
-};
+use linlight_sampling::batch::{self, Isa, PsaInput, Vec3xN, PACKET_LANES};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
 use std::mem::MaybeUninit;
@@ -85,7 +81,6 @@ const _: () = assert!(
     LANES == PACKET_LANES,
     "a packet's light samples in one packet"
 );
-const _: () = assert!(LANES == 2 * BATCH, "or in two light-sample batches");
 
 /// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
 /// light sample per camera sample, white noise, and either a technique with a batch kernel
@@ -251,26 +246,6 @@ impl<T> std::ops::DerefMut for Aligned<T> {
     fn deref_mut(&mut self) -> &mut T {
         &mut self.0
     }
-}
-
-/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of `v`: half b of a packet's lanes, as the
-/// eight-lane ([`BATCH`]) batch kernels take them.
-#[inline(always)]
-fn half_lanes(v: &[f32; LANES], b: usize) -> [f32; BATCH] {
-    std::array::from_fn(|i| v[b * BATCH + i])
-}
-
-/// Lanes `b·BATCH` … `b·BATCH + BATCH − 1` of the three components of `v`.
-#[inline(always)]
-fn half3(v: &Lanes3, b: usize) -> Vec3x8 {
-    let [x, y, z] = v.each_ref().map(|c| half_lanes(c, b));
-    Vec3x8 { x, y, z }
-}
-
-/// Sixteen lanes from two halves.
-#[inline(always)]
-fn join_halves(a: &[f32; BATCH], b: &[f32; BATCH]) -> [f32; LANES] {
-    std::array::from_fn(|k| if k < BATCH { a[k] } else { b[k - BATCH] })
 }
 
 #[inline(always)]
@@ -1287,9 +1262,8 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// The sampling problems of the packet's lanes for [`Self::light_samples`]'s packet kernel
-    /// (projected solid angle). Lanes without a shading point have a zero normal: no
-    /// contribution.
+    /// The sampling problems of the packet's lanes for [`Self::light_samples`]'s packet kernels.
+    /// Lanes without a shading point have a zero normal: no contribution.
     #[inline(always)]
     fn packet_input(&self, lights: &LightLanes, shading: &ShadingLanes) -> PsaInput<LANES> {
         let vec3 = |[x, y, z]: Lanes3| Vec3xN { x, y, z };
@@ -1309,26 +1283,6 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// The same for the 8-wide batch of lanes `b·BATCH` … `b·BATCH + BATCH − 1` (the other
-    /// batch kernels), taken from the packet's lanes directly.
-    #[inline(always)]
-    fn batch_input(&self, lights: &LightLanes, shading: &ShadingLanes, b: usize) -> PsaBatchInput {
-        let (begin, end) = match lights.uniform {
-            Some(j) => {
-                let segment = &self.rs.lights[j].0;
-                (Vec3x8::splat(segment.begin), Vec3x8::splat(segment.end))
-            }
-            None => (half3(lights.row3(1), b), half3(lights.row3(2), b)),
-        };
-        PsaBatchInput {
-            begin,
-            end,
-            x: half3(&shading.p, b),
-            n: half3(&shading.n, b),
-            xi: half_lanes(&lights.xi, b),
-        }
-    }
-
     /// One sample of lane k's light `lights.light[k]` with ξ = `lights.xi[k]` for every lane
     /// with a shading point (the lanes of `lanes` and with a sample in the result's `mask`).
     #[inline(always)]
@@ -1340,43 +1294,22 @@ impl<'a> Context<'a> {
     ) -> SampleLanes {
         let technique = self.technique;
         debug_assert!(self.batch, "{technique:?} has no batch kernel");
-        if technique != Technique::Li2018 {
-            let input = self.packet_input(lights, shading);
-            let out = match technique {
-                Technique::ProjectedSolidAngle => {
-                    batch::sample_projected_solid_angle_packet(self.isa, &input)
-                }
-                Technique::ClippedSolidAngle => {
-                    batch::sample_clipped_solid_angle_packet(self.isa, &input)
-                }
-                _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
-            };
-            return SampleLanes {
-                mask: out.mask & lanes,
-                dir: [out.dir.x, out.dir.y, out.dir.z],
-                pdf: out.pdf,
-                distance: out.distance,
-            };
-        }
-        // Every field written (no zeroed batches first).
-        let inputs = Aligned([
-            self.batch_input(lights, shading, 0),
-            self.batch_input(lights, shading, 1),
-        ]);
-        let mut outputs = Aligned([PsaBatchOutput::default(); 2]);
-        for (input, output) in inputs.iter().zip(outputs.iter_mut()) {
-            *output = batch::sample_li2018_with(self.isa, input).0;
-        }
-        let [a, b] = &outputs.0;
+        let input = self.packet_input(lights, shading);
+        let out = match technique {
+            Technique::ProjectedSolidAngle => {
+                batch::sample_projected_solid_angle_packet(self.isa, &input)
+            }
+            Technique::ClippedSolidAngle => {
+                batch::sample_clipped_solid_angle_packet(self.isa, &input)
+            }
+            Technique::Li2018 => batch::sample_li2018_with(self.isa, &input).0,
+            _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
+        };
         SampleLanes {
-            mask: (a.mask | b.mask << BATCH) & lanes,
-            dir: [
-                join_halves(&a.dir.x, &b.dir.x),
-                join_halves(&a.dir.y, &b.dir.y),
-                join_halves(&a.dir.z, &b.dir.z),
-            ],
-            pdf: join_halves(&a.pdf, &b.pdf),
-            distance: join_halves(&a.distance, &b.distance),
+            mask: out.mask & lanes,
+            dir: [out.dir.x, out.dir.y, out.dir.z],
+            pdf: out.pdf,
+            distance: out.distance,
         }
     }
 

@@ -22,9 +22,9 @@
 use glam::Vec3;
 use linlight_brdf::microfacet;
 use linlight_sampling::batch::{
-    sample_clipped_solid_angle_packet, sample_projected_solid_angle_packet, ClippedBatch, Isa,
-    PreparedBatch, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput, Vec3x8, Vec3xN, LANES,
-    PACKET_LANES,
+    sample_clipped_solid_angle_packet, sample_li2018_with, sample_projected_solid_angle_packet,
+    ClippedBatch, Isa, PreparedBatch, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput, Vec3x8,
+    Vec3xN, LANES, PACKET_LANES,
 };
 use linlight_sampling::{LineSampler, Segment, Technique};
 use std::hint::black_box;
@@ -260,7 +260,7 @@ const P: usize = PACKET_LANES;
 /// last packet padded with lanes of zero normal, which do not contribute), one light for all
 /// lanes. 128 lights × 1 spp: every (packet, light) is one fused prepare + sample, as the
 /// renderer's `sample_projected_solid_angle_packet` / `sample_clipped_solid_angle_packet` (Li et
-/// al.: a 16-lane prepared batch and one sample — the renderer runs Li as two 8-lane batches).
+/// al.: a 16-lane prepared batch and one sample, `sample_li2018_with`, as the renderer).
 /// 1 light × 128 spp: one 16-lane prepared batch per packet ([`PreparedBatch`] /
 /// [`ClippedBatch`] with 16 lanes), sampled 128 times. Returns the sum and Li's iteration count.
 #[inline(never)]
@@ -281,7 +281,7 @@ pub fn shade_packet(
             sample_clipped_solid_angle_packet(isa, input)
         }),
         (Batched::Li2018, 1) => shade_packets_fused(h, lights, |input| {
-            let (out, k) = psa(input).sample_li2018(isa, &input.xi);
+            let (out, k) = sample_li2018_with(isa, input);
             iterations += k as u64;
             out
         }),

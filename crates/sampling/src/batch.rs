@@ -738,11 +738,12 @@ fn li_sample_kernel<const N: usize>(
     (out, iterations)
 }
 
-/// Li et al. 2018 (technique 7) on every lane of `input` (prepare and one sample), as on a
-/// GPU: the Newton–bisection iteration runs until the *last* lane has converged (at most 20
-/// steps), every lane paying for the slowest. Lane i equals the scalar `Technique::Li2018`
-/// bit for bit. Returns the outputs and the number of iterations the batch ran.
-pub fn sample_li2018_with(isa: Isa, input: &PsaBatchInput) -> (PsaBatchOutput, u32) {
+/// Li et al. 2018 (technique 7) on every lane of `input` (prepare and one sample; N = [`LANES`]
+/// for a batch, [`PACKET_LANES`] for a renderer's packet), as on a GPU: the Newton–bisection
+/// iteration runs until the *last* of the N lanes has converged (at most 20 steps), every lane
+/// paying for the slowest. Lane i equals the scalar `Technique::Li2018` bit for bit. Returns
+/// the outputs and the number of iterations run.
+pub fn sample_li2018_with<const N: usize>(isa: Isa, input: &PsaInput<N>) -> (PsaOutput<N>, u32) {
     PreparedBatch::prepare(isa, input).sample_li2018(isa, &input.xi)
 }
 
@@ -1174,9 +1175,7 @@ mod tests {
     #[test]
     fn li2018_lanes_equal_the_scalar_technique() {
         li2018_lanes_equal(&batches(1500), sample_li2018_with);
-        li2018_lanes_equal(&packets(600), |isa, input| {
-            PreparedBatch::prepare(isa, input).sample_li2018(isa, &input.xi)
-        });
+        li2018_lanes_equal(&packets(600), sample_li2018_with);
     }
 
     fn li2018_lanes_equal<const N: usize>(
