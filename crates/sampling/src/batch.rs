@@ -102,6 +102,9 @@ pub struct Vec3xN<const N: usize> {
 /// Eight 3-vectors as structure of arrays (a batch's).
 pub type Vec3x8 = Vec3xN<LANES>;
 
+// Zeros. Written out here and for the other lane types generic over N: std implements
+// `Default` for arrays of each length up to 32, not for `[T; N]` of a generic N, so
+// `#[derive(Default)]` cannot bound their fields.
 impl<const N: usize> Default for Vec3xN<N> {
     fn default() -> Self {
         Self::splat(Vec3::ZERO)
