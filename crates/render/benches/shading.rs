@@ -103,24 +103,24 @@ fn main() {
         }
         // Numerator / denominator, each scalar, as the x8 batch and as the x16 packet.
         let pairs = [
-            (
-                "projected-solid-angle / clipped-solid-angle",
-                (Technique::ProjectedSolidAngle, Batched::ProjectedSolidAngle),
-                (Technique::ClippedSolidAngle, Batched::ClippedSolidAngle),
-            ),
-            (
-                "li2018 / projected-solid-angle",
-                (Technique::Li2018, Batched::Li2018),
-                (Technique::ProjectedSolidAngle, Batched::ProjectedSolidAngle),
-            ),
+            (Batched::ProjectedSolidAngle, Batched::ClippedSolidAngle),
+            (Batched::Li2018, Batched::ProjectedSolidAngle),
         ];
-        for (label, (a, ab), (b, bb)) in pairs {
+        for (ab, bb) in pairs {
+            let (a, b) = (ab.technique(), bb.technique());
             let scalar = c.ratio(RowKind::Scalar(a), RowKind::Scalar(b));
             let simd = c.ratio(RowKind::Batched(ab), RowKind::Batched(bb));
             let packet = c.ratio(RowKind::Packet(ab), RowKind::Packet(bb));
             print!(
-                "  {label}: scalar {:.3} (min {:.3}), x8 {:.3} (min {:.3}), x16 {:.3} (min {:.3})",
-                scalar.0, scalar.1, simd.0, simd.1, packet.0, packet.1
+                "  {} / {}: scalar {:.3} (min {:.3}), x8 {:.3} (min {:.3}), x16 {:.3} (min {:.3})",
+                a.name(),
+                b.name(),
+                scalar.0,
+                scalar.1,
+                simd.0,
+                simd.1,
+                packet.0,
+                packet.1
             );
             if a == Technique::Li2018 {
                 print!(
