@@ -7,6 +7,7 @@
 use super::page::{num, table};
 use super::{csv, Ctx, Section};
 use linlight_render::shading_cost::{measure, Batched, RowKind};
+use linlight_sampling::batch::Isa;
 use linlight_sampling::Technique;
 use serde_json::json;
 
@@ -21,9 +22,12 @@ fn paper_ms(kind: RowKind) -> &'static str {
 
 pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let s = ctx.settings;
-    let m = measure(s.timing_stride, s.timing_repeats, &|done, total| {
-        ctx.progress(done as f64 / total as f64)
-    });
+    let m = measure(
+        s.timing_stride,
+        s.timing_repeats,
+        Isa::detect(),
+        &|done, total| ctx.progress(done as f64 / total as f64),
+    );
     let (a, b) = (&m.configs[0], &m.configs[1]);
     let mut rows = Vec::new();
     let mut csv_rows = Vec::new();

@@ -17,6 +17,10 @@
 //! (instructions per sample = Ir / samples). Batches run the kernel the CPU supports (under
 //! valgrind: AVX2).
 //!
+//! `LINLIGHT_SHADING_ISA=<avx512|avx2|baseline>` runs the x8 and x16 rows with that kernel
+//! variant instead of the fastest the CPU runs (both modes), e.g. the 8-wide batch with AVX2,
+//! whose f32 lanes fill a register, on a CPU with AVX-512.
+//!
 //! Run: `cargo bench -p linlight-render --bench shading`.
 
 use linlight_render::shading_cost::{
@@ -26,7 +30,29 @@ use linlight_render::shading_cost::{
 use linlight_sampling::batch::{Isa, LANES, PACKET_LANES};
 use linlight_sampling::Technique;
 
-fn count_mode(spec: &str, stride: usize) {
+/// The kernel variant of the x8 and x16 rows: `LINLIGHT_SHADING_ISA`, else the fastest the CPU
+/// runs. Exits with status 2 on a name that is not a variant or one the CPU does not run.
+fn isa() -> Isa {
+    let Ok(name) = std::env::var("LINLIGHT_SHADING_ISA") else {
+        return Isa::detect();
+    };
+    match name.parse::<Isa>() {
+        Ok(isa) if isa.supported() => isa,
+        Ok(isa) => {
+            eprintln!(
+                "LINLIGHT_SHADING_ISA: this CPU does not run the {} kernels",
+                isa.name()
+            );
+            std::process::exit(2);
+        }
+        Err(e) => {
+            eprintln!("LINLIGHT_SHADING_ISA: {e}");
+            std::process::exit(2);
+        }
+    }
+}
+
+fn count_mode(spec: &str, stride: usize, isa: Isa) {
     let (row, config) = spec
         .split_once(':')
         .expect("LINLIGHT_SHADING_ONLY=<row>:<128x1|1x128>");
@@ -37,7 +63,6 @@ fn count_mode(spec: &str, stride: usize) {
         "1x128" => (&all[..1], SPP),
         _ => panic!("config must be 128x1 or 1x128"),
     };
-    let isa = Isa::detect();
     let sum = match row {
         "psa-x8" => shade_batched(Batched::ProjectedSolidAngle, isa, &h, lights, spp).0,
         "li-x8" => shade_batched(Batched::Li2018, isa, &h, lights, spp).0,
@@ -64,7 +89,7 @@ fn main() {
             .unwrap_or(default)
     };
     if let Ok(spec) = std::env::var("LINLIGHT_SHADING_ONLY") {
-        count_mode(&spec, stride_of(32));
+        count_mode(&spec, stride_of(32), isa());
         return;
     }
     if !std::env::args().any(|a| a == "--bench") {
@@ -75,7 +100,7 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .filter(|&s| s >= 1)
         .unwrap_or(5);
-    let m = measure(stride_of(8), repeats, &|_, _| {});
+    let m = measure(stride_of(8), repeats, isa(), &|_, _| {});
     println!(
         "shading benchmark: {} of 1920x1080 hit points (stride {}), Lambert + GGX, no shadow rays, \
          {} interleaved repeats; batch kernel {}",

@@ -581,13 +581,19 @@ pub fn load_average() -> String {
         .unwrap_or_else(|| "n/a".into())
 }
 
-/// Time every row of both configurations (see the module documentation). `progress(done,
+/// Time every row of both configurations (see the module documentation), the x8 and x16 rows
+/// with the kernels of `isa` (the baseline's where the CPU does not run it). `progress(done,
 /// total)` after each timed pass.
-pub fn measure(stride: usize, repeats: usize, progress: &dyn Fn(usize, usize)) -> Measurement {
+pub fn measure(
+    stride: usize,
+    repeats: usize,
+    isa: Isa,
+    progress: &dyn Fn(usize, usize),
+) -> Measurement {
     let (stride, repeats) = (stride.max(1), repeats.max(1));
     let h = hit_points(stride);
     let all_lights = lights();
-    let isa = Isa::detect();
+    let isa = if isa.supported() { isa } else { Isa::Baseline };
     let frame_scale = (WIDTH * HEIGHT) as f64 / h.p.len() as f64;
     let kinds: Vec<(String, RowKind)> = Technique::ALL
         .into_iter()

@@ -181,9 +181,8 @@ fn count_mode(name: &str, configurations: &[Configuration]) {
         None => name.strip_prefix("batch-").map(|isa| (KERNELS[0].1, isa)),
     };
     if let Some((kernel, isa)) = batch {
-        let isa = Isa::ALL
-            .into_iter()
-            .find(|i| i.name() == isa)
+        let isa: Isa = isa
+            .parse()
             .expect("LINLIGHT_BENCH_ONLY=[clipped-]batch-<avx512|avx2|baseline>");
         let batches = batches(configurations);
         for _ in 0..10 {

@@ -254,6 +254,25 @@ impl Isa {
     }
 }
 
+/// A variant by its [`Isa::name`] (the benchmarks' `…_ISA` variables). Whether the CPU runs it
+/// is the caller's check ([`Isa::supported`]).
+impl std::str::FromStr for Isa {
+    type Err = String;
+
+    fn from_str(name: &str) -> Result<Isa, String> {
+        Isa::ALL
+            .into_iter()
+            .find(|isa| isa.name() == name)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Isa::ALL.iter().map(|isa| isa.name()).collect();
+                format!(
+                    "unknown kernel variant `{name}` (expected one of: {})",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
 /// Sample every lane of `input` with the fastest kernel this CPU runs (see the module
 /// documentation). Lane i equals the scalar `ProjectedSolidAngle::prepare` + `sample_with_pdf`
 /// on lane i's inputs.
@@ -1012,6 +1031,15 @@ mod tests {
     use super::*;
     use crate::rng::Pcg32;
     use crate::{LineSampler, Segment, Technique};
+
+    #[test]
+    fn isa_names_parse_back() {
+        for isa in Isa::ALL {
+            assert_eq!(isa.name().parse::<Isa>(), Ok(isa));
+        }
+        let err = "sse4".parse::<Isa>().unwrap_err();
+        assert!(err.contains("`sse4`") && err.contains("avx512, avx2, baseline"), "{err}");
+    }
 
     /// Random problems in the benchmark's box plus degenerate lanes of every kind.
     fn batches(count: usize) -> Vec<PsaBatchInput> {
