@@ -1038,7 +1038,10 @@ mod tests {
             assert_eq!(isa.name().parse::<Isa>(), Ok(isa));
         }
         let err = "sse4".parse::<Isa>().unwrap_err();
-        assert!(err.contains("`sse4`") && err.contains("avx512, avx2, baseline"), "{err}");
+        assert!(
+            err.contains("`sse4`") && err.contains("avx512, avx2, baseline"),
+            "{err}"
+        );
     }
 
     /// Random problems in the benchmark's box plus degenerate lanes of every kind.
