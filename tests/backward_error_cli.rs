@@ -39,6 +39,16 @@ fn small_sweep_writes_json_and_orders_iterations() {
     assert!(worst(1, "f64") > 1e-3);
     assert!(worst(2, "f64") < 2e-5);
     assert!(worst(3, "f64") < worst(2, "f64"));
+    // The near-end intervals are swept (one step fails there) and reported.
+    let near = |k: u64| {
+        rows.iter()
+            .find(|r| r["iterations"] == k && r["precision"] == "f32")
+            .unwrap()["worst_excluding_guard_near_ends"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(near(1) > 1e-3, "{}", near(1));
+    assert!(near(2) < 2e-5, "{}", near(2));
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -48,6 +48,7 @@ fn row_json(r: &SweepRow) -> serde_json::Value {
         "worst_excluding_guard": r.worst_outside_guard,
         "worst_including_guard": r.worst_including_guard,
         "worst_excluding_guard_width_ge_1e-2": r.worst_wide_intervals,
+        "worst_excluding_guard_near_ends": r.worst_near_ends,
         "worst_case_excluding_guard": case_json(&r.worst_case),
         "worst_case_including_guard": case_json(&r.worst_case_including_guard),
         "problems": r.samples,
@@ -81,24 +82,26 @@ pub fn run(args: Args) -> ExitCode {
     );
     println!(
         "sweep: d = 1, {} normal directions in the line's plane, sub-intervals of the visible arc \
-         down to 1e-4 rad, {} jittered ξ per interval + guard band (|ξ − 0|, |ξ − 1| < 1e-5), seed {}",
+         down to 1e-4 rad (at its ends, inside, and 1e-3 to 1 widths from its ends), {} jittered ξ \
+         per interval + guard band (|ξ − 0|, |ξ − 1| < 1e-5), seed {}",
         cfg.normals + 13,
         cfg.xi_per_interval,
         cfg.seed
     );
     println!();
     println!(
-        "{:>5}  {:>4}  {:>12}  {:>12}  {:>14}  paper / reference",
-        "iter", "prec", "excl. guard", "incl. guard", "excl., w≥1e-2"
+        "{:>5}  {:>4}  {:>12}  {:>12}  {:>14}  {:>15}  paper / reference",
+        "iter", "prec", "excl. guard", "incl. guard", "excl., w≥1e-2", "excl., near end"
     );
     for r in &rows {
         println!(
-            "{:>5}  {:>4}  {:>12.3e}  {:>12.3e}  {:>14.3e}  {}",
+            "{:>5}  {:>4}  {:>12.3e}  {:>12.3e}  {:>14.3e}  {:>15.3e}  {}",
             r.iterations,
             r.precision.name(),
             r.worst_outside_guard,
             r.worst_including_guard,
             r.worst_wide_intervals,
+            r.worst_near_ends,
             paper_value(r.iterations)
         );
     }

@@ -13,7 +13,9 @@
 //! [`sweep`] covers the parameter space of the inversion: w.l.o.g. d = 1 and the normal
 //! n = (n_s, n_t) = (sin ψ, cos ψ) in the plane of the line (the component of n perpendicular to
 //! that plane scales n·ω and C alike and drops out of e); sub-intervals [φ_b, φ_e] of the visible
-//! arc {φ ∈ [−π/2, π/2] : cos(φ − ψ) ≥ 0} down to widths of 1e-4 rad, at its ends and inside; ξ
+//! arc {φ ∈ [−π/2, π/2] : cos(φ − ψ) ≥ 0} down to widths of 1e-4 rad, at its ends, inside, and
+//! near the ends (a gap of 1e-3 to 1 widths: [`near_end_intervals`], with ξ of their own stream,
+//! so that the other intervals' ξ do not depend on them); ξ
 //! stratified-uniform (seeded) plus points in and at the edge of the guard band.
 //!
 //! Floor of f32: the sample is an f32 offset τ̂ ≤ Δ and G is evaluated in f32, so f32 rows cannot
@@ -85,6 +87,8 @@ pub struct SweepRow {
     pub worst_including_guard: f64,
     /// Outside the guard band, intervals of width ≥ 1e-2 rad only (away from the f32 floor).
     pub worst_wide_intervals: f64,
+    /// Outside the guard band, the near-end intervals only ([`near_end_intervals`]).
+    pub worst_near_ends: f64,
     /// Where `worst_outside_guard` was attained.
     pub worst_case: Case,
     /// Where `worst_including_guard` was attained.
@@ -99,6 +103,11 @@ pub const WIDTHS: [f64; 12] = [
 ];
 /// Relative positions of a sub-interval inside the visible arc.
 pub const POSITIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
+/// Gaps between a sub-interval and an end of the visible arc, in units of the sub-interval's
+/// width ([`near_end_intervals`]).
+pub const END_GAPS: [f64; 4] = [1e-3, 1e-2, 0.1, 1.0];
+/// The Pcg32 stream of the near-end intervals' ξ.
+const NEAR_END_STREAM: u64 = 0x6e65_6172;
 
 /// The problem of a case rounded to precision T, and its f64 twin on the same rounded data.
 fn cores<T: Real>(ns: f64, nt: f64, phi_b: f64, width: f64) -> Option<(PsaCore<T>, PsaCore<f64>)> {
@@ -190,6 +199,28 @@ pub fn intervals(psi: f64) -> Vec<(f64, f64)> {
     out
 }
 
+/// Short sub-intervals near, not at, an end of the visible arc for normal angle ψ: a sub-interval
+/// of each width `w` in [`WIDTHS`] a gap `g·w` (g in [`END_GAPS`]) from either end. Positions 0
+/// and 1 of [`intervals`] put a short interval *at* an end, the others far from it; in between,
+/// the density changes fastest across a short interval (it vanishes at the end: at a horizon, or
+/// at φ = ±π/2 to second order when n is almost perpendicular to the line), which is where a
+/// start value is worst (one Halley step from the solid-angle start: 1.4e-2 there).
+pub fn near_end_intervals(psi: f64) -> Vec<(f64, f64)> {
+    let a0 = (psi - FRAC_PI_2).max(-FRAC_PI_2);
+    let a1 = (psi + FRAC_PI_2).min(FRAC_PI_2);
+    let arc = a1 - a0;
+    let mut out = Vec::new();
+    for &w in &WIDTHS {
+        for &g in &END_GAPS {
+            if (1.0 + g) * w < arc {
+                out.push((a0 + g * w, w));
+                out.push((a1 - (1.0 + g) * w, w));
+            }
+        }
+    }
+    out
+}
+
 /// ξ values: stratified uniform plus the guard band, its edges and the ends.
 fn xi_values(rng: &mut Pcg32, k: u32) -> Vec<f64> {
     let mut xs: Vec<f64> = (0..k)
@@ -244,16 +275,30 @@ fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepR
         worst_outside_guard: 0.0,
         worst_including_guard: 0.0,
         worst_wide_intervals: 0.0,
+        worst_near_ends: 0.0,
         worst_case: Case::default(),
         worst_case_including_guard: Case::default(),
         samples: 0,
     };
-    // Same ξ sequence for every (iterations, precision): the rows are comparable.
+    // Same ξ sequence for every (iterations, precision): the rows are comparable. The near-end
+    // intervals draw from a stream of their own, so that the other intervals' ξ (and their
+    // worst cases) are those of the sweep before near-end intervals were added.
     let mut rng = Pcg32::new(cfg.seed, 0x6261_636b);
+    let mut near_rng = Pcg32::new(cfg.seed, NEAR_END_STREAM);
     for psi in normal_angles(cfg.normals) {
         let (ns, nt) = psi.sin_cos();
-        for (phi_b, width) in intervals(psi) {
-            let xis = xi_values(&mut rng, cfg.xi_per_interval);
+        let problems = intervals(psi)
+            .into_iter()
+            .map(|interval| (interval, xi_values(&mut rng, cfg.xi_per_interval), false))
+            .collect::<Vec<_>>();
+        let near = near_end_intervals(psi).into_iter().map(|interval| {
+            (
+                interval,
+                xi_values(&mut near_rng, cfg.xi_per_interval),
+                true,
+            )
+        });
+        for ((phi_b, width), xis, near_end) in problems.into_iter().chain(near) {
             match precision {
                 Precision::F32 => {
                     if let Some((core, exact)) = cores::<f32>(ns, nt, phi_b, width) {
@@ -267,7 +312,8 @@ fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepR
                                 width,
                                 xi,
                             };
-                            record(&mut row, case, e.abs(), PsaCore::<f32>::in_guard(x));
+                            let guard = PsaCore::<f32>::in_guard(x);
+                            record(&mut row, case, e.abs(), guard, near_end);
                         }
                     }
                 }
@@ -281,7 +327,8 @@ fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepR
                                 width,
                                 xi,
                             };
-                            record(&mut row, case, e.abs(), PsaCore::<f64>::in_guard(xi));
+                            let guard = PsaCore::<f64>::in_guard(xi);
+                            record(&mut row, case, e.abs(), guard, near_end);
                         }
                     }
                 }
@@ -291,7 +338,7 @@ fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepR
     row
 }
 
-fn record(row: &mut SweepRow, case: Case, e: f64, in_guard: bool) {
+fn record(row: &mut SweepRow, case: Case, e: f64, in_guard: bool, near_end: bool) {
     row.samples += 1;
     // NaN must not hide: treat it as the worst possible error.
     let e = if e.is_nan() { f64::INFINITY } else { e };
@@ -306,6 +353,9 @@ fn record(row: &mut SweepRow, case: Case, e: f64, in_guard: bool) {
         }
         if case.width >= 1e-2 && e > row.worst_wide_intervals {
             row.worst_wide_intervals = e;
+        }
+        if near_end && e > row.worst_near_ends {
+            row.worst_near_ends = e;
         }
     }
 }
@@ -352,7 +402,41 @@ mod tests {
         // f32 arithmetic reaches the f64 result, also on 1e-4-rad intervals at the horizon.
         let two32 = get(2, Precision::F32);
         assert!(two32.worst_outside_guard < 2e-5, "{two32:?}");
+        // Near (not at) the arc's ends one step from the solid-angle start fails as badly as
+        // anywhere (~1.4e-2); two steps hold the bound there too.
+        assert!(get(1, Precision::F32).worst_near_ends > 1e-3, "{one:?}");
+        assert!(
+            two32.worst_near_ends > 0.0 && two32.worst_near_ends < 2e-5,
+            "{two32:?}"
+        );
         assert!(get(3, Precision::F32).worst_outside_guard < 2e-6);
+    }
+
+    /// Near-end intervals lie inside the visible arc, a gap of g·w from one of its ends, for
+    /// every width that fits and both ends.
+    #[test]
+    fn near_end_intervals_keep_their_gaps() {
+        for psi in [0.0, 0.001, -0.7, 1.2, -3.093] {
+            let a0 = (psi - FRAC_PI_2).max(-FRAC_PI_2);
+            let a1 = (psi + FRAC_PI_2).min(FRAC_PI_2);
+            let near = near_end_intervals(psi);
+            let fits = WIDTHS
+                .iter()
+                .flat_map(|&w| END_GAPS.map(|g| (1.0 + g) * w < a1 - a0))
+                .filter(|&f| f)
+                .count();
+            assert_eq!(near.len(), 2 * fits, "ψ = {psi}");
+            for (phi_b, w) in near {
+                let (gap_b, gap_e) = ((phi_b - a0) / w, (a1 - phi_b - w) / w);
+                assert!(gap_b > 0.0 && gap_e > 0.0, "ψ = {psi}: {phi_b}, {w}");
+                // The gap to the end it was placed at (the other end may be nearer still).
+                let placed = |gap: f64| END_GAPS.iter().any(|&g| (gap - g).abs() < 1e-9 / w);
+                assert!(
+                    placed(gap_b) || placed(gap_e),
+                    "ψ = {psi}: gaps {gap_b}, {gap_e}"
+                );
+            }
+        }
     }
 
     #[test]
