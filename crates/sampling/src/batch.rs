@@ -266,7 +266,7 @@ impl std::str::FromStr for Isa {
             .ok_or_else(|| {
                 let names: Vec<&str> = Isa::ALL.iter().map(|isa| isa.name()).collect();
                 format!(
-                    "unknown kernel variant `{name}` (expected one of: {})",
+                    "unknown kernel variant '{name}' (expected one of: {})",
                     names.join(", ")
                 )
             })
@@ -1039,7 +1039,7 @@ mod tests {
         }
         let err = "sse4".parse::<Isa>().unwrap_err();
         assert!(
-            err.contains("`sse4`") && err.contains("avx512, avx2, baseline"),
+            err.contains("'sse4'") && err.contains("avx512, avx2, baseline"),
             "{err}"
         );
     }
