@@ -160,6 +160,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             "iterations",
             "worst |e| outside the ξ guard",
             "including the guard",
+            "near the arc's ends",
             "problems",
         ],
         &sweep_rows
@@ -169,6 +170,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
                     r.iterations.to_string(),
                     num(r.worst_outside_guard),
                     num(r.worst_including_guard),
+                    num(r.worst_near_ends),
                     r.samples.to_string(),
                 ]
             })

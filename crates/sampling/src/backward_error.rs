@@ -404,7 +404,8 @@ mod tests {
         assert!(two32.worst_outside_guard < 2e-5, "{two32:?}");
         // Near (not at) the arc's ends one step from the solid-angle start fails as badly as
         // anywhere (~1.4e-2); two steps hold the bound there too.
-        assert!(get(1, Precision::F32).worst_near_ends > 1e-3, "{one:?}");
+        let one32 = get(1, Precision::F32);
+        assert!(one32.worst_near_ends > 1e-3, "{one32:?}");
         assert!(
             two32.worst_near_ends > 0.0 && two32.worst_near_ends < 2e-5,
             "{two32:?}"
