@@ -218,21 +218,76 @@ pub fn shade_batched(
     lights: &[(Segment, Vec3)],
     spp: usize,
 ) -> (f32, u64) {
+    shade_prepared_lanes(which, isa, &BatchRows(Work { h, lights, spp }))
+}
+
+/// The hit points and lights a row shades, `spp` samples per (hit point, light).
+#[derive(Clone, Copy)]
+struct Work<'a> {
+    h: &'a HitPoints,
+    lights: &'a [(Segment, Vec3)],
+    spp: usize,
+}
+
+/// A shading loop over prepared lanes of N (one instance per kind of prepared lanes `Q`, so
+/// that no per-batch dispatch or copy of the prepared state is timed): `prepare` a lane input,
+/// skip it where `mask` is 0, `sample` it and shade the samples. Returns the sum.
+trait PreparedRows<const N: usize> {
+    fn shade<Q>(
+        &self,
+        prepare: impl Fn(&PsaInput<N>) -> Q,
+        mask: impl Fn(&Q) -> u32,
+        sample: impl FnMut(&Q, &[f32; N]) -> PsaOutput<N>,
+    ) -> f32;
+}
+
+/// [`shade_batched`]'s loop ([`shade_prepared`]).
+struct BatchRows<'a>(Work<'a>);
+
+/// [`shade_packet`]'s loop for more than one sample ([`shade_packets_prepared`]).
+struct PacketRows<'a>(Work<'a>);
+
+impl PreparedRows<LANES> for BatchRows<'_> {
+    #[inline(always)]
+    fn shade<Q>(
+        &self,
+        prepare: impl Fn(&PsaBatchInput) -> Q,
+        mask: impl Fn(&Q) -> u32,
+        sample: impl FnMut(&Q, &[f32; LANES]) -> PsaBatchOutput,
+    ) -> f32 {
+        shade_prepared(self.0, prepare, mask, sample)
+    }
+}
+
+impl PreparedRows<P> for PacketRows<'_> {
+    #[inline(always)]
+    fn shade<Q>(
+        &self,
+        prepare: impl Fn(&PsaInput<P>) -> Q,
+        mask: impl Fn(&Q) -> u32,
+        sample: impl FnMut(&Q, &[f32; P]) -> PsaOutput<P>,
+    ) -> f32 {
+        shade_packets_prepared(self.0, prepare, mask, sample)
+    }
+}
+
+/// `rows` with the prepared lanes of `which` (Li et al. iterating until the slowest lane has
+/// converged). Returns the sum and Li's iteration count.
+#[inline(always)]
+fn shade_prepared_lanes<const N: usize>(
+    which: Batched,
+    isa: Isa,
+    rows: &impl PreparedRows<N>,
+) -> (f32, u64) {
     let mut iterations = 0u64;
-    let psa = |input: &PsaBatchInput| PreparedBatch::prepare(isa, input);
+    let psa = |input: &PsaInput<N>| PreparedBatch::prepare(isa, input);
     let sum = match which {
-        Batched::ProjectedSolidAngle => shade_prepared(
-            h,
-            lights,
-            spp,
+        Batched::ProjectedSolidAngle => rows.shade(
             psa,
             |p| p.mask,
             |p, xi| p.sample_projected_solid_angle(isa, xi),
         ),
-        Batched::Li2018 => shade_prepared(
-            h,
-            lights,
-            spp,
+        Batched::Li2018 => rows.shade(
             psa,
             |p| p.mask,
             |p, xi| {
@@ -241,10 +296,7 @@ pub fn shade_batched(
                 out
             },
         ),
-        Batched::ClippedSolidAngle => shade_prepared(
-            h,
-            lights,
-            spp,
+        Batched::ClippedSolidAngle => rows.shade(
             |input| ClippedBatch::prepare(isa, input),
             |p| p.mask,
             |p, xi| p.sample(isa, xi),
@@ -271,48 +323,22 @@ pub fn shade_packet(
     lights: &[(Segment, Vec3)],
     spp: usize,
 ) -> (f32, u64) {
+    if spp != 1 {
+        return shade_prepared_lanes(which, isa, &PacketRows(Work { h, lights, spp }));
+    }
     let mut iterations = 0u64;
-    let psa = |input: &PsaInput<P>| PreparedBatch::prepare(isa, input);
-    let sum = match (which, spp) {
-        (Batched::ProjectedSolidAngle, 1) => shade_packets_fused(h, lights, |input| {
+    let sum = match which {
+        Batched::ProjectedSolidAngle => shade_packets_fused(h, lights, |input| {
             sample_projected_solid_angle_packet(isa, input)
         }),
-        (Batched::ClippedSolidAngle, 1) => shade_packets_fused(h, lights, |input| {
+        Batched::ClippedSolidAngle => shade_packets_fused(h, lights, |input| {
             sample_clipped_solid_angle_packet(isa, input)
         }),
-        (Batched::Li2018, 1) => shade_packets_fused(h, lights, |input| {
+        Batched::Li2018 => shade_packets_fused(h, lights, |input| {
             let (out, k) = sample_li2018_with(isa, input);
             iterations += k as u64;
             out
         }),
-        (Batched::ProjectedSolidAngle, _) => shade_packets_prepared(
-            h,
-            lights,
-            spp,
-            psa,
-            |p| p.mask,
-            |p, xi| p.sample_projected_solid_angle(isa, xi),
-        ),
-        (Batched::Li2018, _) => shade_packets_prepared(
-            h,
-            lights,
-            spp,
-            psa,
-            |p| p.mask,
-            |p, xi| {
-                let (out, k) = p.sample_li2018(isa, xi);
-                iterations += k as u64;
-                out
-            },
-        ),
-        (Batched::ClippedSolidAngle, _) => shade_packets_prepared(
-            h,
-            lights,
-            spp,
-            |input| ClippedBatch::prepare(isa, input),
-            |p| p.mask,
-            |p, xi| p.sample(isa, xi),
-        ),
     };
     (sum, iterations)
 }
@@ -382,9 +408,7 @@ fn shade_packets_fused(
 /// [`shade_packet`] with one prepared packet per (packet, light) and `spp` samples of it.
 #[inline(always)]
 fn shade_packets_prepared<Q>(
-    h: &HitPoints,
-    lights: &[(Segment, Vec3)],
-    spp: usize,
+    Work { h, lights, spp }: Work,
     prepare: impl Fn(&PsaInput<P>) -> Q,
     mask: impl Fn(&Q) -> u32,
     mut sample: impl FnMut(&Q, &[f32; P]) -> PsaOutput<P>,
@@ -408,16 +432,13 @@ fn shade_packets_prepared<Q>(
     sum
 }
 
-/// [`shade_batched`] for one kind of prepared batch `P` (one instance per kind, so that no
-/// per-batch dispatch or copy of the prepared state is timed).
+/// [`shade_batched`]'s loop for one kind of prepared batch `Q` ([`PreparedRows`]).
 #[inline(always)]
-fn shade_prepared<P>(
-    h: &HitPoints,
-    lights: &[(Segment, Vec3)],
-    spp: usize,
-    prepare: impl Fn(&PsaBatchInput) -> P,
-    mask: impl Fn(&P) -> u32,
-    mut sample: impl FnMut(&P, &[f32; LANES]) -> PsaBatchOutput,
+fn shade_prepared<Q>(
+    Work { h, lights, spp }: Work,
+    prepare: impl Fn(&PsaBatchInput) -> Q,
+    mask: impl Fn(&Q) -> u32,
+    mut sample: impl FnMut(&Q, &[f32; LANES]) -> PsaBatchOutput,
 ) -> f32 {
     let mut sum = 0.0f32;
     for i in 0..h.p.len() {
@@ -466,12 +487,13 @@ fn shade_prepared<P>(
 /// `shade-x16` rows; not a technique, not in the table).
 #[inline(never)]
 pub fn shade_stand_in(lanes: usize, h: &HitPoints, lights: &[(Segment, Vec3)], spp: usize) -> f32 {
+    let work = Work { h, lights, spp };
     if lanes == LANES {
-        shade_prepared(h, lights, spp, |input| *input, |_| u32::MAX, stand_in)
+        BatchRows(work).shade(|input| *input, |_| u32::MAX, stand_in)
     } else if spp == 1 {
         shade_packets_fused(h, lights, |input| stand_in(input, &input.xi))
     } else {
-        shade_packets_prepared(h, lights, spp, |input| *input, |_| u32::MAX, stand_in)
+        PacketRows(work).shade(|input| *input, |_| u32::MAX, stand_in)
     }
 }
 
