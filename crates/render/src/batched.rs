@@ -70,7 +70,7 @@ use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_sampling::batch::{self, Isa, PsaInput, Vec3xN, PACKET_LANES};
+use linlight_sampling::batch::{self, Isa, PsaInput, PsaOutput, Vec3xN, PACKET_LANES};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
 use std::mem::MaybeUninit;
@@ -327,16 +327,10 @@ impl LightLanes {
     }
 }
 
-/// The light samples of a packet for one [`LightLanes`]: direction, density, distance to the
-/// line along the direction; `mask`: lanes with a sample.
-#[derive(Default)]
-#[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
-struct SampleLanes {
-    dir: Lanes3,
-    pdf: [f32; LANES],
-    distance: [f32; LANES],
-    mask: u32,
-}
+/// The light samples of a packet for one [`LightLanes`], as the packet kernels return them
+/// (direction, density, distance to the line along the direction; `mask`: lanes with a
+/// sample), on cache lines ([`Aligned`]).
+type SampleLanes = Aligned<PsaOutput<LANES>>;
 
 impl<'a> Context<'a> {
     /// One pass over the pixels of a tile (full-film coordinates): their camera samples in the
@@ -663,7 +657,7 @@ fn packet_kernel(
             // glam's k·f·(n·ω/p) written on the lanes: the same operations in the same order
             // (the dot product adds x, y, then z), so the same bits.
             let (n, dir, f) = (&shading.n, &samples.dir, &shading.lambert);
-            let cos = n[0][k] * dir[0][k] + n[1][k] * dir[1][k] + n[2][k] * dir[2][k];
+            let cos = n[0][k] * dir.x[k] + n[1][k] * dir.y[k] + n[2][k] * dir.z[k];
             let s = cos / samples.pdf[k];
             let c: [f32; 3] = std::array::from_fn(|a| light.k()[a][k] * f[a][k] * s);
             let finite = c.iter().all(|x| x.is_finite());
@@ -952,7 +946,7 @@ fn glossy_contributions(
             get3(&shading.frame_y, k),
             get3(&shading.n, k),
         );
-        let lk = to_local(x, y, n, get3(&samples.dir, k));
+        let lk = to_local(x, y, n, samples.dir.get(k));
         (l[0][k], l[1][k], l[2][k]) = (lk.x, lk.y, lk.z);
     }
     // f·cos of the lanes in `todo`, BSDF by BSDF, each on all sixteen lanes at once (f32: one
@@ -1189,7 +1183,7 @@ fn shadow_rays(shading: &ShadingLanes, samples: &SampleLanes) -> (RayLanes, u32)
             get3(&shading.ng, k),
             get3(&shading.n, k),
         );
-        let (dir, pdf, distance) = (get3(&samples.dir, k), samples.pdf[k], samples.distance[k]);
+        let (dir, pdf, distance) = (samples.dir.get(k), samples.pdf[k], samples.distance[k]);
         let cos = n.dot(dir);
         // distance = d/t with d > 0: the scalar test "t > 0 and d/t finite".
         let usable =
@@ -1295,7 +1289,7 @@ impl<'a> Context<'a> {
         let technique = self.technique;
         debug_assert!(self.batch, "{technique:?} has no batch kernel");
         let input = self.packet_input(lights, shading);
-        let out = match technique {
+        let mut out = Aligned(match technique {
             Technique::ProjectedSolidAngle => {
                 batch::sample_projected_solid_angle_packet(self.isa, &input)
             }
@@ -1304,13 +1298,9 @@ impl<'a> Context<'a> {
             }
             Technique::Li2018 => batch::sample_li2018_with(self.isa, &input).0,
             _ => unreachable!("{technique:?} has no batch kernel (has_batch_kernel)"),
-        };
-        SampleLanes {
-            mask: out.mask & lanes,
-            dir: [out.dir.x, out.dir.y, out.dir.z],
-            pdf: out.pdf,
-            distance: out.distance,
-        }
+        });
+        out.mask &= lanes;
+        out
     }
 
     /// Each lane's light of `lights` at the lanes of `lanes`, sampled lane by lane
