@@ -179,10 +179,17 @@ pub fn case_backward_error(case: &Case, precision: Precision, iterations: u32) -
     }
 }
 
+/// The visible arc [a0, a1] for normal angle ψ: φ ∈ [−π/2, π/2] with cos(φ − ψ) ≥ 0.
+fn visible_arc(psi: f64) -> (f64, f64) {
+    (
+        (psi - FRAC_PI_2).max(-FRAC_PI_2),
+        (psi + FRAC_PI_2).min(FRAC_PI_2),
+    )
+}
+
 /// The sub-intervals [φ_b, Δ] of the sweep for normal angle ψ.
 pub fn intervals(psi: f64) -> Vec<(f64, f64)> {
-    let a0 = (psi - FRAC_PI_2).max(-FRAC_PI_2);
-    let a1 = (psi + FRAC_PI_2).min(FRAC_PI_2);
+    let (a0, a1) = visible_arc(psi);
     let arc = a1 - a0;
     let mut out = Vec::new();
     if !(arc > 0.0) {
@@ -206,8 +213,7 @@ pub fn intervals(psi: f64) -> Vec<(f64, f64)> {
 /// at φ = ±π/2 to second order when n is almost perpendicular to the line), which is where a
 /// start value is worst (one Halley step from the solid-angle start: 1.4e-2 there).
 pub fn near_end_intervals(psi: f64) -> Vec<(f64, f64)> {
-    let a0 = (psi - FRAC_PI_2).max(-FRAC_PI_2);
-    let a1 = (psi + FRAC_PI_2).min(FRAC_PI_2);
+    let (a0, a1) = visible_arc(psi);
     let arc = a1 - a0;
     let mut out = Vec::new();
     for &w in &WIDTHS {
@@ -287,18 +293,14 @@ fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepR
     let mut near_rng = Pcg32::new(cfg.seed, NEAR_END_STREAM);
     for psi in normal_angles(cfg.normals) {
         let (ns, nt) = psi.sin_cos();
-        let problems = intervals(psi)
+        let k = cfg.xi_per_interval;
+        let swept = intervals(psi)
             .into_iter()
-            .map(|interval| (interval, xi_values(&mut rng, cfg.xi_per_interval), false))
-            .collect::<Vec<_>>();
-        let near = near_end_intervals(psi).into_iter().map(|interval| {
-            (
-                interval,
-                xi_values(&mut near_rng, cfg.xi_per_interval),
-                true,
-            )
-        });
-        for ((phi_b, width), xis, near_end) in problems.into_iter().chain(near) {
+            .map(|i| (i, xi_values(&mut rng, k), false));
+        let near = near_end_intervals(psi)
+            .into_iter()
+            .map(|i| (i, xi_values(&mut near_rng, k), true));
+        for ((phi_b, width), xis, near_end) in swept.chain(near) {
             match precision {
                 Precision::F32 => {
                     if let Some((core, exact)) = cores::<f32>(ns, nt, phi_b, width) {
@@ -418,8 +420,7 @@ mod tests {
     #[test]
     fn near_end_intervals_keep_their_gaps() {
         for psi in [0.0, 0.001, -0.7, 1.2, -3.093] {
-            let a0 = (psi - FRAC_PI_2).max(-FRAC_PI_2);
-            let a1 = (psi + FRAC_PI_2).min(FRAC_PI_2);
+            let (a0, a1) = visible_arc(psi);
             let near = near_end_intervals(psi);
             let fits = WIDTHS
                 .iter()
