@@ -169,8 +169,8 @@ mod tests {
 
     /// The quad push gives the bits of three independent scalar chains of the update written
     /// out here as the reference (the mean's step by one fused multiply-add, Welford's M2
-    /// step), and the
-    /// fourth lane does not reach the three channels, whatever it holds (NaN, 1e300).
+    /// step), and the fourth lane does not reach the three channels, whatever it holds (NaN,
+    /// 1e300).
     #[test]
     fn quad_pushes_are_the_scalar_pushes() {
         let (mut a, mut b) = (Welford::default(), Welford::default());
