@@ -210,7 +210,7 @@ mod tests {
     }
 
     /// ℓ/d = 1e4: s_end rounds to 1 in f32, but the density must still vanish beyond the end
-    /// (it used to stay at its maximum on the whole rest of the line: ∫p = 1.5).
+    /// (a density left at its maximum on the rest of the line would integrate to 1.5).
     #[test]
     fn density_vanishes_beyond_the_end_where_s_end_rounds_to_one() {
         let seg = Segment::new(Vec3::new(0.0, 0.0, 1.0), Vec3::new(1e4, 0.0, 1.0));

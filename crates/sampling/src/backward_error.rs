@@ -288,7 +288,7 @@ fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepR
     };
     // Same ξ sequence for every (iterations, precision): the rows are comparable. The near-end
     // intervals draw from a stream of their own, so that the other intervals' ξ (and their
-    // worst cases) are those of the sweep before near-end intervals were added.
+    // worst cases) do not depend on whether near-end intervals are swept.
     let mut rng = Pcg32::new(cfg.seed, 0x6261_636b);
     let mut near_rng = Pcg32::new(cfg.seed, NEAR_END_STREAM);
     for psi in normal_angles(cfg.normals) {

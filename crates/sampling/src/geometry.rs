@@ -100,7 +100,7 @@ impl LineFrame {
     /// The scalar constructors: the computation of [`Self::lane`] with early returns. Not a
     /// call of `lane` (whose results it must equal bit for bit, as `crate::batch` tests): without
     /// the branches the compiler pairs the square roots of |a|² and d² into one packed
-    /// instruction, so that u and l wait for d (measured 15 → 42 ns per frame).
+    /// instruction, so that u and l wait for d (the frame then takes about 3× as long).
     #[inline(always)]
     fn build(segment: &Segment, x: Vec3, horizon: Option<Vec3>) -> Option<(Self, EndValues)> {
         let b = segment.begin.as_dvec3() - x.as_dvec3();

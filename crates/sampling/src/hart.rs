@@ -18,9 +18,9 @@
 //!
 //! Numerics: u ↔ direction goes through the frame's [`FrameArc`], u = (sin(φ_b + τ) − sin φ_b)/Δs
 //! with both differences free of cancellation, not through s = u·ω: near |s| → 1 consecutive
-//! f32 s are ε/2 apart, so u = (s − s_begin)/(s_end − s_begin) of a short interval there was
-//! quantised to a few hundred values and the u recomputed from a sampled direction differed from
-//! the sampled u by up to 1e-2 (sample_with_pdf ≠ pdf by 2.5 % for a steep warp).
+//! f32 s are ε/2 apart, so u = (s − s_begin)/(s_end − s_begin) of a short interval there would
+//! be quantised to a few hundred values and the u recomputed from a sampled direction would
+//! differ from the sampled u by up to 1e-2 (sample_with_pdf ≠ pdf by 2.5 % for a steep warp).
 
 use crate::geometry::{unit_normal, FrameArc, LineFrame, Segment};
 use crate::sampler::{clamp_xi, LineSampler};
@@ -310,8 +310,8 @@ mod tests {
     use crate::rng::Pcg32;
 
     /// Short interval seen almost along its axis (s ≈ 0.9998, Δs ≈ 2e-4, a few thousand f32
-    /// values of s) with a steep warp: sample_with_pdf and pdf(sample) used to differ by
-    /// percents because u was recomputed from the quantised s.
+    /// values of s) with a steep warp: sample_with_pdf and pdf(sample) must agree, which they
+    /// do not (by percents) if u is recomputed from the quantised s.
     #[test]
     fn density_of_samples_near_the_axis() {
         let seg = Segment::new(Vec3::new(0.01, 0.0, 0.5), Vec3::new(0.01, 0.0, 0.52));

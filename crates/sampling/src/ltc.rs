@@ -373,8 +373,9 @@ mod tests {
     /// to their own mass: the fitted GGX LTC of α = 0.05 at θ_o = 80° (A as the table gives it,
     /// `linlight_brdf::ltc`) and a line across the mirror direction, where A⁻¹ spreads the
     /// outermost 1e-5 of the cosine-space mass over 15 % of the line's φ-range at each end.
-    /// With the guard's solid-angle start value the tail mass below the sample for ξ = 1e-6 was
-    /// 3.4e-8 (the samples sat at the ends; the chi-square suite saw the excess).
+    /// With the guard's solid-angle start value the tail mass below the sample for ξ = 1e-6
+    /// would be 3.4e-8 (the samples would sit at the ends; the chi-square suite sees the
+    /// excess).
     #[test]
     fn tails_follow_the_density() {
         let a = Mat3::from_cols_array(&[

@@ -25,16 +25,17 @@
 //! n·ω itself cancels near a horizon-clipped end (n_s s + n_t t ≈ 0 with O(1) terms), so it is
 //! carried as n·ω(φ_b + τ) = p0 cos τ + p1 sin τ with p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b,
 //! each rounded once from a wider product. With these, f32 arithmetic reaches the same two-
-//! iteration backward error as f64 (see `linlight backward-error`); with n·ω evaluated as
-//! n_s s + n_t t it was 1.5e-3 on 1e-4-rad intervals at the horizon.
+//! iteration backward error as f64 (see `linlight backward-error`); n·ω evaluated as
+//! n_s s + n_t t would leave 1.5e-3 on 1e-4-rad intervals at the horizon.
 //!
 //! Accuracy (the measure: the backward error of a sample, |CDF(τ̂) − ξ| in units of ξ, with
 //! CDF the exact per-radius CDF of p_R on the problem as the sampler represents it, evaluated in
 //! f64; `linlight backward-error` sweeps normals, sub-intervals down to 1e-4 rad and ξ): with
 //! [`DEFAULT_ITERATIONS`] = 2 the f32 sampler's worst case is 1.595e-5 outside the ξ guard and
 //! 1.991e-5 including it (the start value returned for ξ within [`XI_GUARD`] of 0 or 1), within
-//! the bound 2e-5 (the paper: 1.6e-5); one step leaves 1.548e-2, three 6.2e-7. One step from
-//! a better start value was studied and not adopted (docs/performance.md, "One Halley step"):
+//! the bound 2e-5 (the paper: 1.6e-5); one step leaves 1.548e-2, three 7.85e-7. One step from
+//! a better start value is not used (docs/performance.md, "Why the scalar PSA sample stays
+//! above 100 ns"):
 //! where the density vanishes to second order at an end (n towards the line's closest point,
 //! interval reaching φ = ±π/2) the inverse CDF behaves like a cube root, which no start value
 //! of one square root and one division follows closely enough (best found: 1.3e-2 after one
@@ -437,9 +438,9 @@ impl<T: Real> PsaCore<T> {
     }
 
     /// [`Self::start_with`] and (sin, cos) of τ/2 for ξ ∈ (0, 1), which the first Halley step
-    /// evaluates: from the start value's own quantities, not from τ (the atan2 of the start
-    /// value and a sin/cos of its half were one after the other on the critical path; now the
-    /// atan2 runs beside). The unit vectors at φ_b and φ = φ_b + τ sum to
+    /// evaluates: from the start value's own quantities, not from τ (so that the atan2 of the
+    /// start value runs beside the critical path instead of before a sin/cos of its half on
+    /// it). The unit vectors at φ_b and φ = φ_b + τ sum to
     /// w = (c_b + c, s_b + sin φ) = (`denom`, 2s_b + y), |w| = 2 cos(τ/2), and their cross
     /// product is sin τ, so cos(τ/2) = |w|/2 and sin(τ/2) = sin τ/|w| (a sum of squares: no
     /// cancellation; where w → 0, τ → π, its first component dominates).
@@ -641,7 +642,8 @@ impl<T: Real> PsaCore<T> {
 
 /// Most Halley steps of [`PsaCore::solve_converged`] (it stops as soon as a step changes τ by
 /// no more than its rounding: after 2–7 steps from the solid-angle start value on the tails of
-/// the fitted-table LTC configurations measured; the bound only stops a pathological case).
+/// the fitted-table LTC configurations of the sampler suite; the bound only stops a
+/// pathological case).
 const CONVERGED_MAX_STEPS: u32 = 60;
 
 impl PsaCore<f64> {
@@ -791,7 +793,8 @@ impl ProjectedSolidAngle {
         // n_s, n_t; (sin φ_b, cos φ_b) = (l_b, d)/r_b, cos φ_b accurate where s_b ≈ ±1 is not;
         // Δ from tan Δ = (l_e − l_b)d / (d² + l_b l_e), free of the cancellation of φ_e − φ_b;
         // p0 = n·ω_b and p1 = d(n·ω)/dφ at φ_b: at a horizon-clipped begin p0 ≈ 0 is a
-        // difference of O(1) terms, whose f32 rounding was ~1e-5 of Ω⊥ of a 3e-3-rad interval.
+        // difference of O(1) terms, whose f32 rounding would be ~1e-5 of Ω⊥ of a 3e-3-rad
+        // interval.
         let (n64, d, lb, le) = (
             n.as_dvec3(),
             frame.d as f64,

@@ -76,12 +76,11 @@ impl Technique {
     /// here; zero or non-finite normals give `None`). `None`: the light contributes nothing.
     ///
     /// Use the result by reference (`.as_ref()`, `if let Some(p) = &…`), as the renderer does.
-    /// Moving the sampler out of the `Option` (`if let Some(p) = technique.prepare(…)`) made the
-    /// caller copy the ~120-byte [`Prepared`] with 16-byte loads of fields that `prepare` had
+    /// Moving the sampler out of the `Option` (`if let Some(p) = technique.prepare(…)`) makes the
+    /// caller copy the ~120-byte [`Prepared`] with 16-byte loads of fields that `prepare` has
     /// just stored with narrower stores: the loads cannot be forwarded from the store buffer and
-    /// wait for those stores to retire, i.e. for the whole preparation, so the sample could not
-    /// start early (micro-benchmark: up to 15 ns per light sample for projected solid angle,
-    /// 5–8 ns for the others; docs/performance.md, "Third pass").
+    /// wait for those stores to retire, i.e. for the whole preparation, so the sample cannot
+    /// start early (the techniques micro-benchmark shows the difference).
     pub fn prepare(self, segment: &Segment, x: Vec3, n: Vec3) -> Option<Prepared> {
         Some(match self {
             Technique::Baseline => Prepared::Baseline(Baseline::prepare(segment, x, n)?),

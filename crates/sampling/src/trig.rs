@@ -1,9 +1,9 @@
 //! atan2 and sin/cos for the f32 hot path, evaluated in f64 without a libm call.
 //!
-//! glibc's `atan2f` (the target of `f32::atan2`) was the single most expensive call of the
-//! projected-solid-angle samplers (~130 instructions per call, two to five calls per sample), and
-//! every libm call forces the caller to spill all live SSE registers (all are caller-saved), which
-//! dominated the Halley loop around `sincosf`. Both are replaced by short f64 polynomials, accurate
+//! glibc's `atan2f` (the target of `f32::atan2`) costs ~130 instructions per call, and the
+//! projected-solid-angle samplers make two to five calls per sample; every libm call also forces
+//! the caller to spill all live SSE registers (all are caller-saved), which would dominate the
+//! Halley loop around `sincosf`. So both are short f64 polynomials here, accurate
 //! far beyond f32 (so f32 results are the correctly rounded values except within ~1e-3 ulp of a
 //! tie; the exception is `atan2_coarse`, the projected-solid-angle start value's atan2, whose
 //! f32 division leaves it within 2 ulp), with relative accuracy kept where the f32 callers need
@@ -72,7 +72,7 @@ fn divide_f64(reduce: bool, num: f64, den: f64) -> f64 {
 /// lanes one f32 division (a third of an f64 division's time in the divider of an AVX-512 core).
 /// num ∓ den are formed in f64, where they are exact (where they are used, num ≥ tan(π/8)·den,
 /// so the exponents differ by at most 2), and rounded to f32, which is the f32 sum's rounding;
-/// in f32 the sum would overflow for num + den > `f32::MAX` (atan2(2e38, 3.4e38) was π/4).
+/// in f32 the sum would overflow for num + den > `f32::MAX` (atan2(2e38, 3.4e38) would be π/4).
 /// Above den = 1 both are halved before the rounding (exact there: no result is subnormal), so
 /// the quotient is the f32 one bit for bit wherever that did not overflow; below, halving is
 /// skipped, as it would round subnormal differences.
@@ -97,7 +97,7 @@ fn atan2_with(y: f64, x: f64, divide: impl Fn(bool, f64, f64) -> f64) -> f64 {
     // atan(num/den) = π/4 + atan((num − den)/(num + den)), where num − den is a single rounding
     // (no cancellation of a rounded quotient). den = 0 only for x = y = 0 (then 0); inf/inf
     // (only in the second branch) gives NaN, where std returns π/4. (Branches, not selects:
-    // measured faster, as the division starts on the predicted path.)
+    // faster on the scalar path, as the division starts on the predicted path.)
     let mut r = if num > TAN_PI_8 * den {
         FRAC_PI_4 + atan_small(divide(true, num, den))
     } else if den > 0.0 {
@@ -125,7 +125,7 @@ fn atan2_with(y: f64, x: f64, divide: impl Fn(bool, f64, f64) -> f64) -> f64 {
 
 /// [`atan2_f64`] with selects instead of branches (bitwise the same results, also for the
 /// special values): for lanes of a SIMD batch, where every lane takes both ways. On the scalar
-/// path the branches measured faster (the division starts on the predicted path).
+/// path the branches are faster (the division starts on the predicted path).
 #[inline(always)]
 pub fn atan2_f64_select(y: f64, x: f64) -> f64 {
     atan2_select_with(y, x, divide_f64)
@@ -176,9 +176,9 @@ pub(crate) fn atan2_coarse(y: f32, x: f32) -> f32 {
 }
 
 /// [`atan2_coarse`] with selects instead of branches (bitwise the same results), for the lanes
-/// of [`crate::batch`]. Not for the scalar path: there it measured slower than the branches
-/// (techniques bench, projected solid angle: 981 → 991 instructions per sample, minimum
-/// 129–133 → 136 ns), as for [`atan2_f64_select`].
+/// of [`crate::batch`]. Not for the scalar path: there it is slower than the branches (more
+/// instructions and a longer chain in the techniques bench's projected solid angle), as for
+/// [`atan2_f64_select`].
 #[inline(always)]
 pub(crate) fn atan2_coarse_select(y: f32, x: f32) -> f32 {
     atan2_select_with(y as f64, x as f64, divide_f32) as f32
@@ -420,8 +420,8 @@ mod tests {
     }
 
     /// `divide_f32` is the plain f32 arithmetic (f32 sum, difference and quotient) bit for bit
-    /// wherever that does not overflow, so the sampler's start values did not change when the
-    /// overflow was mended; where it overflowed, the quotient is the right one.
+    /// wherever that does not overflow, so the overflow guard changes no start value there;
+    /// where plain f32 overflows, the quotient is the right one.
     #[test]
     fn divide_f32_is_f32_arithmetic_where_that_is_finite() {
         let plain = |reduce: bool, num: f32, den: f32| {

@@ -226,9 +226,9 @@ proptest! {
         }
     }
 
-    /// The frame every technique builds on is orthonormal to f32 precision at any scale (f32
-    /// cancellation in c = b − σu used to leave |u·ĉ| ~ 1e-4 near the line, and squared
-    /// lengths of tiny or huge vectors left the f32 range).
+    /// The frame every technique builds on is orthonormal to f32 precision at any scale (built
+    /// in f32, c = b − σu would cancel to |u·ĉ| ~ 1e-4 near the line, and squared lengths of
+    /// tiny or huge vectors would leave the f32 range).
     #[test]
     fn line_frame_is_orthonormal((segment, x, _n) in configuration()) {
         if let Some(f) = LineFrame::new(&segment, x) {

@@ -2,9 +2,9 @@
 //!
 //! The sampler suite turns a technique's panic into a failing row ([`crate::suite`]); the
 //! message would otherwise also reach the terminal through the process-wide panic hook.
-//! Replacing that hook for the whole run (as the CLI once did) also silenced panics of
-//! unrelated work running at the same time — `linlight certify` renders images while the
-//! suite runs — so their messages were lost. [`catch_quietly`] silences only the panics raised
+//! Replacing that hook for the whole run would also silence panics of unrelated work running
+//! at the same time — `linlight certify` renders images while the suite runs — and lose their
+//! messages. [`catch_quietly`] silences only the panics raised
 //! on the calling thread inside its closure; every other panic reaches the hook that was
 //! installed before (the default one, or the caller's).
 

@@ -427,7 +427,7 @@ fn zero_sample_variance_is_bounded_by_the_rule_of_three_not_trusted() {
     assert_eq!(cmp.pixel_classes.zero_sample_variance, 36);
     assert_eq!(cmp.zero_variance.one_sided, 36);
     assert_eq!(cmp.verdict, Verdict::Consistent, "{:?}", cmp.failures);
-    // The same pixels trusted with variance 0 (the old rule) would be |z| ≈ 20 or more.
+    // The same pixels trusted with variance 0 would be |z| ≈ 20 or more.
     let z_naive = (b.mean[5][0] as f64) / (b.var[5][0] as f64).sqrt();
     assert!(z_naive > 20.0, "{z_naive}");
     // A whole black tile is still a difference: the bound keeps the tile test's power.
