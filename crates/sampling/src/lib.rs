@@ -9,6 +9,7 @@ pub mod area;
 pub mod backward_error;
 pub mod baseline;
 pub mod batch;
+pub mod cylinder;
 pub mod geometry;
 pub mod hart;
 pub mod li2018;
