@@ -294,6 +294,9 @@ struct Verdict {
     outside: u64,
     normalisation_error: f64,
     irradiance_z: f64,
+    /// Standard deviation of one sample's irradiance estimate relative to the truth (the
+    /// variance at equal sample count; reported, not tested).
+    relative_sd: f64,
 }
 
 /// ∫ p dΩ expected of a correct technique: 1, or for ours the live slices' azimuth measure.
@@ -366,6 +369,7 @@ fn certify(s: &dyn CylinderSampler, seed: u64, live_only: bool) -> Verdict {
         outside,
         normalisation_error,
         irradiance_z,
+        relative_sd: se * (N as f64).sqrt() / truth,
     }
 }
 
@@ -412,8 +416,8 @@ fn cylinder_samplers_certified_and_controls_rejected() {
         .inverse_cdf(1.0 - alpha_c / 2.0);
     println!("alpha = {ALPHA}, Sidak over m = {m}: per-test alpha_c = {alpha_c:.3e}, z = {z:.3}");
     println!(
-        "{:<20} {:<12} {:>10} {:>9} {:>10} {:>8} {:>9}",
-        "config", "technique", "chi2 p", "outside", "norm err", "irr |z|", "jacobian"
+        "{:<20} {:<12} {:>10} {:>9} {:>10} {:>8} {:>9} {:>9}",
+        "config", "technique", "chi2 p", "outside", "norm err", "irr |z|", "jacobian", "rel sd"
     );
     let mut failures = Vec::new();
     for (k, c) in configs.iter().enumerate() {
@@ -435,8 +439,15 @@ fn cylinder_samplers_certified_and_controls_rejected() {
                 jacobian_error(s.as_ref())
             };
             println!(
-                "{:<20} {:<12} {:>10.3e} {:>9} {:>10.1e} {:>8.2} {:>9.1e}",
-                c.name, name, r.p_value, r.outside, r.normalisation_error, r.irradiance_z, jac
+                "{:<20} {:<12} {:>10.3e} {:>9} {:>10.1e} {:>8.2} {:>9.1e} {:>9.2e}",
+                c.name,
+                name,
+                r.p_value,
+                r.outside,
+                r.normalisation_error,
+                r.irradiance_z,
+                jac,
+                r.relative_sd
             );
             let ok = r.p_value >= alpha_c
                 && r.outside == 0

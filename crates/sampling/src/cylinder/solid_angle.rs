@@ -29,7 +29,7 @@ pub const BANDS: usize = 8;
 /// Panels of the surface angle per side for Ω, with the 8-point Gauss–Legendre rule on each.
 pub const PANELS: usize = 3;
 /// Most candidates per sample; the acceptance rate is ≥ 0.5 on the tests' configurations (0.52
-/// with x 1e-4 R from a rim, ≥ 0.75 elsewhere), so
+/// with x 1e-4 R from a rim, ≥ 0.74 elsewhere), so
 /// the chance of reaching this is below 1e-300.
 const MAX_CANDIDATES: usize = 2000;
 
