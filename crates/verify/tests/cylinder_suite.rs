@@ -299,11 +299,12 @@ struct Verdict {
     relative_sd: f64,
 }
 
-/// ∫ p dΩ expected of a correct technique: 1, or for ours the live slices' azimuth measure.
-fn expected_total(v: &CylinderView, live_only: bool) -> f64 {
-    if !live_only {
+/// ∫ p dΩ expected of a correct technique: 1, or for ours the live slices' azimuth measure
+/// ∫ q(α) [T(α) > 0] dα.
+fn expected_total(v: &CylinderView, ours: Option<&CylinderProjected>) -> f64 {
+    let Some(ours) = ours else {
         return 1.0;
-    }
+    };
     let gl = GaussLegendre::new(24);
     let panels = 32;
     let width = 2.0 * v.theta_max / panels as f64;
@@ -322,19 +323,19 @@ fn expected_total(v: &CylinderView, live_only: bool) -> f64 {
                 v.n_t(alpha) > 0.0
             };
             if live {
-                m += 0.5 * width * wt * jac * 0.5 / v.alpha_max;
+                m += 0.5 * width * wt * jac * ours.azimuth_density(alpha);
             }
         }
     }
     m
 }
 
-fn certify(s: &dyn CylinderSampler, seed: u64, live_only: bool) -> Verdict {
+fn certify(s: &dyn CylinderSampler, seed: u64, ours: Option<&CylinderProjected>) -> Verdict {
     let v = s.view();
     let grid = Grid::of(v);
     let mass = grid.masses(v, &|d| s.pdf(d));
     let total: f64 = mass.iter().sum();
-    let normalisation_error = (total - expected_total(v, live_only)).abs();
+    let normalisation_error = (total - expected_total(v, ours)).abs();
     let mut counts = vec![0u64; BINS * BINS + 1];
     let mut outside = 0;
     let mut rng = Pcg32::new(seed, 11);
@@ -422,17 +423,18 @@ fn cylinder_samplers_certified_and_controls_rejected() {
     let mut failures = Vec::new();
     for (k, c) in configs.iter().enumerate() {
         let v = &c.view;
-        let samplers: [(&str, Box<dyn CylinderSampler>, bool); 3] = [
-            ("area", Box::new(CylinderArea::new(v).unwrap()), false),
+        let ours = CylinderProjected::new(v).unwrap();
+        let samplers: [(&str, Box<dyn CylinderSampler>, Option<&CylinderProjected>); 3] = [
+            ("area", Box::new(CylinderArea::new(v).unwrap()), None),
             (
                 "solid-angle",
                 Box::new(CylinderSolidAngle::new(v).unwrap()),
-                false,
+                None,
             ),
-            ("ours", Box::new(CylinderProjected::new(v).unwrap()), true),
+            ("ours", Box::new(ours), Some(&ours)),
         ];
-        for (t, (name, s, live)) in samplers.iter().enumerate() {
-            let r = certify(s.as_ref(), 1000 + 10 * k as u64 + t as u64, *live);
+        for (t, (name, s, q)) in samplers.iter().enumerate() {
+            let r = certify(s.as_ref(), 1000 + 10 * k as u64 + t as u64, *q);
             let jac = if *name == "solid-angle" {
                 f64::NAN
             } else {
@@ -476,7 +478,7 @@ fn cylinder_samplers_certified_and_controls_rejected() {
             controls.push(("line density", Box::new(LineDensity(ours))));
         }
         for (t, (name, s)) in controls.iter().enumerate() {
-            let r = certify(s.as_ref(), 5000 + 10 * k as u64 + t as u64, true);
+            let r = certify(s.as_ref(), 5000 + 10 * k as u64 + t as u64, Some(&ours));
             let rejected = r.p_value < alpha_c
                 || r.outside > 0
                 || r.normalisation_error >= 1e-6

@@ -1,5 +1,6 @@
-//! Ours: the azimuth α uniform over the visible azimuths, then the elevation along the side by
-//! the paper's projected-solid-angle line sampler (technique 8) on the slice at that azimuth.
+//! Ours: the azimuth across the visible section from a piecewise-linear approximation of the
+//! projected solid angle's marginal, then the elevation along the side by the paper's
+//! projected-solid-angle line sampler (technique 8) on the slice at that azimuth.
 //!
 //! At azimuth α the visible side is a segment parallel to the axis at horizontal distance
 //! h(α) (see [`super`]), seen between the elevations φ_a(α), φ_b(α) and clipped to the horizon
@@ -9,7 +10,7 @@
 //! Since dΩ = dα ds, the composed direction has the exact density per steradian
 //!
 //! ```text
-//! p(ω) = q(α) · 2 max(0, n·ω) / T(α),   q(α) = 1 / (2 α_max),
+//! p(ω) = q(α) · 2 max(0, n·ω) / T(α),
 //! ```
 //!
 //! on the front side above the horizon, 0 elsewhere (docs/cylinders.md derives it). Slices
@@ -18,18 +19,34 @@
 //! only deviation of the samples from p is the line sampler's own backward error (two Halley
 //! steps, ≤ 2e-5 in ξ).
 //!
-//! Inverse: ξ₁ = (α + α_max)/(2α_max), ξ₂ = the slice's exact CDF at φ.
+//! The section's density q: the ideal marginal (that of p ∝ n·ω) is T(α)/(2Ω⊥) per unit α. q
+//! is g(α)/G, the piecewise-linear interpolant of T at the azimuths α_k of [`SECTION_NODES`]
+//! equally spaced surface angles θ_k, plus a floor of [`FLOOR`] × their mean (so that g > 0
+//! wherever a slice may be live, also between nodes that are dead), G = ∫ g dα. For a thin tube
+//! T is nearly constant across the section and q nearly uniform. The interval is chosen by its
+//! area and α inside it by inverting the linear density's quadratic CDF (closed form).
+//!
+//! Inverse: ξ₁ = the section's CDF at α, ξ₂ = the slice's exact CDF at φ.
 
 use super::{clamp_xi, CylinderSampler, CylinderView};
 use crate::projected_solid_angle::{PsaCore, DEFAULT_ITERATIONS};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI};
 
+/// Equally spaced surface angles whose azimuths are the section density's nodes (4 intervals:
+/// the nodes are edges of the certification's θ-bins).
+pub const SECTION_NODES: usize = 5;
+/// Floor of the piecewise-linear section density, relative to the mean of its node values.
+pub const FLOOR: f64 = 0.1;
+
 #[derive(Clone, Copy, Debug)]
 pub struct CylinderProjected {
     view: CylinderView,
-    /// 1/(2α_max).
-    q: f64,
+    /// The nodes α_k = α(θ_k), θ_k = −θ_max + k Δθ, and g there.
+    alpha: [f64; SECTION_NODES],
+    g: [f64; SECTION_NODES],
+    /// Cumulative trapezoid areas of g (the last is G).
+    cumulative: [f64; SECTION_NODES - 1],
     iterations: u32,
 }
 
@@ -78,19 +95,92 @@ impl CylinderProjected {
 
     /// With a given number of Halley steps of the line sampler (the paper's is 2).
     pub fn with_iterations(view: &CylinderView, iterations: u32) -> Option<Self> {
-        let q = 0.5 / view.alpha_max;
-        (q.is_finite() && q > 0.0).then_some(Self {
+        let v = view;
+        let step = 2.0 * v.theta_max / (SECTION_NODES - 1) as f64;
+        let mut m = [0.0; SECTION_NODES];
+        let mut alpha = [0.0; SECTION_NODES];
+        for k in 0..SECTION_NODES {
+            // The ends exactly at ±α_max (the silhouette).
+            alpha[k] = match k {
+                0 => -v.alpha_max,
+                k if k == SECTION_NODES - 1 => v.alpha_max,
+                k => v.alpha_of_theta(-v.theta_max + k as f64 * step).0,
+            };
+            m[k] = slice_total(v, alpha[k], v.h(alpha[k])).unwrap_or(0.0);
+        }
+        let mean = m.iter().sum::<f64>() / SECTION_NODES as f64;
+        // All nodes dead (a sliver above the horizon between them at most): uniform in θ.
+        let floor = if mean > 0.0 { FLOOR * mean } else { 1.0 };
+        let g = m.map(|mk| mk + floor);
+        let mut cumulative = [0.0; SECTION_NODES - 1];
+        let mut area = 0.0;
+        for k in 0..SECTION_NODES - 1 {
+            area += 0.5 * (g[k] + g[k + 1]) * (alpha[k + 1] - alpha[k]);
+            cumulative[k] = area;
+        }
+        (area.is_finite() && area > 0.0).then_some(Self {
             view: *view,
-            q,
+            alpha,
+            g,
+            cumulative,
             iterations,
         })
+    }
+
+    /// The interval of α and the fraction x ∈ [0, 1] of the way through it.
+    #[inline]
+    fn locate(&self, alpha: f64) -> (usize, f64) {
+        let mut k = 0;
+        while k + 1 < SECTION_NODES - 1 && alpha > self.alpha[k + 1] {
+            k += 1;
+        }
+        let width = self.alpha[k + 1] - self.alpha[k];
+        (k, ((alpha - self.alpha[k]) / width).clamp(0.0, 1.0))
+    }
+
+    /// q(α): density of the azimuth of the sampled slice (per unit α; 0 off the section).
+    pub fn azimuth_density(&self, alpha: f64) -> f64 {
+        if alpha.is_nan() || alpha.abs() > self.view.alpha_max {
+            return 0.0;
+        }
+        let (k, x) = self.locate(alpha);
+        (self.g[k] * (1.0 - x) + self.g[k + 1] * x) / self.cumulative[SECTION_NODES - 2]
+    }
+
+    /// α for ξ ∈ [0, 1]: the interval by its area, then the linear density's CDF inverted.
+    fn alpha_of_xi(&self, xi: f64) -> f64 {
+        let total = self.cumulative[SECTION_NODES - 2];
+        let target = xi * total;
+        let mut k = 0;
+        while k + 1 < SECTION_NODES - 1 && target > self.cumulative[k] {
+            k += 1;
+        }
+        let start = if k == 0 { 0.0 } else { self.cumulative[k - 1] };
+        // Area y = Δα (g₀ x + (g₁ − g₀) x²/2) on x ∈ [0, 1]: x = 2y' / (g₀ + √(g₀² + 2(g₁ − g₀)y'))
+        // with y' = y/Δα (no cancellation: g₀ > 0).
+        let width = self.alpha[k + 1] - self.alpha[k];
+        let y = ((target - start) / width).max(0.0);
+        let (g0, g1) = (self.g[k], self.g[k + 1]);
+        let disc = (g0 * g0 + 2.0 * (g1 - g0) * y).max(0.0);
+        let x = (2.0 * y / (g0 + disc.sqrt())).clamp(0.0, 1.0);
+        (self.alpha[k] + x * width).clamp(-self.view.alpha_max, self.view.alpha_max)
+    }
+
+    /// The section's CDF at α (inverse of [`Self::alpha_of_xi`]).
+    fn xi_of_alpha(&self, alpha: f64) -> f64 {
+        let (k, x) = self.locate(alpha);
+        let start = if k == 0 { 0.0 } else { self.cumulative[k - 1] };
+        let (g0, g1) = (self.g[k], self.g[k + 1]);
+        let width = self.alpha[k + 1] - self.alpha[k];
+        let area = start + width * (g0 * x + 0.5 * (g1 - g0) * x * x);
+        (area / self.cumulative[SECTION_NODES - 2]).clamp(0.0, 1.0)
     }
 }
 
 impl CylinderSampler for CylinderProjected {
     fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
         let v = &self.view;
-        let alpha = v.alpha_max * (2.0 * clamp_xi(xi[0]) - 1.0);
+        let alpha = self.alpha_of_xi(clamp_xi(xi[0]));
         let h = v.h(alpha);
         let (core, lo) = slice_core(v, alpha, h)?;
         let tau = core.solve(clamp_xi(xi[1]), self.iterations);
@@ -98,7 +188,7 @@ impl CylinderSampler for CylinderProjected {
         let dir = v.direction(alpha, phi);
         // n·ω of the slice's core at τ (accurate near a clipped end), not the rounded n·dir.
         let (_, _, n_dot_w) = core.at(tau);
-        let p = self.q * 2.0 * n_dot_w.max(0.0) / core.total;
+        let p = self.azimuth_density(alpha) * 2.0 * n_dot_w.max(0.0) / core.total;
         (p > 0.0 && p.is_finite()).then_some((dir, p))
     }
 
@@ -114,15 +204,14 @@ impl CylinderSampler for CylinderProjected {
             return 0.0;
         }
         let (_, _, n_dot_w) = core.at(phi - lo);
-        self.q * 2.0 * n_dot_w.max(0.0) / core.total
+        self.azimuth_density(alpha) * 2.0 * n_dot_w.max(0.0) / core.total
     }
 
     fn inverse(&self, dir: DVec3) -> Option<[f64; 2]> {
         let v = &self.view;
         let (alpha, phi, h) = v.hit(dir)?;
         let (core, lo) = slice_core(v, alpha, h)?;
-        let xi0 = ((alpha / v.alpha_max + 1.0) * 0.5).clamp(0.0, 1.0);
-        Some([xi0, core.cdf(phi - lo)])
+        Some([self.xi_of_alpha(alpha), core.cdf(phi - lo)])
     }
 
     fn view(&self) -> &CylinderView {
@@ -153,7 +242,7 @@ mod tests {
                         let th = -v.theta_max + wdt * (k as f64 + 0.5 * (x + 1.0));
                         let (a, j) = v.alpha_of_theta(th);
                         if slice_total(&v, a, v.h(a)).is_some() {
-                            m += 0.5 * wdt * wt * j * s.q;
+                            m += 0.5 * wdt * wt * j * s.azimuth_density(a);
                         }
                     }
                 }
