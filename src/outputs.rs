@@ -1,8 +1,14 @@
 //! What every command checks before doing any work: that its output files can be written (and
 //! do not overwrite an input), that the thread count is sensible, and that a render fits in
 //! memory. "Unusable input is detected before anything is rendered."
+//!
+//! Every output is written atomically by [`write_file`] (or the image writers, which use the
+//! same [`linlight_imagefile::atomic`] writer): the target holds the old or the new complete
+//! file, whatever happens to the writer.
 
 use std::path::{Path, PathBuf};
+
+pub use linlight_imagefile::atomic::write_file;
 
 /// Output image formats, chosen from the file extension (as Mitsuba's `Bitmap::write` does).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -48,11 +54,33 @@ pub fn identity(path: &Path) -> PathBuf {
     }
 }
 
-/// Refuses `output` if it is the same file as any of `inputs` (name, path).
+/// The (device, inode) of an existing file (symbolic links followed), as GNU `cp` identifies
+/// files: two names of one file (hard links, bind mounts, `..` and links) compare equal.
+#[cfg(unix)]
+fn file_id(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+#[cfg(not(unix))]
+fn file_id(_: &Path) -> Option<(u64, u64)> {
+    None
+}
+
+/// Whether `a` and `b` name the same file: by (device, inode) when both exist, else by
+/// [`identity`].
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (file_id(a), file_id(b)) {
+        (Some(x), Some(y)) => x == y,
+        (None, None) => identity(a) == identity(b),
+        _ => false,
+    }
+}
+
+/// Refuses `output` if it is the same file as any of `inputs` (name, path), by (device,
+/// inode): a hard link to an input is that input.
 pub fn check_not_input(output: &Path, inputs: &[(&str, &Path)]) -> Result<(), String> {
-    let out = identity(output);
     for (what, input) in inputs {
-        if identity(input) == out {
+        if same_file(output, input) {
             return Err(format!(
                 "output {} is the {what} ({}); refusing to overwrite it",
                 output.display(),
@@ -67,15 +95,8 @@ pub fn check_not_input(output: &Path, inputs: &[(&str, &Path)]) -> Result<(), St
 /// directory, its directory exists, and opening it for writing succeeds (a file created by the
 /// probe is removed again; an existing file is not truncated).
 pub fn check_writable(path: &Path) -> Result<(), String> {
-    if path.as_os_str().is_empty() {
-        return Err("empty output path".into());
-    }
-    if path.is_dir() {
-        return Err(format!(
-            "cannot write {}: it is a directory",
-            path.display()
-        ));
-    }
+    // Not a directory, FIFO or device (opening a FIFO would block; see `write_file`).
+    linlight_imagefile::atomic::check_output_path(path)?;
     let parent = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -102,7 +123,7 @@ pub fn check_writable(path: &Path) -> Result<(), String> {
 /// Refuses one path given for two different outputs (the same file spelled twice included).
 pub fn check_distinct(paths: &[&Path]) -> Result<(), String> {
     for (i, a) in paths.iter().enumerate() {
-        if let Some(b) = paths[i + 1..].iter().find(|b| identity(a) == identity(b)) {
+        if let Some(b) = paths[i + 1..].iter().find(|b| same_file(a, b)) {
             return Err(format!("{} is given as two different outputs", b.display()));
         }
     }

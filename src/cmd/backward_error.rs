@@ -135,8 +135,8 @@ pub fn run(args: Args) -> ExitCode {
                 return ExitCode::from(2);
             }
         };
-        if let Err(e) = std::fs::write(path, text + "\n") {
-            eprintln!("error: cannot write {}: {e}", path.display());
+        if let Err(e) = linlight::outputs::write_file(path, text + "\n") {
+            eprintln!("error: {e}");
             return ExitCode::from(2);
         }
     }

@@ -113,8 +113,7 @@ fn write_outputs(args: &Args, cmp: &Comparison, a: &Image, b: &Image) -> Result<
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(cmp)
             .map_err(|e| format!("cannot serialise the report: {e}"))?;
-        std::fs::write(path, text + "\n")
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        linlight::outputs::write_file(path, text + "\n")?;
     }
     if let Some(path) = &args.heatmap {
         comparison_heatmap(cmp)
