@@ -141,6 +141,30 @@ pub fn check_dir_writable(dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// Largest radiance × radius K a light may have: a sample's value is K times geometry and BRDF
+/// terms of order 1 (up to ~1e6 near a light), and its square is summed in f32 for the variance;
+/// K² · 1e12 must stay below f32::MAX (3.4e38).
+pub const MAX_RADIANCE_TIMES_RADIUS: f32 = 1e13;
+
+/// Refuses, before rendering, a scene whose light radiance would overflow the f32 variance of
+/// the image (a render would otherwise run to its end and fail on an infinite variance).
+pub fn check_radiance(scene: &linlight_render::scene::Scene) -> Result<(), String> {
+    for light in &scene.lights {
+        let k = light.radiance_times_radius;
+        if k.iter()
+            .any(|c| !c.is_finite() || c.abs() > MAX_RADIANCE_TIMES_RADIUS)
+        {
+            return Err(format!(
+                "{}: the light's radiance × radius is ({:e}, {:e}, {:e}) (radius {}): its \
+                 squared samples overflow the image's f32 variance (at most {:e} per channel); \
+                 scale the radiance down",
+                light.location, k[0], k[1], k[2], light.radius, MAX_RADIANCE_TIMES_RADIUS
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Cores of this machine (1 if unknown).
 pub fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())

@@ -87,6 +87,11 @@ pub fn run(args: Args) -> ExitCode {
         Ok(img) => img,
         Err(e) => return unusable(e),
     };
+    for p in [&args.a, &args.b] {
+        if let Some(note) = linlight_imagefile::checksum_note(p) {
+            eprintln!("{note}");
+        }
+    }
     let cfg = CompareConfig {
         alpha: args.alpha,
         tolerance: args.tolerance,

@@ -159,6 +159,13 @@ fn print_failures(rows: &[SubjectReport]) {
 }
 
 pub fn run(args: Args) -> ExitCode {
+    // An unusable --json is reported before the suite runs, not after it.
+    if let Some(path) = &args.json {
+        if let Err(e) = linlight::outputs::check_writable(path) {
+            eprintln!("error: --json: {e}");
+            return ExitCode::from(2);
+        }
+    }
     if args.samples < 100 {
         eprintln!(
             "error: --samples must be at least 100 (got {})",

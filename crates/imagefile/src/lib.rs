@@ -447,9 +447,14 @@ impl Image {
     /// The header attributes of this image as written (own keys and extras, without
     /// `content_sha256`), by name.
     fn attribute_texts(&self) -> BTreeMap<String, String> {
-        let mut attrs = self.meta.extra.clone();
+        let mut attrs: BTreeMap<String, String> = self
+            .meta
+            .extra
+            .iter()
+            .map(|(k, v)| (k.clone(), header_value(v)))
+            .collect();
         for (k, v) in self.own_attributes() {
-            attrs.insert(k.to_string(), v);
+            attrs.insert(k.to_string(), header_value(&v));
         }
         attrs
     }
@@ -528,10 +533,8 @@ impl Image {
     ) -> Result<Layer<AnyChannels<FlatSamples>>, ImageError> {
         let mut attributes = LayerAttributes::default();
         let text = |key: &str, value: &str| {
-            Text::new_or_none(value).ok_or_else(|| {
-                ImageError::Format(format!(
-                    "attribute {key} has characters outside Latin-1: {value:?}"
-                ))
+            Text::new_or_none(header_value(value)).ok_or_else(|| {
+                ImageError::Format(format!("attribute {key} cannot be written: {value:?}"))
             })
         };
         let mut own = self.own_attributes().to_vec();
@@ -683,6 +686,7 @@ fn check_claimed_size(path: &Path, max_bytes: u64) -> Result<(), ImageError> {
             path.display()
         )),
     })?;
+    // raw: bytes the pixel data must take in the file at least.
     let (mut chunks, mut need, mut raw) = (0u128, 0u128, 0u128);
     let mut claim = String::new();
     for h in &meta.headers {
@@ -691,8 +695,15 @@ fn check_claimed_size(path: &Path, max_bytes: u64) -> Result<(), ImageError> {
         let samples = pixels * h.channels.list.len() as u128;
         chunks += h.chunk_count as u128;
         need += samples * READ_BYTES_PER_SAMPLE + pixels * READ_BYTES_PER_PIXEL;
-        if h.compression == exr::prelude::Compression::Uncompressed && !h.deep {
-            raw += pixels * h.channels.bytes_per_pixel as u128;
+        use exr::prelude::Compression as C;
+        let bytes = pixels * h.channels.bytes_per_pixel as u128;
+        match h.compression {
+            _ if h.deep => {}
+            C::Uncompressed => raw += bytes,
+            // Deflate expands at most 1032-fold, RLE 64-fold: a chunk holds at least
+            // 1/1100 of its pixel bytes.
+            C::ZIP1 | C::ZIP16 | C::RLE | C::PXR24 => raw += bytes / 1100,
+            _ => {}
         }
         if claim.is_empty() {
             claim = format!("{w}×{ht} pixels × {} channels", h.channels.list.len());
@@ -716,6 +727,28 @@ fn check_claimed_size(path: &Path, max_bytes: u64) -> Result<(), ImageError> {
         )));
     }
     Ok(())
+}
+
+/// An attribute value as the header stores it: unchanged if it is Latin-1 (what an EXR text
+/// attribute holds); otherwise every character outside Latin-1, and every `%`, as the `%XX`
+/// escapes of its UTF-8 bytes (a scene named `сцена.xml` is stored as
+/// `%D1%81%D1%86%D0%B5%D0%BD%D0%B0.xml`), so that any file name can be recorded.
+pub fn header_value(value: &str) -> String {
+    if value.chars().all(|c| (c as u32) < 0x100) {
+        return value.to_string();
+    }
+    let mut out = String::with_capacity(value.len() * 2);
+    for c in value.chars() {
+        if (c as u32) < 0x100 && c != '%' {
+            out.push(c);
+        } else {
+            let mut buf = [0u8; 4];
+            for b in c.encode_utf8(&mut buf).bytes() {
+                out.push_str(&format!("%{b:02X}"));
+            }
+        }
+    }
+    out
 }
 
 /// Version tag at the start of the bytes [`content_sha256`] hashes.
@@ -965,6 +998,11 @@ pub fn write_rgb_exr(
             )
         })
         .collect();
+    let attributes: BTreeMap<String, String> = attributes
+        .iter()
+        .map(|(k, v)| (k.clone(), header_value(v)))
+        .collect();
+    let attributes = &attributes;
     let mut h = ContentHasher::new(width, height, attributes);
     hash_planes(
         &mut h,
@@ -984,9 +1022,8 @@ pub fn write_rgb_exr(
             )));
         }
         let text = |s: &str| {
-            Text::new_or_none(s).ok_or_else(|| {
-                ImageError::Format(format!("attribute {k} has characters outside Latin-1"))
-            })
+            Text::new_or_none(s)
+                .ok_or_else(|| ImageError::Format(format!("attribute name {k:?} is not Latin-1")))
         };
         attrs.other.insert(text(k)?, AttributeValue::Text(text(v)?));
     }
@@ -1538,6 +1575,27 @@ mod tests {
         // The RGB maps carry one too.
         write_rgb_exr(&path, 2, 1, &[[1.0, 2.0, 3.0]; 2], &BTreeMap::new()).unwrap();
         assert!(has_content_checksum(&path));
+    }
+
+    #[test]
+    fn non_latin1_values_are_escaped() {
+        assert_eq!(header_value("floor.xml"), "floor.xml");
+        assert_eq!(header_value("café 100%"), "café 100%");
+        assert_eq!(
+            header_value("сцена 100%.xml"),
+            "%D1%81%D1%86%D0%B5%D0%BD%D0%B0 100%25.xml"
+        );
+        let mut img = sample_image(3, 2);
+        img.meta
+            .extra
+            .insert("scene".into(), "/tmp/сцена.xml".into());
+        let path = tmp("cyrillic.exr");
+        img.write(&path).unwrap();
+        let back = Image::read(&path).unwrap();
+        assert_eq!(
+            back.meta.extra["scene"],
+            "/tmp/%D1%81%D1%86%D0%B5%D0%BD%D0%B0.xml"
+        );
     }
 
     #[test]
