@@ -1,8 +1,14 @@
 //! What every command checks before doing any work: that its output files can be written (and
 //! do not overwrite an input), that the thread count is sensible, and that a render fits in
 //! memory. "Unusable input is detected before anything is rendered."
+//!
+//! Every output is written atomically by [`write_file`] (or the image writers, which use the
+//! same [`linlight_imagefile::atomic`] writer): the target holds the old or the new complete
+//! file, whatever happens to the writer.
 
 use std::path::{Path, PathBuf};
+
+pub use linlight_imagefile::atomic::write_file;
 
 /// Output image formats, chosen from the file extension (as Mitsuba's `Bitmap::write` does).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -48,11 +54,33 @@ pub fn identity(path: &Path) -> PathBuf {
     }
 }
 
-/// Refuses `output` if it is the same file as any of `inputs` (name, path).
+/// The (device, inode) of an existing file (symbolic links followed), as GNU `cp` identifies
+/// files: two names of one file (hard links, bind mounts, `..` and links) compare equal.
+#[cfg(unix)]
+fn file_id(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+#[cfg(not(unix))]
+fn file_id(_: &Path) -> Option<(u64, u64)> {
+    None
+}
+
+/// Whether `a` and `b` name the same file: by (device, inode) when both exist, else by
+/// [`identity`].
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (file_id(a), file_id(b)) {
+        (Some(x), Some(y)) => x == y,
+        (None, None) => identity(a) == identity(b),
+        _ => false,
+    }
+}
+
+/// Refuses `output` if it is the same file as any of `inputs` (name, path), by (device,
+/// inode): a hard link to an input is that input.
 pub fn check_not_input(output: &Path, inputs: &[(&str, &Path)]) -> Result<(), String> {
-    let out = identity(output);
     for (what, input) in inputs {
-        if identity(input) == out {
+        if same_file(output, input) {
             return Err(format!(
                 "output {} is the {what} ({}); refusing to overwrite it",
                 output.display(),
@@ -67,15 +95,8 @@ pub fn check_not_input(output: &Path, inputs: &[(&str, &Path)]) -> Result<(), St
 /// directory, its directory exists, and opening it for writing succeeds (a file created by the
 /// probe is removed again; an existing file is not truncated).
 pub fn check_writable(path: &Path) -> Result<(), String> {
-    if path.as_os_str().is_empty() {
-        return Err("empty output path".into());
-    }
-    if path.is_dir() {
-        return Err(format!(
-            "cannot write {}: it is a directory",
-            path.display()
-        ));
-    }
+    // Not a directory, FIFO or device (opening a FIFO would block; see `write_file`).
+    linlight_imagefile::atomic::check_output_path(path)?;
     let parent = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -102,7 +123,7 @@ pub fn check_writable(path: &Path) -> Result<(), String> {
 /// Refuses one path given for two different outputs (the same file spelled twice included).
 pub fn check_distinct(paths: &[&Path]) -> Result<(), String> {
     for (i, a) in paths.iter().enumerate() {
-        if let Some(b) = paths[i + 1..].iter().find(|b| identity(a) == identity(b)) {
+        if let Some(b) = paths[i + 1..].iter().find(|b| same_file(a, b)) {
             return Err(format!("{} is given as two different outputs", b.display()));
         }
     }
@@ -117,6 +138,30 @@ pub fn check_dir_writable(dir: &Path) -> Result<(), String> {
     std::fs::write(&probe, b"")
         .map_err(|e| format!("cannot write into directory {}: {e}", dir.display()))?;
     let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// Largest radiance × radius K a light may have: a sample's value is K times geometry and BRDF
+/// terms of order 1 (up to ~1e6 near a light), and its square is summed in f32 for the variance;
+/// K² · 1e12 must stay below f32::MAX (3.4e38).
+pub const MAX_RADIANCE_TIMES_RADIUS: f32 = 1e13;
+
+/// Refuses, before rendering, a scene whose light radiance would overflow the f32 variance of
+/// the image (a render would otherwise run to its end and fail on an infinite variance).
+pub fn check_radiance(scene: &linlight_render::scene::Scene) -> Result<(), String> {
+    for light in &scene.lights {
+        let k = light.radiance_times_radius;
+        if k.iter()
+            .any(|c| !c.is_finite() || c.abs() > MAX_RADIANCE_TIMES_RADIUS)
+        {
+            return Err(format!(
+                "{}: the light's radiance × radius is ({:e}, {:e}, {:e}) (radius {}): its \
+                 squared samples overflow the image's f32 variance (at most {:e} per channel); \
+                 scale the radiance down",
+                light.location, k[0], k[1], k[2], light.radius, MAX_RADIANCE_TIMES_RADIUS
+            ));
+        }
+    }
     Ok(())
 }
 

@@ -91,7 +91,13 @@ fn comparisons(report: &Value) -> Vec<Value> {
         .collect()
 }
 
+/// `certify --merge` of `shards` into `scratch/name` (the shards ran without the sampler suite,
+/// so the merge is told so).
 fn merge(name: &str, shards: &[&Path]) -> Output {
+    merge_with(name, shards, &["--no-sampler-suite"])
+}
+
+fn merge_with(name: &str, shards: &[&Path], extra: &[&str]) -> Output {
     let dir = scratch().join(name);
     let mut args = vec![
         "certify".to_string(),
@@ -102,8 +108,38 @@ fn merge(name: &str, shards: &[&Path]) -> Output {
         "--merge".into(),
     ];
     args.extend(shards.iter().map(|p| p.to_str().unwrap().to_string()));
+    args.extend(extra.iter().map(|s| s.to_string()));
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     linlight(&args)
+}
+
+/// `v` with every object's keys sorted.
+fn sorted(v: Value) -> Value {
+    match v {
+        Value::Object(m) => {
+            let entries: std::collections::BTreeMap<String, Value> =
+                m.into_iter().map(|(k, v)| (k, sorted(v))).collect();
+            Value::Object(entries.into_iter().collect())
+        }
+        Value::Array(a) => Value::Array(a.into_iter().map(sorted).collect()),
+        other => other,
+    }
+}
+
+/// Writes `report` to `scratch/name.json` with its `content_sha256` recomputed, as a forger
+/// with `sha256sum` would (docs/reliability.md: the hash catches edits, the recomputation
+/// catches forged verdicts).
+fn resealed(name: &str, mut report: Value) -> PathBuf {
+    use sha2::{Digest, Sha256};
+    report.as_object_mut().unwrap().remove("content_sha256");
+    let hash: String = Sha256::digest(sorted(report.clone()).to_string().as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    report["content_sha256"] = Value::from(hash);
+    let path = scratch().join(format!("{name}.json"));
+    std::fs::write(&path, serde_json::to_string_pretty(&report).unwrap()).unwrap();
+    path
 }
 
 #[test]
@@ -179,13 +215,94 @@ fn bad_merges_are_refused() {
     // A shard whose run was cut short (a comparison removed from its JSON).
     let mut cut = read(&r.shard2);
     cut["scenes"][0]["rows"].as_array_mut().unwrap().clear();
-    let cut_path = scratch().join("cut.json");
-    std::fs::write(&cut_path, cut.to_string()).unwrap();
+    let cut_path = resealed("cut", cut);
     refused(
         "cut",
         &[&r.shard1, &cut_path],
         "no comparison for floor-tube / li2018",
     );
+}
+
+/// Forged shards: each edit is refused (exit 2), edited in place (the hash no longer
+/// matches) and resealed (the recomputation from the statistics, or a plan check, refuses it).
+#[test]
+fn forged_shards_are_refused() {
+    let r = runs();
+    let s2 = read(&r.shard2);
+    // A row at +50 % with p = 1e-30, still labelled CONSISTENT.
+    let mut forged = s2.clone();
+    {
+        let g = &mut forged["scenes"][0]["rows"][0]["comparison"]["channels"][0]["global"];
+        let b = g["mean_b"].as_f64().unwrap();
+        g["mean_a"] = Value::from(1.5 * b);
+        g["diff"] = Value::from(0.5 * b);
+        g["p"] = Value::from(1e-30);
+        g["rel_diff"] = Value::from(0.5);
+    }
+    let plain = scratch().join("plus50-unsealed.json");
+    std::fs::write(&plain, serde_json::to_string(&forged).unwrap()).unwrap();
+    refused(
+        "plus50-unsealed",
+        &[&r.shard1, &plain],
+        "changed after it was written",
+    );
+    let sealed = resealed("plus50", forged);
+    refused("plus50", &[&r.shard1, &sealed], "statistics do not support");
+    // A DIFFERENT row relabelled CONSISTENT (both labels).
+    let mut relabelled = s2.clone();
+    {
+        let row = &mut relabelled["scenes"][0]["rows"][0];
+        let g = &mut row["comparison"]["channels"][1]["global"];
+        g["p"] = Value::from(1e-30);
+        g["significant"] = Value::from(false);
+    }
+    let sealed = resealed("relabelled", relabelled);
+    refused("relabelled", &[&r.shard1, &sealed], "global p = 1e-30");
+    // A duplicated row.
+    let mut dup = s2.clone();
+    let row = dup["scenes"][0]["rows"][0].clone();
+    dup["scenes"][0]["rows"].as_array_mut().unwrap().push(row);
+    let sealed = resealed("duplicated", dup);
+    refused(
+        "duplicated",
+        &[&r.shard1, &sealed],
+        "duplicated or removed rows",
+    );
+    // A removed row (one oracle of an item).
+    let mut removed = s2.clone();
+    removed["scenes"][0]["rows"].as_array_mut().unwrap().pop();
+    let sealed = resealed("removed", removed);
+    refused(
+        "removed",
+        &[&r.shard1, &sealed],
+        "duplicated or removed rows",
+    );
+    // α = 1e-300 in every shard (nothing would ever be rejected).
+    let at = |mut v: Value, name: &str| {
+        v["alpha"] = Value::from(1e-300);
+        resealed(name, v)
+    };
+    let (a1, a2) = (at(read(&r.shard1), "alpha-1"), at(s2.clone(), "alpha-2"));
+    refused("alpha", &[&a1, &a2], "α = 1e-300");
+    // Shard counts: 0 panicked (remainder by zero), 10⁸ aborted listing the missing shards.
+    for (count, name) in [(0u64, "count-0"), (100_000_000, "count-1e8")] {
+        let mut v = s2.clone();
+        v["shard"]["count"] = Value::from(count);
+        if count == 0 {
+            v["shard"]["index"] = Value::from(0);
+        }
+        let sealed = resealed(name, v);
+        refused(name, &[&r.shard1, &sealed], "is not a part i/N");
+    }
+    // Another version.
+    let mut old = s2.clone();
+    old["tool_version"] = Value::from("linlight 0.0.1");
+    let sealed = resealed("version", old);
+    refused("version", &[&r.shard1, &sealed], "was written by");
+    // The sampler suite removed: refused unless the merge is told to go without it.
+    let o = merge_with("no-suite", &[&r.shard1, &r.shard2], &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("sampler suite"));
 }
 
 #[test]

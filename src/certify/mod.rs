@@ -335,6 +335,9 @@ pub struct ReferenceInfo {
     /// Render time recorded by the harness (s).
     pub wall_time_s: Option<f64>,
     pub scene_sha256: String,
+    /// `content_sha256` of the reference image's content (header and pixels).
+    #[serde(default)]
+    pub reference_sha256: String,
 }
 
 /// One comparison: a subject's render of a scene against an oracle image.
@@ -406,6 +409,13 @@ pub struct Report {
     /// (None: all of it); `certify --merge` joins shards ([`shard`]).
     pub plan: Vec<shard::PlanItem>,
     pub shard: Option<shard::Shard>,
+    /// Version of the program that wrote the report (`--merge` refuses other versions).
+    #[serde(default)]
+    pub tool_version: String,
+    /// SHA-256 of the report's JSON without this field ([`shard::sealed_json`]), checked by
+    /// `--merge`.
+    #[serde(default)]
+    pub content_sha256: Option<String>,
 }
 
 impl Report {
@@ -452,6 +462,7 @@ fn reference_info(s: &ReferencedScene) -> ReferenceInfo {
         overrides: m.extra.get("overrides").cloned().unwrap_or_default(),
         wall_time_s: m.extra.get("wall_time_s").and_then(|t| t.parse().ok()),
         scene_sha256: m.scene_sha256.clone(),
+        reference_sha256: linlight_imagefile::content_sha256(&s.reference),
     }
 }
 
@@ -805,6 +816,8 @@ fn run_plan(
             .and_then(|t| serde_json::from_str(&t).ok()),
         plan,
         shard: opts.shard,
+        tool_version: shard::TOOL_VERSION.into(),
+        content_sha256: None,
     };
     if let Some(dir) = &opts.report_dir {
         report::write_report(dir, &report)?;

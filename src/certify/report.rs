@@ -9,6 +9,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::{Report, Row, Unusable};
+use crate::outputs::write_file;
 
 fn io_err(path: &Path, e: impl std::fmt::Display) -> Unusable {
     Unusable(format!("cannot write {}: {e}", path.display()))
@@ -431,11 +432,11 @@ fn calibration_section(calibration: Option<&serde_json::Value>) -> String {
 /// Writes `report.json` and `report.md` into `dir`.
 pub fn write_report(dir: &Path, report: &Report) -> Result<(), Unusable> {
     let json = dir.join("report.json");
-    let text = serde_json::to_string_pretty(report).map_err(|e| io_err(&json, e))?;
-    std::fs::write(&json, text + "\n").map_err(|e| io_err(&json, e))?;
-    let md = dir.join("report.md");
-    std::fs::write(&md, markdown(report)).map_err(|e| io_err(&md, e))?;
+    let text = super::shard::sealed_json(report).map_err(|e| io_err(&json, e))?;
+    let written = |r: Result<(), String>| r.map_err(Unusable);
+    written(write_file(&json, text))?;
+    written(write_file(&dir.join("report.md"), markdown(report)))?;
     let html = dir.join("report.html");
-    std::fs::write(&html, super::report_html::html(dir, report)).map_err(|e| io_err(&html, e))?;
+    written(write_file(&html, super::report_html::html(dir, report)))?;
     Ok(())
 }

@@ -10,14 +10,83 @@
 //! plan (scene names, techniques and scene hashes), that every item of the plan was run by exactly
 //! one shard, and then takes the worst verdict over the suite and all comparisons: the merged
 //! report holds exactly the comparisons, verdicts and family-wise level of the unsharded run.
+//!
+//! The merge trusts no verdict. Each report carries the version of the program that wrote it
+//! and a SHA-256 of its own JSON ([`sealed_json`]); the merge refuses another version or a
+//! report whose content does not match its hash, recomputes the verdict of every comparison
+//! from the statistics it carries at the family's Šidák level ([`recheck_row`]), checks that
+//! every item of the plan has exactly its comparisons (one per oracle, no duplicates), that
+//! the shards agree on the scene and reference hashes, and that the sampler suite is there
+//! (unless the merge is told `--no-sampler-suite`) with every technique and negative control
+//! of this version. Any mismatch is an error (exit 2), never a verdict.
 
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use serde_json::Value;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use super::sampler_suite::SuiteSummary;
 use super::scenes::ReferencedScene;
-use super::{Report, SceneReport, Subject, Unusable};
-use linlight_verify::image_stats::Verdict;
+use super::{matrix, Options, Report, Row, SceneReport, Subject, Unusable};
+use linlight_imagefile::input::{read_text_capped, MAX_TEXT_BYTES};
+use linlight_verify::image_stats::{CompareConfig, Verdict, TESTS_PER_CHANNEL};
+use linlight_verify::z_score::{normal_upper_tail, sidak, t_two_sided_p};
+
+/// The version written into every report and required of every shard by `--merge`.
+pub const TOOL_VERSION: &str = concat!("linlight ", env!("CARGO_PKG_VERSION"));
+
+/// Most shards of one certification (a CI matrix is a few dozen; a larger count in a report
+/// is damage or forgery, and listing its missing shards would not end).
+pub const MAX_SHARDS: usize = 4096;
+
+/// Name of the report's hash field ([`sealed_json`]).
+const HASH_KEY: &str = "content_sha256";
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// The hash of a report's JSON: SHA-256 of its compact serialisation (object keys sorted)
+/// without the `content_sha256` field.
+pub fn content_hash(value: &Value) -> String {
+    let mut v = value.clone();
+    if let Value::Object(m) = &mut v {
+        m.remove(HASH_KEY);
+    }
+    sha256_hex(sorted(v).to_string().as_bytes())
+}
+
+/// `v` with the keys of every object in sorted order (the hash does not depend on how a
+/// JSON library orders them).
+fn sorted(v: Value) -> Value {
+    match v {
+        Value::Object(m) => {
+            let entries: BTreeMap<String, Value> =
+                m.into_iter().map(|(k, v)| (k, sorted(v))).collect();
+            Value::Object(entries.into_iter().collect())
+        }
+        Value::Array(a) => Value::Array(a.into_iter().map(sorted).collect()),
+        other => other,
+    }
+}
+
+/// The report as pretty JSON with this program's version and the hash of its content
+/// (`content_sha256`), as `report.json` and `--json` hold it.
+pub fn sealed_json(report: &Report) -> Result<String, String> {
+    let mut v = serde_json::to_value(report).map_err(|e| e.to_string())?;
+    if let Value::Object(m) = &mut v {
+        m.insert("tool_version".into(), Value::from(TOOL_VERSION));
+        let hash = content_hash(&Value::Object(m.clone()));
+        m.insert(HASH_KEY.into(), Value::from(hash));
+    }
+    serde_json::to_string_pretty(&v)
+        .map(|t| t + "\n")
+        .map_err(|e| e.to_string())
+}
 
 /// Part i of N (1 ≤ i ≤ N).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -94,9 +163,18 @@ fn refuse(msg: impl Into<String>) -> Unusable {
 
 /// Reads a shard's JSON (`report.json` of its report directory, or its `--json`).
 pub fn read(path: &Path) -> Result<Report, Unusable> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| refuse(format!("cannot read {}: {e}", path.display())))?;
-    let mut report: Report = serde_json::from_str(&text).map_err(|e| {
+    let text = read_text_capped(path, MAX_TEXT_BYTES).map_err(refuse)?;
+    let value: Value = serde_json::from_str(&text).map_err(|e| {
+        refuse(format!(
+            "{}: not a certify report (not JSON: {e})",
+            path.display()
+        ))
+    })?;
+    let stored = value
+        .get(HASH_KEY)
+        .and_then(Value::as_str)
+        .map(str::to_owned);
+    let mut report: Report = serde_json::from_value(value.clone()).map_err(|e| {
         refuse(format!(
             "{}: not a certify report ({e}){}",
             path.display(),
@@ -107,6 +185,41 @@ pub fn read(path: &Path) -> Result<Report, Unusable> {
             }
         ))
     })?;
+    match stored {
+        None => {
+            return Err(refuse(format!(
+                "{}: no {HASH_KEY} (shards must be written by `linlight certify --shard i/N` of \
+                 this version)",
+                path.display()
+            )))
+        }
+        Some(h) if h != content_hash(&value) => {
+            return Err(refuse(format!(
+                "{}: the report was changed after it was written (its {HASH_KEY} does not \
+                 match its content)",
+                path.display()
+            )))
+        }
+        Some(_) => {}
+    }
+    if report.tool_version != TOOL_VERSION {
+        return Err(refuse(format!(
+            "{} was written by {:?}, this is {TOOL_VERSION}: merge shards with the version \
+             that wrote them",
+            path.display(),
+            report.tool_version
+        )));
+    }
+    if let Some(s) = report.shard {
+        if s.index == 0 || s.index > s.count || s.count > MAX_SHARDS {
+            return Err(refuse(format!(
+                "{}: shard {}/{} is not a part i/N with 1 ≤ i ≤ N ≤ {MAX_SHARDS}",
+                path.display(),
+                s.index,
+                s.count
+            )));
+        }
+    }
     // Row files are relative to the shard's report directory: point them there.
     let dir = path.parent().unwrap_or(Path::new("."));
     let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
@@ -134,11 +247,37 @@ fn settings(r: &Report) -> String {
     )
 }
 
-/// Joins the shards of one certification into the report of the unsharded run.
-pub fn merge(shards: Vec<(PathBuf, Report)>) -> Result<Report, Unusable> {
+/// Joins the shards of one certification into the report of the unsharded run, rechecking
+/// everything they claim (module documentation). `require_suite`: refuse a merge without the
+/// sampler suite (the command line's default; `--no-sampler-suite` drops it).
+pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Report, Unusable> {
     let Some((first_path, first)) = shards.first() else {
         return Err(refuse("no shard given"));
     };
+    // The family's level: the command line's α and δ, Šidák over m comparisons, m at least
+    // the plan's comparisons.
+    let defaults = Options::new(Path::new("."));
+    if first.alpha != defaults.alpha || first.tolerance != defaults.tolerance {
+        return Err(refuse(format!(
+            "{}: α = {:e}, δ = {}; `linlight certify` runs at α = {}, δ = {}",
+            name_of(first_path),
+            first.alpha,
+            first.tolerance,
+            defaults.alpha,
+            defaults.tolerance
+        )));
+    }
+    let alpha_c = sidak(first.alpha, first.comparisons_in_family.max(1));
+    if first.alpha_per_comparison != alpha_c || first.comparisons_in_family < first.plan.len() {
+        return Err(refuse(format!(
+            "{}: α per comparison {:e} over m = {} is not the Šidák level {alpha_c:e} of a \
+             family of at least the plan's {} items",
+            name_of(first_path),
+            first.alpha_per_comparison,
+            first.comparisons_in_family,
+            first.plan.len()
+        )));
+    }
     let name = |p: &Path| p.display().to_string();
     let mut seen: BTreeMap<usize, &Path> = BTreeMap::new();
     let mut count = None;
@@ -191,11 +330,18 @@ pub fn merge(shards: Vec<(PathBuf, Report)>) -> Result<Report, Unusable> {
     let missing: Vec<String> = (1..=n)
         .filter(|i| !seen.contains_key(i))
         .map(|i| format!("{i}/{n}"))
+        .take(10)
         .collect();
     if !missing.is_empty() {
+        let more = n - seen.len() - missing.len();
         return Err(refuse(format!(
-            "missing shard(s) {} (given: {})",
+            "missing shard(s) {}{} (given: {})",
             missing.join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            },
             seen.keys()
                 .map(|i| format!("{i}/{n}"))
                 .collect::<Vec<_>>()
@@ -230,14 +376,77 @@ pub fn merge(shards: Vec<(PathBuf, Report)>) -> Result<Report, Unusable> {
                         row.subject
                     )));
                 }
+                if row.scene != s.name {
+                    return Err(refuse(format!(
+                        "{}: comparison {} / {} is listed under scene {}",
+                        name(path),
+                        row.scene,
+                        row.subject,
+                        s.name
+                    )));
+                }
+                recheck_row(row, alpha_c, first.tolerance).map_err(|e| {
+                    refuse(format!(
+                        "{}: {} / {} against {}: {e}",
+                        name(path),
+                        row.scene,
+                        row.subject,
+                        row.oracle
+                    ))
+                })?;
                 rows_of.entry(j).or_default().push(row.clone());
             }
-            scene_info
-                .entry(s.name.clone())
-                .or_insert_with(|| SceneReport {
-                    rows: Vec::new(),
-                    ..s.clone()
-                });
+            if let Some(item) = plan.iter().find(|p| p.scene == s.name) {
+                if s.reference.scene_sha256 != item.scene_sha256 {
+                    return Err(refuse(format!(
+                        "{}: the reference of {} was rendered from scene {}, the plan has {}",
+                        name(path),
+                        s.name,
+                        s.reference.scene_sha256,
+                        item.scene_sha256
+                    )));
+                }
+            }
+            let info = SceneReport {
+                rows: Vec::new(),
+                ..s.clone()
+            };
+            let json = |r: &SceneReport| serde_json::to_string(&r.reference).unwrap_or_default();
+            match scene_info.get(&s.name) {
+                Some(other) if json(other) != json(&info) => {
+                    return Err(refuse(format!(
+                        "{}: the reference of {} differs from another shard's ({} vs {})",
+                        name(path),
+                        s.name,
+                        json(&info),
+                        json(other)
+                    )))
+                }
+                Some(_) => {}
+                None => {
+                    scene_info.insert(s.name.clone(), info);
+                }
+            }
+        }
+    }
+    // Each item: one comparison per oracle (Mitsuba, and the exact image on the scenes that
+    // have one), no duplicates.
+    for (j, rows) in &rows_of {
+        let p = &plan[*j];
+        let oracles: BTreeSet<&str> = rows.iter().map(|r| r.oracle.as_str()).collect();
+        let want = 1 + usize::from(matrix::has_exact_oracle(&p.scene));
+        if oracles.len() != rows.len() || rows.len() != want || !oracles.contains("mitsuba") {
+            return Err(refuse(format!(
+                "{} / {} has {} comparison(s) against [{}]; it must have {want}, one per oracle \
+                 (duplicated or removed rows)",
+                p.scene,
+                p.subject,
+                rows.len(),
+                rows.iter()
+                    .map(|r| r.oracle.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
         }
     }
     let absent: Vec<String> = plan
@@ -281,6 +490,16 @@ pub fn merge(shards: Vec<(PathBuf, Report)>) -> Result<Report, Unusable> {
         )));
     }
     let sampler_suite = suites.first().and_then(|(_, r)| r.sampler_suite.clone());
+    match &sampler_suite {
+        Some(s) => recheck_suite(s).map_err(refuse)?,
+        None if require_suite => {
+            return Err(refuse(
+                "no shard carries the sampler suite (shard 1 runs it); merge with \
+                 --no-sampler-suite to judge the image comparisons alone",
+            ))
+        }
+        None => {}
+    }
     let verdict = super::overall_verdict(sampler_suite.as_ref(), &scenes);
     Ok(Report {
         passed: verdict == Verdict::Consistent,
@@ -288,6 +507,7 @@ pub fn merge(shards: Vec<(PathBuf, Report)>) -> Result<Report, Unusable> {
         sampler_suite,
         scenes,
         shard: None,
+        content_sha256: None,
         // The wall time of the slowest shard (they run in parallel).
         elapsed_seconds: shards
             .iter()
@@ -295,6 +515,10 @@ pub fn merge(shards: Vec<(PathBuf, Report)>) -> Result<Report, Unusable> {
             .fold(0.0, f64::max),
         ..first.clone()
     })
+}
+
+fn name_of(p: &Path) -> String {
+    p.display().to_string()
 }
 
 fn plan_summary(plan: &[PlanItem]) -> String {
@@ -311,9 +535,322 @@ fn plan_summary(plan: &[PlanItem]) -> String {
     )
 }
 
+/// Relative agreement required of a p-value recomputed from the statistics it came from.
+const P_AGREEMENT: f64 = 1e-6;
+
+fn p_agrees(stored: f64, recomputed: f64) -> bool {
+    (stored - recomputed).abs() <= P_AGREEMENT * stored.abs().max(recomputed.abs()) + 1e-300
+}
+
+/// The verdict of one comparison recomputed from the statistics it carries, at the family's
+/// level `alpha_c` and margin `tolerance`: the global p from its difference, standard error
+/// and dof; the relative difference from the two means; equivalence from the stored interval
+/// (which must contain the relative difference and be at least as wide as the normal
+/// interval of the stored variances); tiles, pixels (χ² from Σz², max|z| by Šidák) and contacts
+/// from their p-values; an exact-value mismatch. Any stored flag or label that disagrees with
+/// the recomputation, or a comparison run at another level, is an error.
+pub fn recheck_row(row: &Row, alpha_c: f64, tolerance: f64) -> Result<(), String> {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    let c = &row.comparison;
+    let bad = |what: String| Err(format!("statistics do not support the report: {what}"));
+    let want_cfg = CompareConfig {
+        alpha: alpha_c,
+        tolerance,
+        ..CompareConfig::default()
+    };
+    let json = |c: &CompareConfig| serde_json::to_string(c).unwrap_or_default();
+    if json(&c.config) != json(&want_cfg) {
+        return bad(format!(
+            "compared with {} instead of the family's configuration {}",
+            json(&c.config),
+            json(&want_cfg)
+        ));
+    }
+    let tests = 3 * (TESTS_PER_CHANNEL + usize::from(!c.contact_pixels.is_empty()));
+    let alpha_test = alpha_c / tests as f64;
+    if c.tests != tests || c.alpha_test != alpha_test || c.alpha_equivalence != alpha_c / 3.0 {
+        return bad(format!(
+            "{} tests at α {:e} (equivalence {:e}); the family's level gives {tests} at {:e}",
+            c.tests, c.alpha_test, c.alpha_equivalence, alpha_test
+        ));
+    }
+    if c.channels.len() != 3 {
+        return bad(format!("{} channels instead of 3", c.channels.len()));
+    }
+    let mut different = c.zero_variance.mismatched > 0;
+    let mut inconclusive = false;
+    let z_eq = linlight_verify::z_score::normal_two_sided_quantile(alpha_c / 3.0);
+    for (k, ch) in c.channels.iter().enumerate() {
+        let name = ch.channel;
+        let g = &ch.global;
+        let finite = [
+            g.mean_a,
+            g.mean_b,
+            g.diff,
+            g.std_err,
+            g.rel_var_a,
+            g.rel_var_b,
+        ];
+        if finite.iter().any(|x| !x.is_finite()) || g.std_err < 0.0 {
+            return bad(format!("channel {name}: non-finite global statistics"));
+        }
+        if (g.diff - (g.mean_a - g.mean_b)).abs() > 1e-9 * g.mean_a.abs().max(g.mean_b.abs()) {
+            return bad(format!(
+                "channel {name}: difference {} is not mean A − mean B = {}",
+                g.diff,
+                g.mean_a - g.mean_b
+            ));
+        }
+        let p = match (g.p, g.dof) {
+            (Some(p), Some(dof)) if g.std_err > 0.0 && dof > 0.0 => {
+                let re = t_two_sided_p(g.diff / g.std_err, dof);
+                if !p_agrees(p, re) {
+                    return bad(format!(
+                        "channel {name}: global p = {p:e}, but its difference, standard error \
+                         and dof give {re:e}"
+                    ));
+                }
+                Some(re)
+            }
+            (None, None) if g.std_err == 0.0 => None,
+            _ => return bad(format!("channel {name}: global p without a standard error")),
+        };
+        let significant = p.is_some_and(|p| p <= alpha_test);
+        if g.significant != significant {
+            return bad(format!(
+                "channel {name}: global test flagged {}",
+                g.significant
+            ));
+        }
+        different |= significant;
+        // Relative difference and its interval.
+        let rel = if g.mean_b != 0.0 {
+            Some(g.mean_a / g.mean_b - 1.0)
+        } else {
+            (g.mean_a == 0.0).then_some(0.0)
+        };
+        match (g.rel_diff, rel) {
+            (Some(a), Some(b)) if (a - b).abs() <= 1e-9 * (1.0 + b.abs()) => {}
+            (None, None) => {}
+            (stored, re) => {
+                return bad(format!(
+                    "channel {name}: relative difference {stored:?}, its means give {re:?}"
+                ))
+            }
+        }
+        let min_half = z_eq * (g.rel_var_a + g.rel_var_b).sqrt() * (1.0 - 1e-9);
+        let equivalent = match (rel, g.rel_ci) {
+            (Some(r), Some([lo, hi])) => {
+                if !(lo <= r + 1e-12 && r - 1e-12 <= hi && (hi - lo) / 2.0 >= min_half) {
+                    return bad(format!(
+                        "channel {name}: interval [{lo:e}, {hi:e}] does not hold the relative \
+                         difference {r:e} with half-width ≥ {min_half:e}"
+                    ));
+                }
+                lo >= -tolerance && hi <= tolerance
+            }
+            (_, None) => false,
+            (None, Some(_)) => {
+                return bad(format!("channel {name}: interval without a difference"))
+            }
+        };
+        if g.equivalent != equivalent {
+            return bad(format!(
+                "channel {name}: equivalence flagged {}",
+                g.equivalent
+            ));
+        }
+        inconclusive |= !equivalent;
+        if row.rel_diff[k] != g.rel_diff || row.rel_ci[k] != g.rel_ci {
+            return bad(format!(
+                "channel {name}: the row's summary differs from its comparison"
+            ));
+        }
+        // Tiles (Holm-adjusted), pixels, contacts.
+        let t = &ch.tiles;
+        let tile_rejects = match &t.worst {
+            Some(w) => {
+                if !(0.0..=1.0).contains(&w.p) || !(w.p <= w.p_holm && w.p_holm <= 1.0) {
+                    return bad(format!(
+                        "channel {name}: tile p {} / Holm {}",
+                        w.p, w.p_holm
+                    ));
+                }
+                w.p_holm <= alpha_test
+            }
+            None => false,
+        };
+        if tile_rejects != (t.rejected > 0) {
+            return bad(format!(
+                "channel {name}: {} tiles flagged rejected",
+                t.rejected
+            ));
+        }
+        different |= tile_rejects;
+        let px = &ch.pixels;
+        if px.tested > 0 {
+            if !(px.sum_z2 >= 0.0 && px.max_abs_z >= 0.0) {
+                return bad(format!("channel {name}: negative Σz² or max|z|"));
+            }
+            let chi2 = ChiSquared::new(px.tested as f64)
+                .map(|d| d.sf(px.sum_z2).clamp(0.0, 1.0))
+                .map_err(|e| format!("channel {name}: {e}"))?;
+            let p_min = (2.0 * normal_upper_tail(px.max_abs_z)).min(1.0);
+            let max_p = (-(px.tested as f64 * (-p_min).ln_1p()).exp_m1()).clamp(0.0, 1.0);
+            match (px.chi2_p, px.max_p) {
+                (Some(a), Some(b)) if p_agrees(a, chi2) && p_agrees(b, max_p) => {}
+                (a, b) => {
+                    return bad(format!(
+                        "channel {name}: pixel p-values {a:?}, {b:?}; Σz² and max|z| over {} \
+                         pixels give {chi2:e}, {max_p:e}",
+                        px.tested
+                    ))
+                }
+            }
+            different |= chi2 <= alpha_test || max_p <= alpha_test;
+        } else if px.chi2_p.is_some() || px.max_p.is_some() {
+            return bad(format!(
+                "channel {name}: pixel p-values without tested pixels"
+            ));
+        }
+        if let Some(p) = ch.contacts.p {
+            if !(0.0..=1.0).contains(&p) {
+                return bad(format!("channel {name}: contact p = {p}"));
+            }
+            different |= p <= alpha_test;
+        }
+    }
+    let verdict = if different {
+        Verdict::Different
+    } else if inconclusive {
+        Verdict::Inconclusive
+    } else {
+        Verdict::Consistent
+    };
+    if row.verdict != verdict || c.verdict != verdict {
+        return bad(format!(
+            "labelled {}, but its statistics give {} at α = {alpha_c:e}",
+            row.verdict.label(),
+            verdict.label()
+        ));
+    }
+    if c.failures.is_empty() == different {
+        return bad(format!(
+            "{} failure(s) listed for a {} comparison",
+            c.failures.len(),
+            verdict.label()
+        ));
+    }
+    Ok(())
+}
+
+/// The sampler suite as the merge requires it: every technique and negative control of this
+/// version, each row's flag consistent with its failing configurations, and the suite's verdict
+/// the conjunction of its rows.
+fn recheck_suite(suite: &SuiteSummary) -> Result<(), String> {
+    use linlight_verify::subjects::{certified, negative_controls};
+    let names = |v: &[super::sampler_suite::SuiteRow]| -> Vec<String> {
+        v.iter().map(|r| r.name.clone()).collect()
+    };
+    let want_t: Vec<String> = certified().into_iter().map(|s| s.name).collect();
+    let want_c: Vec<String> = negative_controls().into_iter().map(|s| s.name).collect();
+    if names(&suite.techniques) != want_t || names(&suite.negative_controls) != want_c {
+        return Err(format!(
+            "the sampler suite lists techniques [{}] and controls [{}]; this version's suite is \
+             [{}] and [{}]",
+            names(&suite.techniques).join(", "),
+            names(&suite.negative_controls).join(", "),
+            want_t.join(", "),
+            want_c.join(", ")
+        ));
+    }
+    for t in &suite.techniques {
+        if t.passed && (t.failing_configs > 0 || t.verdict.starts_with("panicked")) {
+            return Err(format!(
+                "sampler suite: {} is marked passed with {} failing configuration(s) ({})",
+                t.name, t.failing_configs, t.verdict
+            ));
+        }
+    }
+    let passed = suite.techniques.iter().all(|r| r.passed)
+        && suite.negative_controls.iter().all(|r| r.passed);
+    if suite.passed != passed {
+        return Err(format!(
+            "sampler suite marked {} but its rows give {}",
+            if suite.passed { "passed" } else { "failed" },
+            if passed { "passed" } else { "failed" }
+        ));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn suite() -> SuiteSummary {
+        use super::super::sampler_suite::SuiteRow;
+        use linlight_verify::subjects::{certified, negative_controls};
+        let row = |name: String| SuiteRow {
+            name,
+            passed: true,
+            verdict: "PASS".into(),
+            failing_configs: 0,
+            worst_p_value: Some(0.3),
+            seconds: 1.0,
+        };
+        SuiteSummary {
+            passed: true,
+            configurations: 10,
+            samples: 1000,
+            alpha: 0.01,
+            alpha_per_test: 1e-4,
+            techniques: certified().into_iter().map(|s| row(s.name)).collect(),
+            negative_controls: negative_controls()
+                .into_iter()
+                .map(|s| row(s.name))
+                .collect(),
+            elapsed_seconds: 1.0,
+        }
+    }
+
+    #[test]
+    fn forged_sampler_suites_are_refused() {
+        assert_eq!(recheck_suite(&suite()), Ok(()));
+        // A failed technique marked passed.
+        let mut s = suite();
+        s.techniques[1].failing_configs = 3;
+        assert!(recheck_suite(&s).unwrap_err().contains("3 failing"));
+        // A failed technique left failed under a passing suite.
+        let mut s = suite();
+        s.techniques[0].passed = false;
+        assert!(recheck_suite(&s).unwrap_err().contains("marked passed"));
+        // A technique or a control removed.
+        let mut s = suite();
+        s.techniques.remove(2);
+        assert!(recheck_suite(&s)
+            .unwrap_err()
+            .contains("this version's suite"));
+        let mut s = suite();
+        s.negative_controls.pop();
+        assert!(recheck_suite(&s).is_err());
+    }
+
+    #[test]
+    fn sealed_reports_hash_their_content() {
+        let v: Value = serde_json::json!({"b": 1, "a": [1.5, {"z": null, "y": "x"}]});
+        let h = content_hash(&v);
+        // Key order does not matter; content does; the hash field itself is not hashed.
+        let reordered: Value =
+            serde_json::from_str(r#"{"a": [1.5, {"y": "x", "z": null}], "b": 1}"#).unwrap();
+        assert_eq!(content_hash(&reordered), h);
+        let mut with_hash = v.clone();
+        with_hash[HASH_KEY] = Value::from(h.clone());
+        assert_eq!(content_hash(&with_hash), h);
+        let mut changed = v.clone();
+        changed["b"] = Value::from(2);
+        assert_ne!(content_hash(&changed), h);
+    }
 
     #[test]
     fn parses_and_splits_round_robin() {

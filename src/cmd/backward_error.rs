@@ -57,6 +57,13 @@ fn row_json(r: &SweepRow) -> serde_json::Value {
 }
 
 pub fn run(args: Args) -> ExitCode {
+    // An unusable --json is reported before the sweep runs, not after it.
+    if let Some(path) = &args.json {
+        if let Err(e) = linlight::outputs::check_writable(path) {
+            eprintln!("error: --json: {e}");
+            return ExitCode::from(2);
+        }
+    }
     let iterations = match args.iterations {
         Some(n) if n == 0 || n > 16 => {
             eprintln!("error: --iterations must be in 1..=16 (got {n})");
@@ -135,8 +142,8 @@ pub fn run(args: Args) -> ExitCode {
                 return ExitCode::from(2);
             }
         };
-        if let Err(e) = std::fs::write(path, text + "\n") {
-            eprintln!("error: cannot write {}: {e}", path.display());
+        if let Err(e) = linlight::outputs::write_file(path, text + "\n") {
+            eprintln!("error: {e}");
             return ExitCode::from(2);
         }
     }

@@ -111,9 +111,10 @@ pub fn run(args: Args) -> ExitCode {
     if let Some(path) = &args.json {
         let written = serde_json::to_string_pretty(&report)
             .map_err(|e| e.to_string())
-            .and_then(|t| std::fs::write(path, t + "\n").map_err(|e| e.to_string()));
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))
+            .and_then(|t| linlight::outputs::write_file(path, t + "\n"));
         if let Err(e) = written {
-            return unusable(format!("cannot write {}: {e}", path.display()));
+            return unusable(e);
         }
     }
     let calibrated = report

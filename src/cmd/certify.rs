@@ -222,11 +222,11 @@ fn finish(args: &Args, report: &Report) -> ExitCode {
     print!("{}", report::summary(report));
     println!("report: {}", args.report_dir.join("report.md").display());
     if let Some(path) = &args.json {
-        let written = serde_json::to_string_pretty(report)
-            .map_err(|e| e.to_string())
-            .and_then(|t| std::fs::write(path, t + "\n").map_err(|e| e.to_string()));
+        let written = shard::sealed_json(report)
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))
+            .and_then(|t| outputs::write_file(path, t));
         if let Err(e) = written {
-            return unusable(format!("cannot write {}: {e}", path.display()));
+            return unusable(e);
         }
     }
     ExitCode::from(report.verdict.exit_code())
@@ -242,7 +242,7 @@ fn merge(args: &Args) -> ExitCode {
         }
     }
     let n = shards.len();
-    let report = match shard::merge(shards) {
+    let report = match shard::merge(shards, !args.no_sampler_suite) {
         Ok(r) => r,
         Err(e) => return unusable(e),
     };

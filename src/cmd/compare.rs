@@ -87,6 +87,11 @@ pub fn run(args: Args) -> ExitCode {
         Ok(img) => img,
         Err(e) => return unusable(e),
     };
+    for p in [&args.a, &args.b] {
+        if let Some(note) = linlight_imagefile::checksum_note(p) {
+            eprintln!("{note}");
+        }
+    }
     let cfg = CompareConfig {
         alpha: args.alpha,
         tolerance: args.tolerance,
@@ -113,8 +118,7 @@ fn write_outputs(args: &Args, cmp: &Comparison, a: &Image, b: &Image) -> Result<
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(cmp)
             .map_err(|e| format!("cannot serialise the report: {e}"))?;
-        std::fs::write(path, text + "\n")
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        linlight::outputs::write_file(path, text + "\n")?;
     }
     if let Some(path) = &args.heatmap {
         comparison_heatmap(cmp)

@@ -4,10 +4,12 @@
 //! mismatch, 2 = bad usage or unusable input.
 
 use indicatif::{ProgressBar, ProgressStyle};
+use linlight::outputs;
 use linlight_brdf::ltc::fit::{
     check_columns, fit_table, EntryDeviation, FitSettings, FittedEntry, CHECK_BOUNDS,
 };
 use linlight_brdf::ltc::table::{GgxLtcTable, COMMITTED_PATH};
+use linlight_imagefile::input::{read_capped, MAX_BINARY_BYTES};
 use linlight_verify::heatmap::{sequential, Rgb8};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -182,7 +184,7 @@ fn write_json(path: &Path, settings: &FitSettings, entries: &[FittedEntry]) -> R
         "entries": entries.iter().map(entry_json).collect::<Vec<_>>(),
     });
     let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
-    std::fs::write(path, text + "\n").map_err(|e| e.to_string())
+    outputs::write_file(path, text + "\n")
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -216,21 +218,19 @@ fn fit(args: &Args) -> ExitCode {
         .heatmap
         .clone()
         .unwrap_or_else(|| default_heatmap(&args.out));
-    // Unusable output paths are reported before the fit, not after it.
-    for path in [Some(&args.out), Some(&heatmap), args.json.as_ref()]
+    // Unusable output paths are reported before the fit, not after it: each writable, none
+    // the same file as another (by device and inode), none a FIFO or device.
+    let outs: Vec<&Path> = [Some(&args.out), Some(&heatmap), args.json.as_ref()]
         .into_iter()
         .flatten()
-    {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        if !dir.is_dir() {
-            return unusable(format!(
-                "cannot write {}: directory {} does not exist",
-                path.display(),
-                dir.display()
-            ));
+        .map(PathBuf::as_path)
+        .collect();
+    if let Err(e) = outputs::check_distinct(&outs) {
+        return unusable(e);
+    }
+    for path in &outs {
+        if let Err(e) = outputs::check_writable(path) {
+            return unusable(e);
         }
     }
     let bar = progress_bar(args.quiet, settings.size * settings.size);
@@ -239,8 +239,8 @@ fn fit(args: &Args) -> ExitCode {
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
     let table = fitted.table();
-    if let Err(e) = std::fs::write(&args.out, table.to_bytes()) {
-        return unusable(format!("cannot write {}: {e}", args.out.display()));
+    if let Err(e) = outputs::write_file(&args.out, table.to_bytes()) {
+        return unusable(e);
     }
     if let Err(e) = write_heatmap(&heatmap, settings.size, |i, j| fitted.entry(i, j).error) {
         return unusable(format!("cannot write {}: {e}", heatmap.display()));
@@ -282,9 +282,9 @@ fn fit(args: &Args) -> ExitCode {
 fn check(args: &Args) -> ExitCode {
     let (table, source) = match &args.table {
         Some(path) => {
-            let bytes = match std::fs::read(path) {
+            let bytes = match read_capped(path, MAX_BINARY_BYTES) {
                 Ok(b) => b,
-                Err(e) => return unusable(format!("cannot read {}: {e}", path.display())),
+                Err(e) => return unusable(e),
             };
             match GgxLtcTable::from_bytes(&bytes) {
                 Ok(t) => (t, path.display().to_string()),

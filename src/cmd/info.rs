@@ -169,6 +169,9 @@ pub fn run(args: Args) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if let Some(note) = linlight_imagefile::checksum_note(&args.image) {
+        eprintln!("{note}");
+    }
     let i = info(args.image.clone(), &img);
     if args.json {
         match serde_json::to_string_pretty(&i) {

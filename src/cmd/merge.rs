@@ -55,6 +55,9 @@ pub fn run(args: Args) -> ExitCode {
             Ok(i) => images.push(i),
             Err(e) => return unusable(e),
         }
+        if let Some(note) = linlight_imagefile::checksum_note(p) {
+            eprintln!("{note}");
+        }
     }
     let names: Vec<String> = args
         .images

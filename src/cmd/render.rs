@@ -327,6 +327,9 @@ pub fn run(args: Args) -> ExitCode {
     if let Err(e) = check_memory(&scene, args.max_memory) {
         return usage_error(e);
     }
+    if let Err(e) = outputs::check_radiance(&scene) {
+        return usage_error(e);
+    }
     let pool = match outputs::thread_pool(args.threads) {
         Ok(p) => p,
         Err(e) => return usage_error(e),

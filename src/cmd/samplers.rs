@@ -159,6 +159,13 @@ fn print_failures(rows: &[SubjectReport]) {
 }
 
 pub fn run(args: Args) -> ExitCode {
+    // An unusable --json is reported before the suite runs, not after it.
+    if let Some(path) = &args.json {
+        if let Err(e) = linlight::outputs::check_writable(path) {
+            eprintln!("error: --json: {e}");
+            return ExitCode::from(2);
+        }
+    }
     if args.samples < 100 {
         eprintln!(
             "error: --samples must be at least 100 (got {})",
@@ -248,16 +255,14 @@ pub fn run(args: Args) -> ExitCode {
 }
 
 fn write_json(path: &std::path::Path, report: &SuiteReport) -> ExitCode {
-    let written = std::fs::File::create(path)
-        .map_err(|e| e.to_string())
-        .and_then(|f| {
-            serde_json::to_writer_pretty(std::io::BufWriter::new(f), report)
-                .map_err(|e| e.to_string())
-        });
+    // Serialised first, then written atomically: a write error is not lost in a dropped buffer.
+    let written = serde_json::to_string_pretty(report)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+        .and_then(|t| linlight::outputs::write_file(path, t + "\n"));
     match written {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: cannot write {}: {e}", path.display());
+            eprintln!("error: {e}");
             ExitCode::from(2)
         }
     }

@@ -316,7 +316,7 @@ impl Ctx<'_> {
 
     /// Write a text file (CSV, JSON, SVG) into the output directory; its relative path.
     pub fn write_text(&self, rel: &str, text: &str) -> Result<String, String> {
-        std::fs::write(self.opts.out.join(rel), text).map_err(|e| format!("{rel}: {e}"))?;
+        crate::outputs::write_file(&self.opts.out.join(rel), text)?;
         Ok(rel.to_string())
     }
 

@@ -14,6 +14,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+pub mod atomic;
+pub mod input;
+
 use exr::prelude::{
     AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Layer, LayerAttributes,
     ReadChannels, ReadLayers, Text, WritableImage,
@@ -84,7 +87,16 @@ const KEY_SPP: &str = "spp";
 const KEY_PASSES: &str = "passes";
 const KEY_RENDERER: &str = "renderer";
 const KEY_SCENE: &str = "scene_sha256";
-const OWN_KEYS: [&str; 5] = [KEY_DOF, KEY_SPP, KEY_PASSES, KEY_RENDERER, KEY_SCENE];
+/// Header key of the checksum of the image's content ([`content_sha256`]).
+pub const KEY_CONTENT: &str = "content_sha256";
+const OWN_KEYS: [&str; 6] = [
+    KEY_DOF,
+    KEY_SPP,
+    KEY_PASSES,
+    KEY_RENDERER,
+    KEY_SCENE,
+    KEY_CONTENT,
+];
 
 /// Attribute names the OpenEXR standard (and the `exr` crate) give a meaning of their own. An
 /// extra with such a name would be misread or corrupt the header, so writing one is an error.
@@ -244,7 +256,19 @@ impl Image {
     }
 
     pub fn read(path: &Path) -> Result<Self, ImageError> {
-        let img = Self::read_unchecked(path)?;
+        Self::read_within(path, default_read_limit())
+    }
+
+    /// Reads an image of the shared format without checking its content (for `linlight info`,
+    /// which reports what is wrong): non-finite values and negative variances are returned as
+    /// they are, and a missing `dof` is NaN. The six channels are still required.
+    pub fn read_unchecked(path: &Path) -> Result<Self, ImageError> {
+        Self::read_unchecked_within(path, default_read_limit())
+    }
+
+    /// [`Image::read`] refusing an image that needs more than `max_bytes` of memory to read.
+    pub fn read_within(path: &Path, max_bytes: u64) -> Result<Self, ImageError> {
+        let img = Self::read_unchecked_within(path, max_bytes)?;
         let ctx = |msg: String| ImageError::Format(format!("{}: {msg}", path.display()));
         if img.meta.dof.is_nan() {
             return Err(ctx("missing header attribute dof".into()));
@@ -253,10 +277,9 @@ impl Image {
         Ok(img)
     }
 
-    /// Reads an image of the shared format without checking its content (for `linlight info`,
-    /// which reports what is wrong): non-finite values and negative variances are returned as
-    /// they are, and a missing `dof` is NaN. The six channels are still required.
-    pub fn read_unchecked(path: &Path) -> Result<Self, ImageError> {
+    /// [`Image::read_unchecked`] refusing an image that needs more than `max_bytes` of memory.
+    pub fn read_unchecked_within(path: &Path, max_bytes: u64) -> Result<Self, ImageError> {
+        check_claimed_size(path, max_bytes)?;
         let file = exr::prelude::read()
             .no_deep_data()
             .largest_resolution_level()
@@ -406,8 +429,44 @@ impl Image {
                 img.meta.extra.insert(key, s);
             }
         }
+        if let Some(v) = get(KEY_CONTENT) {
+            let stored = attr_string(v).unwrap_or_default();
+            let actual = content_sha256(&img);
+            if stored.trim() != actual {
+                return Err(ctx(format!(
+                    "header attribute {KEY_CONTENT} ({stored}) does not match the content \
+                     ({actual}): the header or the pixels were changed after the file was \
+                     written"
+                )));
+            }
+        }
 
         Ok(img)
+    }
+
+    /// The header attributes of this image as written (own keys and extras, without
+    /// `content_sha256`), by name.
+    fn attribute_texts(&self) -> BTreeMap<String, String> {
+        let mut attrs: BTreeMap<String, String> = self
+            .meta
+            .extra
+            .iter()
+            .map(|(k, v)| (k.clone(), header_value(v)))
+            .collect();
+        for (k, v) in self.own_attributes() {
+            attrs.insert(k.to_string(), header_value(&v));
+        }
+        attrs
+    }
+
+    fn own_attributes(&self) -> [(&'static str, String); 5] {
+        [
+            (KEY_DOF, self.meta.dof.to_string()),
+            (KEY_SPP, self.meta.spp.to_string()),
+            (KEY_PASSES, self.meta.passes.to_string()),
+            (KEY_RENDERER, self.meta.renderer.clone()),
+            (KEY_SCENE, self.meta.scene_sha256.clone()),
+        ]
     }
 
     /// Writes the image; the bytes depend only on the pixels and the metadata (the header
@@ -421,6 +480,7 @@ impl Image {
     /// third of it rather than twice the image (same bytes as [`Image::write`]).
     pub fn into_exr_file(mut self, path: &Path) -> Result<(), ImageError> {
         self.validate()?;
+        let hash = content_sha256(&self);
         let mut channels = Channels::new();
         push_planes(
             &mut channels,
@@ -434,7 +494,7 @@ impl Image {
         if let Some(spp) = self.pixel_spp.take() {
             channels.push(AnyChannel::new(SPP_CHANNEL, FlatSamples::U32(spp)));
         }
-        write_layer(self.layer_with(channels)?, path)
+        write_layer(self.layer_with(channels, hash)?, path)
     }
 
     /// The EXR file of this image, in memory (the bytes [`Image::write`] writes).
@@ -462,29 +522,23 @@ impl Image {
         if let Some(spp) = &self.pixel_spp {
             channels.push(AnyChannel::new(SPP_CHANNEL, FlatSamples::U32(spp.clone())));
         }
-        self.layer_with(channels)
+        self.layer_with(channels, content_sha256(self))
     }
 
     /// The layer of `channels` with this image's size and header attributes.
     fn layer_with(
         &self,
         channels: Channels,
+        content: String,
     ) -> Result<Layer<AnyChannels<FlatSamples>>, ImageError> {
         let mut attributes = LayerAttributes::default();
         let text = |key: &str, value: &str| {
-            Text::new_or_none(value).ok_or_else(|| {
-                ImageError::Format(format!(
-                    "attribute {key} has characters outside Latin-1: {value:?}"
-                ))
+            Text::new_or_none(header_value(value)).ok_or_else(|| {
+                ImageError::Format(format!("attribute {key} cannot be written: {value:?}"))
             })
         };
-        let own = [
-            (KEY_DOF, self.meta.dof.to_string()),
-            (KEY_SPP, self.meta.spp.to_string()),
-            (KEY_PASSES, self.meta.passes.to_string()),
-            (KEY_RENDERER, self.meta.renderer.clone()),
-            (KEY_SCENE, self.meta.scene_sha256.clone()),
-        ];
+        let mut own = self.own_attributes().to_vec();
+        own.push((KEY_CONTENT, content));
         for (k, v) in &own {
             attributes
                 .other
@@ -566,22 +620,23 @@ fn push_planes(channels: &mut Channels, names: &[&str; 3], pixels: &[[f32; 3]]) 
 /// Streams `layer` to `path` as an EXR file (a 1080p image is ~70 MB of EXR that need not be
 /// held in memory next to the image and its channel copies), then puts the header, which
 /// comes first and keeps its length, in canonical order in place ([`canonical_header_order`]).
+/// Written atomically ([`atomic`]): the target holds the old file until the new one is complete.
 fn write_layer(layer: Layer<AnyChannels<FlatSamples>>, path: &Path) -> Result<(), ImageError> {
     use std::io::{Read, Seek, SeekFrom, Write};
     let io = |e: std::io::Error| ImageError::Io(format!("cannot write {}: {e}", path.display()));
-    let file = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(true)
-        .open(path)
-        .map_err(io)?;
-    let mut out = std::io::BufWriter::new(file);
-    exr::prelude::Image::from_layer(layer)
-        .write()
-        .to_buffered(&mut out)
-        .map_err(|e| ImageError::Format(format!("cannot encode OpenEXR: {e}")))?;
-    let mut file = out.into_inner().map_err(|e| io(e.into_error()))?;
+    let mut out = atomic::AtomicFile::create(path).map_err(ImageError::Io)?;
+    {
+        let mut buffered = std::io::BufWriter::new(out.file());
+        exr::prelude::Image::from_layer(layer)
+            .write()
+            .to_buffered(&mut buffered)
+            .map_err(|e| match e {
+                exr::error::Error::Io(e) => io(e),
+                e => ImageError::Format(format!("cannot encode OpenEXR: {e}")),
+            })?;
+        buffered.flush().map_err(io)?;
+    }
+    let file = out.file();
     let len = file.metadata().map_err(io)?.len();
     // The header is a few kB; read more only if it is not within the first MiB.
     let mut n = len.min(1 << 20);
@@ -592,12 +647,225 @@ fn write_layer(layer: Layer<AnyChannels<FlatSamples>>, path: &Path) -> Result<()
         match canonical_header_order(&mut head) {
             Ok(()) => {
                 file.seek(SeekFrom::Start(0)).map_err(io)?;
-                return file.write_all(&head).map_err(io);
+                file.write_all(&head).map_err(io)?;
+                return out.commit().map_err(io);
             }
             Err(_) if n < len => n = len,
             Err(e) => return Err(e),
         }
     }
+}
+
+/// Memory a reader may use by default: 80 % of the physical memory (Linux `/proc/meminfo`),
+/// 8 GiB if unknown.
+pub fn default_read_limit() -> u64 {
+    let total = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+        let line = t.lines().find(|l| l.starts_with("MemTotal:"))?;
+        line.split_whitespace().nth(1)?.parse::<u64>().ok()
+    });
+    total.map_or(8 << 30, |kib| kib * 1024 / 10 * 8)
+}
+
+/// Bytes of memory per pixel and channel while an image is read (the decoder's f32 plane, its
+/// copy into the image, transient copies), and per pixel for the image's own buffers.
+const READ_BYTES_PER_SAMPLE: u128 = 8;
+const READ_BYTES_PER_PIXEL: u128 = 48;
+
+/// Refuses, from the header alone and before any pixel buffer is allocated, an EXR that is not
+/// a regular file, whose claimed data window cannot be in a file of its size (8 bytes of offset
+/// table per chunk; uncompressed: every pixel byte), or that needs more than `max_bytes` of
+/// memory to read.
+fn check_claimed_size(path: &Path, max_bytes: u64) -> Result<(), ImageError> {
+    let len = input::regular_file_len(path, input::MAX_BINARY_BYTES).map_err(ImageError::Io)?;
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| match e {
+        exr::error::Error::Io(io) => {
+            ImageError::Io(format!("cannot read {}: {io}", path.display()))
+        }
+        other => ImageError::Format(format!(
+            "{} is not a readable OpenEXR file: {other}",
+            path.display()
+        )),
+    })?;
+    // raw: bytes the pixel data must take in the file at least.
+    let (mut chunks, mut need, mut raw) = (0u128, 0u128, 0u128);
+    let mut claim = String::new();
+    for h in &meta.headers {
+        let (w, ht) = (h.layer_size.width() as u128, h.layer_size.height() as u128);
+        let pixels = w * ht;
+        let samples = pixels * h.channels.list.len() as u128;
+        chunks += h.chunk_count as u128;
+        need += samples * READ_BYTES_PER_SAMPLE + pixels * READ_BYTES_PER_PIXEL;
+        use exr::prelude::Compression as C;
+        let bytes = pixels * h.channels.bytes_per_pixel as u128;
+        match h.compression {
+            _ if h.deep => {}
+            C::Uncompressed => raw += bytes,
+            // Deflate expands at most 1032-fold, RLE 64-fold: a chunk holds at least
+            // 1/1100 of its pixel bytes.
+            C::ZIP1 | C::ZIP16 | C::RLE | C::PXR24 => raw += bytes / 1100,
+            _ => {}
+        }
+        if claim.is_empty() {
+            claim = format!("{w}×{ht} pixels × {} channels", h.channels.list.len());
+        }
+    }
+    if chunks * 8 > len as u128 || raw > len as u128 {
+        return Err(ImageError::Format(format!(
+            "{}: the header claims {claim} in {chunks} chunks, which cannot fit in the file's \
+             {len} bytes (a truncated file or a damaged header)",
+            path.display()
+        )));
+    }
+    if need > max_bytes as u128 {
+        let gib = |b: u128| b as f64 / (1u64 << 30) as f64;
+        return Err(ImageError::Format(format!(
+            "{}: reading {claim} needs about {:.1} GiB of memory, more than the limit of {:.1} \
+             GiB",
+            path.display(),
+            gib(need),
+            gib(max_bytes as u128)
+        )));
+    }
+    Ok(())
+}
+
+/// An attribute value as the header stores it: unchanged if it is Latin-1 (what an EXR text
+/// attribute holds); otherwise every character outside Latin-1, and every `%`, as the `%XX`
+/// escapes of its UTF-8 bytes (a scene named `сцена.xml` is stored as
+/// `%D1%81%D1%86%D0%B5%D0%BD%D0%B0.xml`), so that any file name can be recorded.
+pub fn header_value(value: &str) -> String {
+    if value.chars().all(|c| (c as u32) < 0x100) {
+        return value.to_string();
+    }
+    let mut out = String::with_capacity(value.len() * 2);
+    for c in value.chars() {
+        if (c as u32) < 0x100 && c != '%' {
+            out.push(c);
+        } else {
+            let mut buf = [0u8; 4];
+            for b in c.encode_utf8(&mut buf).bytes() {
+                out.push_str(&format!("%{b:02X}"));
+            }
+        }
+    }
+    out
+}
+
+/// Version tag at the start of the bytes [`content_sha256`] hashes.
+const CONTENT_TAG: &[u8] = b"linlight-content-sha256-v1";
+
+/// SHA-256 over the canonical bytes of an image's content (docs/image-format.md): the size,
+/// the header attributes as text (by name) and the channels (by name) as little-endian values.
+struct ContentHasher(sha2::Sha256);
+
+impl ContentHasher {
+    fn new(width: usize, height: usize, attrs: &BTreeMap<String, String>) -> Self {
+        use sha2::Digest;
+        let mut h = Self(sha2::Sha256::new());
+        h.0.update(CONTENT_TAG);
+        h.u64(width as u64);
+        h.u64(height as u64);
+        h.u64(attrs.len() as u64);
+        for (k, v) in attrs {
+            h.bytes(k.as_bytes());
+            h.bytes(v.as_bytes());
+        }
+        h
+    }
+    fn u64(&mut self, x: u64) {
+        use sha2::Digest;
+        self.0.update(x.to_le_bytes());
+    }
+    fn bytes(&mut self, b: &[u8]) {
+        use sha2::Digest;
+        self.u64(b.len() as u64);
+        self.0.update(b);
+    }
+    /// One channel: name, type (`f32` or `u32`), count, values (4 bytes each, little-endian).
+    fn channel(&mut self, name: &str, kind: &str, values: impl ExactSizeIterator<Item = [u8; 4]>) {
+        use sha2::Digest;
+        self.bytes(name.as_bytes());
+        self.bytes(kind.as_bytes());
+        self.u64(values.len() as u64);
+        let mut buf = Vec::with_capacity(1 << 16);
+        for v in values {
+            buf.extend_from_slice(&v);
+            if buf.len() >= 1 << 16 {
+                self.0.update(&buf);
+                buf.clear();
+            }
+        }
+        self.0.update(&buf);
+    }
+    fn finish(self) -> String {
+        use sha2::Digest;
+        self.0
+            .finalize()
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    }
+}
+
+/// The channels of an image (or of an RGB map) by name, for hashing.
+type PlaneRefs<'a> = Vec<(&'a str, &'a [[f32; 3]], usize)>;
+
+fn hash_planes(h: &mut ContentHasher, planes: PlaneRefs, spp: Option<&[u32]>) {
+    let mut names: Vec<&str> = planes
+        .iter()
+        .map(|p| p.0)
+        .chain(spp.map(|_| SPP_CHANNEL))
+        .collect();
+    names.sort_unstable();
+    for name in names {
+        match (planes.iter().find(|p| p.0 == name), spp) {
+            (Some((_, px, c)), _) => h.channel(name, "f32", px.iter().map(|p| p[*c].to_le_bytes())),
+            (None, Some(spp)) => h.channel(name, "u32", spp.iter().map(|x| x.to_le_bytes())),
+            (None, None) => {}
+        }
+    }
+}
+
+/// The `content_sha256` of an image: SHA-256 (lower-case hex) of the canonical bytes of its
+/// size, header attributes (all but `content_sha256`) and channels (docs/image-format.md).
+/// Every writer stores it; every reader that finds it checks it.
+pub fn content_sha256(img: &Image) -> String {
+    let mut h = ContentHasher::new(img.width, img.height, &img.attribute_texts());
+    let mut planes: PlaneRefs = Vec::new();
+    for c in 0..3 {
+        planes.push((MEAN_CHANNELS[c], &img.mean, c));
+        planes.push((VAR_CHANNELS[c], &img.var, c));
+        if let Some(t) = &img.tail {
+            planes.push((TAIL_CHANNELS[c], t, c));
+        }
+    }
+    hash_planes(&mut h, planes, img.pixel_spp.as_deref());
+    h.finish()
+}
+
+/// Whether the image file at `path` carries a `content_sha256` attribute (reads the header
+/// only). [`Image::read`] verifies the checksum where there is one; a file without one (written
+/// by another program) is read unverified, which the command line notes.
+pub fn has_content_checksum(path: &Path) -> bool {
+    exr::meta::MetaData::read_from_file(path, false).is_ok_and(|m| {
+        m.headers.iter().any(|h| {
+            h.own_attributes
+                .other
+                .keys()
+                .any(|k| Text::eq(k, KEY_CONTENT))
+        })
+    })
+}
+
+/// The note the command line prints for an input image without a checksum (None: it has one).
+pub fn checksum_note(path: &Path) -> Option<String> {
+    (!has_content_checksum(path)).then(|| {
+        format!(
+            "note: {} has no {KEY_CONTENT} attribute (written by another program): its content \
+             is not verified",
+            path.display()
+        )
+    })
 }
 
 /// Sorts the attributes of a single-part EXR header by name, in place. The `exr` crate keeps
@@ -730,17 +998,32 @@ pub fn write_rgb_exr(
             )
         })
         .collect();
+    let attributes: BTreeMap<String, String> = attributes
+        .iter()
+        .map(|(k, v)| (k.clone(), header_value(v)))
+        .collect();
+    let attributes = &attributes;
+    let mut h = ContentHasher::new(width, height, attributes);
+    hash_planes(
+        &mut h,
+        (0..3).map(|c| (MEAN_CHANNELS[c], rgb, c)).collect(),
+        None,
+    );
+    let mut with_hash = attributes.clone();
+    with_hash.insert(KEY_CONTENT.to_string(), h.finish());
     let mut attrs = LayerAttributes::default();
-    for (k, v) in attributes {
-        if k.is_empty() || EXR_STANDARD_KEYS.contains(&k.as_str()) {
+    for (k, v) in &with_hash {
+        if k.is_empty()
+            || EXR_STANDARD_KEYS.contains(&k.as_str())
+            || (k == KEY_CONTENT && attributes.contains_key(k))
+        {
             return Err(ImageError::Format(format!(
                 "attribute name {k:?} is reserved"
             )));
         }
         let text = |s: &str| {
-            Text::new_or_none(s).ok_or_else(|| {
-                ImageError::Format(format!("attribute {k} has characters outside Latin-1"))
-            })
+            Text::new_or_none(s)
+                .ok_or_else(|| ImageError::Format(format!("attribute name {k:?} is not Latin-1")))
         };
         attrs.other.insert(text(k)?, AttributeValue::Text(text(v)?));
     }
@@ -755,10 +1038,7 @@ pub fn write_rgb_exr(
         encoding,
         AnyChannels::sort(channels),
     );
-    exr::prelude::Image::from_layer(layer)
-        .write()
-        .to_file(path)
-        .map_err(|e| ImageError::Io(format!("cannot write {}: {e}", path.display())))
+    write_layer(layer, path)
 }
 
 /// Linear radiance → 8-bit sRGB: clamp to [0, 1], sRGB OETF, round. NaN maps to 0.
@@ -783,25 +1063,8 @@ pub fn write_rgb8_png(
     height: usize,
     rgb: &[u8],
 ) -> Result<(), ImageError> {
-    if width == 0 || height == 0 || rgb.len() != width * height * 3 {
-        return Err(ImageError::Format(format!(
-            "PNG buffer of {} bytes does not match {width}×{height}×3",
-            rgb.len()
-        )));
-    }
-    let (w, h) = (
-        u32::try_from(width).map_err(|_| ImageError::Format("PNG too wide".into()))?,
-        u32::try_from(height).map_err(|_| ImageError::Format("PNG too high".into()))?,
-    );
-    image::save_buffer_with_format(
-        path,
-        rgb,
-        w,
-        h,
-        image::ExtendedColorType::Rgb8,
-        image::ImageFormat::Png,
-    )
-    .map_err(|e| ImageError::Io(format!("cannot write {}: {e}", path.display())))
+    let bytes = rgb8_png_bytes(width, height, rgb)?;
+    atomic::write_file(path, bytes).map_err(ImageError::Io)
 }
 
 /// An 8-bit RGB buffer (row-major, row 0 at the top) encoded as PNG, in memory.
@@ -1225,6 +1488,165 @@ mod tests {
         let img = Image::read_unchecked(&path).unwrap();
         assert!(img.meta.dof.is_nan() && img.mean[3][1].is_nan());
         assert!(Image::read(&path).is_err());
+    }
+
+    /// Replaces the first occurrence of `from` by `to` (same length) in the file.
+    fn patch(path: &Path, from: &[u8], to: &[u8]) {
+        let mut bytes = std::fs::read(path).unwrap();
+        let at = bytes
+            .windows(from.len())
+            .position(|w| w == from)
+            .expect("pattern in file");
+        bytes[at..at + to.len()].copy_from_slice(to);
+        std::fs::write(path, bytes).unwrap();
+    }
+
+    #[test]
+    fn content_checksum_is_written_and_verified() {
+        let img = sample_image(9, 7);
+        let path = tmp("checksum.exr");
+        img.write(&path).unwrap();
+        assert!(has_content_checksum(&path));
+        assert_eq!(checksum_note(&path), None);
+        assert_eq!(Image::read(&path).unwrap(), img);
+        // One byte of the header changed: `spp` renamed, `dof` changed.
+        for (from, to) in [
+            (&b"spp\0string"[..], &b"rpp\0string"[..]),
+            (b"31", b"30"),
+            (b"technique", b"techniquf"),
+        ] {
+            img.write(&path).unwrap();
+            patch(&path, from, to);
+            match Image::read(&path) {
+                Err(ImageError::Format(m)) => assert!(m.contains("content_sha256"), "{m}"),
+                other => panic!("a changed header was accepted: {other:?}"),
+            }
+        }
+        // Pixels changed but the stored checksum kept: refused (also by the unchecked reader).
+        let stored = content_sha256(&img);
+        let mut other = img.clone();
+        other.mean[0][1] = 0.25;
+        assert_ne!(content_sha256(&other), stored);
+        let chans = MEAN_CHANNELS
+            .iter()
+            .chain(&VAR_CHANNELS)
+            .enumerate()
+            .map(|(i, c)| {
+                let src = if i < 3 { &other.mean } else { &other.var };
+                (*c, FlatSamples::F32(src.iter().map(|p| p[i % 3]).collect()))
+            });
+        let mut attrs: Vec<(&str, AttributeValue)> = other
+            .attribute_texts()
+            .iter()
+            .map(|(k, v)| {
+                (
+                    &*k.clone().leak(),
+                    AttributeValue::Text(Text::from(v.as_str())),
+                )
+            })
+            .collect();
+        attrs.push((
+            KEY_CONTENT,
+            AttributeValue::Text(Text::from(stored.as_str())),
+        ));
+        write_raw(&path, 9, 7, chans.collect(), attrs, Encoding::UNCOMPRESSED);
+        for read in [Image::read, Image::read_unchecked] {
+            let err = read(&path).unwrap_err().to_string();
+            assert!(
+                err.contains("content_sha256") && err.contains("changed"),
+                "{err}"
+            );
+        }
+        // Without a checksum (another program's file): read, with a note.
+        let chans = MEAN_CHANNELS
+            .iter()
+            .chain(&VAR_CHANNELS)
+            .map(|c| (*c, const_f32(4, 1.0)));
+        write_raw(
+            &path,
+            2,
+            2,
+            chans.collect(),
+            vec![("dof", AttributeValue::F64(3.0))],
+            Encoding::UNCOMPRESSED,
+        );
+        assert!(Image::read(&path).is_ok());
+        assert!(checksum_note(&path).unwrap().contains("not verified"));
+        // The RGB maps carry one too.
+        write_rgb_exr(&path, 2, 1, &[[1.0, 2.0, 3.0]; 2], &BTreeMap::new()).unwrap();
+        assert!(has_content_checksum(&path));
+    }
+
+    #[test]
+    fn non_latin1_values_are_escaped() {
+        assert_eq!(header_value("floor.xml"), "floor.xml");
+        assert_eq!(header_value("café 100%"), "café 100%");
+        assert_eq!(
+            header_value("сцена 100%.xml"),
+            "%D1%81%D1%86%D0%B5%D0%BD%D0%B0 100%25.xml"
+        );
+        let mut img = sample_image(3, 2);
+        img.meta
+            .extra
+            .insert("scene".into(), "/tmp/сцена.xml".into());
+        let path = tmp("cyrillic.exr");
+        img.write(&path).unwrap();
+        let back = Image::read(&path).unwrap();
+        assert_eq!(
+            back.meta.extra["scene"],
+            "/tmp/%D1%81%D1%86%D0%B5%D0%BD%D0%B0.xml"
+        );
+    }
+
+    #[test]
+    fn claimed_size_is_checked_before_allocating() {
+        let img = sample_image(4, 4);
+        let path = tmp("huge-claim.exr");
+        img.write(&path).unwrap();
+        // dataWindow (box2i: xMin, yMin, xMax, yMax) patched to claim 100000² pixels.
+        let window = |max: i32| {
+            let mut b = b"dataWindow\0box2i\0".to_vec();
+            b.extend(16i32.to_le_bytes());
+            for v in [0, 0, max, max] {
+                b.extend(v.to_le_bytes());
+            }
+            b
+        };
+        patch(&path, &window(3), &window(99_999));
+        let err = Image::read(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("100000×100000") && err.contains("cannot fit"),
+            "{err}"
+        );
+        // A genuine image beyond the memory limit.
+        img.write(&path).unwrap();
+        let err = Image::read_within(&path, 1000).unwrap_err().to_string();
+        assert!(err.contains("more than the limit"), "{err}");
+        assert!(Image::read_within(&path, 1 << 20).is_ok());
+        // Not a regular file.
+        let err = Image::read(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert!(err.contains("not a regular file"), "{err}");
+    }
+
+    #[test]
+    fn write_errors_leave_the_old_file() {
+        let img = sample_image(5, 5);
+        let path = tmp("kept.exr");
+        img.write(&path).unwrap();
+        let before = std::fs::read(&path).unwrap();
+        let mut bad = img.clone();
+        bad.meta.extra.insert("channels".into(), "x".into());
+        assert!(bad.write(&path).is_err());
+        assert_eq!(std::fs::read(&path).unwrap(), before);
+        for p in ["/dev/full", "/dev/null"] {
+            let err = img.write(Path::new(p)).unwrap_err().to_string();
+            assert!(
+                err.contains(p) && err.contains("not a regular file"),
+                "{err}"
+            );
+            let err = img.write_preview_png(Path::new(p)).unwrap_err().to_string();
+            assert!(err.contains(p), "{err}");
+        }
     }
 
     #[test]

@@ -673,12 +673,11 @@ impl<'a> Builder<'a> {
                     p.boolean("flip_tex_coords")?;
                 }
                 let path = self.tree.resolve(&name);
-                let data = std::fs::read(&path).or_else(|io| {
-                    err(
-                        &nloc,
-                        format!("cannot read mesh file '{}': {io}", path.display()),
-                    )
-                })?;
+                let data = linlight_imagefile::input::read_capped(
+                    &path,
+                    linlight_imagefile::input::MAX_BINARY_BYTES,
+                )
+                .or_else(|io| err(&nloc, format!("cannot read mesh file: {io}")))?;
                 let raw = if ty == "obj" {
                     obj::parse_obj(&String::from_utf8_lossy(&data), face_normals)
                 } else {

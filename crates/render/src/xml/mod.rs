@@ -73,10 +73,13 @@ pub(crate) fn err<T>(loc: &SourceLocation, message: impl Into<String>) -> Result
 /// Loads a Mitsuba 3 XML scene. `overrides` play the role of the keyword arguments of
 /// Mitsuba's `load_file(path, spp=...)`: they replace the `<default>` of the same name.
 pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError {
-        location: None,
-        message: format!("cannot read scene file '{}': {e}", path.display()),
-    })?;
+    // A regular file of bounded size (a FIFO would block, /dev/zero never ends).
+    let bytes =
+        linlight_imagefile::input::read_capped(path, linlight_imagefile::input::MAX_TEXT_BYTES)
+            .map_err(|e| SceneError {
+                location: None,
+                message: format!("cannot read scene file: {e}"),
+            })?;
     let sha256 = {
         use sha2::{Digest, Sha256};
         Sha256::digest(&bytes)

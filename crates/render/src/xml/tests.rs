@@ -708,11 +708,24 @@ fn errors_name_file_line_column_and_element() {
         "4:1",
         "cylinder to_world must keep the cross-section a circle perpendicular to the axis",
     );
+    let empty = std::env::temp_dir().join(format!("linlight-xml-{}-empty.obj", std::process::id()));
+    std::fs::write(&empty, "").unwrap();
     expect_error(
         "e_empty_obj",
-        &scene(r#"<shape type="obj"><string name="filename" value="/dev/null"/></shape>"#),
+        &scene(&format!(
+            r#"<shape type="obj"><string name="filename" value="{}"/></shape>"#,
+            empty.display()
+        )),
         "4:1",
         "contains no faces",
+    );
+    // Meshes are read as regular files of bounded size: a device (endless /dev/zero, empty
+    // /dev/null) or a FIFO is refused before it is read.
+    expect_error(
+        "e_device_obj",
+        &scene(r#"<shape type="obj"><string name="filename" value="/dev/zero"/></shape>"#),
+        "4:19",
+        "not a regular file",
     );
     expect_error(
         "e_no_samples",

@@ -305,12 +305,11 @@ impl TreeBuilder {
         if self.depth >= MAX_INCLUDE_DEPTH {
             return err(&e.loc, "too many nested <include>s (cycle?)");
         }
-        let text = std::fs::read_to_string(&path).or_else(|io| {
-            err(
-                &e.loc,
-                format!("cannot read included file '{}': {io}", path.display()),
-            )
-        })?;
+        let text = linlight_imagefile::input::read_text_capped(
+            &path,
+            linlight_imagefile::input::MAX_TEXT_BYTES,
+        )
+        .or_else(|io| err(&e.loc, format!("cannot read included file: {io}")))?;
         let doc = parse_xml(&path, &text)?;
         let root = doc.root_element();
         self.depth += 1;
