@@ -6,6 +6,7 @@
 
 pub mod calibrate;
 pub mod certify;
+pub mod external;
 pub mod figures;
 pub mod merge;
 pub mod outputs;

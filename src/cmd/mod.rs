@@ -4,6 +4,7 @@ pub mod backward_error;
 pub mod calibrate;
 pub mod certify;
 pub mod compare;
+pub mod external;
 pub mod figures;
 pub mod fit_ltc;
 pub mod info;

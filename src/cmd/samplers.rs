@@ -1,6 +1,10 @@
 //! `linlight samplers`: the chi-square certification suite of every line-sampling technique
 //! (docs/sampler-suite.md), negative controls included. Exit 0 iff every technique passes every
 //! configuration and every negative control is rejected; 1 otherwise; 2 on bad usage.
+//!
+//! With `--external COMMAND`: the same checks on the answers of an external program
+//! (docs/external-protocol.md) instead; exit 0 iff it passes every configuration, 1 if it fails
+//! one, 2 if it could not be certified (did not speak the protocol, crashed, hung).
 
 use linlight_verify::subjects::{certified, negative_controls, tilt_power_controls};
 use linlight_verify::suite::{run_suite_at, Check, SubjectReport, SuiteReport};
@@ -28,13 +32,28 @@ pub struct Args {
     /// configurations rejected per ε. Always exits 0 unless the usage is bad.
     #[arg(long)]
     tilt_power: bool,
+    /// Certify an external implementation instead of linlight's samplers: run `sh -c COMMAND`
+    /// and send it the suite's batches on its stdin (protocol version 1,
+    /// docs/external-protocol.md: one JSON line per message, then little-endian f32 arrays).
+    /// Its hello line names the technique it implements; its answers are judged against that
+    /// technique's certified density: χ², pdf consistency, backward error, its own inverse if it
+    /// reports one, the Monte Carlo integral, its pdf at directions it did not sample. Exit 0 if
+    /// it passes every configuration, 1 if not, 2 if it crashes, hangs or breaks the protocol.
+    /// Example: --external 'python3 harness/examples/psa_numpy.py'
+    #[arg(long, value_name = "COMMAND", conflicts_with = "tilt_power")]
+    external: Option<String>,
+    /// With --external: seconds to wait for its hello, for each answer (up to N = --samples
+    /// samples), and for its exit after the last request; then it is killed and linlight
+    /// exits 2.
+    #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
+    timeout: f64,
 }
 
 fn fmt_opt(v: Option<f64>) -> String {
     v.map_or_else(|| "-".to_string(), |v| format!("{v:.2e}"))
 }
 
-fn print_techniques(rows: &[SubjectReport]) {
+pub(crate) fn print_techniques(rows: &[SubjectReport]) {
     println!(
         "{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  verdict",
         "technique", "class", "configs", "tested", "zero", "worst p", "max |∫p−1|"
@@ -142,7 +161,7 @@ fn print_tilt_power(rows: &[SubjectReport]) {
     }
 }
 
-fn print_failures(rows: &[SubjectReport]) {
+pub(crate) fn print_failures(rows: &[SubjectReport]) {
     for t in rows.iter().filter(|t| !t.passed && t.panic.is_none()) {
         for r in t.configs.iter().filter(|r| !r.passed()).take(10) {
             for f in &r.failures {
@@ -179,6 +198,17 @@ pub fn run(args: Args) -> ExitCode {
         seed: args.seed,
         ..Settings::default()
     };
+    if let Some(command) = &args.external {
+        if !(args.timeout > 0.0 && args.timeout <= 1e6) {
+            eprintln!(
+                "error: --timeout must be a number of seconds in (0, 1e6] (got {})",
+                args.timeout
+            );
+            return ExitCode::from(2);
+        }
+        let timeout = std::time::Duration::from_secs_f64(args.timeout);
+        return crate::cmd::external::run(command, timeout, &settings, args.json.as_deref());
+    }
     // Panics of a technique (e.g. an unimplemented one) are caught and reported per row,
     // without the default hook's message (`linlight_verify::quiet_panic`).
     if args.tilt_power {
@@ -254,7 +284,7 @@ pub fn run(args: Args) -> ExitCode {
     }
 }
 
-fn write_json(path: &std::path::Path, report: &SuiteReport) -> ExitCode {
+pub(crate) fn write_json(path: &std::path::Path, report: &SuiteReport) -> ExitCode {
     // Serialised first, then written atomically: a write error is not lost in a dropped buffer.
     let written = serde_json::to_string_pretty(report)
         .map_err(|e| format!("cannot write {}: {e}", path.display()))

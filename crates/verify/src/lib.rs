@@ -1,6 +1,8 @@
 //! Certification machinery: goodness of fit of line samplers (docs/statistics.md §1) and image
 //! difference statistics (docs/statistics.md §2).
 
+pub mod answers;
+pub mod check;
 pub mod chi2;
 pub mod configs;
 pub mod heatmap;

@@ -10,8 +10,9 @@
 //! pdf integrates to 1 — only the distribution of the samples is wrong, so only the χ² tests (and
 //! the Monte Carlo integral, where f/p is not constant) can reject them.
 
+use crate::answers::{AnswerSource, SharedSource};
+use crate::check::Check;
 use crate::configs::Config;
-use crate::suite::Check;
 use glam::Vec3;
 use linlight_sampling::ltc::LtcLine;
 use linlight_sampling::mixture::Mixture;
@@ -110,6 +111,9 @@ pub struct SamplerUnderTest {
     /// The other technique whose cross density is checked at this subject's samples
     /// (`cross-density`, `cross-balance`; docs/sampler-suite.md).
     pub partner: Option<Box<PreparePartner>>,
+    /// Where the samples come from when not from the prepared sampler: an answer source
+    /// ([`crate::answers`]), judged against the prepared sampler as its reference.
+    pub answers: Option<SharedSource>,
 }
 
 impl SamplerUnderTest {
@@ -130,7 +134,25 @@ impl SamplerUnderTest {
             suite_configs: true,
             extra_configs: Vec::new(),
             partner: None,
+            answers: None,
         }
+    }
+
+    /// The answers of `source` judged against this subject's sampler (the reference technique
+    /// `source` claims to implement), under another name, certified; without a partner (the
+    /// source's own pdf is checked instead, at directions it did not sample).
+    pub fn answered_by(
+        mut self,
+        name: impl Into<String>,
+        description: impl Into<String>,
+        source: Box<dyn AnswerSource>,
+    ) -> Self {
+        self.name = name.into();
+        self.description = description.into();
+        self.role = Role::Certify;
+        self.partner = None;
+        self.answers = Some(SharedSource::new(source));
+        self
     }
 
     /// The same subject on `configs` only.

@@ -15,6 +15,12 @@
 //! - integral agreement: the Monte Carlo estimate of ∫(n·ω)⁺ dΩ_R lies within z_c standard
 //!   errors (plus an f32 floor, below) of the closed form Ω⊥_R.
 //!
+//! Each check is a function; the samples are tabulated once ([`tabulate`]: histogram, worst
+//! deviations, moments, round trips) and each test then judges its tally. The samples are a Rust
+//! sampler's own, or the answers of an [`crate::answers::AnswerSource`] to the same primary
+//! samples, judged against its reference technique (and then also `answer`,
+//! `reported-inverse` and its pdf at directions it did not sample: `cross-density`).
+//!
 //! Multiple testing: m = (certified samplers) × (configurations) × 3 statistical tests (fine χ²,
 //! coarse χ², integral z-test); suite-wide α = 0.01; Šidák α_c = 1 − (1 − α)^(1/m) for each; the
 //! z-test uses z_c = max(4, Φ⁻¹(1 − α_c/2)). Negative controls are judged at the same α_c: a
@@ -25,9 +31,11 @@
 // `!(x <= tol)` on purpose throughout: a NaN must fail a check, not pass it.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use crate::answers::{SampleAnswers, SharedSource, SourceError};
+pub use crate::check::Check;
 use crate::chi2::{
-    equal_mass_cells, grouped_chi_square, runs, s_resolution, BinLookup, Chi2Outcome, PhiBinning,
-    COUNTING_SUBDIVISION,
+    equal_mass_cells, grouped_chi_square, runs, s_resolution, BinLookup, Chi2Outcome, Masses,
+    PhiBinning, COUNTING_SUBDIVISION, DIRECTION_TOLERANCE,
 };
 use crate::configs::{suite_configs, Config, ConfigClass};
 use crate::quadrature::Adaptive;
@@ -90,6 +98,13 @@ const ZERO_CONTRIBUTION_TOLERANCE: f64 = 1e-6;
 const INTEGRAL_RELATIVE_FLOOR: f64 = 1e-5;
 const INTEGRAL_SOLID_ANGLE_FLOOR: f64 = 1e-6;
 
+/// Answer sources only: their geometry (computed from the same f32 configuration in their own
+/// arithmetic, e.g. f64) may differ from the reference's f32 frame by the rounding of the
+/// endpoints' angles, ≲ ε each; relative to the support's angle Δφ the integral may then
+/// differ by this many ε/Δφ (e.g. `short-oblique`, Δφ = 2.7e-3: a numpy sampler's exact
+/// Ω⊥_R is 1.4e-5 above the f32 reference).
+const INTEGRAL_GEOMETRY_ROUNDING: f64 = 8.0 * f32::EPSILON as f64;
+
 /// `sample_with_pdf` may differ from `pdf(sample)` by this much relative, plus this much of the
 /// mean density 1/Ω_R of the support (near-zero densities at the horizon).
 const PDF_CONSISTENCY_RELATIVE: f64 = 1e-3;
@@ -122,43 +137,6 @@ fn on_line_range(sampler: &dyn LineSampler, binning: &PhiBinning, dir: glam::Vec
 const ROUND_TRIP_XI: f64 = 1e-4;
 const ROUND_TRIP_S: f64 = 1e-6;
 
-/// The kind of a failed check (report keys).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Check {
-    Chi2,
-    Chi2Coarse,
-    Normalisation,
-    Support,
-    Direction,
-    PdfConsistency,
-    RoundTrip,
-    Integral,
-    ZeroContribution,
-    CrossDensity,
-    CrossBalance,
-    Panic,
-}
-
-impl Check {
-    pub fn name(self) -> &'static str {
-        match self {
-            Check::Chi2 => "chi2",
-            Check::Chi2Coarse => "chi2-coarse",
-            Check::Normalisation => "normalisation",
-            Check::Support => "support",
-            Check::Direction => "direction",
-            Check::PdfConsistency => "pdf-consistency",
-            Check::RoundTrip => "round-trip",
-            Check::Integral => "integral",
-            Check::ZeroContribution => "zero-contribution",
-            Check::CrossDensity => "cross-density",
-            Check::CrossBalance => "cross-balance",
-            Check::Panic => "panic",
-        }
-    }
-}
-
 #[derive(Clone, Debug, Serialize)]
 pub struct Failure {
     pub check: Check,
@@ -176,6 +154,9 @@ pub enum Outcome {
     Panicked,
     /// Not run because the subject panicked on an earlier configuration.
     NotRun,
+    /// The subject's answer source could not answer (crash, hang, not the protocol): nothing
+    /// was judged. `linlight samplers` exits 2.
+    SourceFailed,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -204,6 +185,14 @@ pub struct CrossCheck {
     pub tolerance: f64,
 }
 
+/// An answer source's own pdf at directions it did not sample, against the reference pdf.
+#[derive(Clone, Debug, Serialize)]
+pub struct PdfQueryCheck {
+    pub queried: usize,
+    /// Worst deviation in units of the pdf-consistency tolerance (≤ 1 passes).
+    pub worst_deviation: f64,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct RoundTripCheck {
     pub checked: usize,
@@ -230,6 +219,12 @@ pub struct ConfigResult {
     pub round_trip: Option<RoundTripCheck>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cross: Option<CrossCheck>,
+    /// Answer sources that report their inverse: ξ' of every sample against its ξ.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reported_inverse: Option<RoundTripCheck>,
+    /// Answer sources: their pdf at directions they did not sample.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pdf_queries: Option<PdfQueryCheck>,
     pub failures: Vec<Failure>,
 }
 
@@ -245,6 +240,8 @@ impl ConfigResult {
             integral: None,
             round_trip: None,
             cross: None,
+            reported_inverse: None,
+            pdf_queries: None,
             failures: Vec::new(),
         }
     }
@@ -376,30 +373,66 @@ fn support_solid_angle(frame: &LineFrame) -> f64 {
     2.0 / frame.d as f64 * (phi_e.sin() - phi_b.sin())
 }
 
-/// Run one prepared sampler through every check.
-#[allow(clippy::too_many_arguments)]
-fn check_sampler(
-    sampler: &dyn LineSampler,
-    partner: Option<&Partner>,
-    subject: &SamplerUnderTest,
-    config: &Config,
-    settings: &Settings,
-    levels: (f64, f64),
-    stream: [u32; 3],
-    out: &mut ConfigResult,
-) {
-    let (alpha_c, z_c) = levels;
-    let frame = *sampler.support();
-    let binning = PhiBinning::new(&frame, settings.bins * COUNTING_SUBDIVISION);
-    let quad = Adaptive::new(settings.nodes, QUAD_RELATIVE);
-    let two_over_d = 2.0 / frame.d as f64;
-    let support_omega = {
-        let (phi_b, phi_e) = binning.phi_range();
-        two_over_d * (phi_e.sin() - phi_b.sin())
-    };
+/// What the checks of one prepared sampler on one configuration share: the sampler (for an
+/// answer source, the reference technique), the φ-binning of its support at the counting
+/// resolution, the quadrature, and the measure of the support.
+struct Bench<'a> {
+    sampler: &'a dyn LineSampler,
+    binning: PhiBinning,
+    quad: Adaptive,
+    /// dΩ_R/ds = 2/d of the support's frame.
+    two_over_d: f64,
+    /// Ω_R of the support.
+    support_omega: f64,
+    /// The unit normal in f64 (+z if the configuration's is degenerate).
+    n: glam::DVec3,
+}
 
-    // Normalisation.
-    let masses = binning.masses(sampler, &quad);
+impl<'a> Bench<'a> {
+    fn new(sampler: &'a dyn LineSampler, config: &Config, settings: &Settings) -> Self {
+        let frame = *sampler.support();
+        let binning = PhiBinning::new(&frame, settings.bins * COUNTING_SUBDIVISION);
+        let two_over_d = 2.0 / frame.d as f64;
+        let support_omega = {
+            let (phi_b, phi_e) = binning.phi_range();
+            two_over_d * (phi_e.sin() - phi_b.sin())
+        };
+        Self {
+            sampler,
+            binning,
+            quad: Adaptive::new(settings.nodes, QUAD_RELATIVE),
+            two_over_d,
+            support_omega,
+            n: unit_normal(config.n()).unwrap_or(glam::Vec3::Z).as_dvec3(),
+        }
+    }
+
+    /// How far a density `q` claimed for `dir` is from `reference`'s pdf there (`q_ref`), in units of
+    /// the pdf-consistency tolerance (relative, plus `floor`); where more than 1, the distance to
+    /// the range of the pdf over the on-line directions the f32 `dir` cannot be told from
+    /// ([`on_line_range`]). NaN where `q` is NaN.
+    fn deviation(
+        &self,
+        reference: &dyn LineSampler,
+        dir: glam::Vec3,
+        q: f32,
+        q_ref: f32,
+        floor: f64,
+    ) -> f64 {
+        let scale = PDF_CONSISTENCY_RELATIVE * (q as f64).abs().max((q_ref as f64).abs()) + floor;
+        let dev = (q as f64 - q_ref as f64).abs() / scale;
+        if dev > 1.0 {
+            // Only then (three pdf calls).
+            let (lo, hi) = on_line_range(reference, &self.binning, dir);
+            (lo - q as f64).max(q as f64 - hi).max(0.0) / scale
+        } else {
+            dev
+        }
+    }
+}
+
+/// Normalisation: |∫ p_R dΩ_R − 1| of the masses (the sampler's pdf by quadrature).
+fn check_normalisation(masses: &Masses, settings: &Settings, out: &mut ConfigResult) {
     let total = masses.total();
     let norm_err = (total - 1.0).abs();
     out.normalisation_error = Some(norm_err);
@@ -412,12 +445,15 @@ fn check_sampler(
             ),
         );
     }
+}
 
-    // The pdf vanishes on the line outside the support: points spread over the rest of the line
-    // in s (beyond a margin in s), and points beyond each end at φ-distances growing by 10×
-    // from 1e-6 + 1e-5·Δφ rad (4× the rounding of an f32 direction's φ, 10× the relative
-    // rounding of Δφ). The latter stay distinguishable from the ends where the s-grid near ±1
-    // has no room beyond them (for ℓ/d ≳ 3000 s_end rounds to 1 in f32).
+/// The pdf vanishes on the line outside the support: points spread over the rest of the line
+/// in s (beyond a margin in s), and points beyond each end at φ-distances growing by 10× from
+/// 1e-6 + 1e-5·Δφ rad (4× the rounding of an f32 direction's φ, 10× the relative rounding of
+/// Δφ). The latter stay distinguishable from the ends where the s-grid near ±1 has no room
+/// beyond them (for ℓ/d ≳ 3000 s_end rounds to 1 in f32).
+fn check_pdf_vanishes_outside(bench: &Bench, out: &mut ConfigResult) {
+    let binning = &bench.binning;
     let (phi_b, phi_e) = binning.phi_range();
     let (sb, se) = (phi_b.sin(), phi_e.sin());
     let margin = (1e-4 * (se - sb)).max(1e-5);
@@ -431,6 +467,7 @@ fn check_sampler(
             outside.push((se + margin + t * (1.0 - se - margin)).asin());
         }
     }
+    let frame = bench.sampler.support();
     let (lb, le, d) = (frame.l_begin as f64, frame.l_end as f64, frame.d as f64);
     let half_pi = std::f64::consts::FRAC_PI_2;
     let mut delta = 1e-6 + 1e-5 * (phi_e - phi_b);
@@ -441,7 +478,7 @@ fn check_sampler(
     outside.retain(|&phi| phi > -half_pi && phi < half_pi && (phi < phi_b || phi > phi_e));
     if let Some(&phi) = outside
         .iter()
-        .find(|&&phi| sampler.pdf(binning.direction(phi)) != 0.0)
+        .find(|&&phi| bench.sampler.pdf(binning.direction(phi)) != 0.0)
     {
         out.fail(
             Check::Support,
@@ -450,130 +487,332 @@ fn check_sampler(
             ),
         );
     }
+}
 
-    // Samples.
-    let n = unit_normal(config.n()).unwrap_or(glam::Vec3::Z).as_dvec3();
+/// One sample as the checks see it: its primary sample, direction and density, and the inverse
+/// the implementation reports for it (answer sources only).
+#[derive(Clone, Copy, Debug)]
+struct Drawn {
+    xi: f32,
+    dir: glam::Vec3,
+    p: f32,
+    reported_inverse: Option<f32>,
+}
+
+/// The sampler's own samples: N primary samples of the counter-based stream, in order.
+fn own_samples<'a>(
+    sampler: &'a dyn LineSampler,
+    settings: &Settings,
+    stream: [u32; 3],
+) -> impl Iterator<Item = Drawn> + 'a {
     let mut rng = CounterRng::new(settings.seed, stream);
-    let mut observed = vec![0u64; binning.bins()];
-    let (mut outside_support, mut not_toward_line) = (0u64, 0u64);
-    let (mut sum, mut sum_sq, mut zero_density_hits) = (0.0f64, 0.0f64, 0u64);
-    let (mut worst_consistency, mut worst_consistency_at) = (0.0f64, (0.0f32, 0.0f32));
-    let mut round_trip = RoundTripCheck {
-        checked: 0,
-        max_error: 0.0,
-    };
-    let mut round_trip_fail: Option<String> = None;
-    // Cross density of the partner at the samples: agreement with its certified pdf, and the
-    // balance weight q/(p + q) (bounded: its mean has finite variance for the z-test).
-    let partner_floor = partner.map_or(0.0, |pt| {
-        PDF_CONSISTENCY_FLOOR / support_solid_angle(pt.sampler.support())
-    });
-    let (mut worst_cross, mut worst_cross_at) = (0.0f64, (0.0f32, 0.0f32));
-    let (mut sum_b, mut sum_b_sq) = (0.0f64, 0.0f64);
-    for i in 0..settings.samples {
+    (0..settings.samples).map(move |_| {
         let xi = rng.next_f32();
         let (dir, p) = sampler.sample_with_pdf(xi);
+        Drawn {
+            xi,
+            dir,
+            p,
+            reported_inverse: None,
+        }
+    })
+}
+
+/// The primary samples of [`own_samples`] (the batch an answer source is asked for).
+fn primary_samples(settings: &Settings, stream: [u32; 3]) -> Vec<f32> {
+    let mut rng = CounterRng::new(settings.seed, stream);
+    (0..settings.samples).map(|_| rng.next_f32()).collect()
+}
+
+/// The answers of a source to the batch `xi`.
+fn answered_samples<'a>(
+    xi: &'a [f32],
+    answers: &'a SampleAnswers,
+) -> impl Iterator<Item = Drawn> + 'a {
+    (0..xi.len()).map(move |i| Drawn {
+        xi: xi[i],
+        dir: answers.directions[i],
+        p: answers.densities[i],
+        reported_inverse: answers.inverse.as_ref().map(|v| v[i]),
+    })
+}
+
+/// Counts of the samples per counting bin, and of those outside the support or not toward the
+/// line.
+struct Histogram {
+    observed: Vec<u64>,
+    outside_support: u64,
+    not_toward_line: u64,
+}
+
+impl Histogram {
+    fn new(bins: usize) -> Self {
+        Self {
+            observed: vec![0; bins],
+            outside_support: 0,
+            not_toward_line: 0,
+        }
+    }
+
+    fn add(&mut self, binning: &PhiBinning, dir: glam::Vec3) {
         match binning.lookup(dir) {
-            BinLookup::Bin(b) => observed[b] += 1,
-            BinLookup::OutsideSupport => outside_support += 1,
-            BinLookup::NotTowardLine => not_toward_line += 1,
+            BinLookup::Bin(b) => self.observed[b] += 1,
+            BinLookup::OutsideSupport => self.outside_support += 1,
+            BinLookup::NotTowardLine => self.not_toward_line += 1,
         }
+    }
+}
+
+/// The largest deviation seen (NaN counts as infinite) and the pair of densities there.
+struct Worst {
+    deviation: f64,
+    at: (f32, f32),
+}
+
+impl Worst {
+    fn new() -> Self {
+        Self {
+            deviation: 0.0,
+            at: (0.0, 0.0),
+        }
+    }
+
+    fn add(&mut self, dev: f64, at: (f32, f32)) {
+        if !(dev <= self.deviation) {
+            self.deviation = if dev.is_nan() { f64::INFINITY } else { dev };
+            self.at = at;
+        }
+    }
+}
+
+/// Sums of a Monte Carlo estimate's per-sample values and their squares.
+#[derive(Default)]
+struct Moments {
+    sum: f64,
+    sum_sq: f64,
+}
+
+impl Moments {
+    fn add(&mut self, w: f64) {
+        self.sum += w;
+        self.sum_sq += w * w;
+    }
+
+    /// (mean, unbiased variance of one sample, standard error of the mean) over `n` samples.
+    fn estimate(&self, n: f64) -> (f64, f64, f64) {
+        let mean = self.sum / n;
+        let var = (self.sum_sq / n - mean * mean).max(0.0) * n / (n - 1.0).max(1.0);
+        (mean, var, (var / n).sqrt())
+    }
+}
+
+/// The partner's cross density at the samples: agreement with its certified pdf, and the
+/// balance weight q/(p + q) (bounded: its mean has finite variance for the z-test).
+struct CrossTally {
+    floor: f64,
+    worst: Worst,
+    balance: Moments,
+}
+
+/// Round trips ξ → ω → ξ' with the tolerance 1e-4 + 1e-6·(2/d)·p (an s-error of 1e-6).
+struct RoundTrips {
+    check: RoundTripCheck,
+    failure: Option<String>,
+}
+
+impl RoundTrips {
+    fn new() -> Self {
+        Self {
+            check: RoundTripCheck {
+                checked: 0,
+                max_error: 0.0,
+            },
+            failure: None,
+        }
+    }
+
+    fn add(&mut self, bench: &Bench, xi: f32, xi2: f32, p: f32) {
+        let err = (xi2 as f64 - xi as f64).abs();
+        let tol = ROUND_TRIP_XI + ROUND_TRIP_S * bench.two_over_d * p as f64;
+        self.check.checked += 1;
+        self.check.max_error = self.check.max_error.max(err);
+        if !(err <= tol) && self.failure.is_none() {
+            self.failure = Some(format!(
+                "ξ = {xi} → ω → ξ' = {xi2} (|Δξ| {err:.2e} > {tol:.2e})"
+            ));
+        }
+    }
+
+    /// Fail `check` on the first violation; the summary, if anything was checked.
+    fn test(&self, check: Check, out: &mut ConfigResult) -> Option<RoundTripCheck> {
+        if let Some(m) = &self.failure {
+            out.fail(check, m.clone());
+        }
+        (self.check.checked > 0).then(|| self.check.clone())
+    }
+}
+
+/// Answers that are not numbers of the right kind (answer sources; Rust samplers are held to
+/// the same by the other checks).
+#[derive(Default)]
+struct BadAnswers {
+    non_finite_density: u64,
+    negative_density: u64,
+    non_unit_direction: u64,
+}
+
+impl BadAnswers {
+    fn add(&mut self, s: &Drawn) {
+        if !s.p.is_finite() {
+            self.non_finite_density += 1;
+        } else if s.p < 0.0 {
+            self.negative_density += 1;
+        }
+        let w = s.dir.as_dvec3();
+        if !w.is_finite() || !((w.length() - 1.0).abs() <= DIRECTION_TOLERANCE) {
+            self.non_unit_direction += 1;
+        }
+    }
+
+    fn test(&self, out: &mut ConfigResult) {
+        if self.non_finite_density + self.negative_density + self.non_unit_direction > 0 {
+            out.fail(
+                Check::Answer,
+                format!(
+                    "{} densities NaN or infinite, {} negative; {} directions not finite unit \
+                     vectors (| |ω| − 1 | > {DIRECTION_TOLERANCE:.0e})",
+                    self.non_finite_density, self.negative_density, self.non_unit_direction
+                ),
+            );
+        }
+    }
+}
+
+/// Everything tabulated in one pass over the samples.
+struct Tallies {
+    histogram: Histogram,
+    consistency: Worst,
+    cross: Option<CrossTally>,
+    integral: Moments,
+    /// Samples with (n·ω)⁺ > 0 but density 0 or non-finite where the density on the line is not.
+    zero_density_hits: u64,
+    round_trips: RoundTrips,
+    reported_inverse: RoundTrips,
+    bad: BadAnswers,
+}
+
+/// Tabulate the samples (in order: the first `round_trips` are round-tripped).
+fn tabulate(
+    bench: &Bench,
+    partner: Option<&Partner>,
+    settings: &Settings,
+    samples: impl Iterator<Item = Drawn>,
+) -> Tallies {
+    let sampler = bench.sampler;
+    let mut t = Tallies {
+        histogram: Histogram::new(bench.binning.bins()),
+        consistency: Worst::new(),
+        cross: partner.map(|pt| CrossTally {
+            floor: PDF_CONSISTENCY_FLOOR / support_solid_angle(pt.sampler.support()),
+            worst: Worst::new(),
+            balance: Moments::default(),
+        }),
+        integral: Moments::default(),
+        zero_density_hits: 0,
+        round_trips: RoundTrips::new(),
+        reported_inverse: RoundTrips::new(),
+        bad: BadAnswers::default(),
+    };
+    let own_floor = PDF_CONSISTENCY_FLOOR / bench.support_omega;
+    for (i, s) in samples.enumerate() {
+        let Drawn { xi, dir, p, .. } = s;
+        t.histogram.add(&bench.binning, dir);
+        t.bad.add(&s);
+        // p must be the density of a direction on the line that the f32 sample cannot be told
+        // apart from.
         let p_eval = sampler.pdf(dir);
-        let scale = PDF_CONSISTENCY_RELATIVE * (p as f64).abs().max((p_eval as f64).abs())
-            + PDF_CONSISTENCY_FLOOR / support_omega;
-        let mut dev = (p as f64 - p_eval as f64).abs() / scale;
-        if dev > 1.0 {
-            // Only then (three pdf calls): p must be the density of a direction on the line that
-            // the f32 sample cannot be told apart from.
-            let (lo, hi) = on_line_range(sampler, &binning, dir);
-            dev = (lo - p as f64).max(p as f64 - hi).max(0.0) / scale;
-        }
-        if !(dev <= worst_consistency) {
-            worst_consistency = if dev.is_nan() { f64::INFINITY } else { dev };
-            worst_consistency_at = (p, p_eval);
-        }
-        if let Some(pt) = partner {
-            let q = (pt.cross)(dir);
-            let q_pdf = pt.sampler.pdf(dir);
-            let scale = PDF_CONSISTENCY_RELATIVE * (q as f64).abs().max((q_pdf as f64).abs())
-                + partner_floor;
-            let mut dev = (q as f64 - q_pdf as f64).abs() / scale;
-            if dev > 1.0 {
-                let (lo, hi) = on_line_range(pt.sampler.as_ref(), &binning, dir);
-                dev = (lo - q as f64).max(q as f64 - hi).max(0.0) / scale;
-            }
-            if !(dev <= worst_cross) {
-                worst_cross = if dev.is_nan() { f64::INFINITY } else { dev };
-                worst_cross_at = (q, q_pdf);
-            }
+        t.consistency.add(
+            bench.deviation(sampler, dir, p, p_eval, own_floor),
+            (p, p_eval),
+        );
+        if let (Some(pt), Some(c)) = (partner, t.cross.as_mut()) {
+            let (q, q_pdf) = ((pt.cross)(dir), pt.sampler.pdf(dir));
+            let dev = bench.deviation(pt.sampler.as_ref(), dir, q, q_pdf, c.floor);
+            c.worst.add(dev, (q, q_pdf));
             if p > 0.0 && p.is_finite() {
                 let w = (q as f64 / (p as f64 + q as f64)).max(0.0);
-                let w = if w.is_finite() { w } else { 1.0 };
-                sum_b += w;
-                sum_b_sq += w * w;
+                c.balance.add(if w.is_finite() { w } else { 1.0 });
             }
         }
-        let f = n.dot(dir.as_dvec3()).max(0.0);
+        let f = bench.n.dot(dir.as_dvec3()).max(0.0);
         if p > 0.0 && p.is_finite() {
-            let w = f / p as f64;
-            sum += w;
-            sum_sq += w * w;
-        } else if f > 0.0
-            && on_line_range(sampler, &binning, dir).0 > PDF_CONSISTENCY_FLOOR / support_omega
-        {
+            t.integral.add(f / p as f64);
+        } else if f > 0.0 && on_line_range(sampler, &bench.binning, dir).0 > own_floor {
             // A density-0 sample loses its contribution to the estimate. Legitimate only where
             // the density is 0 at a direction on the line that the f32 sample cannot be told
             // from (the end of a density that vanishes at a horizon — in cosine space for LTC —
             // met at ξ within ~1e-5 of 0 or 1, which N = 10⁶ samples reach).
-            zero_density_hits += 1;
+            t.zero_density_hits += 1;
         }
         if i < settings.round_trips {
             if let Some(xi2) = sampler.inverse(dir) {
-                let err = (xi2 as f64 - xi as f64).abs();
-                let tol = ROUND_TRIP_XI + ROUND_TRIP_S * two_over_d * p_eval as f64;
-                round_trip.checked += 1;
-                round_trip.max_error = round_trip.max_error.max(err);
-                if !(err <= tol) && round_trip_fail.is_none() {
-                    round_trip_fail = Some(format!(
-                        "ξ = {xi} → ω → ξ' = {xi2} (|Δξ| {err:.2e} > {tol:.2e})"
-                    ));
-                }
+                t.round_trips.add(bench, xi, xi2, p_eval);
             }
         }
+        if let Some(xi2) = s.reported_inverse {
+            t.reported_inverse.add(bench, xi, xi2, p_eval);
+        }
     }
-    if round_trip.checked > 0 {
-        out.round_trip = Some(round_trip);
-    }
-    if let Some(m) = round_trip_fail {
-        out.fail(Check::RoundTrip, m);
-    }
-    if not_toward_line > 0 {
+    t
+}
+
+/// Every sample is a unit direction toward the line, inside the support.
+fn test_samples_on_support(h: &Histogram, out: &mut ConfigResult) {
+    if h.not_toward_line > 0 {
         out.fail(
             Check::Direction,
-            format!("{not_toward_line} samples are not unit directions toward the line"),
+            format!(
+                "{} samples are not unit directions toward the line",
+                h.not_toward_line
+            ),
         );
     }
-    if outside_support > 0 {
+    if h.outside_support > 0 {
         out.fail(
             Check::Support,
-            format!("{outside_support} samples outside the support"),
+            format!("{} samples outside the support", h.outside_support),
         );
     }
-    if worst_consistency > 1.0 {
-        let (p, q) = worst_consistency_at;
+}
+
+/// `sample_with_pdf` agrees with `pdf` at every sample.
+fn test_pdf_consistency(worst: &Worst, out: &mut ConfigResult) {
+    if worst.deviation > 1.0 {
+        let (p, q) = worst.at;
         out.fail(
             Check::PdfConsistency,
             format!("sample_with_pdf {p:e} vs pdf(sample) {q:e}"),
         );
     }
+}
 
-    // Two χ² tests on cells of the counting bins, both merged to the s-resolution of N samples
-    // (`chi2::s_resolution`): the fine test on the `bins` equal φ-cells (local errors), the
-    // coarse test on `coarse_cells` cells of equal probability (smooth errors: a tilt of the
-    // density spreads its noncentrality over few degrees of freedom there). A sample outside the
-    // support or in a bin of zero expected count is an immediate failure of both (p = 0).
+/// Two χ² tests on cells of the counting bins, both merged to the s-resolution of N samples
+/// (`chi2::s_resolution`): the fine test on the `bins` equal φ-cells (local errors), the coarse
+/// test on `coarse_cells` cells of equal probability (smooth errors: a tilt of the density
+/// spreads its noncentrality over few degrees of freedom there). A sample outside the support
+/// or in a bin of zero expected count is an immediate failure of both (p = 0).
+fn test_chi2(
+    bench: &Bench,
+    h: &Histogram,
+    masses: &Masses,
+    settings: &Settings,
+    alpha_c: f64,
+    out: &mut ConfigResult,
+) {
+    let binning = &bench.binning;
     let big_n = settings.samples as f64;
-    let zero_bin_samples: u64 = observed
+    let zero_bin_samples: u64 = h
+        .observed
         .iter()
         .zip(&masses.mass)
         .filter(|(_, &m)| !(m > 0.0))
@@ -586,9 +825,9 @@ fn check_sampler(
         &masses.mass,
         settings.coarse_cells,
     );
-    let immediate = outside_support + not_toward_line + zero_bin_samples > 0;
+    let immediate = h.outside_support + h.not_toward_line + zero_bin_samples > 0;
     for (check, cells) in [(Check::Chi2, &fine), (Check::Chi2Coarse, &coarse)] {
-        let mut chi2 = grouped_chi_square(&observed, &masses.mass, big_n, cells);
+        let mut chi2 = grouped_chi_square(&h.observed, &masses.mass, big_n, cells);
         chi2.zero_bin_samples = zero_bin_samples;
         if immediate {
             chi2.p_value = 0.0;
@@ -614,28 +853,48 @@ fn check_sampler(
             _ => out.chi2_coarse = Some(chi2),
         }
     }
+}
 
-    // Integral agreement.
-    let reference = match subject.coverage {
+/// Integral agreement: the Monte Carlo estimate of ∫(n·ω)⁺ dΩ_R lies within z_c standard errors
+/// (plus the f32 floors; for answer sources, the geometry's rounding) of the reference, and no
+/// sample lost its contribution to a density 0.
+#[allow(clippy::too_many_arguments)]
+fn test_integral(
+    bench: &Bench,
+    coverage: Coverage,
+    answered: bool,
+    config: &Config,
+    t: &Tallies,
+    settings: &Settings,
+    z_c: f64,
+    out: &mut ConfigResult,
+) {
+    let binning = &bench.binning;
+    let reference = match coverage {
         Coverage::Lambert => lambert_reference(config).0,
         Coverage::OwnSupport => {
             let mut g = |phi: f64| {
                 let dir = binning.direction(phi);
-                if sampler.pdf(dir) > 0.0 {
-                    n.dot(dir.as_dvec3()).max(0.0) * binning.jacobian(phi)
+                if bench.sampler.pdf(dir) > 0.0 {
+                    bench.n.dot(dir.as_dvec3()).max(0.0) * binning.jacobian(phi)
                 } else {
                     0.0
                 }
             };
-            quad.integrate_partition(&binning.edges(), &mut g).value
+            bench
+                .quad
+                .integrate_partition(&binning.edges(), &mut g)
+                .value
         }
     };
-    let mean = sum / big_n;
-    let var = (sum_sq / big_n - mean * mean).max(0.0) * big_n / (big_n - 1.0).max(1.0);
-    let std_error = (var / big_n).sqrt();
-    let tolerance = z_c * std_error
+    let (mean, var, std_error) = t.integral.estimate(settings.samples as f64);
+    let mut tolerance = z_c * std_error
         + INTEGRAL_RELATIVE_FLOOR * reference.abs()
-        + INTEGRAL_SOLID_ANGLE_FLOOR * support_omega;
+        + INTEGRAL_SOLID_ANGLE_FLOOR * bench.support_omega;
+    if answered {
+        let (phi_b, phi_e) = binning.phi_range();
+        tolerance += INTEGRAL_GEOMETRY_ROUNDING / (phi_e - phi_b) * reference.abs();
+    }
     let relative_std = if reference > 0.0 {
         var.sqrt() / reference
     } else {
@@ -649,10 +908,13 @@ fn check_sampler(
             ),
         );
     }
-    if zero_density_hits > 0 {
+    if t.zero_density_hits > 0 {
         out.fail(
             Check::Integral,
-            format!("{zero_density_hits} samples with (n·ω)⁺ > 0 but density 0 or non-finite"),
+            format!(
+                "{} samples with (n·ω)⁺ > 0 but density 0 or non-finite",
+                t.zero_density_hits
+            ),
         );
     }
     out.integral = Some(IntegralCheck {
@@ -662,54 +924,183 @@ fn check_sampler(
         tolerance,
         relative_std,
     });
+}
 
-    // Cross density: E_p[q/(p + q)] = ∫ p·q/(p + q) dΩ_R (both pdfs certified on their own).
-    if let Some(pt) = partner {
-        if worst_cross > 1.0 {
-            let (q, q_pdf) = worst_cross_at;
-            out.fail(
-                Check::CrossDensity,
-                format!(
-                    "{} cross density {q:e} vs its pdf {q_pdf:e} at a sample",
-                    pt.name
-                ),
-            );
-        }
-        let mut g = |phi: f64| {
-            let dir = binning.direction(phi);
-            let (p, q) = (sampler.pdf(dir) as f64, pt.sampler.pdf(dir) as f64);
-            if p + q > 0.0 {
-                p * q / (p + q) * binning.jacobian(phi)
-            } else {
-                0.0
-            }
-        };
-        let reference = quad.integrate_partition(&binning.edges(), &mut g).value;
-        let mean = sum_b / big_n;
-        let var = (sum_b_sq / big_n - mean * mean).max(0.0) * big_n / (big_n - 1.0).max(1.0);
-        let std_error = (var / big_n).sqrt();
-        let tolerance = z_c * std_error
-            + INTEGRAL_RELATIVE_FLOOR * reference.abs()
-            + INTEGRAL_SOLID_ANGLE_FLOOR;
-        if !((mean - reference).abs() <= tolerance) {
-            out.fail(
-                Check::CrossBalance,
-                format!(
-                    "E[q/(p+q)] estimate {mean:.7e} ± {std_error:.2e} vs reference \
-                     {reference:.7e} (tolerance {tolerance:.2e}; q: {})",
-                    pt.name
-                ),
-            );
-        }
-        out.cross = Some(CrossCheck {
-            partner: pt.name.to_string(),
-            worst_deviation: worst_cross,
-            balance_estimate: mean,
-            balance_reference: reference,
-            std_error,
-            tolerance,
-        });
+/// Cross density: the partner's cross density agrees with its pdf at every sample, and
+/// E_p[q/(p + q)] = ∫ p·q/(p + q) dΩ_R (both pdfs certified on their own).
+fn test_cross(
+    bench: &Bench,
+    pt: &Partner,
+    c: &CrossTally,
+    settings: &Settings,
+    z_c: f64,
+    out: &mut ConfigResult,
+) {
+    if c.worst.deviation > 1.0 {
+        let (q, q_pdf) = c.worst.at;
+        out.fail(
+            Check::CrossDensity,
+            format!(
+                "{} cross density {q:e} vs its pdf {q_pdf:e} at a sample",
+                pt.name
+            ),
+        );
     }
+    let binning = &bench.binning;
+    let mut g = |phi: f64| {
+        let dir = binning.direction(phi);
+        let (p, q) = (bench.sampler.pdf(dir) as f64, pt.sampler.pdf(dir) as f64);
+        if p + q > 0.0 {
+            p * q / (p + q) * binning.jacobian(phi)
+        } else {
+            0.0
+        }
+    };
+    let reference = bench
+        .quad
+        .integrate_partition(&binning.edges(), &mut g)
+        .value;
+    let (mean, _, std_error) = c.balance.estimate(settings.samples as f64);
+    let tolerance =
+        z_c * std_error + INTEGRAL_RELATIVE_FLOOR * reference.abs() + INTEGRAL_SOLID_ANGLE_FLOOR;
+    if !((mean - reference).abs() <= tolerance) {
+        out.fail(
+            Check::CrossBalance,
+            format!(
+                "E[q/(p+q)] estimate {mean:.7e} ± {std_error:.2e} vs reference \
+                 {reference:.7e} (tolerance {tolerance:.2e}; q: {})",
+                pt.name
+            ),
+        );
+    }
+    out.cross = Some(CrossCheck {
+        partner: pt.name.to_string(),
+        worst_deviation: c.worst.deviation,
+        balance_estimate: mean,
+        balance_reference: reference,
+        std_error,
+        tolerance,
+    });
+}
+
+/// Directions at which an answer source's own pdf is queried per configuration (or N, if
+/// fewer).
+pub const PDF_QUERIES: usize = 65_536;
+
+/// An answer source's pdf at directions it did not sample: uniform in solid angle over the
+/// whole, unclipped line (so below the horizon and outside the support too, where it must be 0),
+/// from the configuration's stream with third word 1; each against the reference pdf with the
+/// pdf-consistency tolerance.
+fn check_pdf_queries(
+    bench: &Bench,
+    source: &SharedSource,
+    config: &Config,
+    settings: &Settings,
+    stream: [u32; 3],
+    out: &mut ConfigResult,
+) -> Result<(), SourceError> {
+    let Some(whole) = LineFrame::new(&config.segment(), config.x()) else {
+        return Ok(());
+    };
+    let line = PhiBinning::new(&whole, 1);
+    let (phi_b, phi_e) = line.phi_range();
+    let (sb, se) = (phi_b.sin(), phi_e.sin());
+    let mut rng = CounterRng::new(settings.seed, [stream[0], stream[1], 1]);
+    let directions: Vec<glam::Vec3> = (0..PDF_QUERIES.min(settings.samples))
+        .map(|_| {
+            let s = sb + rng.next_f32() as f64 * (se - sb);
+            line.direction(s.clamp(-1.0, 1.0).asin())
+        })
+        .collect();
+    let answers = source.pdf(config, &directions)?;
+    let floor = PDF_CONSISTENCY_FLOOR / bench.support_omega;
+    let mut worst = Worst::new();
+    let mut worst_dir = glam::Vec3::ZERO;
+    for (&dir, &q) in directions.iter().zip(&answers) {
+        let p = bench.sampler.pdf(dir);
+        let dev = bench.deviation(bench.sampler, dir, q, p, floor);
+        if !(dev <= worst.deviation) {
+            worst_dir = dir;
+        }
+        worst.add(dev, (q, p));
+    }
+    if worst.deviation > 1.0 {
+        let (q, p) = worst.at;
+        out.fail(
+            Check::CrossDensity,
+            format!(
+                "its pdf {q:e} vs the reference pdf {p:e} at ω = {worst_dir:?} (φ = {:.9}, \
+                 support [{:.9}, {:.9}]), a direction it did not sample",
+                bench.binning.phi_of(worst_dir),
+                bench.binning.phi_range().0,
+                bench.binning.phi_range().1
+            ),
+        );
+    }
+    out.pdf_queries = Some(PdfQueryCheck {
+        queried: directions.len(),
+        worst_deviation: worst.deviation,
+    });
+    Ok(())
+}
+
+/// Run one prepared sampler (for an answer source: the reference technique, with the source's
+/// answers as the samples) through every check: tabulate, then test.
+#[allow(clippy::too_many_arguments)]
+fn check_sampler(
+    sampler: &dyn LineSampler,
+    partner: Option<&Partner>,
+    subject: &SamplerUnderTest,
+    config: &Config,
+    settings: &Settings,
+    levels: (f64, f64),
+    stream: [u32; 3],
+    out: &mut ConfigResult,
+) -> Result<(), SourceError> {
+    let (alpha_c, z_c) = levels;
+    let bench = Bench::new(sampler, config, settings);
+    let masses = bench.binning.masses(sampler, &bench.quad);
+    check_normalisation(&masses, settings, out);
+    check_pdf_vanishes_outside(&bench, out);
+    let t = match &subject.answers {
+        None => tabulate(
+            &bench,
+            partner,
+            settings,
+            own_samples(sampler, settings, stream),
+        ),
+        Some(source) => {
+            let xi = primary_samples(settings, stream);
+            let answers = source.sample(config, &xi)?;
+            tabulate(&bench, partner, settings, answered_samples(&xi, &answers))
+        }
+    };
+    let round_trip = t.round_trips.test(Check::RoundTrip, out);
+    out.round_trip = round_trip;
+    test_samples_on_support(&t.histogram, out);
+    test_pdf_consistency(&t.consistency, out);
+    test_chi2(&bench, &t.histogram, &masses, settings, alpha_c, out);
+    let answered = subject.answers.is_some();
+    test_integral(
+        &bench,
+        subject.coverage,
+        answered,
+        config,
+        &t,
+        settings,
+        z_c,
+        out,
+    );
+    if let (Some(pt), Some(c)) = (partner, &t.cross) {
+        test_cross(&bench, pt, c, settings, z_c, out);
+    }
+    if let Some(source) = &subject.answers {
+        t.bad.test(out);
+        let reported = t.reported_inverse.test(Check::ReportedInverse, out);
+        out.reported_inverse = reported;
+        check_pdf_queries(&bench, source, config, settings, stream, out)?;
+    }
+    Ok(())
 }
 
 /// One subject on one configuration (never panics: panics become `Outcome::Panicked`, and
@@ -740,7 +1131,7 @@ pub fn certify_config(
             Some(s) => {
                 let mut r = ConfigResult::new(config, Outcome::Tested);
                 let partner = subject.partner.as_ref().and_then(|p| p(config));
-                check_sampler(
+                let checked = check_sampler(
                     s.as_ref(),
                     partner.as_ref(),
                     subject,
@@ -750,6 +1141,10 @@ pub fn certify_config(
                     stream,
                     &mut r,
                 );
+                if let Err(e) = checked {
+                    r = ConfigResult::new(config, Outcome::SourceFailed);
+                    r.fail(Check::Source, e.0);
+                }
                 r
             }
         }
@@ -815,7 +1210,9 @@ fn summarise(
         && configs
             .iter()
             .all(|r| matches!(r.outcome, Outcome::Tested | Outcome::ZeroContribution));
+    let source_failed = configs.iter().any(|r| r.outcome == Outcome::SourceFailed);
     let (passed, verdict) = match subject.role {
+        _ if source_failed => (false, "source failed".to_string()),
         _ if !runnable => (false, "panicked".to_string()),
         Role::Certify if failing_configs == 0 => (true, "pass".to_string()),
         Role::Certify => (false, "FAIL".to_string()),

@@ -1,0 +1,137 @@
+//! `linlight samplers --external COMMAND`: the sampler suite on the answers of an external
+//! program (docs/external-protocol.md). Exit 0 iff it passes every configuration; 1 if it fails
+//! one; 2 if it could not be certified (no protocol, crash, hang, wrong counts).
+
+use super::samplers::{print_failures, print_techniques, write_json};
+use linlight::external::ExternalSampler;
+use linlight_sampling::Technique;
+use linlight_verify::subjects::{ltc, technique, SamplerUnderTest};
+use linlight_verify::suite::Outcome;
+use linlight_verify::{run_suite, Settings};
+use std::path::Path;
+use std::process::ExitCode;
+use std::time::Duration;
+
+/// The reference technique an external program may claim, by the name in its hello.
+fn reference(name: &str) -> Option<SamplerUnderTest> {
+    if name == "ltc" {
+        return Some(ltc());
+    }
+    let t = Technique::from_name(name).filter(|t| Technique::UNBIASED.contains(t))?;
+    Some(technique(t))
+}
+
+/// The names [`reference`] accepts.
+fn reference_names() -> String {
+    let mut v: Vec<&str> = Technique::UNBIASED.iter().map(|t| t.name()).collect();
+    v.push("ltc");
+    v.join(", ")
+}
+
+pub fn run(command: &str, timeout: Duration, settings: &Settings, json: Option<&Path>) -> ExitCode {
+    let fail = |message: &dyn std::fmt::Display| {
+        eprintln!("error: {message}");
+        ExitCode::from(2)
+    };
+    let sampler = match ExternalSampler::start(command, timeout) {
+        Ok(s) => s,
+        Err(e) => return fail(&e),
+    };
+    let hello = sampler.hello().clone();
+    let Some(reference) = reference(&hello.technique) else {
+        return fail(&format!(
+            "external sampler `{command}`: its hello names technique \"{}\"; known: {}",
+            hello.technique,
+            reference_names()
+        ));
+    };
+    let traffic = sampler.traffic();
+    let name = hello
+        .name
+        .clone()
+        .unwrap_or_else(|| format!("external-{}", hello.technique));
+    let subject = reference.answered_by(
+        name,
+        format!(
+            "`{command}` (protocol v{}), judged against {}{}",
+            hello.version,
+            hello.technique,
+            if hello.inverse {
+                ", reports its inverse"
+            } else {
+                ""
+            }
+        ),
+        Box::new(sampler),
+    );
+    let subjects = [subject];
+    let report = run_suite(&subjects, &[], settings);
+    let source = subjects[0].answers.as_ref().expect("an answered subject");
+    if let Err(e) = source.finish() {
+        return fail(&e);
+    }
+    let t = &report.techniques[0];
+    debug_assert!(t.configs.iter().all(|r| r.outcome != Outcome::SourceFailed));
+
+    let traffic = *traffic.lock().unwrap_or_else(|e| e.into_inner());
+    println!(
+        "external sampler `{command}`: technique {}{}, {} configurations, N = {} samples each, \
+         χ² on {} φ-cells and on {} cells of equal probability, α = {} over m = {} tests → α_c = \
+         {:.3e}, z_c = {:.2}",
+        hello.technique,
+        if hello.inverse {
+            " (reports its inverse)"
+        } else {
+            ""
+        },
+        t.configs.len(),
+        settings.samples,
+        settings.bins,
+        settings.coarse_cells,
+        settings.alpha,
+        report.statistical_tests,
+        report.alpha_per_test,
+        report.z_threshold
+    );
+    println!(
+        "protocol: {} requests; {} samples answered in {:.1} s ({:.3e} samples/s), {} densities \
+         in {:.1} s (wall time from request to answer, the program's work included)",
+        traffic.requests,
+        traffic.samples,
+        traffic.sample_seconds,
+        traffic.samples as f64 / traffic.sample_seconds.max(1e-9),
+        traffic.densities,
+        traffic.pdf_seconds
+    );
+    println!();
+    print_techniques(&report.techniques);
+    print_failures(&report.techniques);
+    println!();
+    println!(
+        "{} in {:.1} s: {} of {} configurations failing{}",
+        if report.passed { "PASS" } else { "FAIL" },
+        report.elapsed_seconds,
+        t.failing_configs,
+        t.configs.len(),
+        if t.failures_by_check.is_empty() {
+            String::new()
+        } else {
+            let checks: Vec<String> = t
+                .failures_by_check
+                .iter()
+                .map(|(k, n)| format!("{}:{n}", k.name()))
+                .collect();
+            format!(" ({})", checks.join(" "))
+        }
+    );
+    if let Some(path) = json {
+        if write_json(path, &report) != ExitCode::SUCCESS {
+            return ExitCode::from(2);
+        }
+    }
+    if report.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
