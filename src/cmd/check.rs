@@ -102,25 +102,27 @@ pub fn run(args: Args) -> ExitCode {
     } else {
         "REFUSED"
     };
-    println!("{}: {verdict}", args.scene.display());
+    let mut out = format!("{}: {verdict}\n", args.scene.display());
     if let Some(scene) = &c.scene {
-        println!("supported:");
+        out += "supported:\n";
         for l in supported(scene) {
-            println!("  {l}");
+            out += &format!("  {l}\n");
         }
     }
     if !c.errors.is_empty() {
-        println!("refused ({}, in file order):", c.errors.len());
+        out += &format!("refused ({}, in file order):\n", c.errors.len());
         for e in &c.errors {
-            println!("  {e}");
+            out += &format!("  {e}\n");
         }
     }
     if !c.warnings.is_empty() {
-        println!("warned ({}):", c.warnings.len());
+        out += &format!("warned ({}):\n", c.warnings.len());
         for w in &c.warnings {
-            println!("  {w}");
+            out += &format!("  {w}\n");
         }
     }
+    // A closed pipe (`| head`) is not an error of the check.
+    let _ = std::io::Write::write_all(&mut std::io::stdout(), out.as_bytes());
     if c.errors.is_empty() {
         ExitCode::SUCCESS
     } else {
