@@ -87,7 +87,7 @@ pub fn read_plain(path: &Path) -> Result<Plain, String> {
         .find(|l| {
             ["R", "G", "B"]
                 .iter()
-                .all(|n| l.channel_data.list.iter().any(|c| c.name.eq(*n)))
+                .all(|n| l.channel_data.list.iter().any(|c| c.name.eq(n)))
         })
         .ok_or_else(|| {
             format!(
