@@ -32,10 +32,17 @@ enum Command {
     /// 2 unusable input, 3 inconclusive).
     Compare(cmd::compare::Args),
     /// Header, per-channel mean ± standard error and NaN/inf/negative/zero-variance pixel counts
-    /// of an image (exit 1 if it is not a valid image of the shared format).
+    /// of an image (exit 1 if it is not a valid image of the shared format, a plain RGB EXR
+    /// included; 2 if it cannot be read).
     Info(cmd::info::Args),
     /// Combine independent mean+variance images of one scene into one (runs, machines).
     Merge(cmd::merge::Args),
+    /// Mean + variance image (dof N − 1) from N ≥ 2 independent plain RGB renders of any
+    /// renderer (different seeds), for compare, info and merge.
+    Stack(cmd::stack::Args),
+    /// Load a scene without rendering: what is supported, every refusal (file:line:col, in file
+    /// order) and every warning (exit 0 loads, 2 refused).
+    Check(cmd::check::Args),
     /// Regenerate every experiment of the paper: PNGs, plots, CSV/JSON and one index.html
     /// (--quick: small sizes, a few minutes).
     #[command(after_help = cmd::figures::AFTER_HELP)]
@@ -76,6 +83,8 @@ fn main() -> ExitCode {
         Command::Compare(a) => cmd::compare::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Merge(a) => cmd::merge::run(a),
+        Command::Stack(a) => cmd::stack::run(a),
+        Command::Check(a) => cmd::check::run(a),
         Command::Calibrate(a) => cmd::calibrate::run(a),
         Command::FitLtc(a) => cmd::fit_ltc::run(a),
         Command::Unshadowed(a) => cmd::unshadowed::run(a),

@@ -1,7 +1,8 @@
 //! `linlight info IMAGE.exr`: what an image of the shared format holds (in the spirit of pbrt's
 //! `imgtool info`): its header, per-channel image mean ± standard error, and counts of the pixels
-//! that need attention. Exit 0 for a valid image, 1 when it holds NaN/inf values, negative
-//! variances or no `dof` (a check failed), 2 when it cannot be read.
+//! that need attention. Exit 0 for a valid image, 1 when it is not a valid image of the shared
+//! format (NaN/inf values, negative variances, no `dof`, or a plain RGB EXR without variance
+//! channels: a check failed), 2 when it cannot be read.
 
 use linlight_imagefile::{Image, MEAN_CHANNELS};
 use serde::Serialize;
@@ -11,7 +12,7 @@ use std::process::ExitCode;
 
 #[derive(clap::Args)]
 #[command(
-    after_help = "Examples:\n  linlight info render.exr\n  linlight info references/mitsuba/floor-tube.exr --json"
+    after_help = "Examples:\n  linlight info render.exr\n  linlight info references/mitsuba/floor-tube.exr --json\n\nExit codes: 0 a valid image of the shared format; 1 not a valid one (NaN/inf values,\nnegative variances, no dof, or a plain RGB EXR without var.* channels: make one with\n`linlight stack`); 2 the file cannot be read."
 )]
 pub struct Args {
     /// Image file (EXR with R, G, B, var.R, var.G, var.B).
@@ -165,6 +166,19 @@ pub fn run(args: Args) -> ExitCode {
     let img = match Image::read_unchecked(&args.image) {
         Ok(i) => i,
         Err(e) => {
+            // A readable plain RGB EXR (another renderer's) is an image, not of the shared
+            // format: say so, and how to make one.
+            if let Ok(p) = super::stack::read_plain(&args.image) {
+                println!(
+                    "{}: {}×{} px plain RGB image\nNOT a valid image of the shared format: no \
+                     variance channels (var.R, var.G, var.B); make one from N ≥ 2 independent \
+                     renders with `linlight stack a.exr b.exr … -o out.exr`",
+                    args.image.display(),
+                    p.width,
+                    p.height
+                );
+                return ExitCode::from(1);
+            }
             eprintln!("linlight info: {e}");
             return ExitCode::from(2);
         }

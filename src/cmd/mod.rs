@@ -3,6 +3,7 @@
 pub mod backward_error;
 pub mod calibrate;
 pub mod certify;
+pub mod check;
 pub mod compare;
 pub mod external;
 pub mod figures;
@@ -11,4 +12,5 @@ pub mod info;
 pub mod merge;
 pub mod render;
 pub mod samplers;
+pub mod stack;
 pub mod unshadowed;

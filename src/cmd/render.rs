@@ -229,132 +229,169 @@ fn method(args: &Args) -> Result<Method, String> {
     }
 }
 
+/// What the command line asks for, checked before anything is loaded.
+struct Request {
+    method: Method,
+    noise: Noise,
+    lights: LightSelection,
+    overrides: Vec<(String, String)>,
+    outs: Outputs,
+}
+
+/// The loaded scene and everything the render needs, all checked.
+struct Plan {
+    scene: Scene,
+    opts: RenderOptions,
+    pool: rayon::ThreadPool,
+    reference: Option<Image>,
+    load_seconds: f64,
+}
+
+/// The rendered image and the times of its parts (seconds).
+struct Rendered {
+    image: Image,
+    notes: Vec<String>,
+    build_seconds: f64,
+    render_seconds: f64,
+}
+
+/// Parse -> plan -> render -> write; each step refuses with exit 2 and a message.
 pub fn run(args: Args) -> ExitCode {
-    let method = match method(&args) {
-        Ok(m) => m,
-        Err(e) => return usage_error(e),
-    };
-    let noise: Noise = match args.noise.parse() {
-        Ok(n) => n,
-        Err(e) => return usage_error(e),
-    };
-    let lights: LightSelection = match args.lights.parse() {
-        Ok(l) => l,
-        Err(e) => return usage_error(format!("--lights: {e}")),
-    };
+    let started = Instant::now();
+    let result = parse(&args)
+        .and_then(|req| plan(&args, &req, started).map(|p| (req, p)))
+        .and_then(|(req, plan)| render_plan(&args, &plan).map(|r| (req, plan, r)))
+        .and_then(|(req, plan, r)| write(&args, &req, &plan, r));
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => usage_error(e),
+    }
+}
+
+/// The command line alone: method, noise, lights, overrides, outputs, exposure, time.
+fn parse(args: &Args) -> Result<Request, String> {
+    let method = method(args)?;
+    let noise: Noise = args.noise.parse()?;
+    let lights: LightSelection = args.lights.parse().map_err(|e| format!("--lights: {e}"))?;
     if args.light_samples == Some(0) {
-        return usage_error("--light-samples must be at least 1");
+        return Err("--light-samples must be at least 1".into());
     }
-    let mut overrides = Vec::new();
-    for d in &args.define {
-        match parse_define(d) {
-            Some(kv) => overrides.push(kv),
-            None => return usage_error(format!("-D expects NAME=VALUE, got '{d}'")),
-        }
+    if args.spp == Some(0) || args.passes == 0 {
+        return Err("--spp and --passes must be at least 1".into());
     }
+    let overrides = args
+        .define
+        .iter()
+        .map(|d| parse_define(d).ok_or_else(|| format!("-D expects NAME=VALUE, got '{d}'")))
+        .collect::<Result<Vec<_>, _>>()?;
     if !args.scene.is_file() {
-        return usage_error(format!("cannot read scene file {}", args.scene.display()));
+        return Err(format!("cannot read scene file {}", args.scene.display()));
     }
-    let outs = match check_outputs(&args) {
-        Ok(o) => o,
-        Err(e) => return usage_error(e),
-    };
+    let outs = check_outputs(args)?;
     if !args.exposure.is_finite() || args.exposure.abs() > 100.0 {
-        return usage_error(format!(
+        return Err(format!(
             "--exposure {} is not a usable number of stops",
             args.exposure
         ));
     }
     if let Some(t) = args.time {
         if !(t > 0.0 && t.is_finite()) {
-            return usage_error(format!(
+            return Err(format!(
                 "--time must be a positive number of seconds (got {t})"
             ));
         }
     }
-    let scene = match xml::load_scene(&args.scene, &overrides) {
-        Ok(s) => s,
-        Err(e) => return usage_error(e),
-    };
-    // Warnings are never silenced: --quiet only drops progress and the summary.
-    for w in &scene.warnings {
-        warn(w);
-    }
-    if method == Method::Technique(Technique::Baseline) {
-        warn(
+    Ok(Request {
+        method,
+        noise,
+        lights,
+        overrides,
+        outs,
+    })
+}
+
+/// Loads the scene (printing its warnings) and fixes the options, memory, threads and the
+/// --match-variance reference.
+fn plan(args: &Args, req: &Request, started: Instant) -> Result<Plan, String> {
+    let scene = xml::load_scene(&args.scene, &req.overrides).map_err(|e| e.to_string())?;
+    let load_seconds = started.elapsed().as_secs_f64();
+    // Warnings are printed once every check has passed (a refusal is one line), and never
+    // silenced: --quiet only drops progress and the summary.
+    let mut warnings = scene.warnings.clone();
+    if req.method == Method::Technique(Technique::Baseline) {
+        warnings.push(
             "the baseline technique is biased by design (its density is not exact); its images \
-             are not expected to agree with Mitsuba",
+             are not expected to agree with Mitsuba"
+                .into(),
         );
     }
     let light_samples = match args.light_samples {
         Some(n) => n,
         None if scene.integrator.emitter_samples == 0 => {
-            warn(
+            warnings.push(
                 "the scene's integrator has emitter_samples = 0 (BSDF samples only, which never \
-                 hit a linear light); rendering with 1 light sample (set --light-samples)",
+                 hit a linear light); rendering with 1 light sample (set --light-samples)"
+                    .into(),
             );
             1
         }
         None => scene.integrator.emitter_samples,
     };
-    let mut opts = RenderOptions {
+    let opts = RenderOptions {
         spp: args.spp.unwrap_or(scene.sensor.sample_count),
         passes: args.passes,
         seed: args.seed.unwrap_or(scene.sensor.seed),
-        method,
+        method: req.method,
         light_samples,
-        lights,
-        noise,
+        lights: req.lights,
+        noise: req.noise,
     };
-    if opts.spp == 0 || opts.passes == 0 {
-        return usage_error("--spp and --passes must be at least 1");
-    }
-    if opts.spp == 1 && opts.passes == 1 {
+    if opts.spp == 1 && opts.passes == 1 && args.match_variance.is_none() {
         // Shown even with --quiet: the output cannot be compared.
-        warn(
+        warnings.push(
             "one sample per pixel in one pass gives no variance estimate (dof 0): `linlight \
              compare` refuses such an image; use --spp ≥ 2 or --passes ≥ 2"
-                .to_string(),
+                .into(),
         );
     }
-    let film = &scene.sensor.film;
-    if film.width == 0 || film.height == 0 {
-        return usage_error(format!(
-            "film has zero size ({}x{})",
-            film.width, film.height
-        ));
-    }
-    if let Err(e) = check_memory(&scene, args.max_memory) {
-        return usage_error(e);
-    }
-    if let Err(e) = outputs::check_radiance(&scene) {
-        return usage_error(e);
-    }
-    let pool = match outputs::thread_pool(args.threads) {
-        Ok(p) => p,
-        Err(e) => return usage_error(e),
-    };
+    check_memory(&scene, args.max_memory)?;
+    outputs::check_radiance(&scene)?;
+    let pool = outputs::thread_pool(args.threads)?;
     let reference = match &args.match_variance {
         None => None,
-        Some(path) => match Image::read(path) {
-            Ok(r) => {
-                let (w, h) = film
-                    .crop
-                    .map_or((film.width, film.height), |c| (c.width, c.height));
-                if (r.width, r.height) != (w as usize, h as usize) {
-                    return usage_error(format!(
-                        "--match-variance {} is {}×{} but the scene renders {w}×{h}",
-                        path.display(),
-                        r.width,
-                        r.height
-                    ));
-                }
-                Some(r)
+        Some(path) => {
+            let r = Image::read(path).map_err(|e| format!("--match-variance: {e}"))?;
+            let film = &scene.sensor.film;
+            let (w, h) = film
+                .crop
+                .map_or((film.width, film.height), |c| (c.width, c.height));
+            if (r.width, r.height) != (w as usize, h as usize) {
+                return Err(format!(
+                    "--match-variance {} is {}×{} but the scene renders {w}×{h}",
+                    path.display(),
+                    r.width,
+                    r.height
+                ));
             }
-            Err(e) => return usage_error(format!("--match-variance: {e}")),
-        },
+            Some(r)
+        }
     };
+    for w in &warnings {
+        warn(w);
+    }
+    Ok(Plan {
+        scene,
+        opts,
+        pool,
+        reference,
+        load_seconds,
+    })
+}
 
+/// Renders the plan (after the --match-variance pilot, when asked), with a progress bar on a
+/// terminal. The build time ends at the renderer's first progress call (made once the scene's
+/// acceleration structure is built).
+fn render_plan(args: &Args, plan: &Plan) -> Result<Rendered, String> {
     let show = !args.quiet && std::io::stderr().is_terminal();
     let bar = if show {
         ProgressBar::new(0)
@@ -365,101 +402,179 @@ pub fn run(args: Args) -> ExitCode {
         ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} {elapsed_precise} eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    let mut notes = Vec::new();
+    let mut opts = plan.opts;
+    if let Some(r) = &plan.reference {
+        let (spp, note) = match_variance(args, plan, r, &bar)?;
+        opts.spp = spp;
+        notes.push(note);
+    }
     let start = Instant::now();
+    let built = std::sync::OnceLock::<f64>::new();
     let progress = |done: usize, total: usize| {
+        let t = *built.get_or_init(|| start.elapsed().as_secs_f64());
         bar.set_length(total as u64);
         bar.set_position(done as u64);
-        let s = start.elapsed().as_secs_f64();
+        let s = start.elapsed().as_secs_f64() - t;
         if s > 0.0 {
             bar.set_message(format!("{:.2} M samples/s", done as f64 / s / 1e6));
         }
     };
-
-    let mut notes = Vec::new();
-    if let Some(r) = &reference {
-        let rule = BudgetRule::parity();
-        let pilot_opts = RenderOptions {
-            spp: rule.pilot_spp,
-            passes: 1,
-            seed: opts.seed ^ 0x5049_4c4f_5453_4545,
-            // White: the budget rule needs the per-sample variance, which is the same for every
-            // noise (each sample is uniform), and independent samples to estimate it.
-            noise: Noise::White,
-            ..opts
-        };
-        bar.set_message("pilot render");
-        let pilot = match pool.install(|| render(&scene, &pilot_opts, &|_, _| {})) {
-            Ok(p) => p,
-            Err(e) => return usage_error(e),
-        };
-        let budget = match rule.choose(&pilot, r, &CompareConfig::default()) {
-            Ok(b) => b,
-            Err(e) => return usage_error(format!("--match-variance: {e}")),
-        };
-        opts.spp = budget.spp.div_ceil(opts.passes).max(1);
-        notes.push(format!(
-            "--match-variance: {} spp in total (the rule asked for {}{})",
-            opts.spp as u64 * opts.passes as u64,
-            budget.required_spp.map_or_else(
-                || "nothing: no pixel with variance".into(),
-                |s| format!("{s:.0}")
-            ),
-            if budget.capped {
-                format!("; capped at {}", rule.max_spp)
-            } else {
-                String::new()
-            }
-        ));
+    let (scene, pool) = (&plan.scene, &plan.pool);
+    let image = match args.time {
+        None => pool.install(|| render(scene, &opts, &progress)),
+        Some(limit) => pool.install(|| render_for(scene, &opts, limit, &bar, &progress)),
     }
-
-    let result = match args.time {
-        None => pool.install(|| render(&scene, &opts, &progress)),
-        Some(limit) => pool.install(|| {
-            // Batches are merged as they come (the merge of equal-size units is exactly the
-            // image of their union, so merging one at a time loses nothing but f32 rounding).
-            let mut merged: Option<Image> = None;
-            let mut batches = 0u64;
-            loop {
-                let t0 = Instant::now();
-                let img = render(
-                    &scene,
-                    &RenderOptions {
-                        seed: batch_seed(opts.seed, batches),
-                        ..opts
-                    },
-                    &|_, _| {},
-                )?;
-                batches += 1;
-                merged = Some(match merged {
-                    None => img,
-                    Some(m) => merge(&[&m, &img]).map_err(linlight_render::RenderError::Options)?,
-                });
-                let elapsed = start.elapsed().as_secs_f64();
-                bar.set_length(1000);
-                bar.set_position((1000.0 * (elapsed / limit).min(1.0)) as u64);
-                bar.set_message(format!("{batches} batch(es)"));
-                if elapsed + t0.elapsed().as_secs_f64() > limit {
-                    break;
-                }
-            }
-            let mut img = merged.expect("at least one batch");
-            img.meta.extra.remove("merged_images");
-            img.meta.extra.insert("seed".into(), opts.seed.to_string());
-            img.meta
-                .extra
-                .insert("time_limit_s".into(), limit.to_string());
-            img.meta.extra.insert("batches".into(), batches.to_string());
-            Ok(img)
-        }),
-    };
-    let mut image = match result {
-        Ok(img) => img,
-        Err(e) => return usage_error(e),
-    };
-    record_inputs(&mut image.meta, &args.scene, &overrides);
+    .map_err(|e| e.to_string())?;
     bar.finish_and_clear();
-    let seconds = start.elapsed().as_secs_f64();
+    let total = start.elapsed().as_secs_f64();
+    let build_seconds = built.get().copied().unwrap_or(0.0).min(total);
+    Ok(Rendered {
+        image,
+        notes,
+        build_seconds,
+        render_seconds: total - build_seconds,
+    })
+}
 
+/// --match-variance: a pilot render, then the spp of certify's budget rule. Says what it does
+/// as it goes (pilot, chosen spp, estimated time), with or without a terminal.
+fn match_variance(
+    args: &Args,
+    plan: &Plan,
+    reference: &Image,
+    bar: &ProgressBar,
+) -> Result<(u32, String), String> {
+    let rule = BudgetRule::parity();
+    let opts = plan.opts;
+    let pilot_opts = RenderOptions {
+        spp: rule.pilot_spp,
+        passes: 1,
+        seed: opts.seed ^ 0x5049_4c4f_5453_4545,
+        // White: the budget rule needs the per-sample variance, which is the same for every
+        // noise (each sample is uniform), and independent samples to estimate it.
+        noise: Noise::White,
+        ..opts
+    };
+    let say = |m: String| {
+        if !args.quiet {
+            bar.suspend(|| eprintln!("{m}"));
+        }
+    };
+    say(format!(
+        "--match-variance: pilot render of {} spp to estimate the per-sample variance …",
+        rule.pilot_spp
+    ));
+    bar.set_message("pilot render");
+    let t0 = Instant::now();
+    let pilot = plan
+        .pool
+        .install(|| render(&plan.scene, &pilot_opts, &|_, _| {}))
+        .map_err(|e| e.to_string())?;
+    let pilot_seconds = t0.elapsed().as_secs_f64();
+    let budget = rule
+        .choose(&pilot, reference, &CompareConfig::default())
+        .map_err(|e| format!("--match-variance: {e}"))?;
+    let spp = budget.spp.div_ceil(opts.passes).max(1);
+    let total = spp as u64 * opts.passes as u64;
+    let eta = pilot_seconds * total as f64 / rule.pilot_spp as f64;
+    let note = format!(
+        "--match-variance: {total} spp in total (the rule asked for {}{})",
+        budget.required_spp.map_or_else(
+            || "nothing: no pixel with variance".into(),
+            |s| format!("{s:.0}")
+        ),
+        if budget.capped {
+            format!("; capped at {}", rule.max_spp)
+        } else {
+            String::new()
+        }
+    );
+    say(format!(
+        "{note}; the pilot took {pilot_seconds:.2} s, so the render needs about {} ",
+        duration(eta)
+    ));
+    Ok((spp, note))
+}
+
+/// "12.3 s", "4.5 min" or "2.1 h".
+pub fn duration(seconds: f64) -> String {
+    if seconds < 120.0 {
+        format!("{seconds:.1} s")
+    } else if seconds < 7200.0 {
+        format!("{:.1} min", seconds / 60.0)
+    } else {
+        format!("{:.1} h", seconds / 3600.0)
+    }
+}
+
+/// --time: passes of `opts` with batch seeds until `limit` seconds have passed (at least one),
+/// merged as they come (the merge of equal-size units is exactly the image of their union, so
+/// merging one at a time loses nothing but f32 rounding).
+fn render_for(
+    scene: &Scene,
+    opts: &RenderOptions,
+    limit: f64,
+    bar: &ProgressBar,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, linlight_render::RenderError> {
+    let start = Instant::now();
+    let mut merged: Option<Image> = None;
+    let mut batches = 0u64;
+    loop {
+        let t0 = Instant::now();
+        let seed = batch_seed(opts.seed, batches);
+        // Only the first batch reports progress: its first call marks the end of the build.
+        let quiet = |_: usize, _: usize| {};
+        let report: &(dyn Fn(usize, usize) + Sync) = if batches == 0 { progress } else { &quiet };
+        let img = render(scene, &RenderOptions { seed, ..*opts }, report)?;
+        batches += 1;
+        merged = Some(match merged {
+            None => img,
+            Some(m) => merge(&[&m, &img]).map_err(linlight_render::RenderError::Options)?,
+        });
+        let elapsed = start.elapsed().as_secs_f64();
+        bar.set_length(1000);
+        bar.set_position((1000.0 * (elapsed / limit).min(1.0)) as u64);
+        bar.set_message(format!("{batches} batch(es)"));
+        if elapsed + t0.elapsed().as_secs_f64() > limit {
+            break;
+        }
+    }
+    let mut img = merged.expect("at least one batch");
+    img.meta.extra.remove("merged_images");
+    img.meta.extra.insert("seed".into(), opts.seed.to_string());
+    img.meta
+        .extra
+        .insert("time_limit_s".into(), limit.to_string());
+    img.meta.extra.insert("batches".into(), batches.to_string());
+    Ok(img)
+}
+
+/// Warnings about the pixels, the preview, the image, and the summary with the time of each
+/// step.
+fn write(args: &Args, req: &Request, plan: &Plan, r: Rendered) -> Result<(), String> {
+    let Rendered {
+        mut image,
+        notes,
+        build_seconds,
+        render_seconds,
+    } = r;
+    // No times in the header: a render's bytes depend on its inputs only.
+    record_inputs(&mut image.meta, &args.scene, &req.overrides);
+    // The finite-radius effect where it may be visible, for compare's message on a failure.
+    let scene = &plan.scene;
+    let effects: Vec<String> = xml::radius::effects(scene)
+        .iter()
+        .filter(|e| e.per_pixel > xml::radius::WARN_RELATIVE)
+        .map(|e| xml::radius::describe(scene, e))
+        .collect();
+    if !effects.is_empty() {
+        image
+            .meta
+            .extra
+            .insert("finite_radius_effect".into(), effects.join(";"));
+    }
     if let Some(n) = image.meta.extra.get("nonfinite_dropped") {
         warn(format!(
             "{n} light samples were not finite (NaN or infinite) and were counted as 0; Mitsuba \
@@ -477,16 +592,17 @@ pub fn run(args: Args) -> ExitCode {
              scene); Mitsuba warns \"Invalid sample value\" for such samples"
         ));
     }
+    let outs = &req.outs;
     if let Some(p) = &outs.preview {
-        if let Err(e) = image.write_preview_png_with_exposure(p, args.exposure) {
-            return usage_error(e);
-        }
+        image
+            .write_preview_png_with_exposure(p, args.exposure)
+            .map_err(|e| e.to_string())?;
     }
     // The EXR writer consumes the image (a lower memory peak); what the summary needs first.
     let (width, height, spp, passes) =
         (image.width, image.height, image.meta.spp, image.meta.passes);
     let contacts = image.meta.extra.get("contacts").cloned();
-    let written = match outs.format {
+    match outs.format {
         ImageFormat::Exr => image.into_exr_file(&outs.out),
         ImageFormat::Png => {
             warn(format!(
@@ -496,11 +612,9 @@ pub fn run(args: Args) -> ExitCode {
             ));
             image.write_preview_png_with_exposure(&outs.out, args.exposure)
         }
-    };
-    // The image writer's messages already name the file.
-    if let Err(e) = written {
-        return usage_error(e);
     }
+    // The image writer's messages already name the file.
+    .map_err(|e| e.to_string())?;
     if !args.quiet {
         for n in &notes {
             eprintln!("{n}");
@@ -508,24 +622,42 @@ pub fn run(args: Args) -> ExitCode {
         if let Some(c) = contacts {
             eprintln!("light–surface contacts (tested apart by compare): {c}");
         }
-        let samples = (width * height) as f64 * spp as f64;
+        let o = &plan.opts;
         eprintln!(
             "wrote {} ({}x{}, {} spp in {} pass(es), {}, {} light sample(s), lights {}, {} \
-             noise, {:.2} s, {:.2} M samples/s)",
+             noise)",
             outs.out.display(),
             width,
             height,
             spp,
             passes,
-            method,
-            opts.light_samples,
-            opts.lights,
-            opts.noise,
-            seconds,
-            samples / seconds.max(1e-9) / 1e6
+            o.method,
+            o.light_samples,
+            o.lights,
+            o.noise,
+        );
+        eprintln!(
+            "{}",
+            timing(
+                plan.load_seconds,
+                build_seconds,
+                render_seconds,
+                width * height,
+                spp
+            )
         );
     }
-    ExitCode::SUCCESS
+    Ok(())
+}
+
+/// The summary's times: load, build and render apart, and the rate of the render alone.
+fn timing(load: f64, build: f64, render: f64, pixels: usize, spp: u64) -> String {
+    let samples = pixels as f64 * spp as f64;
+    format!(
+        "time: load {load:.2} s, build {build:.2} s, render {render:.2} s ({:.2} M samples/s \
+         while rendering)",
+        samples / render.max(1e-9) / 1e6
+    )
 }
 
 #[cfg(test)]
@@ -544,5 +676,18 @@ mod tests {
         );
         assert_eq!(batch_seed(7, 0), 7);
         assert_ne!(batch_seed(7, 1), batch_seed(8, 1));
+    }
+
+    /// The rate is that of the render alone: a slow load or build does not lower it.
+    #[test]
+    fn timing_separates_load_build_and_render() {
+        let t = timing(8.5, 0.25, 2.0, 1000, 2000);
+        assert_eq!(
+            t,
+            "time: load 8.50 s, build 0.25 s, render 2.00 s (1.00 M samples/s while rendering)"
+        );
+        assert_eq!(duration(30.0), "30.0 s");
+        assert_eq!(duration(600.0), "10.0 min");
+        assert_eq!(duration(9000.0), "2.5 h");
     }
 }

@@ -408,7 +408,8 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
 /// `pass_samples(pixels, seen, pass, single)`, which sets each pixel's accumulator of that
 /// pass's samples. The pass means and the last pass's samples give each pixel's value
 /// ([`pixel_value`]), written into the image as soon as its tile is done, so the image is the
-/// only full-size buffer. `progress` advances per tile and pass. The header is left empty.
+/// only full-size buffer. `progress` is called with 0 once before the first tile, then
+/// advances per tile and pass. The header is left empty.
 pub(crate) fn render_in_tiles(
     rs: &RenderScene,
     opts: &RenderOptions,
@@ -421,6 +422,8 @@ pub(crate) fn render_in_tiles(
         .collect();
     let done = AtomicUsize::new(0);
     let total = w as usize * h as usize * opts.spp as usize * opts.passes as usize;
+    // Marks the end of the scene's preparation for callers that time it apart.
+    progress(0, total);
     let image = std::sync::Mutex::new({
         let mut image = Image::new(w as usize, h as usize);
         image.tail = Some(vec![[0.0f32; 3]; image.mean.len()]);

@@ -25,6 +25,27 @@ enum Nesting {
 const PRINCIPLED_SUPPORTED: &str = "supported: base_color, roughness, metallic, specular or eta, \
      spec_tint, flatness; sheen, clearcoat, spec_trans and anisotropic must be 0";
 
+/// The closest supported BSDF to an unsupported Mitsuba one, as advice after its refusal.
+fn replacement(ty: &str) -> &'static str {
+    match ty {
+        "conductor" => {
+            "; closest: roughconductor with <string name=\"distribution\" value=\"ggx\"/>, \
+             the same eta and k, and a small alpha such as 0.01 — a smooth mirror reflects a \
+             line light only along a curve of zero area, so its direct light is not defined here"
+        }
+        "dielectric" | "thindielectric" | "roughdielectric" => {
+            "; closest: principled with metallic 0, a small roughness and the same eta — its \
+             reflection without the transmission, which direct light through glass would need"
+        }
+        "plastic" | "roughplastic" => {
+            "; closest: principled with metallic 0, the plastic's diffuse_reflectance as \
+             base_color, its eta and (roughplastic) roughness = √alpha"
+        }
+        "bumpmap" | "normalmap" | "mask" => "; closest: the nested or underlying BSDF on its own",
+        _ => "",
+    }
+}
+
 impl Builder<'_> {
     /// The BSDF of a `<bsdf>` element (a shape's, or a top-level one).
     pub(super) fn bsdf(&mut self, e: &Elem) -> Result<Bsdf, SceneError> {
@@ -68,7 +89,10 @@ impl Builder<'_> {
             _ => {
                 return err(
                     &e.loc,
-                    format!("unsupported bsdf type '{ty}' (supported: {BSDFS})"),
+                    format!(
+                        "unsupported bsdf type '{ty}' (supported: {BSDFS}){}",
+                        replacement(ty)
+                    ),
                 )
             }
         };

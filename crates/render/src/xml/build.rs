@@ -18,6 +18,32 @@ const SHAPES: &str = "rectangle, cube, sphere, disk, cylinder, obj, ply";
 pub struct Builder<'a> {
     tree: &'a TreeBuilder,
     pub(super) warnings: Vec<String>,
+    /// Refusals kept while the rest of the scene is built ([`Builder::keep`]).
+    errors: Vec<SceneError>,
+}
+
+/// Why an hdrfilm should say `component_format` float32.
+const FLOAT16_NOTE: &str = "no <string name=\"component_format\" value=\"float32\"/>: \
+     Mitsuba then writes float16, whose rounding (relative 2⁻¹¹ ≈ 5e-4 per pixel) a comparison \
+     with this renderer's float32 images can see; add it to the film";
+
+/// What replaces a light this renderer cannot render.
+const LINEAR_LIGHT_HINT: &str = "use a <shape type=\"cylinder\"> of small radius with a nested \
+     <emitter type=\"area\">: a linear light, the only light this renderer draws";
+
+/// The ids every `<ref>` of the tree names.
+fn referenced_ids(e: &Elem) -> std::collections::HashSet<String> {
+    let mut out = std::collections::HashSet::new();
+    let mut stack = vec![e];
+    while let Some(e) = stack.pop() {
+        if e.tag == "ref" {
+            if let Some(id) = e.attr("id") {
+                out.insert(id.to_string());
+            }
+        }
+        stack.extend(e.children.iter().map(|c| &**c));
+    }
+    out
 }
 
 pub(super) fn f32_of(v: f64, loc: &SourceLocation, what: &str) -> Result<f32, SceneError> {
@@ -64,6 +90,7 @@ impl<'a> Builder<'a> {
         Builder {
             tree,
             warnings: Vec::new(),
+            errors: Vec::new(),
         }
     }
 
@@ -178,61 +205,135 @@ impl<'a> Builder<'a> {
         Props::new(e, entries)
     }
 
+    /// The value of `r`, or None with its error kept for the report of the whole scene.
+    pub(super) fn keep<T>(&mut self, r: Result<T, SceneError>) -> Option<T> {
+        match r {
+            Ok(v) => Some(v),
+            Err(e) => {
+                self.errors.push(e);
+                None
+            }
+        }
+    }
+
+    /// The scene, or one error holding every refusal in file order: each top-level object
+    /// (and within a sensor its film and sampler, within a shape its BSDF and emitter) is built
+    /// on its own, so one problem does not hide the next.
     pub fn scene(&mut self, root: &Rc<Elem>) -> Result<Scene, SceneError> {
         root.check_attrs(&[])?;
         let p = self.props(root)?;
-        if let Some((t, _)) = p.objects("texture").first() {
-            let ty = t.attr("type").unwrap_or("");
-            return err(&t.loc, format!("unsupported texture type '{ty}'"));
+        let referenced = referenced_ids(root);
+        let is_used = |e: &Elem| e.attr("id").is_some_and(|id| referenced.contains(id));
+        // Objects only a reference can use: an unreferenced one is ignored with a warning (as
+        // its content cannot matter); a referenced one is judged where it is used.
+        for tag in ["texture", "volume", "medium", "phase", "spectrum"] {
+            for (o, _) in p.objects(tag) {
+                if !is_used(&o) {
+                    self.warnings.push(format!(
+                        "{}: {} is not referenced by anything; ignored",
+                        o.loc,
+                        o.describe()
+                    ));
+                }
+            }
         }
-        if let Some((em, _)) = p.objects("emitter").first() {
+        for (em, _) in p.objects("emitter") {
             let ty = em.attr("type").unwrap_or("");
             let hint = if ty == "area" {
-                " (an area emitter must be nested in a cylinder shape)"
+                " (an area emitter must be nested in a cylinder shape)".to_string()
             } else {
-                " (supported: area emitters on cylinders)"
+                format!(" (supported: area emitters on cylinders; {LINEAR_LIGHT_HINT})")
             };
-            return err(&em.loc, format!("unsupported emitter type '{ty}'{hint}"));
+            self.errors.push(SceneError::new(
+                Some(em.loc.clone()),
+                format!("unsupported emitter type '{ty}'{hint}"),
+            ));
         }
-        // Top-level BSDFs are only used through `ref`, but unsupported ones are still errors.
         for (b, _) in p.objects("bsdf") {
-            self.bsdf(&b)?;
+            if is_used(&b) {
+                continue; // built (and judged) by the shapes that reference it
+            }
+            let before = self.warnings.len();
+            match self.bsdf(&b) {
+                Ok(_) => {}
+                Err(e) => {
+                    self.warnings.truncate(before);
+                    self.warnings.push(format!(
+                        "{}: {} is not referenced by anything; ignored (linlight could not \
+                         render it: {})",
+                        b.loc,
+                        b.describe(),
+                        e.message
+                    ));
+                }
+            }
         }
         let sensors = p.objects("sensor");
         if sensors.len() > 1 {
-            return err(&sensors[1].1, "only one sensor is supported");
+            self.errors.push(SceneError::new(
+                Some(sensors[1].1.clone()),
+                "only one sensor is supported",
+            ));
         }
-        let sensor = self.sensor(sensors.first().map(|s| &*s.0), &root.loc)?;
+        let sensor = self.sensor(sensors.first().map(|s| &*s.0), &root.loc);
+        let sensor = self.keep(sensor);
         let integrators = p.objects("integrator");
         if integrators.len() > 1 {
-            return err(&integrators[1].1, "only one integrator is supported");
+            self.errors.push(SceneError::new(
+                Some(integrators[1].1.clone()),
+                "only one integrator is supported",
+            ));
         }
-        let Some((integ, _)) = integrators.first() else {
-            return err(
+        let integrator = match integrators.first() {
+            None => self.keep(err(
                 &root.loc,
                 "the scene has no integrator; Mitsuba's default is 'path', which is not \
-                 supported (add <integrator type=\"direct\"/>)",
-            );
+                 supported (add <integrator type=\"direct\"/>: only direct light is defined \
+                 here)",
+            )),
+            Some((integ, _)) => {
+                let i = self.integrator(integ);
+                self.keep(i)
+            }
         };
-        let integrator = self.integrator(integ)?;
         let mut shapes = Vec::new();
         let mut lights = Vec::new();
         for (s, _) in p.objects("shape") {
-            match self.shape(&s)? {
-                Built::Shape(sh) => shapes.push(sh),
-                Built::Light(l) => lights.push(l),
+            match self.shape(&s) {
+                Ok(Built::Shape(sh)) => shapes.push(sh),
+                Ok(Built::Light(l)) => lights.push(l),
+                Err(e) => self.errors.push(e),
             }
         }
-        p.finish()?;
-        self.light_size_warnings(&shapes, &lights);
-        Ok(Scene {
+        let finished = p.finish();
+        self.keep(finished);
+        if let Some(e) = SceneError::collect(std::mem::take(&mut self.errors)) {
+            return Err(e);
+        }
+        let (Some(sensor), Some(integrator)) = (sensor, integrator) else {
+            unreachable!("a missing sensor or integrator left an error");
+        };
+        let mut scene = Scene {
             sensor,
             integrator,
             shapes,
             lights,
             sha256: String::new(),
             warnings: std::mem::take(&mut self.warnings),
-        })
+        };
+        for e in super::radius::effects(&scene) {
+            if e.per_pixel > super::radius::WARN_RELATIVE {
+                let what = super::radius::describe(&scene, &e);
+                scene.warnings.push(format!(
+                    "{what}: Mitsuba's finite open cylinder differs from the R → 0 limit rendered \
+                     here by more than {} % per pixel there, which compare can detect; a smaller \
+                     radius (same K = radiance × radius) shrinks it in proportion \
+                     (docs/oracle.md)",
+                    100.0 * super::radius::WARN_RELATIVE
+                ));
+            }
+        }
+        Ok(scene)
     }
 
     fn sensor(
@@ -268,8 +369,35 @@ impl<'a> Builder<'a> {
             );
         }
         let p = self.props(e)?;
-        let film = self.film(p.object("film")?.as_deref(), &e.loc)?;
-        let (sample_count, seed) = self.sampler(p.object("sampler")?.as_deref())?;
+        // The film's and sampler's problems are reported with the sensor's own.
+        let film = self.film(p.object("film")?.as_deref(), &e.loc);
+        let film = self.keep(film).unwrap_or(Film {
+            width: 1,
+            height: 1,
+            crop: None,
+        });
+        let sampler = self.sampler(p.object("sampler")?.as_deref());
+        let (sample_count, seed) = self.keep(sampler).unwrap_or((1, 0));
+        // A pinhole camera has no focus and a static scene no motion (docs/scene-support.md).
+        p.ignore(&["focus_distance"]);
+        let open = p.float("shutter_open")?.unwrap_or(0.0);
+        if let Some((close, loc)) = p.float_at("shutter_close")? {
+            if close < open {
+                return err(
+                    &loc,
+                    "shutter_open must be less than or equal to shutter_close (Mitsuba refuses \
+                     this too)",
+                );
+            }
+        }
+        if p.has("srf") {
+            return err(
+                &e.loc,
+                "a sensor response function ('srf') needs a spectral variant of Mitsuba; \
+                 linlight renders RGB, as Mitsuba's RGB variants do, which refuse it too \
+                 (remove it)",
+            );
+        }
         let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
         for (i, axis) in [to_world.x_axis, to_world.y_axis, to_world.z_axis]
             .iter()
@@ -373,6 +501,8 @@ impl<'a> Builder<'a> {
         };
         let Some(e) = e else {
             self.warnings.push(no_box(sensor_loc));
+            self.warnings
+                .push(format!("{sensor_loc}: no <film>: {FLOAT16_NOTE}"));
             return Ok(Film {
                 width: 768,
                 height: 576,
@@ -431,7 +561,9 @@ impl<'a> Builder<'a> {
         } else {
             None
         };
-        self.output_options(&p)?;
+        self.output_options(&p, &e.loc)?;
+        // The box filter's radius (half a pixel) needs no border: no effect here.
+        p.ignore(&["sample_border"]);
         match p.object("rfilter")? {
             None => self.warnings.push(no_box(&e.loc)),
             Some(f) => {
@@ -440,8 +572,10 @@ impl<'a> Builder<'a> {
                     return err(
                         &f.loc,
                         format!(
-                            "unsupported rfilter type '{ty}' (supported: box — this renderer \
-                             averages samples uniformly over each pixel)"
+                            "unsupported rfilter type '{ty}' (write <rfilter type=\"box\"/>: \
+                             this renderer averages samples uniformly over each pixel, and a \
+                             wider filter such as gaussian or tent blends neighbouring pixels, \
+                             so the two images would differ at every edge)"
                         ),
                     );
                 }
@@ -459,7 +593,7 @@ impl<'a> Builder<'a> {
     /// hdrfilm's output options. They change the file Mitsuba writes, not the pixel values:
     /// values Mitsuba refuses are refused with its message, and so are the pixel formats this
     /// renderer cannot write (alpha, luminance, XYZ: its images are RGB mean + variance).
-    fn output_options(&mut self, p: &Props) -> Result<(), SceneError> {
+    fn output_options(&mut self, p: &Props, loc: &SourceLocation) -> Result<(), SceneError> {
         let lower = |name: &str| -> Result<Option<(String, SourceLocation)>, SceneError> {
             Ok(p.string(name)?.map(|(v, l)| (v.to_ascii_lowercase(), l)))
         };
@@ -510,7 +644,11 @@ impl<'a> Builder<'a> {
                 }
             }
         }
-        if let Some((f, loc)) = lower("component_format")? {
+        let component = lower("component_format")?;
+        if component.is_none() {
+            self.warnings.push(format!("{loc}: {FLOAT16_NOTE}"));
+        }
+        if let Some((f, loc)) = component {
             // float16/uint32 only change how Mitsuba stores its file; linlight writes float32.
             if !matches!(f.as_str(), "float16" | "float32" | "uint32") {
                 return err(
@@ -546,12 +684,23 @@ impl<'a> Builder<'a> {
     fn integrator(&mut self, e: &Elem) -> Result<Integrator, SceneError> {
         let ty = plugin_type(e)?;
         if ty != "direct" {
+            let hint = match ty {
+                "path" | "volpath" | "volpathmis" | "prb" | "prbvolpath" => {
+                    "; write <integrator type=\"direct\"/>, without max_depth or rr_depth, \
+                     which direct does not take: only direct light from the linear lights is \
+                     defined here, and the images compare with Mitsuba's direct integrator"
+                }
+                _ => "",
+            };
             return err(
                 &e.loc,
-                format!("unsupported integrator type '{ty}' (supported: direct)"),
+                format!("unsupported integrator type '{ty}' (supported: direct{hint})"),
             );
         }
         let p = self.props(e)?;
+        // How Mitsuba schedules its work; the expectation of its image does not change
+        // (docs/scene-support.md).
+        p.ignore(&["samples_per_pass", "block_size", "timeout"]);
         let hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
         // The Rust renderer samples the lights only (see module docs); `emitter_samples` is the
         // default of `linlight render --light-samples`. What Mitsuba refuses is refused here too
@@ -623,8 +772,14 @@ impl<'a> Builder<'a> {
         let p = self.props(e)?;
         let flip_normals = p.boolean("flip_normals")?.unwrap_or(false);
         let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        // The BSDF's and the emitter's problems are reported with the shape's own.
         let bsdf = match p.object("bsdf")? {
-            Some(b) => self.bsdf(&b)?,
+            Some(b) => {
+                let b = self.bsdf(&b);
+                self.keep(b).unwrap_or(Bsdf::Diffuse {
+                    reflectance: [0.5; 3],
+                })
+            }
             None => Bsdf::Diffuse {
                 reflectance: [0.5; 3],
             },
@@ -632,15 +787,17 @@ impl<'a> Builder<'a> {
         let emitter = p.object("emitter")?;
         if let Some(em) = &emitter {
             if ty != "cylinder" {
-                return err(
-                    &em.loc,
+                self.errors.push(SceneError::new(
+                    Some(em.loc.clone()),
                     format!(
                         "area emitters are only supported on cylinders (linear lights), not on \
-                         shape '{ty}'"
+                         shape '{ty}' ({LINEAR_LIGHT_HINT})"
                     ),
-                );
+                ));
             }
         }
+        // Only differentiable rendering of silhouettes reads it (docs/scene-support.md).
+        p.ignore(&["silhouette_sampling_weight"]);
         let loc = e.loc.clone();
         let mesh = |b: &mut Self, raw: RawMesh, face_normals: bool, smooth: bool| {
             let (g, w) = shapes::world_mesh(raw, &m, face_normals, smooth, &loc)?;
@@ -668,10 +825,8 @@ impl<'a> Builder<'a> {
                 let Some((name, nloc)) = p.string("filename")? else {
                     return err(&loc, format!("shape '{ty}' needs a 'filename'"));
                 };
-                if ty == "obj" {
-                    // Only affects texture coordinates, which this renderer does not use.
-                    p.boolean("flip_tex_coords")?;
-                }
+                // Only affects texture coordinates, which this renderer does not use.
+                p.boolean("flip_tex_coords")?;
                 let path = self.tree.resolve(&name);
                 let data = linlight_imagefile::input::read_capped(
                     &path,
@@ -793,55 +948,6 @@ impl<'a> Builder<'a> {
             flip_normals,
             location: e.loc.clone(),
         }))
-    }
-
-    /// Warns about lights whose radius is not small compared with the scene: the renderer uses
-    /// the R → 0 limit, Mitsuba the finite cylinder (relative bias of first order in R).
-    fn light_size_warnings(&mut self, shapes: &[Shape], lights: &[LinearLight]) {
-        let mut lo = Vec3::splat(f32::INFINITY);
-        let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        let mut add = |p: Vec3| {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        };
-        for s in shapes {
-            match &s.geometry {
-                Geometry::Mesh { positions, .. } => positions.iter().for_each(|p| add(*p)),
-                Geometry::Sphere { center, radius } => {
-                    add(*center - Vec3::splat(*radius));
-                    add(*center + Vec3::splat(*radius));
-                }
-                Geometry::Disk { to_world } => {
-                    for (x, y) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                        add(to_world.transform_point3(Vec3::new(x, y, 0.0)));
-                    }
-                }
-                Geometry::Cylinder { p0, p1, radius } => {
-                    for p in [p0, p1] {
-                        add(*p - Vec3::splat(*radius));
-                        add(*p + Vec3::splat(*radius));
-                    }
-                }
-            }
-        }
-        for l in lights {
-            add(l.begin);
-            add(l.end);
-        }
-        let diag = (hi - lo).length();
-        if !diag.is_finite() || diag <= 0.0 {
-            return;
-        }
-        for l in lights {
-            if l.radius > 1e-3 * diag {
-                self.warnings.push(format!(
-                    "{}: light radius {} is large compared with the scene (bounding-box diagonal \
-                     {diag}); Mitsuba's finite cylinder differs from the R → 0 limit by a \
-                     relative amount of order R",
-                    l.location, l.radius
-                ));
-            }
-        }
     }
 }
 

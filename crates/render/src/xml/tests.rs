@@ -21,7 +21,7 @@ fn write(d: &std::path::Path, name: &str, data: impl AsRef<[u8]>) -> PathBuf {
     p
 }
 
-const SENSOR: &str = r#"<sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/><rfilter type="box"/></film></sensor>"#;
+const SENSOR: &str = r#"<sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/><string name="component_format" value="float32"/><rfilter type="box"/></film></sensor>"#;
 
 /// A scene with a sensor and integrator around `body`.
 pub(super) fn wrap(body: &str) -> String {
@@ -80,7 +80,7 @@ fn sphere(s: &Scene, i: usize) -> (Vec3, f32) {
 
 #[test]
 fn defaults_and_hash() {
-    let xml = "<scene version=\"3.0.0\">\n<integrator type=\"direct\"/>\n<sensor type=\"perspective\">\n<float name=\"fov\" value=\"30\"/>\n<film type=\"hdrfilm\"><rfilter type=\"box\"/></film>\n</sensor>\n</scene>\n";
+    let xml = "<scene version=\"3.0.0\">\n<integrator type=\"direct\"/>\n<sensor type=\"perspective\">\n<float name=\"fov\" value=\"30\"/>\n<film type=\"hdrfilm\"><string name=\"component_format\" value=\"float32\"/><rfilter type=\"box\"/></film>\n</sensor>\n</scene>\n";
     let d = dir("defaults");
     let p = write(&d, "scene.xml", xml);
     let s = load_scene(&p, &[]).unwrap();
@@ -231,7 +231,7 @@ fn substitution_defaults_and_overrides() {
 <default name="w" value="$s$s"/>
 <integrator type="direct"/>
 <sensor type="perspective"><float name="fov" value="40"/>
-  <film type="hdrfilm"><integer name="width" value="$w"/><integer name="height" value="$s"/><rfilter type="box"/></film>
+  <film type="hdrfilm"><integer name="width" value="$w"/><integer name="height" value="$s"/><string name="component_format" value="float32"/><rfilter type="box"/></film>
   <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
 </sensor>
 </scene>"#;
@@ -458,7 +458,7 @@ fn linear_light() {
         [1.0; 2]
     );
 
-    // A fat cylinder is reported.
+    // A fat cylinder is reported (its axis meets no surface: the estimate off the axis).
     let s = load(
         "fatlight",
         r#"<shape type="rectangle"/>
@@ -466,7 +466,7 @@ fn linear_light() {
     );
     assert_eq!(s.lights[0].radiance_times_radius, [0.1; 3]); // default radiance 1
     assert!(
-        s.warnings.iter().any(|w| w.contains("large compared")),
+        s.warnings.iter().any(|w| w.contains("(R = 0.1): up to")),
         "{:?}",
         s.warnings
     );
@@ -758,9 +758,9 @@ fn errors_name_file_line_column_and_element() {
     );
     expect_error(
         "e_unknown_tag",
-        &scene(r#"<medium type="homogeneous"/>"#),
+        &scene(r#"<medum type="homogeneous"/>"#),
         "4:1",
-        "unsupported element <medium>",
+        "unsupported element <medum>",
     );
     expect_error(
         "e_op_outside",
@@ -825,9 +825,9 @@ fn sensor_errors() {
     );
     expect_error(
         "s_prop",
-        &sensor(r#"<float name="focus_distance" value="3"/>"#),
+        &sensor(r#"<float name="aperture_radius" value="3"/>"#),
         "4:1",
-        "unsupported property 'focus_distance' (float) on sensor 'perspective'",
+        "unsupported property 'aperture_radius' (float) on sensor 'perspective'",
     );
     expect_error(
         "s_scale",
@@ -857,7 +857,8 @@ fn sensor_errors() {
         "s_integrator",
         "<scene version=\"3.0.0\">\n<integrator type=\"path\"/>\n</scene>",
         "2:1",
-        "unsupported integrator type 'path' (supported: direct)",
+        "unsupported integrator type 'path' (supported: direct; write <integrator \
+         type=\"direct\"/>",
     );
     expect_error(
         "s_nointegrator",
@@ -1135,4 +1136,209 @@ fn film_output_options_follow_mitsuba() {
         let e = load_err("film_bad", &film(bad));
         assert!(e.contains(want), "{bad}: {e}");
     }
+}
+
+#[test]
+fn elements_inside_properties_and_defaults_are_refused() {
+    let scene = |body: &str| wrap(body); // body starts on line 4, column 1
+    expect_error(
+        "nest_string",
+        &scene(
+            r#"<shape type="sphere"><string name="x" value="y"><emitter type="area"/></string></shape>"#,
+        ),
+        "4:49",
+        "<emitter> cannot be nested inside <string>",
+    );
+    expect_error(
+        "nest_float",
+        &scene(
+            r#"<shape type="sphere"><float name="radius" value="1"><sensor type="perspective"/></float></shape>"#,
+        ),
+        "4:53",
+        "<sensor> cannot be nested inside <float>",
+    );
+    expect_error(
+        "nest_default",
+        &scene(r#"<default name="a" value="1"><shape type="sphere"/></default>"#),
+        "4:29",
+        "<shape> cannot be nested inside <default>",
+    );
+    expect_error(
+        "nest_ref",
+        &scene(
+            r#"<bsdf type="diffuse" id="b"/><shape type="sphere"><ref id="b"><point name="p" value="0"/></ref></shape>"#,
+        ),
+        "4:63",
+        "<point> cannot be nested inside <ref>",
+    );
+    expect_error(
+        "nest_op",
+        &scene(
+            r#"<shape type="sphere"><transform name="to_world"><translate x="1"><rgb name="c" value="1"/></translate></transform></shape>"#,
+        ),
+        "4:66",
+        "<rgb> cannot be nested inside <translate>",
+    );
+}
+
+#[test]
+fn line_index_matches_roxmltree() {
+    let text = "<a>\n  <b x=\"é\"/>\r\n\t<c>ü</c>\n\n<d/></a>";
+    let doc = roxmltree::Document::parse(text).unwrap();
+    let lines = tree::LineIndex::new(text);
+    for node in doc.descendants() {
+        let p = doc.text_pos_at(node.range().start);
+        assert_eq!(lines.position(node.range().start), (p.row, p.col));
+    }
+    assert_eq!(lines.position(text.len()), {
+        let p = doc.text_pos_at(text.len());
+        (p.row, p.col)
+    });
+}
+
+/// Positions come from an index of line starts: a 10 MB scene (≈ 50 000 spheres) loads in well
+/// under a second of CPU time in a release build; the bound leaves room for a loaded machine
+/// (a rescan per node took minutes for this size).
+#[test]
+fn a_ten_megabyte_scene_loads_in_linear_time() {
+    let mut body = String::new();
+    let mut n = 0;
+    while body.len() < 10 << 20 {
+        body.push_str(&format!(
+            "<shape type=\"sphere\">\n  <point name=\"center\" x=\"{}\" y=\"0\" z=\"5\"/>\n  \
+             <float name=\"radius\" value=\"0.001\"/>\n  <bsdf type=\"diffuse\"><rgb \
+             name=\"reflectance\" value=\"0.5 0.5 0.5\"/></bsdf>\n</shape>\n",
+            n as f64 * 1e-3
+        ));
+        n += 1;
+    }
+    body.push_str("<shape type=\"sphere\"><float name=\"radius\" value=\"-1\"/></shape>");
+    let t0 = std::time::Instant::now();
+    let e = load_err("ten_mb", &wrap(&body));
+    let seconds = t0.elapsed().as_secs_f64();
+    // The last line's error is placed correctly after 4 header lines and 5 lines per sphere.
+    assert!(e.contains(&format!("scene.xml:{}:1: ", 4 + 5 * n)), "{e}");
+    let limit = if cfg!(debug_assertions) { 60.0 } else { 5.0 };
+    assert!(seconds < limit, "{n} spheres took {seconds:.2} s");
+}
+
+/// A tutorial-like scene with six refused features: every refusal is reported at once, in file
+/// order, each at its place and with what to write instead.
+#[test]
+fn every_refusal_is_reported_in_file_order() {
+    let xml = r#"<scene version="3.0.0">
+<integrator type="path"/>
+<sensor type="perspective">
+  <float name="focus_distance" value="3"/>
+  <film type="hdrfilm"><rfilter type="gaussian"/></film>
+</sensor>
+<bsdf type="dielectric" id="glass"/>
+<shape type="sphere"><ref id="glass"/></shape>
+<shape type="rectangle"><bsdf type="conductor"/><emitter type="area"/></shape>
+<emitter type="envmap"/>
+</scene>
+"#;
+    let e = load_in("all_at_once", xml, &[]).unwrap_err();
+    let all = e.all();
+    let at: Vec<(u32, u32)> = all
+        .iter()
+        .map(|e| {
+            let l = e.location.as_ref().unwrap();
+            (l.line, l.column)
+        })
+        .collect();
+    assert_eq!(
+        at,
+        [(2, 1), (5, 24), (7, 1), (9, 25), (9, 49), (10, 1)],
+        "{e}"
+    );
+    let text = e.to_string();
+    for want in [
+        "write <integrator type=\"direct\"/>",
+        "write <rfilter type=\"box\"/>",
+        "closest: principled with metallic 0",
+        "closest: roughconductor",
+        "not on shape 'rectangle' (use a <shape type=\"cylinder\">",
+        "unsupported emitter type 'envmap' (supported: area emitters on cylinders; use a <shape \
+         type=\"cylinder\">",
+        "6 problems in this scene",
+    ] {
+        assert!(text.contains(want), "missing '{want}' in:\n{text}");
+    }
+    // focus_distance is accepted: Mitsuba ignores it on a pinhole camera.
+    assert!(!text.contains("focus_distance"), "{text}");
+}
+
+/// What Mitsuba 3.9.1 accepts and cannot change the image here loads (checked against
+/// `mi.load_string` of the oracle's Mitsuba).
+#[test]
+fn properties_mitsuba_accepts_and_that_change_nothing_load() {
+    let xml = r#"<scene version="3.0.0">
+<integrator type="direct"><integer name="samples_per_pass" value="2"/><integer name="block_size" value="8"/><float name="timeout" value="100"/></integrator>
+<sensor type="perspective"><float name="fov" value="40"/><float name="focus_distance" value="3"/><float name="shutter_open" value="0"/><float name="shutter_close" value="1"/>
+<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/><boolean name="sample_border" value="true"/><string name="component_format" value="float32"/><rfilter type="box"/></film></sensor>
+<shape type="sphere"><float name="silhouette_sampling_weight" value="2"/></shape>
+</scene>
+"#;
+    let s = load_in("mitsuba_ignores", xml, &[]).unwrap_or_else(|e| panic!("{e}"));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // What Mitsuba refuses stays refused.
+    let bad = xml.replace(
+        r#"<float name="timeout" value="100"/>"#,
+        r#"<integer name="max_depth" value="2"/>"#,
+    );
+    assert!(load_err("max_depth", &bad).contains("unsupported property 'max_depth'"));
+    let bad = xml.replace(r#"value="1"/>"#, r#"value="-1"/>"#);
+    assert!(load_err("shutter", &bad).contains("shutter_open must be less than"));
+}
+
+/// An object nothing references cannot matter: one linlight cannot parse is a warning, and the
+/// scene loads; referenced, it is refused where it is used.
+#[test]
+fn unreferenced_objects_are_warnings() {
+    let s = load(
+        "unused",
+        r#"<texture type="bitmap" id="tex"/><volume type="gridvolume" id="v"/>
+<bsdf type="dielectric" id="glass"/><shape type="sphere"/>"#,
+    );
+    let w = s.warnings.join("\n");
+    assert!(
+        w.contains("texture 'bitmap' is not referenced by anything; ignored"),
+        "{w}"
+    );
+    assert!(w.contains("volume 'gridvolume' is not referenced"), "{w}");
+    assert!(
+        w.contains(
+            "bsdf 'dielectric' is not referenced by anything; ignored (linlight could not \
+                    render it: unsupported bsdf type 'dielectric'"
+        ),
+        "{w}"
+    );
+    let e = load_err(
+        "used",
+        &wrap(
+            r#"<bsdf type="dielectric" id="glass"/><shape type="sphere"><ref id="glass"/></shape>"#,
+        ),
+    );
+    assert!(
+        e.contains("scene.xml:4:1: unsupported bsdf type 'dielectric'"),
+        "{e}"
+    );
+}
+
+#[test]
+fn missing_component_format_warns() {
+    let without = SENSOR.replace(r#"<string name="component_format" value="float32"/>"#, "");
+    let xml = format!(
+        "<scene version=\"3.0.0\">\n<integrator type=\"direct\"/>\n{without}\n<shape type=\"sphere\"/>\n</scene>\n"
+    );
+    let s = load_in("no_component_format", &xml, &[]).unwrap();
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("scene.xml:3:58: no <string name=\"component_format\""),
+        "{:?}",
+        s.warnings
+    );
+    let s = load("component_format", "<shape type=\"sphere\"/>");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
 }

@@ -67,7 +67,20 @@ pub fn is_plugin_tag(tag: &str) -> bool {
             | "bsdf"
             | "emitter"
             | "texture"
+            | "volume"
+            | "medium"
+            | "phase"
     )
+}
+
+/// Elements that take no child elements: the property tags except `<transform>` (which holds
+/// transform operations) and a `<spectrum type=..>` (a plugin), and the transform operations.
+fn is_leaf(e: &Elem) -> bool {
+    match e.tag.as_str() {
+        "transform" => false,
+        "spectrum" => e.attr("type").is_none(),
+        t => PROPERTY_TAGS.contains(&t) || TRANSFORM_OPS.contains(&t),
+    }
 }
 
 const PROPERTY_TAGS: &[&str] = &[
@@ -109,12 +122,40 @@ pub struct TreeBuilder {
     depth: usize,
 }
 
-pub fn location(doc: &roxmltree::Document, file: &Path, pos: usize) -> SourceLocation {
-    let p = doc.text_pos_at(pos);
-    SourceLocation {
-        file: file.to_path_buf(),
-        line: p.row,
-        column: p.col,
+/// Byte offsets of the line starts of one document, built once, so that the place of a node is
+/// a binary search plus a walk over the characters of its own line (roxmltree's `text_pos_at`
+/// rescans the document from its start on every call: quadratic in the number of elements).
+pub struct LineIndex<'t> {
+    text: &'t str,
+    starts: Vec<usize>,
+}
+
+impl<'t> LineIndex<'t> {
+    pub fn new(text: &'t str) -> LineIndex<'t> {
+        let mut starts = vec![0];
+        starts.extend(text.match_indices('\n').map(|(k, _)| k + 1));
+        LineIndex { text, starts }
+    }
+
+    /// 1-based line and column (in characters) of byte offset `pos`, as roxmltree counts them.
+    pub fn position(&self, pos: usize) -> (u32, u32) {
+        let pos = pos.min(self.text.len());
+        let line = self.starts.partition_point(|&s| s <= pos) - 1;
+        let start = self.starts[line];
+        let column = self
+            .text
+            .get(start..pos)
+            .map_or(pos - start, |t| t.chars().count());
+        (line as u32 + 1, column as u32 + 1)
+    }
+
+    pub fn location(&self, file: &Path, pos: usize) -> SourceLocation {
+        let (line, column) = self.position(pos);
+        SourceLocation {
+            file: file.to_path_buf(),
+            line,
+            column,
+        }
     }
 }
 
@@ -158,8 +199,9 @@ impl TreeBuilder {
     /// `<scene version="3.0.0">`.
     pub fn parse_top(&mut self, file: &Path, text: &str) -> Result<Rc<Elem>, SceneError> {
         let doc = parse_xml(file, text)?;
+        let lines = LineIndex::new(text);
         let root = doc.root_element();
-        let loc = location(&doc, file, root.range().start);
+        let loc = lines.location(file, root.range().start);
         if root.tag_name().name() != "scene" {
             return err(
                 &loc,
@@ -179,7 +221,7 @@ impl TreeBuilder {
             Some(v) => check_version(v, &loc)?,
         }
         let mut out = Vec::new();
-        self.node(&doc, file, root, &mut out)?;
+        self.node(&lines, file, root, &mut out)?;
         Ok(out.pop().expect("the root element yields one element"))
     }
 
@@ -221,12 +263,12 @@ impl TreeBuilder {
     /// elements onto `out`.
     fn node(
         &mut self,
-        doc: &roxmltree::Document,
+        lines: &LineIndex,
         file: &Path,
         node: roxmltree::Node,
         out: &mut Vec<Rc<Elem>>,
     ) -> Result<(), SceneError> {
-        let loc = location(doc, file, node.range().start);
+        let loc = lines.location(file, node.range().start);
         if node.is_text() {
             let t = node.text().unwrap_or("");
             if t.trim().is_empty() {
@@ -254,6 +296,22 @@ impl TreeBuilder {
             loc,
         };
         match elem.tag.as_str() {
+            "default" | "include" => {
+                if let Some(ch) = node.children().find(|c| c.is_element()) {
+                    return err(
+                        &lines.location(file, ch.range().start),
+                        format!(
+                            "<{}> cannot be nested inside <{}> (it takes attributes only; the \
+                             element would be lost): move it into the plugin it belongs to",
+                            ch.tag_name().name(),
+                            elem.tag
+                        ),
+                    );
+                }
+            }
+            _ => {}
+        }
+        match elem.tag.as_str() {
             "default" => {
                 elem.check_attrs(&["name", "value"])?;
                 let (Some(name), Some(value)) = (elem.attr("name"), elem.attr("value")) else {
@@ -278,7 +336,17 @@ impl TreeBuilder {
             t => return err(&elem.loc, format!("unsupported element <{t}>")),
         }
         for ch in node.children() {
-            self.node(doc, file, ch, &mut elem.children)?;
+            self.node(lines, file, ch, &mut elem.children)?;
+        }
+        if let Some(ch) = elem.children.first().filter(|_| is_leaf(&elem)) {
+            return err(
+                &ch.loc,
+                format!(
+                    "<{}> cannot be nested inside <{}> (a property holds a value, not elements; \
+                     the element would be lost): move it into the plugin it belongs to",
+                    ch.tag, elem.tag
+                ),
+            );
         }
         let elem = Rc::new(elem);
         if is_plugin_tag(&elem.tag) {
@@ -311,10 +379,11 @@ impl TreeBuilder {
         )
         .or_else(|io| err(&e.loc, format!("cannot read included file: {io}")))?;
         let doc = parse_xml(&path, &text)?;
+        let lines = LineIndex::new(&text);
         let root = doc.root_element();
         self.depth += 1;
         let r = if root.tag_name().name() == "scene" {
-            let loc = location(&doc, &path, root.range().start);
+            let loc = lines.location(&path, root.range().start);
             if let Some(v) = root.attribute("version") {
                 check_version(v, &loc)?;
             }
@@ -325,9 +394,9 @@ impl TreeBuilder {
                 );
             }
             root.children()
-                .try_for_each(|ch| self.node(&doc, &path, ch, out))
+                .try_for_each(|ch| self.node(&lines, &path, ch, out))
         } else {
-            self.node(&doc, &path, root, out)
+            self.node(&lines, &path, root, out)
         };
         self.depth -= 1;
         r
@@ -424,14 +493,14 @@ fn parse_xml<'a>(file: &Path, text: &'a str) -> Result<roxmltree::Document<'a>, 
     }
     roxmltree::Document::parse(text).map_err(|e| {
         let p = e.pos();
-        SceneError {
-            location: Some(SourceLocation {
+        SceneError::new(
+            Some(SourceLocation {
                 file: file.to_path_buf(),
                 line: p.row,
                 column: p.col,
             }),
-            message: format!("malformed XML: {e}"),
-        }
+            format!("malformed XML: {e}"),
+        )
     })
 }
 

@@ -336,36 +336,44 @@ impl Props {
         Ok(v.pop().map(|(o, _)| o))
     }
 
-    /// Errors on the first property that no getter asked for.
+    /// Whether a property of that name is given (marks it read).
+    pub fn has(&self, name: &str) -> bool {
+        self.find(name).is_some()
+    }
+
+    /// Marks `names` as read: properties Mitsuba accepts that change nothing in this renderer
+    /// (each is listed with its reason in docs/scene-support.md).
+    pub fn ignore(&self, names: &[&str]) {
+        for n in names {
+            self.find(n);
+        }
+    }
+
+    /// Errors on every property that no getter asked for (one error, the others in `more`).
     pub fn finish(&self) -> Result<(), SceneError> {
-        for e in &self.entries {
-            if e.used.get() {
-                continue;
-            }
-            return match (&e.name, &e.value) {
-                (Some(n), Value::Object(o)) if o.tag != "ref" => err(
-                    &e.loc,
-                    format!(
-                        "unexpected {} named '{n}' inside {}",
-                        o.describe(),
-                        self.owner
-                    ),
+        let mut errors = Vec::new();
+        for e in self.entries.iter().filter(|e| !e.used.get()) {
+            let message = match (&e.name, &e.value) {
+                (Some(n), Value::Object(o)) if o.tag != "ref" => format!(
+                    "unexpected {} named '{n}' inside {}",
+                    o.describe(),
+                    self.owner
                 ),
-                (None, Value::Object(o)) => err(
-                    &e.loc,
-                    format!("unexpected {} inside {}", o.describe(), self.owner),
-                ),
-                (n, v) => err(
-                    &e.loc,
-                    format!(
-                        "unsupported property '{}' ({}) on {}",
-                        n.as_deref().unwrap_or("?"),
-                        v.kind(),
-                        self.owner
-                    ),
+                (None, Value::Object(o)) => {
+                    format!("unexpected {} inside {}", o.describe(), self.owner)
+                }
+                (n, v) => format!(
+                    "unsupported property '{}' ({}) on {}",
+                    n.as_deref().unwrap_or("?"),
+                    v.kind(),
+                    self.owner
                 ),
             };
+            errors.push(SceneError::new(Some(e.loc.clone()), message));
         }
-        Ok(())
+        match SceneError::collect(errors) {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
     }
 }
