@@ -582,8 +582,8 @@ fn fuzz_scene_xml() {
             name: "xml",
             file: "scene.xml",
             read: read_scene,
-            // The positions of XML nodes cost time quadratic in the file size today: mutants
-            // stay below 64 KiB to keep each case far below the time limit.
+            // Mutants stay below 64 KiB (the committed scenes are 2–5 KiB): larger ones only
+            // cost throughput.
             max_len: 64 << 10,
         },
         &[

@@ -109,6 +109,7 @@ fn every_output_kind_refuses_devices_and_fifos() {
             vec!["compare", &good, &good, "--json", &json],
             vec!["compare", &good, &good, "--diff-exr", &exr],
             vec!["merge", &a, &b, "-o", &exr],
+            vec!["stack", &a, &b, "-o", &exr],
             vec!["fit-ltc", "--size", "2", "--out", &bin],
             vec!["fit-ltc", "--size", "2", "--out", &good, "--heatmap", &png],
             vec!["samplers", "--json", &json],
@@ -121,6 +122,26 @@ fn every_output_kind_refuses_devices_and_fifos() {
             assert_eq!(code, 2, "{args:?}: {err}");
             assert!(
                 err.contains(&format!("{what}.")) && err.contains("not a regular file"),
+                "{args:?}: {err}"
+            );
+        }
+    }
+    // Inputs: a device or a FIFO is refused before it is opened (no hang, no endless read).
+    let fifo = s(&fifo);
+    let unused = s(&dir.join("unused.exr"));
+    for input in ["/dev/zero", fifo.as_str()] {
+        for args in [
+            vec!["info", input],
+            vec!["compare", input, &good],
+            vec!["merge", &a, input, "-o", &unused],
+            vec!["stack", input, &a, "-o", &unused],
+            vec!["render", input],
+        ] {
+            let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+            let (code, err) = run_with_deadline(&args, Duration::from_secs(60));
+            assert_eq!(code, 2, "{args:?}: {err}");
+            assert!(
+                err.contains("not a regular file") || err.contains("cannot read"),
                 "{args:?}: {err}"
             );
         }

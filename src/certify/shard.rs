@@ -670,7 +670,7 @@ pub fn recheck_row(row: &Row, alpha_c: f64, tolerance: f64) -> Result<(), String
         let t = &ch.tiles;
         let tile_rejects = match &t.worst {
             Some(w) => {
-                if !(0.0..=1.0).contains(&w.p) || !(w.p <= w.p_holm && w.p_holm <= 1.0) {
+                if !((0.0..=1.0).contains(&w.p) && w.p <= w.p_holm && w.p_holm <= 1.0) {
                     return bad(format!(
                         "channel {name}: tile p {} / Holm {}",
                         w.p, w.p_holm

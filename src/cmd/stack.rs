@@ -65,7 +65,11 @@ fn hex(d: impl AsRef<[u8]>) -> String {
 
 /// Reads the R, G, B channels of the first layer that has them.
 pub fn read_plain(path: &Path) -> Result<Plain, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    // A regular file whose claimed size fits in it and in memory, before anything is allocated.
+    linlight_imagefile::check_claimed_size(path, linlight_imagefile::default_read_limit())
+        .map_err(|e| e.to_string())?;
+    let bytes =
+        linlight_imagefile::input::read_capped(path, linlight_imagefile::input::MAX_BINARY_BYTES)?;
     use exr::prelude::{ReadChannels, ReadLayers};
     let sha256 = hex(Sha256::digest(&bytes));
     let image = exr::prelude::read()
@@ -219,9 +223,12 @@ pub fn run(args: Args) -> ExitCode {
     }
     let scene_sha256 = match &args.scene {
         None => String::new(),
-        Some(s) => match std::fs::read(s) {
+        Some(s) => match linlight_imagefile::input::read_capped(
+            s,
+            linlight_imagefile::input::MAX_TEXT_BYTES,
+        ) {
             Ok(b) => hex(Sha256::digest(&b)),
-            Err(e) => return unusable(format!("cannot read --scene {}: {e}", s.display())),
+            Err(e) => return unusable(format!("--scene: {e}")),
         },
     };
     let mut plain = Vec::new();

@@ -675,7 +675,7 @@ const READ_BYTES_PER_PIXEL: u128 = 48;
 /// a regular file, whose claimed data window cannot be in a file of its size (8 bytes of offset
 /// table per chunk; uncompressed: every pixel byte), or that needs more than `max_bytes` of
 /// memory to read.
-fn check_claimed_size(path: &Path, max_bytes: u64) -> Result<(), ImageError> {
+pub fn check_claimed_size(path: &Path, max_bytes: u64) -> Result<(), ImageError> {
     let len = input::regular_file_len(path, input::MAX_BINARY_BYTES).map_err(ImageError::Io)?;
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| match e {
         exr::error::Error::Io(io) => {
