@@ -82,7 +82,7 @@ struct LlLtcEntry {
     float rho;
     char _pad2[12];
 };
-typedef float type_7[1];
+typedef float type_9[1];
 struct LlParams {
     uint mode;
     uint count;
@@ -91,7 +91,7 @@ struct LlParams {
     metal::float4 light_begin;
     metal::float4 light_end;
 };
-typedef metal::float4 type_10[1];
+typedef metal::float4 type_12[1];
 constant float LL_PI = 3.1415927;
 constant float LL_HALF_PI_HI = 1.5707964;
 constant float LL_HALF_PI_LO = -0.00000004371139;
@@ -109,11 +109,11 @@ metal::float2 ll_sin_cos(
     float x
 ) {
     bool upper = x > LL_QUARTER_PI;
-    float y_1 = upper ? ((LL_HALF_PI_HI - x) + LL_HALF_PI_LO) : x;
-    float y2_ = y_1 * y_1;
-    float s = y_1 * (1.0 - ((y2_ / 6.0) * (1.0 - ((y2_ / 20.0) * (1.0 - ((y2_ / 42.0) * (1.0 - ((y2_ / 72.0) * (1.0 - (y2_ / 110.0))))))))));
-    float c_15 = 1.0 - ((y2_ / 2.0) * (1.0 - ((y2_ / 12.0) * (1.0 - ((y2_ / 30.0) * (1.0 - ((y2_ / 56.0) * (1.0 - ((y2_ / 90.0) * (1.0 - (y2_ / 132.0)))))))))));
-    return upper ? metal::float2(c_15, s) : metal::float2(s, c_15);
+    float y_2 = upper ? ((LL_HALF_PI_HI - x) + LL_HALF_PI_LO) : x;
+    float y2_ = y_2 * y_2;
+    float s = y_2 * (1.0 - ((y2_ / 6.0) * (1.0 - ((y2_ / 20.0) * (1.0 - ((y2_ / 42.0) * (1.0 - ((y2_ / 72.0) * (1.0 - (y2_ / 110.0))))))))));
+    float c_16 = 1.0 - ((y2_ / 2.0) * (1.0 - ((y2_ / 12.0) * (1.0 - ((y2_ / 30.0) * (1.0 - ((y2_ / 56.0) * (1.0 - ((y2_ / 90.0) * (1.0 - (y2_ / 132.0)))))))))));
+    return upper ? metal::float2(c_16, s) : metal::float2(s, c_16);
 }
 
 float ll_atan_unit(
@@ -121,8 +121,8 @@ float ll_atan_unit(
 ) {
     float p = 0.05882353;
     bool upper_1 = a > LL_TAN_PI_8_;
-    float b_1 = upper_1 ? ((a - 1.0) / (a + 1.0)) : a;
-    float b2_ = b_1 * b_1;
+    float b_3 = upper_1 ? ((a - 1.0) / (a + 1.0)) : a;
+    float b2_ = b_3 * b_3;
     float _e12 = p;
     p = 0.06666667 - (b2_ * _e12);
     float _e16 = p;
@@ -138,7 +138,7 @@ float ll_atan_unit(
     float _e36 = p;
     p = 0.33333334 - (b2_ * _e36);
     float _e41 = p;
-    float r_1 = b_1 - ((b_1 * b2_) * _e41);
+    float r_1 = b_3 - ((b_3 * b2_) * _e41);
     return upper_1 ? (LL_QUARTER_PI + r_1) : r_1;
 }
 
@@ -151,8 +151,8 @@ float ll_atan2_(
     float ay = metal::abs(y);
     float mx = metal::max(ax, ay);
     float mn = metal::min(ax, ay);
-    float a_9 = (mx == 0.0) ? 0.0 : (mn / mx);
-    float _e11 = ll_atan_unit(a_9);
+    float a_11 = (mx == 0.0) ? 0.0 : (mn / mx);
+    float _e11 = ll_atan_unit(a_11);
     r = _e11;
     float _e13 = r;
     float _e15 = r;
@@ -165,44 +165,144 @@ float ll_atan2_(
     return (y < 0.0) ? -(_e29) : _e28;
 }
 
+metal::int3 ll_unpack(
+    float x_2
+) {
+    uint bits = as_type<uint>(x_2);
+    int biased = static_cast<int>((bits >> 23u) & 255u);
+    uint m_1 = (bits & 8388607u) | ((biased != 0) ? 8388608u : 0u);
+    return metal::int3(static_cast<int>(m_1), as_type<int>(as_type<uint>(metal::max(biased, 1)) - as_type<uint>(150)), static_cast<int>(bits >> 31u));
+}
+
+metal::uint2 ll_fixed_negate(
+    metal::uint2 x_3
+) {
+    uint lo_1 = ~(x_3.x) + 1u;
+    return metal::uint2(lo_1, ~(x_3.y) + ((lo_1 == 0u) ? 1u : 0u));
+}
+
+metal::uint2 ll_fixed_add(
+    metal::uint2 x_4,
+    metal::uint2 y_1
+) {
+    uint lo_2 = x_4.x + y_1.x;
+    return metal::uint2(lo_2, (x_4.y + y_1.y) + ((lo_2 < x_4.x) ? 1u : 0u));
+}
+
+int naga_neg(int val) {
+    return as_type<int>(-as_type<uint>(val));
+}
+
+metal::uint2 ll_fixed_product(
+    float a_1,
+    float b
+) {
+    metal::uint2 p_1 = {};
+    metal::int3 _e2 = ll_unpack(a_1);
+    metal::int3 _e3 = ll_unpack(b);
+    uint a1_1 = static_cast<uint>(_e2.x) >> 12u;
+    uint a0_1 = static_cast<uint>(_e2.x) & 4095u;
+    uint b1_ = static_cast<uint>(_e3.x) >> 12u;
+    uint b0_ = static_cast<uint>(_e3.x) & 4095u;
+    uint hh = a1_1 * b1_;
+    uint mid = (a1_1 * b0_) + (a0_1 * b1_);
+    metal::uint2 _e32 = ll_fixed_add(metal::uint2(a0_1 * b0_, 0u), metal::uint2(mid << 12u, mid >> 20u));
+    p_1 = _e32;
+    metal::uint2 _e34 = p_1;
+    metal::uint2 _e40 = ll_fixed_add(_e34, metal::uint2(hh << 24u, hh >> 8u));
+    p_1 = _e40;
+    int s_1 = as_type<int>(as_type<uint>(as_type<int>(as_type<uint>(_e2.y) + as_type<uint>(_e3.y))) + as_type<uint>(60));
+    if (s_1 > 0) {
+        uint k_5 = static_cast<uint>(s_1);
+        uint _e50 = p_1.x;
+        uint _e53 = p_1.y;
+        uint _e56 = p_1.x;
+        p_1 = metal::uint2(_e50 << k_5, (_e53 << k_5) | (_e56 >> (32u - k_5)));
+    } else {
+        if (s_1 < 0) {
+            uint r_2 = static_cast<uint>(naga_neg(s_1));
+            if (r_2 >= 64u) {
+                p_1 = metal::uint2(0u, 0u);
+            } else {
+                if (r_2 >= 32u) {
+                    uint _e74 = p_1.y;
+                    p_1 = metal::uint2(_e74 >> (r_2 - 32u), 0u);
+                } else {
+                    uint _e81 = p_1.x;
+                    uint _e84 = p_1.y;
+                    uint _e90 = p_1.y;
+                    p_1 = metal::uint2((_e81 >> r_2) | (_e84 << (32u - r_2)), _e90 >> r_2);
+                }
+            }
+        }
+    }
+    metal::uint2 _e93 = p_1;
+    metal::uint2 _e94 = p_1;
+    metal::uint2 _e95 = ll_fixed_negate(_e94);
+    return ((_e2.z ^ _e3.z) != 0) ? _e95 : _e93;
+}
+
+float ll_fixed_to_f32_(
+    metal::uint2 x_5
+) {
+    bool negative = (x_5.y >> 31u) != 0u;
+    metal::uint2 _e6 = ll_fixed_negate(x_5);
+    metal::uint2 m_2 = negative ? _e6 : x_5;
+    float v_1 = (static_cast<float>(m_2.y) * 0.0000000037252903) + (static_cast<float>(m_2.x) * 0.00000000000000000086736174);
+    return negative ? -(v_1) : v_1;
+}
+
+float ll_dot2_(
+    float a_2,
+    float b_1,
+    float c,
+    float d
+) {
+    metal::uint2 _e4 = ll_fixed_product(a_2, b_1);
+    metal::uint2 _e5 = ll_fixed_product(c, d);
+    metal::uint2 _e6 = ll_fixed_add(_e4, _e5);
+    float _e7 = ll_fixed_to_f32_(_e6);
+    return _e7;
+}
+
 LlFrame ll_frame(
     metal::float3 begin,
     metal::float3 end,
-    metal::float3 x_2
+    metal::float3 x_6
 ) {
     LlFrame f = {};
-    metal::float3 c = {};
+    metal::float3 c_1 = {};
     bool local = {};
     bool local_1 = {};
     bool local_2 = {};
-    metal::float3 b_2 = begin - x_2;
-    metal::float3 e_4 = end - x_2;
-    metal::float3 axis = e_4 - b_2;
+    metal::float3 b_4 = begin - x_6;
+    metal::float3 e_4 = end - x_6;
+    metal::float3 axis = e_4 - b_4;
     float length2_ = metal::dot(axis, axis);
     float length = metal::sqrt(length2_);
     f.u = axis / metal::float3(length);
-    bool from_end = metal::dot(e_4, e_4) < metal::dot(b_2, b_2);
-    metal::float3 p_8 = from_end ? e_4 : b_2;
+    bool from_end = metal::dot(e_4, e_4) < metal::dot(b_4, b_4);
+    metal::float3 p_9 = from_end ? e_4 : b_4;
     metal::float3 _e17 = f.u;
     metal::float3 _e20 = f.u;
-    c = p_8 - (metal::dot(_e17, p_8) * _e20);
-    metal::float3 _e24 = c;
+    c_1 = p_9 - (metal::dot(_e17, p_9) * _e20);
+    metal::float3 _e24 = c_1;
     metal::float3 _e26 = f.u;
-    metal::float3 _e27 = c;
+    metal::float3 _e27 = c_1;
     metal::float3 _e30 = f.u;
-    c = _e24 - (metal::dot(_e26, _e27) * _e30);
-    metal::float3 _e33 = c;
-    metal::float3 _e34 = c;
+    c_1 = _e24 - (metal::dot(_e26, _e27) * _e30);
+    metal::float3 _e33 = c_1;
+    metal::float3 _e34 = c_1;
     float d2_ = metal::dot(_e33, _e34);
     f.d = metal::sqrt(d2_);
-    metal::float3 _e39 = c;
+    metal::float3 _e39 = c_1;
     float _e41 = f.d;
     f.c_hat = _e39 / metal::float3(_e41);
     metal::float3 _e45 = f.u;
-    float lp = metal::dot(_e45, p_8);
+    float lp = metal::dot(_e45, p_9);
     f.l_b = from_end ? (lp - length) : lp;
     f.l_e = from_end ? lp : (lp + length);
-    float scale2_ = metal::max(length2_, metal::max(metal::dot(b_2, b_2), metal::dot(e_4, e_4)));
+    float scale2_ = metal::max(length2_, metal::max(metal::dot(b_4, b_4), metal::dot(e_4, e_4)));
     if (length2_ > 0.0) {
         local = d2_ > ((LL_MIN_RELATIVE_DISTANCE * LL_MIN_RELATIVE_DISTANCE) * scale2_);
     } else {
@@ -297,62 +397,62 @@ LlFrame ll_frame_clip(
 LlArc ll_arc(
     LlFrame f_2
 ) {
-    LlArc a_1 = {};
-    a_1.u = f_2.u;
-    a_1.c_hat = f_2.c_hat;
-    a_1.d = f_2.d;
+    LlArc a_3 = {};
+    a_3.u = f_2.u;
+    a_3.c_hat = f_2.c_hat;
+    a_3.d = f_2.d;
     float r_b = metal::sqrt((f_2.l_b * f_2.l_b) + (f_2.d * f_2.d));
-    a_1.s_b = f_2.l_b / r_b;
-    a_1.c_b = f_2.d / r_b;
+    a_3.s_b = f_2.l_b / r_b;
+    a_3.c_b = f_2.d / r_b;
     float _e34 = ll_atan2_((f_2.l_e - f_2.l_b) * f_2.d, metal::fma(f_2.l_b, f_2.l_e, f_2.d * f_2.d));
-    a_1.width = _e34;
-    LlArc _e35 = a_1;
+    a_3.width = _e34;
+    LlArc _e35 = a_3;
     return _e35;
 }
 
 metal::float2 ll_arc_rotate(
-    LlArc a_2,
+    LlArc a_4,
     float sin_tau,
     float cos_tau
 ) {
-    return metal::float2((a_2.s_b * cos_tau) + (a_2.c_b * sin_tau), (a_2.c_b * cos_tau) - (a_2.s_b * sin_tau));
+    return metal::float2((a_4.s_b * cos_tau) + (a_4.c_b * sin_tau), (a_4.c_b * cos_tau) - (a_4.s_b * sin_tau));
 }
 
 metal::float3 ll_arc_direction(
-    LlArc a_3,
+    LlArc a_5,
     float tau
 ) {
-    metal::float2 _e7 = ll_sin_cos(0.5 * metal::clamp(tau, 0.0, a_3.width));
-    metal::float2 _e20 = ll_arc_rotate(a_3, (2.0 * _e7.x) * _e7.y, 1.0 - ((2.0 * _e7.x) * _e7.x));
-    return (_e20.x * a_3.u) + (metal::max(_e20.y, 0.0) * a_3.c_hat);
+    metal::float2 _e7 = ll_sin_cos(0.5 * metal::clamp(tau, 0.0, a_5.width));
+    metal::float2 _e20 = ll_arc_rotate(a_5, (2.0 * _e7.x) * _e7.y, 1.0 - ((2.0 * _e7.x) * _e7.x));
+    return (_e20.x * a_5.u) + (metal::max(_e20.y, 0.0) * a_5.c_hat);
 }
 
 float ll_arc_tau(
-    LlArc a_4,
+    LlArc a_6,
     metal::float3 dir
 ) {
-    float s_1 = metal::dot(a_4.u, dir);
-    float t = metal::max(metal::dot(a_4.c_hat, dir), 0.0);
-    float _e18 = ll_atan2_((s_1 * a_4.c_b) - (t * a_4.s_b), (t * a_4.c_b) + (s_1 * a_4.s_b));
+    float s_2 = metal::dot(a_6.u, dir);
+    float t = metal::max(metal::dot(a_6.c_hat, dir), 0.0);
+    float _e18 = ll_atan2_((s_2 * a_6.c_b) - (t * a_6.s_b), (t * a_6.c_b) + (s_2 * a_6.s_b));
     return _e18;
 }
 
 bool ll_arc_contains(
-    LlArc a_5,
+    LlArc a_7,
     metal::float3 dir_1
 ) {
     bool local_8 = {};
     bool local_9 = {};
-    float _e2 = ll_arc_tau(a_5, dir_1);
-    float tol = 0.000001 + (0.000002 * a_5.width);
-    if (metal::dot(a_5.c_hat, dir_1) >= 0.0) {
+    float _e2 = ll_arc_tau(a_7, dir_1);
+    float tol = 0.000001 + (0.000002 * a_7.width);
+    if (metal::dot(a_7.c_hat, dir_1) >= 0.0) {
         local_8 = _e2 >= -(tol);
     } else {
         local_8 = false;
     }
     bool _e17 = local_8;
     if (_e17) {
-        local_9 = _e2 <= (a_5.width + tol);
+        local_9 = _e2 <= (a_7.width + tol);
     } else {
         local_9 = false;
     }
@@ -361,135 +461,135 @@ bool ll_arc_contains(
 }
 
 float ll_arc_delta_s(
-    LlArc a_6,
+    LlArc a_8,
     float tau_1
 ) {
     metal::float2 _e4 = ll_sin_cos(0.5 * tau_1);
-    return (2.0 * _e4.x) * ((a_6.c_b * _e4.y) - (a_6.s_b * _e4.x));
+    return (2.0 * _e4.x) * ((a_8.c_b * _e4.y) - (a_8.s_b * _e4.x));
 }
 
 LlClipped ll_clipped_prepare(
     metal::float3 begin_1,
     metal::float3 end_1,
-    metal::float3 x_3,
+    metal::float3 x_7,
     metal::float3 n_1
 ) {
-    LlClipped c_1 = {};
+    LlClipped c_2 = {};
     bool local_10 = {};
     bool local_11 = {};
     bool local_12 = {};
     bool local_13 = {};
-    LlFrame _e5 = ll_frame(begin_1, end_1, x_3);
+    LlFrame _e5 = ll_frame(begin_1, end_1, x_7);
     LlFrame _e6 = ll_frame_clip(_e5, n_1);
     LlArc _e8 = ll_arc(_e6);
-    c_1.arc = _e8;
-    LlArc _e11 = c_1.arc;
-    float _e14 = c_1.arc.width;
+    c_2.arc = _e8;
+    LlArc _e11 = c_2.arc;
+    float _e14 = c_2.arc.width;
     float _e15 = ll_arc_delta_s(_e11, _e14);
-    c_1.delta_s = _e15;
-    float _e19 = c_1.arc.d;
-    float _e21 = c_1.delta_s;
-    c_1.pdf = _e19 / (2.0 * _e21);
+    c_2.delta_s = _e15;
+    float _e19 = c_2.arc.d;
+    float _e21 = c_2.delta_s;
+    c_2.pdf = _e19 / (2.0 * _e21);
     if (_e6.valid) {
-        float _e31 = c_1.arc.width;
+        float _e31 = c_2.arc.width;
         local_10 = _e31 > 0.0;
     } else {
         local_10 = false;
     }
     bool _e35 = local_10;
     if (_e35) {
-        float _e39 = c_1.delta_s;
+        float _e39 = c_2.delta_s;
         local_11 = _e39 > 0.0;
     } else {
         local_11 = false;
     }
     bool _e43 = local_11;
     if (_e43) {
-        float _e47 = c_1.pdf;
+        float _e47 = c_2.pdf;
         local_12 = _e47 > 0.0;
     } else {
         local_12 = false;
     }
     bool _e51 = local_12;
     if (_e51) {
-        float _e55 = c_1.pdf;
+        float _e55 = c_2.pdf;
         local_13 = _e55 < 300000000000000000000000000000000000000.0;
     } else {
         local_13 = false;
     }
     bool _e59 = local_13;
-    c_1.valid = _e59;
-    LlClipped _e60 = c_1;
+    c_2.valid = _e59;
+    LlClipped _e60 = c_2;
     return _e60;
 }
 
 float ll_clipped_tau(
-    LlClipped c_2,
+    LlClipped c_3,
     float xi
 ) {
     float tau_2 = {};
-    LlArc a_10 = c_2.arc;
-    float y_2 = metal::clamp(xi, 0.0, 1.0) * c_2.delta_s;
-    float q = y_2 * ((2.0 * c_2.arc.s_b) + y_2);
-    float cc = metal::sqrt(metal::max((c_2.arc.c_b * c_2.arc.c_b) - q, 0.0));
-    float denom = c_2.arc.c_b + cc;
-    float sin_tau_1 = (denom > 0.0) ? ((y_2 * c_2.arc.c_b) + ((c_2.arc.s_b * q) / denom)) : y_2;
-    float cos_tau_1 = (cc * c_2.arc.c_b) + ((c_2.arc.s_b + y_2) * c_2.arc.s_b);
+    LlArc a_12 = c_3.arc;
+    float y_3 = metal::clamp(xi, 0.0, 1.0) * c_3.delta_s;
+    float q = y_3 * ((2.0 * c_3.arc.s_b) + y_3);
+    float cc = metal::sqrt(metal::max((c_3.arc.c_b * c_3.arc.c_b) - q, 0.0));
+    float denom = c_3.arc.c_b + cc;
+    float sin_tau_1 = (denom > 0.0) ? ((y_3 * c_3.arc.c_b) + ((c_3.arc.s_b * q) / denom)) : y_3;
+    float cos_tau_1 = (cc * c_3.arc.c_b) + ((c_3.arc.s_b + y_3) * c_3.arc.s_b);
     float _e38 = ll_atan2_(sin_tau_1, cos_tau_1);
-    tau_2 = metal::clamp(_e38, 0.0, c_2.arc.width);
+    tau_2 = metal::clamp(_e38, 0.0, c_3.arc.width);
     float _e43 = tau_2;
     tau_2 = (xi <= 0.0) ? 0.0 : _e43;
     float _e48 = tau_2;
-    return (xi >= 1.0) ? c_2.arc.width : _e48;
+    return (xi >= 1.0) ? c_3.arc.width : _e48;
 }
 
 LlSample ll_clipped_sample(
-    LlClipped c_3,
+    LlClipped c_4,
     float xi_1
 ) {
-    float _e3 = ll_clipped_tau(c_3, xi_1);
-    metal::float3 _e4 = ll_arc_direction(c_3.arc, _e3);
-    return LlSample {_e4, c_3.pdf * LL_PDF_SCALE};
+    float _e3 = ll_clipped_tau(c_4, xi_1);
+    metal::float3 _e4 = ll_arc_direction(c_4.arc, _e3);
+    return LlSample {_e4, c_4.pdf * LL_PDF_SCALE};
 }
 
 float ll_clipped_pdf(
-    LlClipped c_4,
+    LlClipped c_5,
     metal::float3 dir_2
 ) {
-    bool _e6 = ll_arc_contains(c_4.arc, dir_2);
-    return _e6 ? (c_4.pdf * LL_PDF_SCALE) : 0.0;
+    bool _e6 = ll_arc_contains(c_5.arc, dir_2);
+    return _e6 ? (c_5.pdf * LL_PDF_SCALE) : 0.0;
 }
 
 float ll_clipped_inverse(
-    LlClipped c_5,
+    LlClipped c_6,
     metal::float3 dir_3
 ) {
-    float _e3 = ll_arc_tau(c_5.arc, dir_3);
-    float tau_11 = metal::clamp(_e3, 0.0, c_5.arc.width);
-    float _e9 = ll_arc_delta_s(c_5.arc, tau_11);
-    return metal::clamp(_e9 / c_5.delta_s, 0.0, 1.0);
+    float _e3 = ll_arc_tau(c_6.arc, dir_3);
+    float tau_11 = metal::clamp(_e3, 0.0, c_6.arc.width);
+    float _e9 = ll_arc_delta_s(c_6.arc, tau_11);
+    return metal::clamp(_e9 / c_6.delta_s, 0.0, 1.0);
 }
 
 float ll_delta_minus_sin(
-    float x_4,
+    float x_8,
     float sin_x
 ) {
-    float x2_ = x_4 * x_4;
-    float series = ((x_4 * x2_) / 6.0) * (1.0 - ((x2_ / 20.0) * (1.0 - ((x2_ / 42.0) * (1.0 - ((x2_ / 72.0) * (1.0 - (x2_ / 110.0))))))));
-    return (metal::abs(x_4) < 1.0) ? series : (x_4 - sin_x);
+    float x2_ = x_8 * x_8;
+    float series = ((x_8 * x2_) / 6.0) * (1.0 - ((x2_ / 20.0) * (1.0 - ((x2_ / 42.0) * (1.0 - ((x2_ / 72.0) * (1.0 - (x2_ / 110.0))))))));
+    return (metal::abs(x_8) < 1.0) ? series : (x_8 - sin_x);
 }
 
 metal::float2 ll_psa_delta_c_parts(
-    LlPsaCore c_6,
+    LlPsaCore c_7,
     float tau_3,
     float sh,
     float ch
 ) {
-    float cm = (c_6.c_b * ch) - (c_6.s_b * sh);
-    float n_dot_wm = (c_6.p0_ * ch) + (c_6.p1_ * sh);
+    float cm = (c_7.c_b * ch) - (c_7.s_b * sh);
+    float n_dot_wm = (c_7.p0_ * ch) + (c_7.p1_ * sh);
     float sin_tau_2 = (2.0 * sh) * ch;
     float _e22 = ll_delta_minus_sin(tau_3, sin_tau_2);
-    return metal::float2((cm * n_dot_wm) * (2.0 * sin_tau_2), c_6.nt * _e22);
+    return metal::float2((cm * n_dot_wm) * (2.0 * sin_tau_2), c_7.nt * _e22);
 }
 
 LlPsaCore ll_psa_core(
@@ -499,25 +599,27 @@ LlPsaCore ll_psa_core(
     float c_b,
     float width
 ) {
-    LlPsaCore c_7 = {};
-    c_7.ns = ns;
-    c_7.nt = nt;
-    c_7.s_b = s_b;
-    c_7.c_b = c_b;
-    c_7.width = width;
-    c_7.p0_ = metal::max(metal::fma(ns, s_b, nt * c_b), 0.0);
-    c_7.p1_ = metal::fma(ns, c_b, -(nt) * s_b);
-    metal::float2 _e22 = ll_sin_cos(0.5 * width);
-    c_7.delta_s = (2.0 * ((c_b * _e22.y) - (s_b * _e22.x))) * _e22.x;
-    LlPsaCore _e33 = c_7;
-    metal::float2 _e36 = ll_psa_delta_c_parts(_e33, width, _e22.x, _e22.y);
-    c_7.total = _e36.x + _e36.y;
-    LlPsaCore _e41 = c_7;
-    return _e41;
+    LlPsaCore c_8 = {};
+    c_8.ns = ns;
+    c_8.nt = nt;
+    c_8.s_b = s_b;
+    c_8.c_b = c_b;
+    c_8.width = width;
+    float _e12 = ll_dot2_(ns, s_b, nt, c_b);
+    c_8.p0_ = metal::max(_e12, 0.0);
+    float _e17 = ll_dot2_(ns, c_b, -(nt), s_b);
+    c_8.p1_ = _e17;
+    metal::float2 _e20 = ll_sin_cos(0.5 * width);
+    c_8.delta_s = (2.0 * ((c_b * _e20.y) - (s_b * _e20.x))) * _e20.x;
+    LlPsaCore _e31 = c_8;
+    metal::float2 _e34 = ll_psa_delta_c_parts(_e31, width, _e20.x, _e20.y);
+    c_8.total = _e34.x + _e34.y;
+    LlPsaCore _e39 = c_8;
+    return _e39;
 }
 
 LlPsaEval ll_psa_eval_half(
-    LlPsaCore c_8,
+    LlPsaCore c_9,
     float tau_4,
     float sh_1,
     float ch_1
@@ -525,36 +627,36 @@ LlPsaEval ll_psa_eval_half(
     LlPsaEval e = {};
     float sin_tau_3 = (2.0 * sh_1) * ch_1;
     float cos_tau_2 = 1.0 - ((2.0 * sh_1) * sh_1);
-    metal::float2 _e13 = ll_psa_delta_c_parts(c_8, tau_4, sh_1, ch_1);
+    metal::float2 _e13 = ll_psa_delta_c_parts(c_9, tau_4, sh_1, ch_1);
     e.delta_c_cos = _e13.x;
     e.delta_c_lin = _e13.y;
-    e.s2_ = ((2.0 * c_8.s_b) * cos_tau_2) + ((2.0 * c_8.c_b) * sin_tau_3);
-    e.t2_ = ((2.0 * c_8.c_b) * cos_tau_2) - ((2.0 * c_8.s_b) * sin_tau_3);
-    e.n_dot_w = (c_8.p0_ * cos_tau_2) + (c_8.p1_ * sin_tau_3);
-    e.n_dot_w_prime = (c_8.p1_ * cos_tau_2) - (c_8.p0_ * sin_tau_3);
+    e.s2_ = ((2.0 * c_9.s_b) * cos_tau_2) + ((2.0 * c_9.c_b) * sin_tau_3);
+    e.t2_ = ((2.0 * c_9.c_b) * cos_tau_2) - ((2.0 * c_9.s_b) * sin_tau_3);
+    e.n_dot_w = (c_9.p0_ * cos_tau_2) + (c_9.p1_ * sin_tau_3);
+    e.n_dot_w_prime = (c_9.p1_ * cos_tau_2) - (c_9.p0_ * sin_tau_3);
     LlPsaEval _e50 = e;
     return _e50;
 }
 
 metal::float3 ll_psa_start(
-    LlPsaCore c_9,
+    LlPsaCore c_10,
     float xi_2
 ) {
     float tau_5 = {};
-    float y_3 = xi_2 * c_9.delta_s;
-    float wy = (2.0 * c_9.s_b) + y_3;
-    float q_1 = y_3 * wy;
-    float cc_1 = metal::sqrt(metal::max((c_9.c_b * c_9.c_b) - q_1, 0.0));
-    float denom_1 = c_9.c_b + cc_1;
+    float y_4 = xi_2 * c_10.delta_s;
+    float wy = (2.0 * c_10.s_b) + y_4;
+    float q_1 = y_4 * wy;
+    float cc_1 = metal::sqrt(metal::max((c_10.c_b * c_10.c_b) - q_1, 0.0));
+    float denom_1 = c_10.c_b + cc_1;
     bool scaled = denom_1 > 0.0;
-    float sin_tau_4 = scaled ? (((y_3 * c_9.c_b) * denom_1) + (c_9.s_b * q_1)) : y_3;
-    float cos_tau_3 = (scaled ? denom_1 : 1.0) * ((cc_1 * c_9.c_b) + ((c_9.s_b + y_3) * c_9.s_b));
+    float sin_tau_4 = scaled ? (((y_4 * c_10.c_b) * denom_1) + (c_10.s_b * q_1)) : y_4;
+    float cos_tau_3 = (scaled ? denom_1 : 1.0) * ((cc_1 * c_10.c_b) + ((c_10.s_b + y_4) * c_10.s_b));
     float _e37 = ll_atan2_(sin_tau_4, cos_tau_3);
-    tau_5 = metal::clamp(_e37, 0.0, c_9.width);
+    tau_5 = metal::clamp(_e37, 0.0, c_10.width);
     float _e42 = tau_5;
     tau_5 = (xi_2 <= 0.0) ? 0.0 : _e42;
     float _e47 = tau_5;
-    tau_5 = (xi_2 >= 1.0) ? c_9.width : _e47;
+    tau_5 = (xi_2 >= 1.0) ? c_10.width : _e47;
     float w_1 = metal::sqrt((denom_1 * denom_1) + (wy * wy));
     float sh_2 = scaled ? (sin_tau_4 / (denom_1 * w_1)) : ((cos_tau_3 < 0.0) ? 1.0 : 0.0);
     float _e64 = tau_5;
@@ -562,11 +664,11 @@ metal::float3 ll_psa_start(
 }
 
 metal::float2 ll_psa_halley_terms(
-    LlPsaCore c_10,
+    LlPsaCore c_11,
     float xi_3,
     LlPsaEval e_1
 ) {
-    float g_1 = e_1.delta_c_cos + (e_1.delta_c_lin - (xi_3 * c_10.total));
+    float g_1 = e_1.delta_c_cos + (e_1.delta_c_lin - (xi_3 * c_11.total));
     float g1_ = e_1.t2_ * e_1.n_dot_w;
     float g2_ = (e_1.t2_ * e_1.n_dot_w_prime) - (e_1.s2_ * e_1.n_dot_w);
     float den_1 = metal::max(g1_, 0.0) + metal::sqrt(metal::max((g1_ * g1_) - (g_1 * (2.0 * g2_)), 0.0));
@@ -586,7 +688,7 @@ float ll_psa_step(
 }
 
 float ll_psa_solve(
-    LlPsaCore c_11,
+    LlPsaCore c_12,
     float xi_4,
     uint steps
 ) {
@@ -595,7 +697,7 @@ float ll_psa_solve(
     float tau_7 = {};
     LlPsaEval e_2 = {};
     uint i = 1u;
-    metal::float3 _e3 = ll_psa_start(c_11, xi_4);
+    metal::float3 _e3 = ll_psa_start(c_12, xi_4);
     if (!((steps == 0u))) {
         local_14 = xi_4 < LL_XI_GUARD;
     } else {
@@ -613,7 +715,7 @@ float ll_psa_solve(
     }
     tau_7 = _e3.x;
     float _e23 = tau_7;
-    LlPsaEval _e26 = ll_psa_eval_half(c_11, _e23, _e3.y, _e3.z);
+    LlPsaEval _e26 = ll_psa_eval_half(c_12, _e23, _e3.y, _e3.z);
     e_2 = _e26;
     uint2 loop_bound = uint2(4294967295u);
     bool loop_init = true;
@@ -632,25 +734,25 @@ float ll_psa_solve(
         }
         {
             LlPsaEval _e32 = e_2;
-            metal::float2 _e33 = ll_psa_halley_terms(c_11, xi_4, _e32);
+            metal::float2 _e33 = ll_psa_halley_terms(c_12, xi_4, _e32);
             float _e34 = tau_7;
-            float _e43 = ll_psa_step(0.5 * _e34, 0.5 * c_11.width, _e33.x, _e33.y, 1.0);
+            float _e43 = ll_psa_step(0.5 * _e34, 0.5 * c_12.width, _e33.x, _e33.y, 1.0);
             tau_7 = 2.0 * _e43;
             metal::float2 _e46 = ll_sin_cos(_e43);
             float _e47 = tau_7;
-            LlPsaEval _e50 = ll_psa_eval_half(c_11, _e47, _e46.x, _e46.y);
+            LlPsaEval _e50 = ll_psa_eval_half(c_12, _e47, _e46.x, _e46.y);
             e_2 = _e50;
         }
     }
     LlPsaEval _e54 = e_2;
-    metal::float2 _e55 = ll_psa_halley_terms(c_11, xi_4, _e54);
+    metal::float2 _e55 = ll_psa_halley_terms(c_12, xi_4, _e54);
     float _e56 = tau_7;
-    float _e61 = ll_psa_step(_e56, c_11.width, _e55.x, _e55.y, 2.0);
+    float _e61 = ll_psa_step(_e56, c_12.width, _e55.x, _e55.y, 2.0);
     return _e61;
 }
 
 float ll_psa_solve_converged(
-    LlPsaCore c_12,
+    LlPsaCore c_13,
     float xi_5
 ) {
     float lo = 0.0;
@@ -659,8 +761,8 @@ float ll_psa_solve_converged(
     uint i_1 = 0u;
     bool local_16 = {};
     bool local_17 = {};
-    hi = c_12.width;
-    metal::float3 _e6 = ll_psa_start(c_12, xi_5);
+    hi = c_13.width;
+    metal::float3 _e6 = ll_psa_start(c_13, xi_5);
     tau_8 = _e6.x;
     uint2 loop_bound_1 = uint2(4294967295u);
     bool loop_init_1 = true;
@@ -681,8 +783,8 @@ float ll_psa_solve_converged(
             float _e14 = tau_8;
             metal::float2 _e17 = ll_sin_cos(0.5 * _e14);
             float _e18 = tau_8;
-            LlPsaEval _e21 = ll_psa_eval_half(c_12, _e18, _e17.x, _e17.y);
-            metal::float2 _e22 = ll_psa_halley_terms(c_12, xi_5, _e21);
+            LlPsaEval _e21 = ll_psa_eval_half(c_13, _e18, _e17.x, _e17.y);
+            metal::float2 _e22 = ll_psa_halley_terms(c_13, xi_5, _e21);
             float _e23 = lo;
             float _e24 = tau_8;
             lo = (_e22.x < 0.0) ? _e24 : _e23;
@@ -690,7 +792,7 @@ float ll_psa_solve_converged(
             float _e30 = tau_8;
             hi = (_e22.x > 0.0) ? _e30 : _e29;
             float _e35 = tau_8;
-            float _e40 = ll_psa_step(_e35, c_12.width, _e22.x, _e22.y, 2.0);
+            float _e40 = ll_psa_step(_e35, c_13.width, _e22.x, _e22.y, 2.0);
             float _e41 = lo;
             if (_e40 > _e41) {
                 float _e45 = hi;
@@ -716,129 +818,129 @@ float ll_psa_solve_converged(
         }
     }
     float _e73 = tau_8;
-    return (xi_5 <= 0.0) ? 0.0 : ((xi_5 >= 1.0) ? c_12.width : _e73);
+    return (xi_5 <= 0.0) ? 0.0 : ((xi_5 >= 1.0) ? c_13.width : _e73);
 }
 
 float ll_psa_cdf(
-    LlPsaCore c_13,
+    LlPsaCore c_14,
     float tau_9
 ) {
-    float t_1 = metal::clamp(tau_9, 0.0, c_13.width);
+    float t_1 = metal::clamp(tau_9, 0.0, c_14.width);
     metal::float2 _e7 = ll_sin_cos(0.5 * t_1);
-    metal::float2 _e10 = ll_psa_delta_c_parts(c_13, t_1, _e7.x, _e7.y);
-    return metal::clamp((_e10.x + _e10.y) / c_13.total, 0.0, 1.0);
+    metal::float2 _e10 = ll_psa_delta_c_parts(c_14, t_1, _e7.x, _e7.y);
+    return metal::clamp((_e10.x + _e10.y) / c_14.total, 0.0, 1.0);
 }
 
 LlPsa ll_psa_on_frame(
     LlFrame f_3,
     metal::float3 n_2
 ) {
-    LlPsa p_1 = {};
+    LlPsa p_2 = {};
     bool local_18 = {};
     bool local_19 = {};
     bool local_20 = {};
     bool local_21 = {};
     LlArc _e4 = ll_arc(f_3);
-    p_1.arc = _e4;
-    p_1.n = n_2;
-    float _e13 = p_1.arc.s_b;
-    float _e16 = p_1.arc.c_b;
-    float _e19 = p_1.arc.width;
+    p_2.arc = _e4;
+    p_2.n = n_2;
+    float _e13 = p_2.arc.s_b;
+    float _e16 = p_2.arc.c_b;
+    float _e19 = p_2.arc.width;
     LlPsaCore _e20 = ll_psa_core(metal::dot(n_2, f_3.u), metal::dot(n_2, f_3.c_hat), _e13, _e16, _e19);
-    p_1.core = _e20;
-    float _e25 = p_1.core.total;
-    p_1.inv_psa = f_3.d / _e25;
+    p_2.core = _e20;
+    float _e25 = p_2.core.total;
+    p_2.inv_psa = f_3.d / _e25;
     if (f_3.valid) {
-        float _e33 = p_1.arc.width;
+        float _e33 = p_2.arc.width;
         local_18 = _e33 > 0.0;
     } else {
         local_18 = false;
     }
     bool _e37 = local_18;
     if (_e37) {
-        float _e42 = p_1.core.total;
+        float _e42 = p_2.core.total;
         local_19 = _e42 > 0.0;
     } else {
         local_19 = false;
     }
     bool _e46 = local_19;
     if (_e46) {
-        float _e50 = p_1.inv_psa;
+        float _e50 = p_2.inv_psa;
         local_20 = _e50 > 0.0;
     } else {
         local_20 = false;
     }
     bool _e54 = local_20;
     if (_e54) {
-        float _e58 = p_1.inv_psa;
+        float _e58 = p_2.inv_psa;
         local_21 = _e58 < 300000000000000000000000000000000000000.0;
     } else {
         local_21 = false;
     }
     bool _e62 = local_21;
-    p_1.valid = _e62;
-    LlPsa _e63 = p_1;
+    p_2.valid = _e62;
+    LlPsa _e63 = p_2;
     return _e63;
 }
 
 LlPsa ll_psa_prepare(
     metal::float3 begin_2,
     metal::float3 end_2,
-    metal::float3 x_5,
+    metal::float3 x_9,
     metal::float3 n_3
 ) {
     metal::float3 nn = metal::normalize(n_3);
-    LlFrame _e5 = ll_frame(begin_2, end_2, x_5);
+    LlFrame _e5 = ll_frame(begin_2, end_2, x_9);
     LlFrame _e6 = ll_frame_clip(_e5, nn);
     LlPsa _e7 = ll_psa_on_frame(_e6, nn);
     return _e7;
 }
 
 LlSample ll_psa_at(
-    LlPsa p_2,
+    LlPsa p_3,
     float tau_10
 ) {
-    LlPsaCore c_16 = p_2.core;
+    LlPsaCore c_17 = p_3.core;
     metal::float2 _e5 = ll_sin_cos(0.5 * tau_10);
     float st = (2.0 * _e5.x) * _e5.y;
     float ct = 1.0 - ((2.0 * _e5.x) * _e5.x);
-    metal::float2 _e19 = ll_arc_rotate(p_2.arc, st, ct);
-    float n_dot_w = (p_2.core.p0_ * ct) + (p_2.core.p1_ * st);
-    metal::float3 dir_10 = (_e19.x * p_2.arc.u) + (metal::max(_e19.y, 0.0) * p_2.arc.c_hat);
-    return LlSample {dir_10, (metal::max(n_dot_w, 0.0) * p_2.inv_psa) * LL_PDF_SCALE};
+    metal::float2 _e19 = ll_arc_rotate(p_3.arc, st, ct);
+    float n_dot_w = (p_3.core.p0_ * ct) + (p_3.core.p1_ * st);
+    metal::float3 dir_10 = (_e19.x * p_3.arc.u) + (metal::max(_e19.y, 0.0) * p_3.arc.c_hat);
+    return LlSample {dir_10, (metal::max(n_dot_w, 0.0) * p_3.inv_psa) * LL_PDF_SCALE};
 }
 
 LlSample ll_psa_sample(
-    LlPsa p_3,
+    LlPsa p_4,
     float xi_6
 ) {
-    float _e7 = ll_psa_solve(p_3.core, metal::clamp(xi_6, 0.0, 1.0), LL_HALLEY_STEPS);
-    LlSample _e8 = ll_psa_at(p_3, _e7);
+    float _e7 = ll_psa_solve(p_4.core, metal::clamp(xi_6, 0.0, 1.0), LL_HALLEY_STEPS);
+    LlSample _e8 = ll_psa_at(p_4, _e7);
     return _e8;
 }
 
 float ll_psa_density_in_support(
-    LlPsa p_4,
+    LlPsa p_5,
     metal::float3 dir_4
 ) {
-    return (metal::max(metal::dot(p_4.n, dir_4), 0.0) * p_4.inv_psa) * LL_PDF_SCALE;
+    return (metal::max(metal::dot(p_5.n, dir_4), 0.0) * p_5.inv_psa) * LL_PDF_SCALE;
 }
 
 float ll_psa_pdf(
-    LlPsa p_5,
+    LlPsa p_6,
     metal::float3 dir_5
 ) {
-    float _e2 = ll_psa_density_in_support(p_5, dir_5);
-    bool _e4 = ll_arc_contains(p_5.arc, dir_5);
+    float _e2 = ll_psa_density_in_support(p_6, dir_5);
+    bool _e4 = ll_arc_contains(p_6.arc, dir_5);
     return _e4 ? _e2 : 0.0;
 }
 
 float ll_psa_inverse(
-    LlPsa p_6,
+    LlPsa p_7,
     metal::float3 dir_6
 ) {
-    float _e4 = ll_arc_tau(p_6.arc, dir_6);
-    float _e5 = ll_psa_cdf(p_6.core, _e4);
+    float _e4 = ll_arc_tau(p_7.arc, dir_6);
+    float _e5 = ll_psa_cdf(p_7.core, _e4);
     return _e5;
 }
 
@@ -849,8 +951,8 @@ metal::float3x3 ll_shading_frame(
     metal::float3 t_2 = v - (metal::dot(n_4, v) * n_4);
     float len = metal::length(t_2);
     float sgn = (n_4.z >= 0.0) ? 1.0 : -1.0;
-    float k_5 = -1.0 / (sgn + n_4.z);
-    metal::float3 any = metal::float3((n_4.x * n_4.y) * k_5, sgn + ((n_4.y * n_4.y) * k_5), -(n_4.y));
+    float k_6 = -1.0 / (sgn + n_4.z);
+    metal::float3 any = metal::float3((n_4.x * n_4.y) * k_6, sgn + ((n_4.y * n_4.y) * k_6), -(n_4.y));
     metal::float3 xh = (len > 0.0000001) ? (t_2 / metal::float3(len)) : any;
     return metal::float3x3(xh, metal::cross(n_4, xh), n_4);
 }
@@ -859,16 +961,16 @@ metal::float3x3 ll_inverse3_(
     metal::float3x3 m,
     float det
 ) {
-    metal::float3x3 r_2 = metal::transpose(metal::float3x3(metal::cross(m[1], m[2]), metal::cross(m[2], m[0]), metal::cross(m[0], m[1])));
-    return r_2 * (1.0 / det);
+    metal::float3x3 r_3 = metal::transpose(metal::float3x3(metal::cross(m[1], m[2]), metal::cross(m[2], m[0]), metal::cross(m[0], m[1])));
+    return r_3 * (1.0 / det);
 }
 
 LlLtc ll_ltc_prepare(
     metal::float3 begin_3,
     metal::float3 end_3,
-    metal::float3 x_6,
+    metal::float3 x_10,
     metal::float3x3 shading_frame,
-    metal::float3x3 a_7
+    metal::float3x3 a_9
 ) {
     LlLtc l = {};
     float norm = 0.0;
@@ -880,7 +982,7 @@ LlLtc ll_ltc_prepare(
     bool local_26 = {};
     bool local_27 = {};
     bool local_28 = {};
-    float det_1 = metal::determinant(a_7);
+    float det_1 = metal::determinant(a_9);
     uint2 loop_bound_2 = uint2(4294967295u);
     bool loop_init_2 = true;
     while(true) {
@@ -901,26 +1003,26 @@ LlLtc ll_ltc_prepare(
             int _e15 = i_2;
             int _e19 = i_2;
             int _e23 = i_2;
-            norm = metal::max(_e14, metal::max(metal::abs(a_7[_e15].x), metal::max(metal::abs(a_7[_e19].y), metal::abs(a_7[_e23].z))));
+            norm = metal::max(_e14, metal::max(metal::abs(a_9[_e15].x), metal::max(metal::abs(a_9[_e19].y), metal::abs(a_9[_e23].z))));
         }
     }
     float _e36 = norm;
     float _e37 = norm;
     float _e39 = norm;
     bool conditioned = (metal::abs(det_1) * LL_MAX_ILL_CONDITION) > ((_e36 * _e37) * _e39);
-    metal::float3x3 _e42 = ll_inverse3_(a_7, det_1);
+    metal::float3x3 _e42 = ll_inverse3_(a_9, det_1);
     metal::float3 n_5 = metal::normalize(shading_frame[2]);
     l.to_shading = metal::transpose(shading_frame);
-    l.a = a_7;
+    l.a = a_9;
     l.to_world = shading_frame * _e42;
-    LlFrame _e50 = ll_frame(begin_3, end_3, x_6);
-    metal::float3 lobe_normal = shading_frame * metal::float3(a_7[0].z, a_7[1].z, a_7[2].z);
+    LlFrame _e50 = ll_frame(begin_3, end_3, x_10);
+    metal::float3 lobe_normal = shading_frame * metal::float3(a_9[0].z, a_9[1].z, a_9[2].z);
     LlFrame _e59 = ll_frame_clip(_e50, n_5);
     LlFrame _e60 = ll_frame_clip(_e59, lobe_normal);
     LlArc _e62 = ll_arc(_e60);
     l.arc = _e62;
     metal::float3x3 _e64 = l.to_shading;
-    metal::float3x3 to_cosine = a_7 * _e64;
+    metal::float3x3 to_cosine = a_9 * _e64;
     metal::float3 pb = to_cosine * ((_e60.d * _e60.c_hat) + (_e60.l_b * _e60.u));
     metal::float3 pe = to_cosine * ((_e60.d * _e60.c_hat) + (_e60.l_e * _e60.u));
     metal::float3 up = metal::float3(0.0, 0.0, 1.0);
@@ -930,8 +1032,8 @@ LlLtc ll_ltc_prepare(
     l.transformed = _e91;
     metal::float3x3 _e93 = l.to_shading;
     metal::float3x3 _e97 = l.to_shading;
-    metal::float3 m_1 = metal::cross(_e93 * _e50.u, _e97 * metal::float3(_e50.c_hat));
-    l.kappa = metal::length(metal::transpose(_e42) * m_1) / metal::length(m_1);
+    metal::float3 m_3 = metal::cross(_e93 * _e50.u, _e97 * metal::float3(_e50.c_hat));
+    l.kappa = metal::length(metal::transpose(_e42) * m_3) / metal::length(m_3);
     float _e109 = l.kappa;
     float _e114 = l.transformed.inv_psa;
     l.scale = (_e109 * metal::abs(det_1)) * _e114;
@@ -994,14 +1096,14 @@ float ll_ltc_density_on_clipped_line(
     bool local_29 = {};
     metal::float3 aw = l_1.a * (l_1.to_shading * dir_7);
     float len2_ = metal::dot(aw, aw);
-    float p_9 = (l_1.scale * metal::max(aw.z, 0.0)) / (len2_ * len2_);
+    float p_10 = (l_1.scale * metal::max(aw.z, 0.0)) / (len2_ * len2_);
     if (len2_ > 0.0) {
-        local_29 = p_9 < 300000000000000000000000000000000000000.0;
+        local_29 = p_10 < 300000000000000000000000000000000000000.0;
     } else {
         local_29 = false;
     }
     bool _e23 = local_29;
-    return _e23 ? (p_9 * LL_PDF_SCALE) : 0.0;
+    return _e23 ? (p_10 * LL_PDF_SCALE) : 0.0;
 }
 
 float ll_ltc_pdf(
@@ -1064,31 +1166,31 @@ float ll_ltc_weight_scale(
 }
 
 float ll_acos_unit(
-    float c_14
+    float c_15
 ) {
-    float p_7 = -0.0012624911;
-    float _e3 = p_7;
-    p_7 = (_e3 * c_14) + 0.00667009;
-    float _e7 = p_7;
-    p_7 = (_e7 * c_14) - 0.017088126;
-    float _e11 = p_7;
-    p_7 = (_e11 * c_14) + 0.03089188;
-    float _e15 = p_7;
-    p_7 = (_e15 * c_14) - 0.050174303;
-    float _e19 = p_7;
-    p_7 = (_e19 * c_14) + 0.08897899;
-    float _e23 = p_7;
-    p_7 = (_e23 * c_14) - 0.2145988;
-    float _e27 = p_7;
-    p_7 = (_e27 * c_14) + 1.5707963;
-    float _e36 = p_7;
-    return metal::sqrt(metal::max(1.0 - c_14, 0.0)) * _e36;
+    float p_8 = -0.0012624911;
+    float _e3 = p_8;
+    p_8 = (_e3 * c_15) + 0.00667009;
+    float _e7 = p_8;
+    p_8 = (_e7 * c_15) - 0.017088126;
+    float _e11 = p_8;
+    p_8 = (_e11 * c_15) + 0.03089188;
+    float _e15 = p_8;
+    p_8 = (_e15 * c_15) - 0.050174303;
+    float _e19 = p_8;
+    p_8 = (_e19 * c_15) + 0.08897899;
+    float _e23 = p_8;
+    p_8 = (_e23 * c_15) - 0.2145988;
+    float _e27 = p_8;
+    p_8 = (_e27 * c_15) + 1.5707963;
+    float _e36 = p_8;
+    return metal::sqrt(metal::max(1.0 - c_15, 0.0)) * _e36;
 }
 
 float ll_ltc_record(
     uint k_3,
     uint lane,
-    device type_7 const& ll_ltc_table,
+    device type_9 const& ll_ltc_table,
     constant _mslBufferSizes& _buffer_sizes
 ) {
     float _e7 = ll_ltc_table[(8u * k_3) + lane];
@@ -1099,7 +1201,7 @@ float ll_ltc_lerp(
     metal::uint4 corners,
     metal::float4 w,
     uint lane_1,
-    device type_7 const& ll_ltc_table,
+    device type_9 const& ll_ltc_table,
     constant _mslBufferSizes& _buffer_sizes
 ) {
     float _e5 = ll_ltc_record(corners.x, lane_1, ll_ltc_table, _buffer_sizes);
@@ -1120,19 +1222,19 @@ uint naga_f2u32(float value) {
 LlLtcEntry ll_ltc_lookup(
     float alpha,
     float cos_theta_v,
-    device type_7 const& ll_ltc_table,
+    device type_9 const& ll_ltc_table,
     constant _mslBufferSizes& _buffer_sizes
 ) {
     LlLtcEntry e_3 = {};
     uint size = naga_f2u32(metal::rint(metal::sqrt(static_cast<float>(naga_div(1 + (_buffer_sizes.size0 - 0 - 4) / 4, 8u)))));
     float last = static_cast<float>(size - 1u);
-    float x_7 = metal::sqrt(metal::clamp(alpha, 0.0, 1.0)) * last;
+    float x_11 = metal::sqrt(metal::clamp(alpha, 0.0, 1.0)) * last;
     float _e21 = ll_acos_unit(metal::clamp(cos_theta_v, 0.0, 1.0));
-    float y_4 = metal::min((_e21 * 0.63661975) * last, last);
-    uint i_3 = metal::min(naga_f2u32(x_7), size - 2u);
-    uint j = metal::min(naga_f2u32(y_4), size - 2u);
-    float fx = x_7 - static_cast<float>(i_3);
-    float fy = y_4 - static_cast<float>(j);
+    float y_5 = metal::min((_e21 * 0.63661975) * last, last);
+    uint i_3 = metal::min(naga_f2u32(x_11), size - 2u);
+    uint j = metal::min(naga_f2u32(y_5), size - 2u);
+    float fx = x_11 - static_cast<float>(i_3);
+    float fy = y_5 - static_cast<float>(j);
     uint base = (j * size) + i_3;
     metal::float4 w_3 = metal::float4((1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy);
     metal::uint4 corners_1 = metal::uint4(base, base + 1u, base + size, (base + size) + 1u);
@@ -1149,30 +1251,30 @@ LlLtcEntry ll_ltc_lookup(
 }
 
 float ll_mis_ratio(
-    float a_8,
-    float b
+    float a_10,
+    float b_2
 ) {
-    return (b > 0.0) ? metal::clamp(a_8 / b, 0.0, 1.0) : 0.0;
+    return (b_2 > 0.0) ? metal::clamp(a_10 / b_2, 0.0, 1.0) : 0.0;
 }
 
 float ll_mis_balance(
     float p_s,
     float p_o
 ) {
-    float m_2 = metal::max(p_s, p_o);
-    float _e7 = ll_mis_ratio(p_s / m_2, (p_s / m_2) + (p_o / m_2));
-    return (m_2 > 0.0) ? _e7 : 0.0;
+    float m_4 = metal::max(p_s, p_o);
+    float _e7 = ll_mis_ratio(p_s / m_4, (p_s / m_4) + (p_o / m_4));
+    return (m_4 > 0.0) ? _e7 : 0.0;
 }
 
 float ll_mis_power(
     float p_s_1,
     float p_o_1
 ) {
-    float m_3 = metal::max(p_s_1, p_o_1);
-    float a_11 = p_s_1 / m_3;
-    float b_3 = p_o_1 / m_3;
-    float _e9 = ll_mis_ratio(a_11 * a_11, (a_11 * a_11) + (b_3 * b_3));
-    return (m_3 > 0.0) ? _e9 : 0.0;
+    float m_5 = metal::max(p_s_1, p_o_1);
+    float a_13 = p_s_1 / m_5;
+    float b_5 = p_o_1 / m_5;
+    float _e9 = ll_mis_ratio(a_13 * a_13, (a_13 * a_13) + (b_5 * b_5));
+    return (m_5 > 0.0) ? _e9 : 0.0;
 }
 
 float ll_mis_weighted_balance(
@@ -1182,9 +1284,9 @@ float ll_mis_weighted_balance(
     float w_o
 ) {
     bool local_31 = {};
-    float m_4 = metal::max(p_s_2, p_o_2);
-    float num = w_s * (p_s_2 / m_4);
-    float den_2 = num + (w_o * (p_o_2 / m_4));
+    float m_6 = metal::max(p_s_2, p_o_2);
+    float num = w_s * (p_s_2 / m_6);
+    float den_2 = num + (w_o * (p_o_2 / m_6));
     float _e10 = ll_mis_balance(p_s_2, p_o_2);
     float _e11 = ll_mis_ratio(num, den_2);
     if (den_2 > 0.0) {
@@ -1194,7 +1296,7 @@ float ll_mis_weighted_balance(
     }
     bool _e19 = local_31;
     float weighted = _e19 ? _e11 : _e10;
-    return (m_4 > 0.0) ? weighted : 0.0;
+    return (m_6 > 0.0) ? weighted : 0.0;
 }
 
 float ll_mis_clamped_optimal(
@@ -1204,10 +1306,10 @@ float ll_mis_clamped_optimal(
     float w_o_1,
     float v_in
 ) {
-    float v_1 = metal::clamp(v_in, 0.0, 1.0);
+    float v_2 = metal::clamp(v_in, 0.0, 1.0);
     float _e10 = ll_mis_balance(p_s_3, p_o_3);
     float _e12 = ll_mis_weighted_balance(p_s_3, p_o_3, w_s_1, w_o_1);
-    return ((1.0 - v_1) * _e10) + (v_1 * _e12);
+    return ((1.0 - v_2) * _e10) + (v_2 * _e12);
 }
 
 float ll_bench_xi(
@@ -1231,26 +1333,26 @@ struct certifyInput {
 };
 [[max_total_threads_per_threadgroup(64)]] kernel void certify(
   metal::uint3 gid [[thread_position_in_grid]]
-, device type_7 const& ll_ltc_table [[user(fake0)]]
+, device type_9 const& ll_ltc_table [[user(fake0)]]
 , constant LlParams& ll_params [[user(fake0)]]
-, device type_10 const& ll_queries [[user(fake0)]]
-, device type_10& ll_answers [[user(fake0)]]
+, device type_12 const& ll_queries [[user(fake0)]]
+, device type_12& ll_answers [[user(fake0)]]
 , constant _mslBufferSizes& _buffer_sizes [[user(fake0)]]
 ) {
     metal::float4 a0_ = metal::float4(0.0);
     metal::float4 a1_ = metal::float4(0.0);
     metal::float4 a2_ = metal::float4(0.0);
-    uint k_6 = gid.x;
+    uint k_7 = gid.x;
     uint _e4 = ll_params.count;
-    if (k_6 >= _e4) {
+    if (k_7 >= _e4) {
         return;
     }
-    metal::float4 q0_ = ll_queries[6u * k_6];
-    metal::float4 q1_ = ll_queries[(6u * k_6) + 1u];
-    metal::float4 q2_ = ll_queries[(6u * k_6) + 2u];
-    metal::float4 q3_ = ll_queries[(6u * k_6) + 3u];
-    metal::float4 q4_ = ll_queries[(6u * k_6) + 4u];
-    metal::float4 q5_ = ll_queries[(6u * k_6) + 5u];
+    metal::float4 q0_ = ll_queries[9u * k_7];
+    metal::float4 q1_ = ll_queries[(9u * k_7) + 1u];
+    metal::float4 q2_ = ll_queries[(9u * k_7) + 2u];
+    metal::float4 q3_ = ll_queries[(9u * k_7) + 3u];
+    metal::float4 q4_ = ll_queries[(9u * k_7) + 4u];
+    metal::float4 q5_ = ll_queries[(9u * k_7) + 5u];
     float xi_9 = q0_.w;
     uint _e58 = ll_params.mode;
     switch(_e58) {
@@ -1278,48 +1380,55 @@ struct certifyInput {
             break;
         }
         case 2u: {
-            metal::float3 n_6 = metal::normalize(q3_.xyz);
-            metal::float3 v_2 = metal::normalize(q4_.xyz);
-            LlLtcEntry _e99 = ll_ltc_lookup(q1_.w, metal::dot(n_6, v_2), ll_ltc_table, _buffer_sizes);
-            metal::float3x3 _e103 = ll_shading_frame(n_6, v_2);
-            LlLtc _e105 = ll_ltc_prepare(q0_.xyz, q1_.xyz, q2_.xyz, _e103, _e99.a);
-            if (_e105.valid) {
-                LlSample _e107 = ll_ltc_sample(_e105, xi_9);
-                a0_ = metal::float4(_e107.dir, _e107.pdf);
-                float _e112 = ll_ltc_inverse(_e105, _e107.dir);
-                float _e114 = ll_ltc_pdf(_e105, q5_.xyz);
-                float _e116 = ll_ltc_density_on_clipped_line(_e105, q5_.xyz);
-                a1_ = metal::float4(_e112, 1.0, _e114, _e116);
-                float _e119 = ll_ltc_weight_scale(_e105);
-                a2_ = metal::float4(_e119, _e99.rho, 0.0, 0.0);
+            metal::float4 _e99 = ll_queries[(9u * k_7) + 6u];
+            metal::float4 _e107 = ll_queries[(9u * k_7) + 7u];
+            metal::float4 _e115 = ll_queries[(9u * k_7) + 8u];
+            metal::float3x3 a_14 = metal::transpose(metal::float3x3(_e99.xyz, _e107.xyz, _e115.xyz));
+            metal::float3x3 _e123 = ll_shading_frame(metal::normalize(q3_.xyz), metal::normalize(q4_.xyz));
+            LlLtc _e127 = ll_ltc_prepare(q0_.xyz, q1_.xyz, q2_.xyz, _e123, a_14);
+            if (_e127.valid) {
+                LlSample _e129 = ll_ltc_sample(_e127, xi_9);
+                a0_ = metal::float4(_e129.dir, _e129.pdf);
+                float _e134 = ll_ltc_inverse(_e127, _e129.dir);
+                float _e136 = ll_ltc_pdf(_e127, q5_.xyz);
+                float _e138 = ll_ltc_density_on_clipped_line(_e127, q5_.xyz);
+                a1_ = metal::float4(_e134, 1.0, _e136, _e138);
+                float _e141 = ll_ltc_weight_scale(_e127);
+                a2_ = metal::float4(_e141, 0.0, 0.0, 0.0);
             }
             break;
         }
         case 3u: {
-            LlPsaCore _e129 = ll_psa_core(q0_.x, q0_.y, q0_.z, q1_.x, q1_.y);
-            uint _e133 = ll_params.steps;
-            float _e134 = ll_psa_solve(_e129, q0_.w, _e133);
-            a0_ = metal::float4(_e134, _e129.total, 0.0, 0.0);
+            LlPsaCore _e151 = ll_psa_core(q0_.x, q0_.y, q0_.z, q1_.x, q1_.y);
+            uint _e155 = ll_params.steps;
+            float _e156 = ll_psa_solve(_e151, q0_.w, _e155);
+            a0_ = metal::float4(_e156, _e151.total, _e151.p0_, _e151.p1_);
             break;
         }
         case 4u: {
-            float _e141 = ll_mis_balance(q0_.x, q0_.y);
-            float _e144 = ll_mis_power(q0_.x, q0_.y);
-            float _e149 = ll_mis_weighted_balance(q0_.x, q0_.y, q0_.z, q0_.w);
-            float _e155 = ll_mis_clamped_optimal(q0_.x, q0_.y, q0_.z, q0_.w, q1_.x);
-            a0_ = metal::float4(_e141, _e144, _e149, _e155);
+            float _e163 = ll_mis_balance(q0_.x, q0_.y);
+            float _e166 = ll_mis_power(q0_.x, q0_.y);
+            float _e171 = ll_mis_weighted_balance(q0_.x, q0_.y, q0_.z, q0_.w);
+            float _e177 = ll_mis_clamped_optimal(q0_.x, q0_.y, q0_.z, q0_.w, q1_.x);
+            a0_ = metal::float4(_e163, _e166, _e171, _e177);
+            break;
+        }
+        case 5u: {
+            LlLtcEntry _e181 = ll_ltc_lookup(q1_.w, q2_.w, ll_ltc_table, _buffer_sizes);
+            a0_ = metal::float4(_e181.a[0].x, _e181.a[2].x, _e181.a[1].y, _e181.a[0].z);
+            a1_ = metal::float4(_e181.a[2].z, _e181.rho, 0.0, 0.0);
             break;
         }
         default: {
             break;
         }
     }
-    metal::float4 _e161 = a0_;
-    ll_answers[3u * k_6] = _e161;
-    metal::float4 _e168 = a1_;
-    ll_answers[(3u * k_6) + 1u] = _e168;
-    metal::float4 _e175 = a2_;
-    ll_answers[(3u * k_6) + 2u] = _e175;
+    metal::float4 _e206 = a0_;
+    ll_answers[3u * k_7] = _e206;
+    metal::float4 _e213 = a1_;
+    ll_answers[(3u * k_7) + 1u] = _e213;
+    metal::float4 _e220 = a2_;
+    ll_answers[(3u * k_7) + 2u] = _e220;
     return;
 }
 
@@ -1328,10 +1437,10 @@ struct benchInput {
 };
 [[max_total_threads_per_threadgroup(64)]] kernel void bench(
   metal::uint3 gid_1 [[thread_position_in_grid]]
-, device type_7 const& ll_ltc_table [[user(fake0)]]
+, device type_9 const& ll_ltc_table [[user(fake0)]]
 , constant LlParams& ll_params [[user(fake0)]]
-, device type_10 const& ll_queries [[user(fake0)]]
-, device type_10& ll_answers [[user(fake0)]]
+, device type_12 const& ll_queries [[user(fake0)]]
+, device type_12& ll_answers [[user(fake0)]]
 , constant _mslBufferSizes& _buffer_sizes [[user(fake0)]]
 ) {
     float sum = 0.0;
@@ -1346,8 +1455,8 @@ struct benchInput {
     metal::float4 q0_1 = ll_queries[3u * pixel_1];
     metal::float4 q1_1 = ll_queries[(3u * pixel_1) + 1u];
     metal::float4 q2_1 = ll_queries[(3u * pixel_1) + 2u];
-    metal::float3 x_8 = q0_1.xyz;
-    metal::float3 n_7 = q1_1.xyz;
+    metal::float3 x_12 = q0_1.xyz;
+    metal::float3 n_6 = q1_1.xyz;
     float rho_d = q2_1.w;
     metal::float4 _e30 = ll_params.light_begin;
     metal::float3 lb = _e30.xyz;
@@ -1358,7 +1467,7 @@ struct benchInput {
     uint _e47 = ll_params.mode;
     switch(_e47) {
         case 0u: {
-            LlClipped _e48 = ll_clipped_prepare(lb, le, x_8, n_7);
+            LlClipped _e48 = ll_clipped_prepare(lb, le, x_12, n_6);
             if (_e48.valid) {
                 uint2 loop_bound_3 = uint2(4294967295u);
                 bool loop_init_3 = true;
@@ -1380,14 +1489,14 @@ struct benchInput {
                         float _e55 = ll_bench_xi(pixel_1, _e54);
                         LlSample _e56 = ll_clipped_sample(_e48, _e55);
                         float _e57 = sum;
-                        sum = _e57 + (((rho_d / LL_PI) * metal::max(metal::dot(n_7, _e56.dir), 0.0)) / _e56.pdf);
+                        sum = _e57 + (((rho_d / LL_PI) * metal::max(metal::dot(n_6, _e56.dir), 0.0)) / _e56.pdf);
                     }
                 }
             }
             break;
         }
         case 1u: {
-            LlPsa _e71 = ll_psa_prepare(lb, le, x_8, n_7);
+            LlPsa _e71 = ll_psa_prepare(lb, le, x_12, n_6);
             if (_e71.valid) {
                 uint2 loop_bound_4 = uint2(4294967295u);
                 bool loop_init_4 = true;
@@ -1409,18 +1518,18 @@ struct benchInput {
                         float _e78 = ll_bench_xi(pixel_1, _e77);
                         LlSample _e79 = ll_psa_sample(_e71, _e78);
                         float _e80 = sum;
-                        sum = _e80 + (((rho_d / LL_PI) * metal::max(metal::dot(n_7, _e79.dir), 0.0)) / _e79.pdf);
+                        sum = _e80 + (((rho_d / LL_PI) * metal::max(metal::dot(n_6, _e79.dir), 0.0)) / _e79.pdf);
                     }
                 }
             }
             break;
         }
         case 2u: {
-            LlPsa _e94 = ll_psa_prepare(lb, le, x_8, n_7);
+            LlPsa _e94 = ll_psa_prepare(lb, le, x_12, n_6);
             metal::float3 v_3 = q2_1.xyz;
-            LlLtcEntry _e98 = ll_ltc_lookup(q0_1.w, metal::dot(n_7, v_3), ll_ltc_table, _buffer_sizes);
-            metal::float3x3 _e99 = ll_shading_frame(n_7, v_3);
-            LlLtc _e101 = ll_ltc_prepare(lb, le, x_8, _e99, _e98.a);
+            LlLtcEntry _e98 = ll_ltc_lookup(q0_1.w, metal::dot(n_6, v_3), ll_ltc_table, _buffer_sizes);
+            metal::float3x3 _e99 = ll_shading_frame(n_6, v_3);
+            LlLtc _e101 = ll_ltc_prepare(lb, le, x_12, _e99, _e98.a);
             if (_e94.valid) {
                 float w_d = metal::max(rho_d, 0.01) / _e94.inv_psa;
                 float _e108 = ll_ltc_weight_scale(_e101);
@@ -1446,14 +1555,14 @@ struct benchInput {
                         LlSample _e119 = ll_psa_sample(_e94, _e118);
                         float _e121 = ll_ltc_density_on_clipped_line(_e101, _e119.dir);
                         float ps = _e101.valid ? _e121 : 0.0;
-                        float fd = ((rho_d / LL_PI) * metal::max(metal::dot(n_7, _e119.dir), 0.0)) + (_e98.rho * ps);
+                        float fd = ((rho_d / LL_PI) * metal::max(metal::dot(n_6, _e119.dir), 0.0)) + (_e98.rho * ps);
                         float _e135 = sum;
                         float _e138 = ll_mis_clamped_optimal(_e119.pdf, ps, w_d, w_s_2, 0.5);
                         sum = _e135 + ((fd * _e138) / _e119.pdf);
                         if (_e101.valid) {
                             LlSample _e147 = ll_ltc_sample(_e101, metal::fract(_e118 + 0.5));
                             float _e149 = ll_psa_density_in_support(_e94, _e147.dir);
-                            float fs = ((rho_d / LL_PI) * metal::max(metal::dot(n_7, _e147.dir), 0.0)) + (_e98.rho * _e147.pdf);
+                            float fs = ((rho_d / LL_PI) * metal::max(metal::dot(n_6, _e147.dir), 0.0)) + (_e98.rho * _e147.pdf);
                             float _e161 = sum;
                             float _e164 = ll_mis_clamped_optimal(_e147.pdf, _e149, w_s_2, w_d, 0.5);
                             sum = _e161 + ((fs * _e164) / _e147.pdf);

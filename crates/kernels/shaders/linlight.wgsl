@@ -92,6 +92,73 @@ fn ll_atan2(y: f32, x: f32) -> f32 {
     return select(r, -r, y < 0.0);
 }
 
+// a·b + c·d rounded about once, also where the two products cancel (n·ω at a horizon): both
+// products exactly, in 64-bit two's complement fixed point with 60 fraction bits (as (lo, hi)
+// words; integer arithmetic, because a compiler may reassociate floating-point sums, as Mesa's
+// does, which defeats error-free float transformations). Requires |a·b|, |c·d| < 4; parts of a
+// product below 2^-60 are dropped.
+
+// |x| as (24-bit significand, exponent) with |x| = m·2^e, and the sign bit.
+fn ll_unpack(x: f32) -> vec3i {
+    let bits = bitcast<u32>(x);
+    let biased = i32((bits >> 23u) & 0xffu);
+    let m = (bits & 0x7fffffu) | select(0u, 0x800000u, biased != 0);
+    return vec3i(i32(m), max(biased, 1) - 150, i32(bits >> 31u));
+}
+
+// Two's complement of a 64-bit value.
+fn ll_fixed_negate(x: vec2u) -> vec2u {
+    let lo = ~x.x + 1u;
+    return vec2u(lo, ~x.y + select(0u, 1u, lo == 0u));
+}
+
+fn ll_fixed_add(x: vec2u, y: vec2u) -> vec2u {
+    let lo = x.x + y.x;
+    return vec2u(lo, x.y + y.y + select(0u, 1u, lo < x.x));
+}
+
+// a·b exactly (up to the dropped bits below 2^-60).
+fn ll_fixed_product(a: f32, b: f32) -> vec2u {
+    let ua = ll_unpack(a);
+    let ub = ll_unpack(b);
+    let a1 = u32(ua.x) >> 12u;
+    let a0 = u32(ua.x) & 0xfffu;
+    let b1 = u32(ub.x) >> 12u;
+    let b0 = u32(ub.x) & 0xfffu;
+    // The 48-bit product hh·2^24 + mid·2^12 + ll as (lo, hi).
+    let hh = a1 * b1;
+    let mid = a1 * b0 + a0 * b1;
+    var p = ll_fixed_add(vec2u(a0 * b0, 0u), vec2u(mid << 12u, mid >> 20u));
+    p = ll_fixed_add(p, vec2u(hh << 24u, hh >> 8u));
+    // Scaled to 2^-60 units: shifted left by s = e_a + e_b + 60 (≤ 15 for |a·b| < 4).
+    let s = ua.y + ub.y + 60;
+    if s > 0 {
+        let k = u32(s);
+        p = vec2u(p.x << k, (p.y << k) | (p.x >> (32u - k)));
+    } else if s < 0 {
+        let r = u32(-s);
+        if r >= 64u {
+            p = vec2u(0u, 0u);
+        } else if r >= 32u {
+            p = vec2u(p.y >> (r - 32u), 0u);
+        } else {
+            p = vec2u((p.x >> r) | (p.y << (32u - r)), p.y >> r);
+        }
+    }
+    return select(p, ll_fixed_negate(p), (ua.z ^ ub.z) != 0);
+}
+
+fn ll_fixed_to_f32(x: vec2u) -> f32 {
+    let negative = (x.y >> 31u) != 0u;
+    let m = select(x, ll_fixed_negate(x), negative);
+    let v = f32(m.y) * 3.7252902984e-9 + f32(m.x) * 8.6736173799e-19;
+    return select(v, -v, negative);
+}
+
+fn ll_dot2(a: f32, b: f32, c: f32, d: f32) -> f32 {
+    return ll_fixed_to_f32(ll_fixed_add(ll_fixed_product(a, b), ll_fixed_product(c, d)));
+}
+
 // ---------------------------------------------------------------------------------------------
 // The line seen from a shading point.
 
@@ -334,8 +401,8 @@ fn ll_psa_core(ns: f32, nt: f32, s_b: f32, c_b: f32, width: f32) -> LlPsaCore {
     c.c_b = c_b;
     c.width = width;
     // n·ω_b ≥ 0 on the clipped interval (a negative value is rounding).
-    c.p0 = max(fma(ns, s_b, nt * c_b), 0.0);
-    c.p1 = fma(ns, c_b, -nt * s_b);
+    c.p0 = max(ll_dot2(ns, s_b, nt, c_b), 0.0);
+    c.p1 = ll_dot2(ns, c_b, -nt, s_b);
     let h = ll_sin_cos(0.5 * width);
     c.delta_s = 2.0 * (c_b * h.y - s_b * h.x) * h.x;
     let parts = ll_psa_delta_c_parts(c, width, h.x, h.y);
@@ -730,26 +797,28 @@ struct LlParams {
 @group(0) @binding(2) var<storage, read_write> ll_answers: array<vec4f>;
 @group(0) @binding(3) var<storage, read> ll_ltc_table: array<f32>;
 
-// certify: a query is 6 vec4f, an answer 3.
-//   q0 = (begin, ξ), q1 = (end, α), q2 = (x, v of MIS), q3 = (n, 0), q4 = (view, 0),
-//   q5 = (probe direction, 0).
+// certify: a query is 9 vec4f, an answer 3.
+//   q0 = (begin, ξ), q1 = (end, α), q2 = (x, cos θ_o), q3 = (n, 0), q4 = (view, 0),
+//   q5 = (probe direction, 0), q6..q8 = the rows of the LTC matrix A (shading → cosine space).
 //   modes 0-2 (clipped, PSA, LTC): a0 = (sample direction, its density), a1 = (ξ of the
 //   sample by the inverse, 1 if prepared else 0, pdf of the probe, cross density of the probe),
-//   a2 = (LTC: Ω⊥_o/κ, ρ_s of the lookup, 0, 0).
-//   mode 3: q0 = (n_s, n_t, sin φ_b, ξ), q1 = (cos φ_b, Δ, 0, 0) → a0 = (τ, C(φ_e) − C(φ_b), 0, 0).
+//   a2 = (LTC: Ω⊥_o/κ, 0, 0, 0).
+//   mode 3: q0 = (n_s, n_t, sin φ_b, ξ), q1 = (cos φ_b, Δ, 0, 0) → a0 = (τ, C(φ_e) − C(φ_b),
+//   n·ω_b, d(n·ω)/dφ at φ_b).
 //   mode 4: q0 = (p_s, p_o, w_s, w_o), q1.x = v → a0 = (balance, power, weighted, clamped).
+//   mode 5: the table lookup at α = q1.w, cos θ_o = q2.w → a0 = (a, b, c, d), a1 = (e, ρ_s, 0, 0).
 @compute @workgroup_size(64)
 fn certify(@builtin(global_invocation_id) gid: vec3u) {
     let k = gid.x;
     if k >= ll_params.count {
         return;
     }
-    let q0 = ll_queries[6u * k];
-    let q1 = ll_queries[6u * k + 1u];
-    let q2 = ll_queries[6u * k + 2u];
-    let q3 = ll_queries[6u * k + 3u];
-    let q4 = ll_queries[6u * k + 4u];
-    let q5 = ll_queries[6u * k + 5u];
+    let q0 = ll_queries[9u * k];
+    let q1 = ll_queries[9u * k + 1u];
+    let q2 = ll_queries[9u * k + 2u];
+    let q3 = ll_queries[9u * k + 3u];
+    let q4 = ll_queries[9u * k + 4u];
+    let q5 = ll_queries[9u * k + 5u];
     var a0 = vec4f(0.0);
     var a1 = vec4f(0.0);
     var a2 = vec4f(0.0);
@@ -774,26 +843,31 @@ fn certify(@builtin(global_invocation_id) gid: vec3u) {
             }
         }
         case 2u: {
-            let n = normalize(q3.xyz);
-            let v = normalize(q4.xyz);
-            let entry = ll_ltc_lookup(q1.w, dot(n, v));
-            let l = ll_ltc_prepare(q0.xyz, q1.xyz, q2.xyz, ll_shading_frame(n, v), entry.a);
+            let a = transpose(mat3x3f(ll_queries[9u * k + 6u].xyz, ll_queries[9u * k + 7u].xyz,
+                ll_queries[9u * k + 8u].xyz));
+            let frame = ll_shading_frame(normalize(q3.xyz), normalize(q4.xyz));
+            let l = ll_ltc_prepare(q0.xyz, q1.xyz, q2.xyz, frame, a);
             if l.valid {
                 let s = ll_ltc_sample(l, xi);
                 a0 = vec4f(s.dir, s.pdf);
                 a1 = vec4f(ll_ltc_inverse(l, s.dir), 1.0, ll_ltc_pdf(l, q5.xyz),
                     ll_ltc_density_on_clipped_line(l, q5.xyz));
-                a2 = vec4f(ll_ltc_weight_scale(l), entry.rho, 0.0, 0.0);
+                a2 = vec4f(ll_ltc_weight_scale(l), 0.0, 0.0, 0.0);
             }
         }
         case 3u: {
             let c = ll_psa_core(q0.x, q0.y, q0.z, q1.x, q1.y);
-            a0 = vec4f(ll_psa_solve(c, q0.w, ll_params.steps), c.total, 0.0, 0.0);
+            a0 = vec4f(ll_psa_solve(c, q0.w, ll_params.steps), c.total, c.p0, c.p1);
         }
         case 4u: {
             a0 = vec4f(ll_mis_balance(q0.x, q0.y), ll_mis_power(q0.x, q0.y),
                 ll_mis_weighted_balance(q0.x, q0.y, q0.z, q0.w),
                 ll_mis_clamped_optimal(q0.x, q0.y, q0.z, q0.w, q1.x));
+        }
+        case 5u: {
+            let e = ll_ltc_lookup(q1.w, q2.w);
+            a0 = vec4f(e.a[0].x, e.a[2].x, e.a[1].y, e.a[0].z);
+            a1 = vec4f(e.a[2].z, e.rho, 0.0, 0.0);
         }
         default: {}
     }

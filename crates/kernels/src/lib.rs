@@ -24,7 +24,7 @@ pub const ENTRY_POINTS: [&str; 2] = ["certify", "bench"];
 pub const WORKGROUP_SIZE: u32 = 64;
 
 /// vec4f per query and per answer of the `certify` entry point (see the source).
-pub const CERTIFY_QUERY_VEC4S: usize = 6;
+pub const CERTIFY_QUERY_VEC4S: usize = 9;
 pub const CERTIFY_ANSWER_VEC4S: usize = 3;
 /// vec4f per cached shading point of the `bench` entry point.
 pub const BENCH_POINT_VEC4S: usize = 3;
@@ -39,6 +39,8 @@ pub enum CertifyMode {
     /// The projected-solid-angle inversion alone, on (n_s, n_t, sin φ_b, cos φ_b, Δ, ξ).
     PsaCore = 3,
     Mis = 4,
+    /// The GGX table lookup at (α, cos θ_o).
+    LtcLookup = 5,
 }
 
 /// The `bench` entry point's modes.
