@@ -142,7 +142,7 @@ impl AgreementBound {
         ];
         for (name, value, bound) in checks {
             // NaN fails.
-            if !(value <= bound) {
+            if value.is_nan() || value > bound {
                 return Err(format!(
                     "{name} {value} exceeds {bound} (worst at {})",
                     a.worst_config
