@@ -25,7 +25,7 @@ fn without_the_feature_says_how_to_build_it() {
 #[cfg(feature = "gpu")]
 #[test]
 fn kernels_pass_and_controls_are_rejected() {
-    let out = samplers_gpu("128");
+    let out = samplers_gpu("10000");
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     if out.status.code() == Some(2) && stdout.contains("GPU kernels: skipped (no adapter)") {
@@ -49,4 +49,21 @@ fn kernels_pass_and_controls_are_rejected() {
         assert!(line.contains("rejected:"), "{line}");
     }
     assert!(!stdout.contains("FAIL"), "{stdout}");
+    // The suite on the kernels' answers: every technique, and the mutated kernels as controls.
+    assert!(
+        stdout.contains("sampler suite on the kernels' answers"),
+        "{stdout}"
+    );
+    for subject in [
+        "gpu-clipped-solid-angle",
+        "gpu-projected-solid-angle",
+        "gpu-ltc",
+    ] {
+        assert!(stdout.contains(subject), "{subject}: {stdout}");
+    }
+    assert_eq!(
+        stdout.matches("rejected as expected").count(),
+        3,
+        "{stdout}"
+    );
 }

@@ -7,7 +7,7 @@
 use std::process::ExitCode;
 
 #[cfg(not(feature = "gpu"))]
-pub fn run(_samples_per_config: usize) -> ExitCode {
+pub fn run(_samples_per_config: usize, _suite_samples: usize) -> ExitCode {
     eprintln!(
         "error: this linlight was built without the GPU backend; build it with \
          `cargo build --release --features gpu` (docs/kernels.md)"
@@ -15,8 +15,87 @@ pub fn run(_samples_per_config: usize) -> ExitCode {
     ExitCode::from(2)
 }
 
+/// The sampler suite (docs/sampler-suite.md) on the kernels' answers: each technique against
+/// its certified Rust reference (χ², pdf consistency, round trip, the kernels' own inverse, the
+/// integral, cross densities), and each mutated kernel as a negative control that must fail a
+/// check. `Ok(passed)`, or the exit code of a backend failure.
 #[cfg(feature = "gpu")]
-pub fn run(samples_per_config: usize) -> ExitCode {
+fn run_answer_suite(gpu: linlight_gpu::Gpu, samples: usize) -> Result<bool, ExitCode> {
+    use linlight_gpu::answers::GpuAnswers;
+    use linlight_gpu::mutate::{mutated, Mutation};
+    use linlight_gpu::{Gpu, Technique};
+    use linlight_verify::subjects::{ltc, technique, Rejection, Role, SamplerUnderTest};
+    use linlight_verify::{run_suite, Settings};
+    use std::sync::Arc;
+
+    let reference = |t: Technique| -> SamplerUnderTest {
+        match t {
+            Technique::Clipped => technique(linlight_sampling::Technique::ClippedSolidAngle),
+            Technique::ProjectedSolidAngle => {
+                technique(linlight_sampling::Technique::ProjectedSolidAngle)
+            }
+            Technique::Ltc => ltc(),
+        }
+    };
+    let gpu = Arc::new(gpu);
+    let subjects: Vec<SamplerUnderTest> = Technique::ALL
+        .iter()
+        .map(|&t| {
+            reference(t).answered_by(
+                format!("gpu-{}", t.name()),
+                format!("the {} kernel on {}", t.name(), gpu.adapter()),
+                Box::new(GpuAnswers {
+                    gpu: gpu.clone(),
+                    technique: t,
+                }),
+            )
+        })
+        .collect();
+    let mut controls = Vec::new();
+    for m in Mutation::ALL {
+        let mutant = match Gpu::with_source(&mutated(linlight_kernels::WGSL, m)) {
+            Ok(g) => Arc::new(g),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return Err(ExitCode::from(2));
+            }
+        };
+        let t = match m {
+            Mutation::LtcWrongInverse => Technique::Ltc,
+            _ => Technique::ProjectedSolidAngle,
+        };
+        let mut c = reference(t).answered_by(
+            format!("gpu-{}-{}", t.name(), m.name()),
+            format!("the {} kernel mutated: {}", t.name(), m.name()),
+            Box::new(GpuAnswers {
+                gpu: mutant,
+                technique: t,
+            }),
+        );
+        c.role = Role::NegativeControl;
+        c.rejection = Rejection::any();
+        controls.push(c);
+    }
+    let settings = Settings {
+        samples,
+        ..Settings::default()
+    };
+    println!("\nsampler suite on the kernels' answers (N = {samples} samples per configuration)");
+    let report = run_suite(&subjects, &controls, &settings);
+    for s in subjects.iter().chain(&controls) {
+        if let Some(e) = s.answers.as_ref().and_then(|a| a.failure()) {
+            eprintln!("error: {e}");
+            return Err(ExitCode::from(2));
+        }
+    }
+    super::samplers::print_techniques(&report.techniques);
+    super::samplers::print_failures(&report.techniques);
+    super::samplers::print_controls(&report.negative_controls);
+    Ok(report.passed)
+}
+
+#[cfg(feature = "gpu")]
+pub fn run(samples_per_config: usize, suite_samples: usize) -> ExitCode {
     use linlight_gpu::certify::{
         agreement, backward_error_sweep, lookup_difference, mis_difference, Agreement,
         AGREEMENT_BOUND, BACKWARD_ERROR_BOUND,
@@ -154,6 +233,12 @@ pub fn run(samples_per_config: usize) -> ExitCode {
             }
         );
     }
+    // The sampler suite on the kernels' outputs, the mutated kernels as its negative controls.
+    let suite_ok = match run_answer_suite(gpu, suite_samples) {
+        Ok(ok) => ok,
+        Err(code) => return code,
+    };
+    passed &= suite_ok;
     println!(
         "\nGPU kernels: {} ({:.1} s)",
         if passed { "pass" } else { "FAIL" },

@@ -8,6 +8,7 @@
 //! sampler suite's answer sources (batches of primary samples → directions, densities, inverse;
 //! batches of directions → densities); [`Gpu::bench`] shades a frame of cached shading points.
 
+pub mod answers;
 pub mod bench;
 pub mod certify;
 pub mod mutate;
