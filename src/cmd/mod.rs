@@ -8,6 +8,7 @@ pub mod compare;
 pub mod external;
 pub mod figures;
 pub mod fit_ltc;
+pub mod gpu_kernels;
 pub mod info;
 pub mod merge;
 pub mod render;

@@ -47,6 +47,15 @@ pub struct Args {
     /// exits 2.
     #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
     timeout: f64,
+    /// `rust` (the Rust samplers) or `gpu`: the shader kernels on the adapter wgpu finds
+    /// (lavapipe without a GPU; needs a build with `--features gpu`): agreement with the Rust
+    /// f32 samplers (--samples ξ per configuration, at most 1024), the backward-error sweep,
+    /// table lookup, MIS weights, and the sampler suite on the kernels' answers (at most
+    /// 100000 samples per configuration) with mutated kernels as its controls.
+    /// Example: --backend gpu
+    #[arg(long, value_name = "BACKEND", default_value = "rust", value_parser = ["rust", "gpu"],
+          conflicts_with_all = ["external", "tilt_power"])]
+    backend: String,
 }
 
 fn fmt_opt(v: Option<f64>) -> String {
@@ -93,7 +102,7 @@ pub(crate) fn print_techniques(rows: &[SubjectReport]) {
     }
 }
 
-fn print_controls(rows: &[SubjectReport]) {
+pub(crate) fn print_controls(rows: &[SubjectReport]) {
     println!(
         "{:<46} {:>11} {:>14} {:>10}  {:<52} verdict",
         "negative control", "rejected", "as required", "worst p", "failing checks (configs)"
@@ -178,6 +187,9 @@ pub(crate) fn print_failures(rows: &[SubjectReport]) {
 }
 
 pub fn run(args: Args) -> ExitCode {
+    if args.backend == "gpu" {
+        return crate::cmd::gpu_kernels::run(args.samples.min(1024), args.samples.min(100_000));
+    }
     // An unusable --json is reported before the suite runs, not after it.
     if let Some(path) = &args.json {
         if let Err(e) = linlight::outputs::check_writable(path) {

@@ -340,6 +340,93 @@ fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepR
     row
 }
 
+/// One f32 inversion problem of the sweep as another implementation of the inversion receives
+/// it (the problem as the f32 sampler represents it: n_s, n_t, sin φ_b, cos φ_b, Δ, ξ).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct F32Problem {
+    pub ns: f32,
+    pub nt: f32,
+    pub s_b: f32,
+    pub c_b: f32,
+    pub width: f32,
+    pub xi: f32,
+}
+
+/// The f32 row of [`sweep`] (same cases, same ξ) with τ from another implementation: `solve`
+/// gets the problems of one normal angle at a time and returns τ̂ for each, in order (e.g. the
+/// shader kernels, which solve with `iterations` steps on a GPU). The backward error of each τ̂
+/// is evaluated in f64 on the problem exactly as sent, like the f32 rows of [`sweep`].
+/// `None` if `solve` answers a batch with the wrong count.
+pub fn sweep_f32_with(
+    cfg: &SweepConfig,
+    iterations: u32,
+    mut solve: impl FnMut(&[F32Problem]) -> Vec<f32>,
+) -> Option<SweepRow> {
+    let mut row = SweepRow {
+        iterations,
+        precision: Precision::F32,
+        worst_outside_guard: 0.0,
+        worst_including_guard: 0.0,
+        worst_wide_intervals: 0.0,
+        worst_near_ends: 0.0,
+        worst_case: Case::default(),
+        worst_case_including_guard: Case::default(),
+        samples: 0,
+    };
+    // The streams of `sweep_one`, drawn in its order.
+    let mut rng = Pcg32::new(cfg.seed, 0x6261_636b);
+    let mut near_rng = Pcg32::new(cfg.seed, NEAR_END_STREAM);
+    for psi in normal_angles(cfg.normals) {
+        let (ns, nt) = psi.sin_cos();
+        let k = cfg.xi_per_interval;
+        let swept = intervals(psi)
+            .into_iter()
+            .map(|i| (i, xi_values(&mut rng, k), false));
+        let near = near_end_intervals(psi)
+            .into_iter()
+            .map(|i| (i, xi_values(&mut near_rng, k), true));
+        let mut problems = Vec::new();
+        let mut cases = Vec::new();
+        for ((phi_b, width), xis, near_end) in swept.chain(near) {
+            if let Some((core, exact)) = cores::<f32>(ns, nt, phi_b, width) {
+                for &xi in &xis {
+                    let x = xi as f32;
+                    problems.push(F32Problem {
+                        ns: core.ns,
+                        nt: core.nt,
+                        s_b: core.s_b,
+                        c_b: core.c_b,
+                        width: core.width,
+                        xi: x,
+                    });
+                    let case = Case {
+                        psi,
+                        phi_begin: phi_b,
+                        width,
+                        xi,
+                    };
+                    cases.push((case, exact, near_end));
+                }
+            }
+        }
+        let taus = solve(&problems);
+        if taus.len() != problems.len() {
+            return None;
+        }
+        for ((p, (case, exact, near_end)), tau) in problems.iter().zip(cases).zip(taus) {
+            let e = backward_error(&exact, p.xi as f64, tau as f64);
+            record(
+                &mut row,
+                case,
+                e.abs(),
+                PsaCore::<f32>::in_guard(p.xi),
+                near_end,
+            );
+        }
+    }
+    Some(row)
+}
+
 fn record(row: &mut SweepRow, case: Case, e: f64, in_guard: bool, near_end: bool) {
     row.samples += 1;
     // NaN must not hide: treat it as the worst possible error.
@@ -365,6 +452,40 @@ fn record(row: &mut SweepRow, case: Case, e: f64, in_guard: bool, near_end: bool
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The sweep with the Rust f32 solver plugged in as the external one reproduces the f32 row
+    /// of `sweep` exactly (same cases, same ξ, same problems).
+    #[test]
+    fn external_f32_sweep_reproduces_the_f32_row() {
+        let cfg = SweepConfig {
+            iterations: vec![2],
+            normals: 8,
+            xi_per_interval: 32,
+            seed: 3,
+        };
+        let row = sweep(&cfg)
+            .into_iter()
+            .find(|r| r.precision == Precision::F32)
+            .unwrap();
+        let external = sweep_f32_with(&cfg, 2, |problems| {
+            problems
+                .iter()
+                .map(|p| {
+                    PsaCore::<f32>::with_frame_values(p.ns, p.nt, p.s_b, p.c_b, p.width)
+                        .unwrap()
+                        .solve(p.xi, 2)
+                })
+                .collect()
+        })
+        .unwrap();
+        assert_eq!(external.samples, row.samples);
+        assert_eq!(external.worst_including_guard, row.worst_including_guard);
+        assert_eq!(external.worst_outside_guard, row.worst_outside_guard);
+        assert_eq!(external.worst_near_ends, row.worst_near_ends);
+        assert_eq!(external.worst_case, row.worst_case);
+        // A wrong count is reported, not mis-zipped.
+        assert!(sweep_f32_with(&cfg, 2, |p| vec![0.0; p.len() - 1]).is_none());
+    }
 
     #[test]
     fn small_sweep_orders_iterations() {

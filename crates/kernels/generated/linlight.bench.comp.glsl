@@ -1,0 +1,1234 @@
+#version 450 core
+#extension GL_ARB_compute_shader : require
+#extension GL_ARB_shader_storage_buffer_object : require
+layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
+
+struct LlFrame {
+    vec3 u;
+    vec3 c_hat;
+    float d;
+    float l_b;
+    float l_e;
+    bool valid;
+};
+struct LlArc {
+    vec3 u;
+    vec3 c_hat;
+    float d;
+    float s_b;
+    float c_b;
+    float width;
+};
+struct LlClipped {
+    LlArc arc;
+    float delta_s;
+    float pdf;
+    bool valid;
+};
+struct LlSample {
+    vec3 dir;
+    float pdf;
+};
+struct LlPsaCore {
+    float ns;
+    float nt;
+    float s_b;
+    float c_b;
+    float delta_s;
+    float width;
+    float p0_;
+    float p1_;
+    float total;
+};
+struct LlPsaEval {
+    float delta_c_cos;
+    float delta_c_lin;
+    float s2_;
+    float t2_;
+    float n_dot_w;
+    float n_dot_w_prime;
+};
+struct LlPsa {
+    LlArc arc;
+    vec3 n;
+    LlPsaCore core;
+    float inv_psa;
+    bool valid;
+};
+struct LlLtc {
+    LlArc arc;
+    mat3x3 to_shading;
+    mat3x3 a;
+    mat3x3 to_world;
+    LlPsa transformed;
+    float kappa;
+    float scale;
+    bool valid;
+};
+struct LlLtcEntry {
+    mat3x3 a;
+    float rho;
+};
+struct LlParams {
+    uint mode;
+    uint count;
+    uint samples;
+    uint steps;
+    vec4 light_begin;
+    vec4 light_end;
+};
+const float LL_PI = 3.1415927;
+const float LL_HALF_PI_HI = 1.5707964;
+const float LL_HALF_PI_LO = -4.371139e-8;
+const float LL_QUARTER_PI = 0.7853982;
+const float LL_TAN_PI_8_ = 0.41421357;
+const uint LL_HALLEY_STEPS = 2u;
+const float LL_XI_GUARD = 1e-5;
+const float LL_PDF_SCALE = 1.0;
+const float LL_XI_LATTICE_START = 2.9802322e-8;
+const float LL_XI_LATTICE_END = 0.99999994;
+const float LL_MIN_RELATIVE_DISTANCE = 1e-7;
+const float LL_MAX_ILL_CONDITION = 10000000.0;
+
+layout(std430, binding = 3) readonly buffer type_9_block_0Compute { float _group_0_binding_3_cs[]; };
+
+layout(std140, binding = 0) uniform LlParams_block_1Compute { LlParams _group_0_binding_0_cs; };
+
+layout(std430, binding = 1) readonly buffer type_12_block_2Compute { vec4 _group_0_binding_1_cs[]; };
+
+layout(std430, binding = 2) buffer type_12_block_3Compute { vec4 _group_0_binding_2_cs[]; };
+
+
+vec2 ll_sin_cos(float x) {
+    bool upper = (x > LL_QUARTER_PI);
+    float y_2 = (upper ? ((LL_HALF_PI_HI - x) + LL_HALF_PI_LO) : x);
+    float y2_ = (y_2 * y_2);
+    float s = (y_2 * (1.0 - ((y2_ / 6.0) * (1.0 - ((y2_ / 20.0) * (1.0 - ((y2_ / 42.0) * (1.0 - ((y2_ / 72.0) * (1.0 - (y2_ / 110.0)))))))))));
+    float c_16 = (1.0 - ((y2_ / 2.0) * (1.0 - ((y2_ / 12.0) * (1.0 - ((y2_ / 30.0) * (1.0 - ((y2_ / 56.0) * (1.0 - ((y2_ / 90.0) * (1.0 - (y2_ / 132.0))))))))))));
+    return (upper ? vec2(c_16, s) : vec2(s, c_16));
+}
+
+float ll_atan_unit(float a) {
+    float p = 0.05882353;
+    bool upper_1 = (a > LL_TAN_PI_8_);
+    float b_3 = (upper_1 ? ((a - 1.0) / (a + 1.0)) : a);
+    float b2_ = (b_3 * b_3);
+    float _e12 = p;
+    p = (0.06666667 - (b2_ * _e12));
+    float _e16 = p;
+    p = (0.07692308 - (b2_ * _e16));
+    float _e20 = p;
+    p = (0.09090909 - (b2_ * _e20));
+    float _e24 = p;
+    p = (0.11111111 - (b2_ * _e24));
+    float _e28 = p;
+    p = (0.14285715 - (b2_ * _e28));
+    float _e32 = p;
+    p = (0.2 - (b2_ * _e32));
+    float _e36 = p;
+    p = (0.33333334 - (b2_ * _e36));
+    float _e41 = p;
+    float r_1 = (b_3 - ((b_3 * b2_) * _e41));
+    return (upper_1 ? (LL_QUARTER_PI + r_1) : r_1);
+}
+
+float ll_atan2_(float y, float x_1) {
+    float r = 0.0;
+    float ax = abs(x_1);
+    float ay = abs(y);
+    float mx = max(ax, ay);
+    float mn = min(ax, ay);
+    float a_11 = ((mx == 0.0) ? 0.0 : (mn / mx));
+    float _e11 = ll_atan_unit(a_11);
+    r = _e11;
+    float _e13 = r;
+    float _e15 = r;
+    r = ((ay > ax) ? ((LL_HALF_PI_HI - _e15) + LL_HALF_PI_LO) : _e13);
+    float _e21 = r;
+    float _e23 = r;
+    r = ((x_1 < 0.0) ? (LL_PI - _e23) : _e21);
+    float _e28 = r;
+    float _e29 = r;
+    return ((y < 0.0) ? -(_e29) : _e28);
+}
+
+ivec3 ll_unpack(float x_2) {
+    uint bits = floatBitsToUint(x_2);
+    int biased = int(((bits >> 23u) & 255u));
+    uint m_1 = ((bits & 8388607u) | ((biased != 0) ? 8388608u : 0u));
+    return ivec3(int(m_1), (max(biased, 1) - 150), int((bits >> 31u)));
+}
+
+uvec2 ll_fixed_negate(uvec2 x_3) {
+    uint lo_1 = (~(x_3.x) + 1u);
+    return uvec2(lo_1, (~(x_3.y) + ((lo_1 == 0u) ? 1u : 0u)));
+}
+
+uvec2 ll_fixed_add(uvec2 x_4, uvec2 y_1) {
+    uint lo_2 = (x_4.x + y_1.x);
+    return uvec2(lo_2, ((x_4.y + y_1.y) + ((lo_2 < x_4.x) ? 1u : 0u)));
+}
+
+uvec2 ll_fixed_product(float a_1, float b) {
+    uvec2 p_1 = uvec2(0u);
+    ivec3 _e2 = ll_unpack(a_1);
+    ivec3 _e3 = ll_unpack(b);
+    uint a1_1 = (uint(_e2.x) >> 12u);
+    uint a0_1 = (uint(_e2.x) & 4095u);
+    uint b1_ = (uint(_e3.x) >> 12u);
+    uint b0_ = (uint(_e3.x) & 4095u);
+    uint hh = (a1_1 * b1_);
+    uint mid = ((a1_1 * b0_) + (a0_1 * b1_));
+    uvec2 _e32 = ll_fixed_add(uvec2((a0_1 * b0_), 0u), uvec2((mid << 12u), (mid >> 20u)));
+    p_1 = _e32;
+    uvec2 _e34 = p_1;
+    uvec2 _e40 = ll_fixed_add(_e34, uvec2((hh << 24u), (hh >> 8u)));
+    p_1 = _e40;
+    int s_1 = ((_e2.y + _e3.y) + 60);
+    if ((s_1 > 0)) {
+        uint k_5 = uint(s_1);
+        uint _e50 = p_1.x;
+        uint _e53 = p_1.y;
+        uint _e56 = p_1.x;
+        p_1 = uvec2((_e50 << k_5), ((_e53 << k_5) | (_e56 >> (32u - k_5))));
+    } else {
+        if ((s_1 < 0)) {
+            uint r_2 = uint(-(s_1));
+            if ((r_2 >= 64u)) {
+                p_1 = uvec2(0u, 0u);
+            } else {
+                if ((r_2 >= 32u)) {
+                    uint _e74 = p_1.y;
+                    p_1 = uvec2((_e74 >> (r_2 - 32u)), 0u);
+                } else {
+                    uint _e81 = p_1.x;
+                    uint _e84 = p_1.y;
+                    uint _e90 = p_1.y;
+                    p_1 = uvec2(((_e81 >> r_2) | (_e84 << (32u - r_2))), (_e90 >> r_2));
+                }
+            }
+        }
+    }
+    uvec2 _e93 = p_1;
+    uvec2 _e94 = p_1;
+    uvec2 _e95 = ll_fixed_negate(_e94);
+    return (((_e2.z ^ _e3.z) != 0) ? _e95 : _e93);
+}
+
+float ll_fixed_to_f32_(uvec2 x_5) {
+    bool negative = ((x_5.y >> 31u) != 0u);
+    uvec2 _e6 = ll_fixed_negate(x_5);
+    uvec2 m_2 = (negative ? _e6 : x_5);
+    float v_1 = ((float(m_2.y) * 3.7252903e-9) + (float(m_2.x) * 8.6736174e-19));
+    return (negative ? -(v_1) : v_1);
+}
+
+float ll_dot2_(float a_2, float b_1, float c, float d) {
+    uvec2 _e4 = ll_fixed_product(a_2, b_1);
+    uvec2 _e5 = ll_fixed_product(c, d);
+    uvec2 _e6 = ll_fixed_add(_e4, _e5);
+    float _e7 = ll_fixed_to_f32_(_e6);
+    return _e7;
+}
+
+LlFrame ll_frame(vec3 begin, vec3 end, vec3 x_6) {
+    LlFrame f = LlFrame(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, false);
+    vec3 c_1 = vec3(0.0);
+    bool local = false;
+    bool local_1 = false;
+    bool local_2 = false;
+    vec3 b_4 = (begin - x_6);
+    vec3 e_4 = (end - x_6);
+    vec3 axis = (e_4 - b_4);
+    float length2_ = dot(axis, axis);
+    float length_ = sqrt(length2_);
+    f.u = (axis / vec3(length_));
+    bool from_end = (dot(e_4, e_4) < dot(b_4, b_4));
+    vec3 p_9 = (from_end ? e_4 : b_4);
+    vec3 _e17 = f.u;
+    vec3 _e20 = f.u;
+    c_1 = (p_9 - (dot(_e17, p_9) * _e20));
+    vec3 _e24 = c_1;
+    vec3 _e26 = f.u;
+    vec3 _e27 = c_1;
+    vec3 _e30 = f.u;
+    c_1 = (_e24 - (dot(_e26, _e27) * _e30));
+    vec3 _e33 = c_1;
+    vec3 _e34 = c_1;
+    float d2_ = dot(_e33, _e34);
+    f.d = sqrt(d2_);
+    vec3 _e39 = c_1;
+    float _e41 = f.d;
+    f.c_hat = (_e39 / vec3(_e41));
+    vec3 _e45 = f.u;
+    float lp = dot(_e45, p_9);
+    f.l_b = (from_end ? (lp - length_) : lp);
+    f.l_e = (from_end ? lp : (lp + length_));
+    float scale2_ = max(length2_, max(dot(b_4, b_4), dot(e_4, e_4)));
+    if ((length2_ > 0.0)) {
+        local = (d2_ > ((LL_MIN_RELATIVE_DISTANCE * LL_MIN_RELATIVE_DISTANCE) * scale2_));
+    } else {
+        local = false;
+    }
+    bool _e67 = local;
+    if (_e67) {
+        float _e71 = f.l_e;
+        float _e73 = f.l_b;
+        local_1 = (_e71 > _e73);
+    } else {
+        local_1 = false;
+    }
+    bool _e76 = local_1;
+    if (_e76) {
+        float _e80 = f.d;
+        local_2 = (_e80 > 0.0);
+    } else {
+        local_2 = false;
+    }
+    bool _e84 = local_2;
+    f.valid = _e84;
+    LlFrame _e85 = f;
+    return _e85;
+}
+
+LlFrame ll_frame_clip(LlFrame f_in, vec3 n) {
+    LlFrame f_1 = LlFrame(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, false);
+    bool local_3 = false;
+    bool local_4 = false;
+    bool local_5 = false;
+    bool local_6 = false;
+    bool local_7 = false;
+    f_1 = f_in;
+    float _e4 = f_1.d;
+    vec3 _e6 = f_1.c_hat;
+    float nc = (_e4 * dot(n, _e6));
+    vec3 _e10 = f_1.u;
+    float nu = dot(n, _e10);
+    float _e13 = f_1.l_b;
+    float hb = (nc + (_e13 * nu));
+    float _e17 = f_1.l_e;
+    float he = (nc + (_e17 * nu));
+    float root = (-(nc) / nu);
+    float _e24 = f_1.l_b;
+    float _e26 = f_1.l_b;
+    if ((hb < 0.0)) {
+        local_3 = (he > 0.0);
+    } else {
+        local_3 = false;
+    }
+    bool _e35 = local_3;
+    f_1.l_b = (_e35 ? max(root, _e26) : _e24);
+    float _e39 = f_1.l_e;
+    float _e41 = f_1.l_e;
+    if ((he < 0.0)) {
+        local_4 = (hb > 0.0);
+    } else {
+        local_4 = false;
+    }
+    bool _e50 = local_4;
+    f_1.l_e = (_e50 ? min(root, _e41) : _e39);
+    bool _e54 = f_1.valid;
+    if (_e54) {
+        if (!((hb > 0.0))) {
+            local_6 = (he > 0.0);
+        } else {
+            local_6 = true;
+        }
+        bool _e65 = local_6;
+        local_5 = _e65;
+    } else {
+        local_5 = false;
+    }
+    bool _e67 = local_5;
+    if (_e67) {
+        float _e71 = f_1.l_e;
+        float _e73 = f_1.l_b;
+        local_7 = (_e71 > _e73);
+    } else {
+        local_7 = false;
+    }
+    bool _e76 = local_7;
+    f_1.valid = _e76;
+    LlFrame _e77 = f_1;
+    return _e77;
+}
+
+LlArc ll_arc(LlFrame f_2) {
+    LlArc a_3 = LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0);
+    a_3.u = f_2.u;
+    a_3.c_hat = f_2.c_hat;
+    a_3.d = f_2.d;
+    float r_b = sqrt(((f_2.l_b * f_2.l_b) + (f_2.d * f_2.d)));
+    a_3.s_b = (f_2.l_b / r_b);
+    a_3.c_b = (f_2.d / r_b);
+    float _e34 = ll_atan2_(((f_2.l_e - f_2.l_b) * f_2.d), fma(f_2.l_b, f_2.l_e, (f_2.d * f_2.d)));
+    a_3.width = _e34;
+    LlArc _e35 = a_3;
+    return _e35;
+}
+
+vec2 ll_arc_rotate(LlArc a_4, float sin_tau, float cos_tau) {
+    return vec2(((a_4.s_b * cos_tau) + (a_4.c_b * sin_tau)), ((a_4.c_b * cos_tau) - (a_4.s_b * sin_tau)));
+}
+
+vec3 ll_arc_direction(LlArc a_5, float tau) {
+    vec2 _e7 = ll_sin_cos((0.5 * clamp(tau, 0.0, a_5.width)));
+    vec2 _e20 = ll_arc_rotate(a_5, ((2.0 * _e7.x) * _e7.y), (1.0 - ((2.0 * _e7.x) * _e7.x)));
+    return ((_e20.x * a_5.u) + (max(_e20.y, 0.0) * a_5.c_hat));
+}
+
+float ll_arc_tau(LlArc a_6, vec3 dir) {
+    float s_2 = dot(a_6.u, dir);
+    float t = max(dot(a_6.c_hat, dir), 0.0);
+    float _e18 = ll_atan2_(((s_2 * a_6.c_b) - (t * a_6.s_b)), ((t * a_6.c_b) + (s_2 * a_6.s_b)));
+    return _e18;
+}
+
+bool ll_arc_contains(LlArc a_7, vec3 dir_1) {
+    bool local_8 = false;
+    bool local_9 = false;
+    float _e2 = ll_arc_tau(a_7, dir_1);
+    float tol = (1e-6 + (2e-6 * a_7.width));
+    if ((dot(a_7.c_hat, dir_1) >= 0.0)) {
+        local_8 = (_e2 >= -(tol));
+    } else {
+        local_8 = false;
+    }
+    bool _e17 = local_8;
+    if (_e17) {
+        local_9 = (_e2 <= (a_7.width + tol));
+    } else {
+        local_9 = false;
+    }
+    bool _e24 = local_9;
+    return _e24;
+}
+
+float ll_arc_delta_s(LlArc a_8, float tau_1) {
+    vec2 _e4 = ll_sin_cos((0.5 * tau_1));
+    return ((2.0 * _e4.x) * ((a_8.c_b * _e4.y) - (a_8.s_b * _e4.x)));
+}
+
+LlClipped ll_clipped_prepare(vec3 begin_1, vec3 end_1, vec3 x_7, vec3 n_1) {
+    LlClipped c_2 = LlClipped(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0), 0.0, 0.0, false);
+    bool local_10 = false;
+    bool local_11 = false;
+    bool local_12 = false;
+    bool local_13 = false;
+    LlFrame _e5 = ll_frame(begin_1, end_1, x_7);
+    LlFrame _e6 = ll_frame_clip(_e5, n_1);
+    LlArc _e8 = ll_arc(_e6);
+    c_2.arc = _e8;
+    LlArc _e11 = c_2.arc;
+    float _e14 = c_2.arc.width;
+    float _e15 = ll_arc_delta_s(_e11, _e14);
+    c_2.delta_s = _e15;
+    float _e19 = c_2.arc.d;
+    float _e21 = c_2.delta_s;
+    c_2.pdf = (_e19 / (2.0 * _e21));
+    if (_e6.valid) {
+        float _e31 = c_2.arc.width;
+        local_10 = (_e31 > 0.0);
+    } else {
+        local_10 = false;
+    }
+    bool _e35 = local_10;
+    if (_e35) {
+        float _e39 = c_2.delta_s;
+        local_11 = (_e39 > 0.0);
+    } else {
+        local_11 = false;
+    }
+    bool _e43 = local_11;
+    if (_e43) {
+        float _e47 = c_2.pdf;
+        local_12 = (_e47 > 0.0);
+    } else {
+        local_12 = false;
+    }
+    bool _e51 = local_12;
+    if (_e51) {
+        float _e55 = c_2.pdf;
+        local_13 = (_e55 < 3e38);
+    } else {
+        local_13 = false;
+    }
+    bool _e59 = local_13;
+    c_2.valid = _e59;
+    LlClipped _e60 = c_2;
+    return _e60;
+}
+
+float ll_clipped_tau(LlClipped c_3, float xi) {
+    float tau_2 = 0.0;
+    LlArc a_12 = c_3.arc;
+    float y_3 = (clamp(xi, 0.0, 1.0) * c_3.delta_s);
+    float q = (y_3 * ((2.0 * a_12.s_b) + y_3));
+    float cc = sqrt(max(((a_12.c_b * a_12.c_b) - q), 0.0));
+    float denom = (a_12.c_b + cc);
+    float sin_tau_1 = ((denom > 0.0) ? ((y_3 * a_12.c_b) + ((a_12.s_b * q) / denom)) : y_3);
+    float cos_tau_1 = ((cc * a_12.c_b) + ((a_12.s_b + y_3) * a_12.s_b));
+    float _e38 = ll_atan2_(sin_tau_1, cos_tau_1);
+    tau_2 = clamp(_e38, 0.0, a_12.width);
+    float _e43 = tau_2;
+    tau_2 = ((xi <= 0.0) ? 0.0 : _e43);
+    float _e48 = tau_2;
+    return ((xi >= 1.0) ? a_12.width : _e48);
+}
+
+LlSample ll_clipped_sample(LlClipped c_4, float xi_1) {
+    float _e3 = ll_clipped_tau(c_4, xi_1);
+    vec3 _e4 = ll_arc_direction(c_4.arc, _e3);
+    return LlSample(_e4, (c_4.pdf * LL_PDF_SCALE));
+}
+
+float ll_clipped_pdf(LlClipped c_5, vec3 dir_2) {
+    bool _e6 = ll_arc_contains(c_5.arc, dir_2);
+    return (_e6 ? (c_5.pdf * LL_PDF_SCALE) : 0.0);
+}
+
+float ll_clipped_inverse(LlClipped c_6, vec3 dir_3) {
+    float _e3 = ll_arc_tau(c_6.arc, dir_3);
+    float tau_11 = clamp(_e3, 0.0, c_6.arc.width);
+    float _e9 = ll_arc_delta_s(c_6.arc, tau_11);
+    return clamp((_e9 / c_6.delta_s), 0.0, 1.0);
+}
+
+float ll_delta_minus_sin(float x_8, float sin_x) {
+    float x2_ = (x_8 * x_8);
+    float series = (((x_8 * x2_) / 6.0) * (1.0 - ((x2_ / 20.0) * (1.0 - ((x2_ / 42.0) * (1.0 - ((x2_ / 72.0) * (1.0 - (x2_ / 110.0)))))))));
+    return ((abs(x_8) < 1.0) ? series : (x_8 - sin_x));
+}
+
+vec2 ll_psa_delta_c_parts(LlPsaCore c_7, float tau_3, float sh, float ch) {
+    float cm = ((c_7.c_b * ch) - (c_7.s_b * sh));
+    float n_dot_wm = ((c_7.p0_ * ch) + (c_7.p1_ * sh));
+    float sin_tau_2 = ((2.0 * sh) * ch);
+    float _e22 = ll_delta_minus_sin(tau_3, sin_tau_2);
+    return vec2(((cm * n_dot_wm) * (2.0 * sin_tau_2)), (c_7.nt * _e22));
+}
+
+LlPsaCore ll_psa_core(float ns, float nt, float s_b, float c_b, float width) {
+    LlPsaCore c_8 = LlPsaCore(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    c_8.ns = ns;
+    c_8.nt = nt;
+    c_8.s_b = s_b;
+    c_8.c_b = c_b;
+    c_8.width = width;
+    float _e12 = ll_dot2_(ns, s_b, nt, c_b);
+    c_8.p0_ = max(_e12, 0.0);
+    float _e17 = ll_dot2_(ns, c_b, -(nt), s_b);
+    c_8.p1_ = _e17;
+    vec2 _e20 = ll_sin_cos((0.5 * width));
+    c_8.delta_s = ((2.0 * ((c_b * _e20.y) - (s_b * _e20.x))) * _e20.x);
+    LlPsaCore _e31 = c_8;
+    vec2 _e34 = ll_psa_delta_c_parts(_e31, width, _e20.x, _e20.y);
+    c_8.total = (_e34.x + _e34.y);
+    LlPsaCore _e39 = c_8;
+    return _e39;
+}
+
+LlPsaEval ll_psa_eval_half(LlPsaCore c_9, float tau_4, float sh_1, float ch_1) {
+    LlPsaEval e = LlPsaEval(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    float sin_tau_3 = ((2.0 * sh_1) * ch_1);
+    float cos_tau_2 = (1.0 - ((2.0 * sh_1) * sh_1));
+    vec2 _e13 = ll_psa_delta_c_parts(c_9, tau_4, sh_1, ch_1);
+    e.delta_c_cos = _e13.x;
+    e.delta_c_lin = _e13.y;
+    e.s2_ = (((2.0 * c_9.s_b) * cos_tau_2) + ((2.0 * c_9.c_b) * sin_tau_3));
+    e.t2_ = (((2.0 * c_9.c_b) * cos_tau_2) - ((2.0 * c_9.s_b) * sin_tau_3));
+    e.n_dot_w = ((c_9.p0_ * cos_tau_2) + (c_9.p1_ * sin_tau_3));
+    e.n_dot_w_prime = ((c_9.p1_ * cos_tau_2) - (c_9.p0_ * sin_tau_3));
+    LlPsaEval _e50 = e;
+    return _e50;
+}
+
+vec3 ll_psa_start(LlPsaCore c_10, float xi_2) {
+    float tau_5 = 0.0;
+    float y_4 = (xi_2 * c_10.delta_s);
+    float wy = ((2.0 * c_10.s_b) + y_4);
+    float q_1 = (y_4 * wy);
+    float cc_1 = sqrt(max(((c_10.c_b * c_10.c_b) - q_1), 0.0));
+    float denom_1 = (c_10.c_b + cc_1);
+    bool scaled = (denom_1 > 0.0);
+    float sin_tau_4 = (scaled ? (((y_4 * c_10.c_b) * denom_1) + (c_10.s_b * q_1)) : y_4);
+    float cos_tau_3 = ((scaled ? denom_1 : 1.0) * ((cc_1 * c_10.c_b) + ((c_10.s_b + y_4) * c_10.s_b)));
+    float _e37 = ll_atan2_(sin_tau_4, cos_tau_3);
+    tau_5 = clamp(_e37, 0.0, c_10.width);
+    float _e42 = tau_5;
+    tau_5 = ((xi_2 <= 0.0) ? 0.0 : _e42);
+    float _e47 = tau_5;
+    tau_5 = ((xi_2 >= 1.0) ? c_10.width : _e47);
+    float w_1 = sqrt(((denom_1 * denom_1) + (wy * wy)));
+    float sh_2 = (scaled ? (sin_tau_4 / (denom_1 * w_1)) : ((cos_tau_3 < 0.0) ? 1.0 : 0.0));
+    float _e64 = tau_5;
+    return vec3(_e64, sh_2, (0.5 * w_1));
+}
+
+vec2 ll_psa_halley_terms(LlPsaCore c_11, float xi_3, LlPsaEval e_1) {
+    float g_1 = (e_1.delta_c_cos + (e_1.delta_c_lin - (xi_3 * c_11.total)));
+    float g1_ = (e_1.t2_ * e_1.n_dot_w);
+    float g2_ = ((e_1.t2_ * e_1.n_dot_w_prime) - (e_1.s2_ * e_1.n_dot_w));
+    float den_1 = (max(g1_, 0.0) + sqrt(max(((g1_ * g1_) - (g_1 * (2.0 * g2_))), 0.0)));
+    return vec2(g_1, den_1);
+}
+
+float ll_psa_step(float tau_6, float limit, float g, float den, float scale) {
+    float stepped = clamp((tau_6 - ((scale * g) / den)), 0.0, limit);
+    float end_4 = ((g < 0.0) ? limit : ((g > 0.0) ? 0.0 : tau_6));
+    return ((den > 0.0) ? stepped : end_4);
+}
+
+float ll_psa_solve(LlPsaCore c_12, float xi_4, uint steps) {
+    bool local_14 = false;
+    bool local_15 = false;
+    float tau_7 = 0.0;
+    LlPsaEval e_2 = LlPsaEval(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    uint i = 1u;
+    vec3 _e3 = ll_psa_start(c_12, xi_4);
+    if (!((steps == 0u))) {
+        local_14 = (xi_4 < LL_XI_GUARD);
+    } else {
+        local_14 = true;
+    }
+    bool _e12 = local_14;
+    if (!(_e12)) {
+        local_15 = (xi_4 > 0.99999);
+    } else {
+        local_15 = true;
+    }
+    bool _e19 = local_15;
+    if (_e19) {
+        return _e3.x;
+    }
+    tau_7 = _e3.x;
+    float _e23 = tau_7;
+    LlPsaEval _e26 = ll_psa_eval_half(c_12, _e23, _e3.y, _e3.z);
+    e_2 = _e26;
+    bool loop_init = true;
+    while(true) {
+        if (!loop_init) {
+            uint _e52 = i;
+            i = (_e52 + 1u);
+        }
+        loop_init = false;
+        uint _e30 = i;
+        if ((_e30 < steps)) {
+        } else {
+            break;
+        }
+        {
+            LlPsaEval _e32 = e_2;
+            vec2 _e33 = ll_psa_halley_terms(c_12, xi_4, _e32);
+            float _e34 = tau_7;
+            float _e43 = ll_psa_step((0.5 * _e34), (0.5 * c_12.width), _e33.x, _e33.y, 1.0);
+            tau_7 = (2.0 * _e43);
+            vec2 _e46 = ll_sin_cos(_e43);
+            float _e47 = tau_7;
+            LlPsaEval _e50 = ll_psa_eval_half(c_12, _e47, _e46.x, _e46.y);
+            e_2 = _e50;
+        }
+    }
+    LlPsaEval _e54 = e_2;
+    vec2 _e55 = ll_psa_halley_terms(c_12, xi_4, _e54);
+    float _e56 = tau_7;
+    float _e61 = ll_psa_step(_e56, c_12.width, _e55.x, _e55.y, 2.0);
+    return _e61;
+}
+
+float ll_psa_solve_converged(LlPsaCore c_13, float xi_5) {
+    float lo = 0.0;
+    float hi = 0.0;
+    float tau_8 = 0.0;
+    uint i_1 = 0u;
+    bool local_16 = false;
+    bool local_17 = false;
+    hi = c_13.width;
+    vec3 _e6 = ll_psa_start(c_13, xi_5);
+    tau_8 = _e6.x;
+    bool loop_init_1 = true;
+    while(true) {
+        if (!loop_init_1) {
+            uint _e71 = i_1;
+            i_1 = (_e71 + 1u);
+        }
+        loop_init_1 = false;
+        uint _e11 = i_1;
+        if ((_e11 < 24u)) {
+        } else {
+            break;
+        }
+        {
+            float _e14 = tau_8;
+            vec2 _e17 = ll_sin_cos((0.5 * _e14));
+            float _e18 = tau_8;
+            LlPsaEval _e21 = ll_psa_eval_half(c_13, _e18, _e17.x, _e17.y);
+            vec2 _e22 = ll_psa_halley_terms(c_13, xi_5, _e21);
+            float _e23 = lo;
+            float _e24 = tau_8;
+            lo = ((_e22.x < 0.0) ? _e24 : _e23);
+            float _e29 = hi;
+            float _e30 = tau_8;
+            hi = ((_e22.x > 0.0) ? _e30 : _e29);
+            float _e35 = tau_8;
+            float _e40 = ll_psa_step(_e35, c_13.width, _e22.x, _e22.y, 2.0);
+            float _e41 = lo;
+            if ((_e40 > _e41)) {
+                float _e45 = hi;
+                local_16 = (_e40 < _e45);
+            } else {
+                local_16 = false;
+            }
+            bool inside = local_16;
+            float _e49 = tau_8;
+            float _e52 = tau_8;
+            if (!((abs((_e40 - _e49)) <= (2.4e-7 * _e52)))) {
+                local_17 = (_e22.x == 0.0);
+            } else {
+                local_17 = true;
+            }
+            bool converged = local_17;
+            float _e64 = lo;
+            float _e65 = hi;
+            tau_8 = (inside ? _e40 : (0.5 * (_e64 + _e65)));
+            if (converged) {
+                break;
+            }
+        }
+    }
+    float _e73 = tau_8;
+    return ((xi_5 <= 0.0) ? 0.0 : ((xi_5 >= 1.0) ? c_13.width : _e73));
+}
+
+float ll_psa_cdf(LlPsaCore c_14, float tau_9) {
+    float t_1 = clamp(tau_9, 0.0, c_14.width);
+    vec2 _e7 = ll_sin_cos((0.5 * t_1));
+    vec2 _e10 = ll_psa_delta_c_parts(c_14, t_1, _e7.x, _e7.y);
+    return clamp(((_e10.x + _e10.y) / c_14.total), 0.0, 1.0);
+}
+
+LlPsa ll_psa_on_frame(LlFrame f_3, vec3 n_2) {
+    LlPsa p_2 = LlPsa(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0), vec3(0.0), LlPsaCore(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0, false);
+    bool local_18 = false;
+    bool local_19 = false;
+    bool local_20 = false;
+    bool local_21 = false;
+    LlArc _e4 = ll_arc(f_3);
+    p_2.arc = _e4;
+    p_2.n = n_2;
+    float _e13 = p_2.arc.s_b;
+    float _e16 = p_2.arc.c_b;
+    float _e19 = p_2.arc.width;
+    LlPsaCore _e20 = ll_psa_core(dot(n_2, f_3.u), dot(n_2, f_3.c_hat), _e13, _e16, _e19);
+    p_2.core = _e20;
+    float _e25 = p_2.core.total;
+    p_2.inv_psa = (f_3.d / _e25);
+    if (f_3.valid) {
+        float _e33 = p_2.arc.width;
+        local_18 = (_e33 > 0.0);
+    } else {
+        local_18 = false;
+    }
+    bool _e37 = local_18;
+    if (_e37) {
+        float _e42 = p_2.core.total;
+        local_19 = (_e42 > 0.0);
+    } else {
+        local_19 = false;
+    }
+    bool _e46 = local_19;
+    if (_e46) {
+        float _e50 = p_2.inv_psa;
+        local_20 = (_e50 > 0.0);
+    } else {
+        local_20 = false;
+    }
+    bool _e54 = local_20;
+    if (_e54) {
+        float _e58 = p_2.inv_psa;
+        local_21 = (_e58 < 3e38);
+    } else {
+        local_21 = false;
+    }
+    bool _e62 = local_21;
+    p_2.valid = _e62;
+    LlPsa _e63 = p_2;
+    return _e63;
+}
+
+LlPsa ll_psa_prepare(vec3 begin_2, vec3 end_2, vec3 x_9, vec3 n_3) {
+    vec3 nn = normalize(n_3);
+    LlFrame _e5 = ll_frame(begin_2, end_2, x_9);
+    LlFrame _e6 = ll_frame_clip(_e5, nn);
+    LlPsa _e7 = ll_psa_on_frame(_e6, nn);
+    return _e7;
+}
+
+LlSample ll_psa_at(LlPsa p_3, float tau_10) {
+    LlPsaCore c_17 = p_3.core;
+    vec2 _e5 = ll_sin_cos((0.5 * tau_10));
+    float st = ((2.0 * _e5.x) * _e5.y);
+    float ct = (1.0 - ((2.0 * _e5.x) * _e5.x));
+    vec2 _e19 = ll_arc_rotate(p_3.arc, st, ct);
+    float n_dot_w = ((c_17.p0_ * ct) + (c_17.p1_ * st));
+    vec3 dir_10 = ((_e19.x * p_3.arc.u) + (max(_e19.y, 0.0) * p_3.arc.c_hat));
+    return LlSample(dir_10, ((max(n_dot_w, 0.0) * p_3.inv_psa) * LL_PDF_SCALE));
+}
+
+LlSample ll_psa_sample(LlPsa p_4, float xi_6) {
+    float _e7 = ll_psa_solve(p_4.core, clamp(xi_6, 0.0, 1.0), LL_HALLEY_STEPS);
+    LlSample _e8 = ll_psa_at(p_4, _e7);
+    return _e8;
+}
+
+float ll_psa_density_in_support(LlPsa p_5, vec3 dir_4) {
+    return ((max(dot(p_5.n, dir_4), 0.0) * p_5.inv_psa) * LL_PDF_SCALE);
+}
+
+float ll_psa_pdf(LlPsa p_6, vec3 dir_5) {
+    float _e2 = ll_psa_density_in_support(p_6, dir_5);
+    bool _e4 = ll_arc_contains(p_6.arc, dir_5);
+    return (_e4 ? _e2 : 0.0);
+}
+
+float ll_psa_inverse(LlPsa p_7, vec3 dir_6) {
+    float _e4 = ll_arc_tau(p_7.arc, dir_6);
+    float _e5 = ll_psa_cdf(p_7.core, _e4);
+    return _e5;
+}
+
+mat3x3 ll_shading_frame(vec3 n_4, vec3 v) {
+    vec3 t_2 = (v - (dot(n_4, v) * n_4));
+    float len = length(t_2);
+    float sgn = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float k_6 = (-1.0 / (sgn + n_4.z));
+    vec3 any_ = vec3(((n_4.x * n_4.y) * k_6), (sgn + ((n_4.y * n_4.y) * k_6)), -(n_4.y));
+    vec3 xh = ((len > 1e-7) ? (t_2 / vec3(len)) : any_);
+    return mat3x3(xh, cross(n_4, xh), n_4);
+}
+
+mat3x3 ll_inverse3_(mat3x3 m, float det) {
+    mat3x3 r_3 = transpose(mat3x3(cross(m[1], m[2]), cross(m[2], m[0]), cross(m[0], m[1])));
+    return (r_3 * (1.0 / det));
+}
+
+LlLtc ll_ltc_prepare(vec3 begin_3, vec3 end_3, vec3 x_10, mat3x3 shading_frame, mat3x3 a_9) {
+    LlLtc l = LlLtc(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0), mat3x3(0.0), mat3x3(0.0), mat3x3(0.0), LlPsa(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0), vec3(0.0), LlPsaCore(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0, false), 0.0, 0.0, false);
+    float norm = 0.0;
+    int i_2 = 0;
+    bool local_22 = false;
+    bool local_23 = false;
+    bool local_24 = false;
+    bool local_25 = false;
+    bool local_26 = false;
+    bool local_27 = false;
+    bool local_28 = false;
+    float det_1 = determinant(a_9);
+    bool loop_init_2 = true;
+    while(true) {
+        if (!loop_init_2) {
+            int _e31 = i_2;
+            i_2 = (_e31 + 1);
+        }
+        loop_init_2 = false;
+        int _e11 = i_2;
+        if ((_e11 < 3)) {
+        } else {
+            break;
+        }
+        {
+            float _e14 = norm;
+            int _e15 = i_2;
+            int _e19 = i_2;
+            int _e23 = i_2;
+            norm = max(_e14, max(abs(a_9[_e15].x), max(abs(a_9[_e19].y), abs(a_9[_e23].z))));
+        }
+    }
+    float _e36 = norm;
+    float _e37 = norm;
+    float _e39 = norm;
+    bool conditioned = ((abs(det_1) * LL_MAX_ILL_CONDITION) > ((_e36 * _e37) * _e39));
+    mat3x3 _e42 = ll_inverse3_(a_9, det_1);
+    vec3 n_5 = normalize(shading_frame[2]);
+    l.to_shading = transpose(shading_frame);
+    l.a = a_9;
+    l.to_world = (shading_frame * _e42);
+    LlFrame _e50 = ll_frame(begin_3, end_3, x_10);
+    vec3 lobe_normal = (shading_frame * vec3(a_9[0].z, a_9[1].z, a_9[2].z));
+    LlFrame _e59 = ll_frame_clip(_e50, n_5);
+    LlFrame _e60 = ll_frame_clip(_e59, lobe_normal);
+    LlArc _e62 = ll_arc(_e60);
+    l.arc = _e62;
+    mat3x3 _e64 = l.to_shading;
+    mat3x3 to_cosine = (a_9 * _e64);
+    vec3 pb = (to_cosine * ((_e60.d * _e60.c_hat) + (_e60.l_b * _e60.u)));
+    vec3 pe = (to_cosine * ((_e60.d * _e60.c_hat) + (_e60.l_e * _e60.u)));
+    vec3 up = vec3(0.0, 0.0, 1.0);
+    LlFrame _e89 = ll_frame(pb, pe, vec3(0.0));
+    LlFrame _e90 = ll_frame_clip(_e89, up);
+    LlPsa _e91 = ll_psa_on_frame(_e90, up);
+    l.transformed = _e91;
+    mat3x3 _e93 = l.to_shading;
+    mat3x3 _e97 = l.to_shading;
+    vec3 m_3 = cross((_e93 * _e50.u), (_e97 * _e50.c_hat));
+    l.kappa = (length((transpose(_e42) * m_3)) / length(m_3));
+    float _e109 = l.kappa;
+    float _e114 = l.transformed.inv_psa;
+    l.scale = ((_e109 * abs(det_1)) * _e114);
+    if (conditioned) {
+        local_22 = (det_1 != 0.0);
+    } else {
+        local_22 = false;
+    }
+    bool _e122 = local_22;
+    if (_e122) {
+        local_23 = _e60.valid;
+    } else {
+        local_23 = false;
+    }
+    bool _e127 = local_23;
+    if (_e127) {
+        bool _e132 = l.transformed.valid;
+        local_24 = _e132;
+    } else {
+        local_24 = false;
+    }
+    bool _e134 = local_24;
+    if (_e134) {
+        float _e138 = l.kappa;
+        local_25 = (_e138 > 0.0);
+    } else {
+        local_25 = false;
+    }
+    bool _e142 = local_25;
+    if (_e142) {
+        float _e146 = l.kappa;
+        local_26 = (_e146 < 3e38);
+    } else {
+        local_26 = false;
+    }
+    bool _e150 = local_26;
+    if (_e150) {
+        float _e154 = l.scale;
+        local_27 = (_e154 > 0.0);
+    } else {
+        local_27 = false;
+    }
+    bool _e158 = local_27;
+    if (_e158) {
+        float _e162 = l.scale;
+        local_28 = (_e162 < 3e38);
+    } else {
+        local_28 = false;
+    }
+    bool _e166 = local_28;
+    l.valid = _e166;
+    LlLtc _e167 = l;
+    return _e167;
+}
+
+float ll_ltc_density_on_clipped_line(LlLtc l_1, vec3 dir_7) {
+    bool local_29 = false;
+    vec3 aw = (l_1.a * (l_1.to_shading * dir_7));
+    float len2_ = dot(aw, aw);
+    float p_10 = ((l_1.scale * max(aw.z, 0.0)) / (len2_ * len2_));
+    if ((len2_ > 0.0)) {
+        local_29 = (p_10 < 3e38);
+    } else {
+        local_29 = false;
+    }
+    bool _e23 = local_29;
+    return (_e23 ? (p_10 * LL_PDF_SCALE) : 0.0);
+}
+
+float ll_ltc_pdf(LlLtc l_2, vec3 dir_8) {
+    float _e2 = ll_ltc_density_on_clipped_line(l_2, dir_8);
+    bool _e4 = ll_arc_contains(l_2.arc, dir_8);
+    return (_e4 ? _e2 : 0.0);
+}
+
+float ll_ltc_tau_o(LlLtc l_3, float xi_7) {
+    bool local_30 = false;
+    LlPsaCore core = l_3.transformed.core;
+    if (!((xi_7 < LL_XI_GUARD))) {
+        local_30 = (xi_7 > 0.99999);
+    } else {
+        local_30 = true;
+    }
+    bool _e12 = local_30;
+    if (_e12) {
+        float _e13 = ll_psa_solve_converged(core, xi_7);
+        return _e13;
+    }
+    float _e15 = ll_psa_solve(core, xi_7, LL_HALLEY_STEPS);
+    return _e15;
+}
+
+LlSample ll_ltc_sample(LlLtc l_4, float xi_in) {
+    float xi_8 = clamp(xi_in, LL_XI_LATTICE_START, LL_XI_LATTICE_END);
+    float _e6 = ll_ltc_tau_o(l_4, xi_8);
+    LlSample _e7 = ll_psa_at(l_4.transformed, _e6);
+    vec3 w_o_2 = _e7.dir;
+    vec3 w_2 = normalize((l_4.to_world * w_o_2));
+    float _e14 = ll_arc_tau(l_4.arc, w_2);
+    vec3 _e15 = ll_arc_direction(l_4.arc, _e14);
+    float _e16 = ll_ltc_density_on_clipped_line(l_4, _e15);
+    return LlSample(_e15, _e16);
+}
+
+float ll_ltc_inverse(LlLtc l_5, vec3 dir_9) {
+    vec3 w_o_3 = normalize((l_5.a * (l_5.to_shading * dir_9)));
+    float _e8 = ll_psa_inverse(l_5.transformed, w_o_3);
+    return _e8;
+}
+
+float ll_ltc_weight_scale(LlLtc l_6) {
+    return (1.0 / (l_6.transformed.inv_psa * l_6.kappa));
+}
+
+float ll_acos_unit(float c_15) {
+    float p_8 = -0.0012624911;
+    float _e3 = p_8;
+    p_8 = ((_e3 * c_15) + 0.00667009);
+    float _e7 = p_8;
+    p_8 = ((_e7 * c_15) - 0.017088126);
+    float _e11 = p_8;
+    p_8 = ((_e11 * c_15) + 0.03089188);
+    float _e15 = p_8;
+    p_8 = ((_e15 * c_15) - 0.050174303);
+    float _e19 = p_8;
+    p_8 = ((_e19 * c_15) + 0.08897899);
+    float _e23 = p_8;
+    p_8 = ((_e23 * c_15) - 0.2145988);
+    float _e27 = p_8;
+    p_8 = ((_e27 * c_15) + 1.5707963);
+    float _e36 = p_8;
+    return (sqrt(max((1.0 - c_15), 0.0)) * _e36);
+}
+
+float ll_ltc_record(uint k_3, uint lane) {
+    float _e7 = _group_0_binding_3_cs[((8u * k_3) + lane)];
+    return _e7;
+}
+
+float ll_ltc_lerp(uvec4 corners, vec4 w, uint lane_1) {
+    float _e5 = ll_ltc_record(corners.x, lane_1);
+    float _e9 = ll_ltc_record(corners.y, lane_1);
+    float _e14 = ll_ltc_record(corners.z, lane_1);
+    float _e19 = ll_ltc_record(corners.w, lane_1);
+    return ((((w.x * _e5) + (w.y * _e9)) + (w.z * _e14)) + (w.w * _e19));
+}
+
+LlLtcEntry ll_ltc_lookup(float alpha, float cos_theta_v) {
+    LlLtcEntry e_3 = LlLtcEntry(mat3x3(0.0), 0.0);
+    uint size = uint(roundEven(sqrt(float((uint(_group_0_binding_3_cs.length()) / 8u)))));
+    float last = float((size - 1u));
+    float x_11 = (sqrt(clamp(alpha, 0.0, 1.0)) * last);
+    float _e21 = ll_acos_unit(clamp(cos_theta_v, 0.0, 1.0));
+    float y_5 = min(((_e21 * 0.63661975) * last), last);
+    uint i_3 = min(uint(x_11), (size - 2u));
+    uint j = min(uint(y_5), (size - 2u));
+    float fx = (x_11 - float(i_3));
+    float fy = (y_5 - float(j));
+    uint base = ((j * size) + i_3);
+    vec4 w_3 = vec4(((1.0 - fx) * (1.0 - fy)), (fx * (1.0 - fy)), ((1.0 - fx) * fy), (fx * fy));
+    uvec4 corners_1 = uvec4(base, (base + 1u), (base + size), ((base + size) + 1u));
+    float _e63 = ll_ltc_lerp(corners_1, w_3, 0u);
+    float _e65 = ll_ltc_lerp(corners_1, w_3, 3u);
+    float _e69 = ll_ltc_lerp(corners_1, w_3, 2u);
+    float _e74 = ll_ltc_lerp(corners_1, w_3, 1u);
+    float _e76 = ll_ltc_lerp(corners_1, w_3, 4u);
+    e_3.a = mat3x3(vec3(_e63, 0.0, _e65), vec3(0.0, _e69, 0.0), vec3(_e74, 0.0, _e76));
+    float _e82 = ll_ltc_lerp(corners_1, w_3, 5u);
+    e_3.rho = _e82;
+    LlLtcEntry _e83 = e_3;
+    return _e83;
+}
+
+float ll_mis_ratio(float a_10, float b_2) {
+    return ((b_2 > 0.0) ? clamp((a_10 / b_2), 0.0, 1.0) : 0.0);
+}
+
+float ll_mis_balance(float p_s, float p_o) {
+    float m_4 = max(p_s, p_o);
+    float _e7 = ll_mis_ratio((p_s / m_4), ((p_s / m_4) + (p_o / m_4)));
+    return ((m_4 > 0.0) ? _e7 : 0.0);
+}
+
+float ll_mis_power(float p_s_1, float p_o_1) {
+    float m_5 = max(p_s_1, p_o_1);
+    float a_13 = (p_s_1 / m_5);
+    float b_5 = (p_o_1 / m_5);
+    float _e9 = ll_mis_ratio((a_13 * a_13), ((a_13 * a_13) + (b_5 * b_5)));
+    return ((m_5 > 0.0) ? _e9 : 0.0);
+}
+
+float ll_mis_weighted_balance(float p_s_2, float p_o_2, float w_s, float w_o) {
+    bool local_31 = false;
+    float m_6 = max(p_s_2, p_o_2);
+    float num = (w_s * (p_s_2 / m_6));
+    float den_2 = (num + (w_o * (p_o_2 / m_6)));
+    float _e10 = ll_mis_balance(p_s_2, p_o_2);
+    float _e11 = ll_mis_ratio(num, den_2);
+    if ((den_2 > 0.0)) {
+        local_31 = (den_2 < 3e38);
+    } else {
+        local_31 = false;
+    }
+    bool _e19 = local_31;
+    float weighted = (_e19 ? _e11 : _e10);
+    return ((m_6 > 0.0) ? weighted : 0.0);
+}
+
+float ll_mis_clamped_optimal(float p_s_3, float p_o_3, float w_s_1, float w_o_1, float v_in) {
+    float v_2 = clamp(v_in, 0.0, 1.0);
+    float _e10 = ll_mis_balance(p_s_3, p_o_3);
+    float _e12 = ll_mis_weighted_balance(p_s_3, p_o_3, w_s_1, w_o_1);
+    return (((1.0 - v_2) * _e10) + (v_2 * _e12));
+}
+
+float ll_bench_xi(uint pixel, uint k_4) {
+    uint h = 0u;
+    h = ((pixel * 747796405u) + 2891336453u);
+    uint _e7 = h;
+    uint _e8 = h;
+    uint _e14 = h;
+    h = (((_e7 >> ((_e8 >> 28u) + 4u)) ^ _e14) * 277803737u);
+    uint _e18 = h;
+    uint _e21 = h;
+    h = ((_e18 >> 22u) ^ _e21);
+    uint _e23 = h;
+    return fract(((float((_e23 >> 8u)) * 5.9604645e-8) + (float(k_4) * 0.618034)));
+}
+
+void main() {
+    uvec3 gid_1 = gl_GlobalInvocationID;
+    float sum = 0.0;
+    uint k = 0u;
+    uint k_1 = 0u;
+    uint k_2 = 0u;
+    uint pixel_1 = gid_1.x;
+    uint _e4 = _group_0_binding_0_cs.count;
+    if ((pixel_1 >= _e4)) {
+        return;
+    }
+    vec4 q0_ = _group_0_binding_1_cs[(3u * pixel_1)];
+    vec4 q1_ = _group_0_binding_1_cs[((3u * pixel_1) + 1u)];
+    vec4 q2_ = _group_0_binding_1_cs[((3u * pixel_1) + 2u)];
+    vec3 x_12 = q0_.xyz;
+    vec3 n_6 = q1_.xyz;
+    float rho_d = q2_.w;
+    vec4 _e30 = _group_0_binding_0_cs.light_begin;
+    vec3 lb = _e30.xyz;
+    vec4 _e34 = _group_0_binding_0_cs.light_end;
+    vec3 le = _e34.xyz;
+    float big_k = _group_0_binding_0_cs.light_end.w;
+    uint count = _group_0_binding_0_cs.samples;
+    uint _e47 = _group_0_binding_0_cs.mode;
+    switch(_e47) {
+        case 0u: {
+            LlClipped _e48 = ll_clipped_prepare(lb, le, x_12, n_6);
+            if (_e48.valid) {
+                bool loop_init_3 = true;
+                while(true) {
+                    if (!loop_init_3) {
+                        uint _e69 = k;
+                        k = (_e69 + 1u);
+                    }
+                    loop_init_3 = false;
+                    uint _e52 = k;
+                    if ((_e52 < count)) {
+                    } else {
+                        break;
+                    }
+                    {
+                        uint _e54 = k;
+                        float _e55 = ll_bench_xi(pixel_1, _e54);
+                        LlSample _e56 = ll_clipped_sample(_e48, _e55);
+                        float _e57 = sum;
+                        sum = (_e57 + (((rho_d / LL_PI) * max(dot(n_6, _e56.dir), 0.0)) / _e56.pdf));
+                    }
+                }
+            }
+            break;
+        }
+        case 1u: {
+            LlPsa _e71 = ll_psa_prepare(lb, le, x_12, n_6);
+            if (_e71.valid) {
+                bool loop_init_4 = true;
+                while(true) {
+                    if (!loop_init_4) {
+                        uint _e92 = k_1;
+                        k_1 = (_e92 + 1u);
+                    }
+                    loop_init_4 = false;
+                    uint _e75 = k_1;
+                    if ((_e75 < count)) {
+                    } else {
+                        break;
+                    }
+                    {
+                        uint _e77 = k_1;
+                        float _e78 = ll_bench_xi(pixel_1, _e77);
+                        LlSample _e79 = ll_psa_sample(_e71, _e78);
+                        float _e80 = sum;
+                        sum = (_e80 + (((rho_d / LL_PI) * max(dot(n_6, _e79.dir), 0.0)) / _e79.pdf));
+                    }
+                }
+            }
+            break;
+        }
+        case 2u: {
+            LlPsa _e94 = ll_psa_prepare(lb, le, x_12, n_6);
+            vec3 v_3 = q2_.xyz;
+            LlLtcEntry _e98 = ll_ltc_lookup(q0_.w, dot(n_6, v_3));
+            mat3x3 _e99 = ll_shading_frame(n_6, v_3);
+            LlLtc _e101 = ll_ltc_prepare(lb, le, x_12, _e99, _e98.a);
+            if (_e94.valid) {
+                float w_d = (max(rho_d, 0.01) / _e94.inv_psa);
+                float _e108 = ll_ltc_weight_scale(_e101);
+                float w_s_2 = (_e101.valid ? (_e98.rho * _e108) : 0.0);
+                bool loop_init_5 = true;
+                while(true) {
+                    if (!loop_init_5) {
+                        uint _e170 = k_2;
+                        k_2 = (_e170 + 1u);
+                    }
+                    loop_init_5 = false;
+                    uint _e115 = k_2;
+                    if ((_e115 < count)) {
+                    } else {
+                        break;
+                    }
+                    {
+                        uint _e117 = k_2;
+                        float _e118 = ll_bench_xi(pixel_1, _e117);
+                        LlSample _e119 = ll_psa_sample(_e94, _e118);
+                        float _e121 = ll_ltc_density_on_clipped_line(_e101, _e119.dir);
+                        float ps = (_e101.valid ? _e121 : 0.0);
+                        float fd = (((rho_d / LL_PI) * max(dot(n_6, _e119.dir), 0.0)) + (_e98.rho * ps));
+                        float _e135 = sum;
+                        float _e138 = ll_mis_clamped_optimal(_e119.pdf, ps, w_d, w_s_2, 0.5);
+                        sum = (_e135 + ((fd * _e138) / _e119.pdf));
+                        if (_e101.valid) {
+                            LlSample _e147 = ll_ltc_sample(_e101, fract((_e118 + 0.5)));
+                            float _e149 = ll_psa_density_in_support(_e94, _e147.dir);
+                            float fs = (((rho_d / LL_PI) * max(dot(n_6, _e147.dir), 0.0)) + (_e98.rho * _e147.pdf));
+                            float _e161 = sum;
+                            float _e164 = ll_mis_clamped_optimal(_e147.pdf, _e149, w_s_2, w_d, 0.5);
+                            sum = (_e161 + ((fs * _e164) / _e147.pdf));
+                        }
+                    }
+                }
+            }
+            break;
+        }
+        default: {
+            break;
+        }
+    }
+    float _e174 = sum;
+    _group_0_binding_2_cs[pixel_1] = vec4(((big_k * _e174) / float(max(count, 1u))), 0.0, 0.0, 0.0);
+    return;
+}
+
