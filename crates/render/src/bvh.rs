@@ -584,36 +584,40 @@ type Entry = (u32, u32, f32);
 const STACK: usize = 16;
 
 impl Bvh {
-    pub fn build(prims: Vec<Primitive>) -> Self {
+    pub fn build(mut prims: Vec<Primitive>) -> Self {
         // Primitive indices are u32 below u32::MAX, the packets' "no hit" (see `replaces`).
         assert!(
             prims.len() < u32::MAX as usize,
             "a BVH holds fewer than 2^32 - 1 primitives"
         );
+        // Primitives with non-finite bounds can never be hit reliably: drop them.
+        prims.retain(|p| {
+            let b = p.bounds();
+            b.min.is_finite() && b.max.is_finite()
+        });
         let mut items: Vec<BuildItem> = prims
             .iter()
             .enumerate()
-            .filter_map(|(i, p)| {
+            .map(|(i, p)| {
                 let b = p.bounds();
-                // Primitives with non-finite bounds can never be hit reliably: drop them.
-                (b.min.is_finite() && b.max.is_finite()).then(|| BuildItem {
+                BuildItem {
                     bounds: b,
                     centroid: b.centroid(),
                     index: i as u32,
-                })
+                }
             })
             .collect();
         let mut bin = Vec::with_capacity(2 * items.len().max(1));
         let mut nodes = Vec::new();
         if !items.is_empty() {
-            let n = items.len();
-            build_node(&mut items, 0, n, 0, &mut bin);
+            build_node(&mut items, 0, 0, &mut bin);
             collapse(&bin, 0, &mut nodes);
         }
-        let ordered: Vec<Primitive> = items
-            .iter()
-            .map(|it| prims[it.index as usize].clone())
-            .collect();
+        drop(bin);
+        let mut order: Vec<u32> = items.iter().map(|it| it.index).collect();
+        drop(items);
+        permute(&mut prims, &mut order);
+        let ordered = prims;
         let isect: Vec<Isect> = ordered
             .iter()
             .map(|p| match *p {
@@ -1140,32 +1144,57 @@ impl Bvh {
     }
 }
 
+/// Reorder `prims` in place so that `prims[k]` becomes the old `prims[order[k]]` (`order`, a
+/// permutation, is used up: every entry becomes `u32::MAX`). In place: a copy of a large scene's
+/// primitives would be its largest allocation.
+fn permute<T>(prims: &mut [T], order: &mut [u32]) {
+    debug_assert_eq!(prims.len(), order.len());
+    const DONE: u32 = u32::MAX;
+    for i in 0..order.len() {
+        let mut j = i;
+        while order[j] != DONE {
+            let src = order[j] as usize;
+            order[j] = DONE;
+            if src == i {
+                break;
+            }
+            prims.swap(j, src);
+            j = src;
+        }
+    }
+}
+
+/// Subtrees of at least this many primitives build their two halves in parallel (rayon).
+const PARALLEL_BUILD: usize = 4096;
+
+/// Build the subtree over `items` (the primitives `start ..` of the whole build) into `nodes`,
+/// in depth-first order (the left child follows its parent; `offset` of an interior node is the
+/// index of its right child), and return the index of its root.
 fn build_node(
     items: &mut [BuildItem],
     start: usize,
-    end: usize,
     depth: u32,
     nodes: &mut Vec<BuildNode>,
 ) -> u32 {
     let index = nodes.len() as u32;
     let mut bounds = Aabb::EMPTY;
     let mut cbounds = Aabb::EMPTY;
-    for it in &items[start..end] {
+    for it in items.iter() {
         bounds = bounds.union(&it.bounds);
         cbounds.grow(it.centroid);
     }
+    let n = items.len();
     nodes.push(BuildNode {
         bounds,
         offset: start as u32,
-        count: (end - start) as u32,
+        count: n as u32,
         axis: 0,
     });
-    let n = end - start;
     if n <= 1 {
         return index;
     }
     let split = if depth < SAH_DEPTH {
-        best_split(&items[start..end], &bounds, &cbounds)
+        best_split(items, &bounds, &cbounds)
     } else {
         None
     };
@@ -1174,57 +1203,90 @@ fn build_node(
             let lo = cbounds.min[axis];
             let scale = BINS as f32 / (cbounds.max[axis] - lo);
             let bin_of = |c: Vec3| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
-            let slice = &mut items[start..end];
             let mut m = 0;
-            for i in 0..slice.len() {
-                if bin_of(slice[i].centroid) <= bin {
-                    slice.swap(i, m);
+            for i in 0..n {
+                if bin_of(items[i].centroid) <= bin {
+                    items.swap(i, m);
                     m += 1;
                 }
             }
             nodes[index as usize].axis = axis as u8;
-            start + m
+            m
         }
         None if n <= MAX_LEAF => return index,
         None => {
             // No useful SAH split (coincident centroids, or too deep): median split on the
             // widest centroid axis.
             let axis = (cbounds.max - cbounds.min).max_position();
-            items[start..end].sort_by(|a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+            items.sort_by(|a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
             nodes[index as usize].axis = axis as u8;
-            start + n / 2
+            n / 2
         }
     };
-    if mid == start || mid == end {
+    if mid == 0 || mid == n {
         return index; // keep as leaf (cannot happen with the binning above, kept for safety)
     }
-    build_node(items, start, mid, depth + 1, nodes);
-    let right = build_node(items, mid, end, depth + 1, nodes);
+    let (left, right) = items.split_at_mut(mid);
+    let right_root = if n >= PARALLEL_BUILD {
+        // The right subtree goes to its own vector (indices from 0), appended after the left
+        // one and shifted: the same layout as the sequential build.
+        let ((), mut rnodes) = rayon::join(
+            || {
+                build_node(left, start, depth + 1, nodes);
+            },
+            || {
+                let mut r = Vec::with_capacity(2 * right.len());
+                build_node(right, start + mid, depth + 1, &mut r);
+                r
+            },
+        );
+        let base = nodes.len() as u32;
+        for node in &mut rnodes {
+            if node.count == 0 {
+                node.offset += base;
+            }
+        }
+        nodes.append(&mut rnodes);
+        base
+    } else {
+        build_node(left, start, depth + 1, nodes);
+        build_node(right, start + mid, depth + 1, nodes)
+    };
     let node = &mut nodes[index as usize];
-    node.offset = right;
+    node.offset = right_root;
     node.count = 0;
     index
 }
 
-/// Best (axis, last bin of the left side, cost) by binned SAH, if it beats a leaf.
+/// Best (axis, last bin of the left side, cost) by binned SAH, if it beats a leaf. One pass
+/// over the items fills the bins of all three axes.
 fn best_split(items: &[BuildItem], bounds: &Aabb, cbounds: &Aabb) -> Option<(usize, usize, f32)> {
     let leaf_cost = items.len() as f32;
     let mut best: Option<(usize, usize, f32)> = None;
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
+    let lo = cbounds.min;
+    let extent = cbounds.max - lo;
+    // An axis without extent gets scale 0 (every item in bin 0) and is skipped below.
+    let scale = Vec3::select(
+        extent.cmpgt(Vec3::ZERO),
+        Vec3::splat(BINS as f32) / extent,
+        Vec3::ZERO,
+    );
+    let mut bin_bounds = [[Aabb::EMPTY; BINS]; 3];
+    let mut bin_count = [[0usize; BINS]; 3];
+    for it in items {
+        let f = (it.centroid - lo) * scale;
+        for axis in 0..3 {
+            let b = (f[axis] as usize).min(BINS - 1);
+            bin_bounds[axis][b] = bin_bounds[axis][b].union(&it.bounds);
+            bin_count[axis][b] += 1;
+        }
+    }
     for axis in 0..3 {
-        let lo = cbounds.min[axis];
-        let extent = cbounds.max[axis] - lo;
-        if !(extent > 0.0) {
+        if !(extent[axis] > 0.0) {
             continue;
         }
-        let scale = BINS as f32 / extent;
-        let mut bin_bounds = [Aabb::EMPTY; BINS];
-        let mut bin_count = [0usize; BINS];
-        for it in items {
-            let b = (((it.centroid[axis] - lo) * scale) as usize).min(BINS - 1);
-            bin_bounds[b] = bin_bounds[b].union(&it.bounds);
-            bin_count[b] += 1;
-        }
+        let (bin_bounds, bin_count) = (&bin_bounds[axis], &bin_count[axis]);
         // Sweep from the right to get suffix areas and counts.
         let mut right_area = [0f32; BINS];
         let mut right_count = [0usize; BINS];
@@ -1289,6 +1351,70 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    /// The parallel build (subtrees of ≥ PARALLEL_BUILD primitives split across threads) lays
+    /// out the same nodes and primitive order as the build on one thread.
+    #[test]
+    fn parallel_build_equals_sequential() {
+        let mut rng = Pcg32::new(11, 0);
+        let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let mut prims = triangle_soup(&mut r3, 6 * PARALLEL_BUILD as u32, 0.4);
+        // Long thin triangles across the soup as well.
+        prims.extend(
+            triangle_soup(&mut r3, 2000, 0.0)
+                .into_iter()
+                .map(|p| match p {
+                    Primitive::Triangle { v, shape, .. } => Primitive::Triangle {
+                        v: [
+                            v[0],
+                            v[0] + Vec3::new(8.0, 0.01, 0.0),
+                            v[0] + Vec3::new(0.0, 0.02, 0.01),
+                        ],
+                        n: None,
+                        shape: shape + 6 * PARALLEL_BUILD as u32,
+                    },
+                    other => other,
+                }),
+        );
+        let pool = |t| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+        };
+        let one = pool(1).install(|| Bvh::build(prims.clone()));
+        let four = pool(4).install(|| Bvh::build(prims.clone()));
+        assert!(one.nodes.len() > 1000);
+        assert_eq!(one.nodes.len(), four.nodes.len());
+        for (a, b) in one.nodes.iter().zip(&four.nodes) {
+            assert_eq!((a.child, a.count), (b.child, b.count));
+            assert_eq!(
+                a.b.map(|c| c.map(|l| l.map(f32::to_bits))),
+                b.b.map(|c| c.map(|l| l.map(f32::to_bits)))
+            );
+        }
+        let shapes = |b: &Bvh| b.prims.iter().map(|p| p.shape()).collect::<Vec<_>>();
+        assert!(shapes(&one) == shapes(&four));
+        let mut seen = shapes(&one);
+        seen.sort_unstable();
+        assert!(seen == (0..prims.len() as u32).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn permute_applies_the_order_in_place() {
+        let mut rng = Pcg32::new(3, 0);
+        for n in [0usize, 1, 2, 7, 100] {
+            let mut order: Vec<u32> = (0..n as u32).collect();
+            for i in (1..n).rev() {
+                order.swap(i, (rng.next_u32() as usize) % (i + 1));
+            }
+            let want: Vec<u32> = order.iter().map(|&i| 10 * i).collect();
+            let mut items: Vec<u32> = (0..n as u32).map(|i| 10 * i).collect();
+            permute(&mut items, &mut order);
+            assert_eq!(items, want);
+            assert!(order.iter().all(|&o| o == u32::MAX));
+        }
     }
 
     /// The BVH must agree with brute force on closest hits and any-hits.
