@@ -134,7 +134,12 @@ enum Isect {
 /// Primitives and the tree over them (primitives are reordered at build time).
 #[derive(Clone, Debug)]
 pub struct Bvh {
+    /// The primitives in the caller's order (less those with non-finite bounds): a reordered
+    /// copy would be the largest allocation of a large scene, a random-access permutation in
+    /// place costs more than the indirection on hits.
     prims: Vec<Primitive>,
+    /// BVH position → index into `prims`.
+    order: Vec<u32>,
     isect: Vec<Isect>,
     nodes: Vec<Node>,
     /// A tree of at most [`TINY`] primitives, all triangles: (v0, e1, e2) of each, in BVH
@@ -614,13 +619,11 @@ impl Bvh {
             collapse(&bin, 0, &mut nodes);
         }
         drop(bin);
-        let mut order: Vec<u32> = items.iter().map(|it| it.index).collect();
+        let order: Vec<u32> = items.iter().map(|it| it.index).collect();
         drop(items);
-        permute(&mut prims, &mut order);
-        let ordered = prims;
-        let isect: Vec<Isect> = ordered
+        let isect: Vec<Isect> = order
             .iter()
-            .map(|p| match *p {
+            .map(|&i| match prims[i as usize] {
                 Primitive::Triangle { v, .. } => Isect::Triangle {
                     v0: v[0],
                     e1: v[1] - v[0],
@@ -630,7 +633,7 @@ impl Bvh {
                 _ => Isect::Other,
             })
             .collect();
-        let tiny = if ordered.len() <= TINY {
+        let tiny = if order.len() <= TINY {
             isect
                 .iter()
                 .map(|t| match *t {
@@ -643,7 +646,8 @@ impl Bvh {
             Vec::new()
         };
         Self {
-            prims: ordered,
+            prims,
+            order,
             isect,
             nodes,
             tiny,
@@ -652,7 +656,7 @@ impl Bvh {
     }
 
     pub fn primitive(&self, i: u32) -> &Primitive {
-        &self.prims[i as usize]
+        &self.prims[self.order[i as usize] as usize]
     }
 
     pub fn len(&self) -> usize {
@@ -668,7 +672,7 @@ impl Bvh {
     fn intersect_prim(&self, i: usize, ray: &Ray) -> Option<(f32, f32, f32)> {
         match self.isect[i] {
             Isect::Triangle { v0, e1, e2 } => intersect_triangle_edges(ray, v0, e1, e2),
-            Isect::Sphere { .. } | Isect::Other => self.prims[i].intersect(ray),
+            Isect::Sphere { .. } | Isect::Other => self.primitive(i as u32).intersect(ray),
         }
     }
 
@@ -993,7 +997,7 @@ impl Bvh {
         while m != 0 {
             let k = m.trailing_zeros() as usize;
             m &= m - 1;
-            if self.prims[i as usize].intersect(&lanes.get(k)).is_some() {
+            if self.primitive(i).intersect(&lanes.get(k)).is_some() {
                 occluded |= 1 << k;
             }
         }
@@ -1028,7 +1032,7 @@ impl Bvh {
                 t_max: packet.t_max[k],
                 ..lanes.get(k)
             };
-            if let Some((t, b1, b2)) = self.prims[i as usize].intersect(&ray) {
+            if let Some((t, b1, b2)) = self.primitive(i).intersect(&ray) {
                 if replaces(t, i, out.t[k], out.prim[k]) {
                     (out.t[k], out.prim[k]) = (t, i);
                     (out.b1[k], out.b2[k]) = (b1, b2);
@@ -1144,27 +1148,8 @@ impl Bvh {
     }
 }
 
-/// Reorder `prims` in place so that `prims[k]` becomes the old `prims[order[k]]` (`order`, a
-/// permutation, is used up: every entry becomes `u32::MAX`). In place: a copy of a large scene's
-/// primitives would be its largest allocation.
-fn permute<T>(prims: &mut [T], order: &mut [u32]) {
-    debug_assert_eq!(prims.len(), order.len());
-    const DONE: u32 = u32::MAX;
-    for i in 0..order.len() {
-        let mut j = i;
-        while order[j] != DONE {
-            let src = order[j] as usize;
-            order[j] = DONE;
-            if src == i {
-                break;
-            }
-            prims.swap(j, src);
-            j = src;
-        }
-    }
-}
-
-/// Subtrees of at least this many primitives build their two halves in parallel (rayon).
+/// Subtrees of at least this many primitives build their two halves in parallel (rayon, with
+/// more than one thread).
 const PARALLEL_BUILD: usize = 4096;
 
 /// Build the subtree over `items` (the primitives `start ..` of the whole build) into `nodes`,
@@ -1227,7 +1212,7 @@ fn build_node(
         return index; // keep as leaf (cannot happen with the binning above, kept for safety)
     }
     let (left, right) = items.split_at_mut(mid);
-    let right_root = if n >= PARALLEL_BUILD {
+    let right_root = if n >= PARALLEL_BUILD && rayon::current_num_threads() > 1 {
         // The right subtree goes to its own vector (indices from 0), appended after the left
         // one and shifted: the same layout as the sequential build.
         let ((), mut rnodes) = rayon::join(
@@ -1394,27 +1379,15 @@ mod tests {
                 b.b.map(|c| c.map(|l| l.map(f32::to_bits)))
             );
         }
-        let shapes = |b: &Bvh| b.prims.iter().map(|p| p.shape()).collect::<Vec<_>>();
+        let shapes = |b: &Bvh| {
+            (0..b.len() as u32)
+                .map(|i| b.primitive(i).shape())
+                .collect::<Vec<_>>()
+        };
         assert!(shapes(&one) == shapes(&four));
         let mut seen = shapes(&one);
         seen.sort_unstable();
         assert!(seen == (0..prims.len() as u32).collect::<Vec<_>>());
-    }
-
-    #[test]
-    fn permute_applies_the_order_in_place() {
-        let mut rng = Pcg32::new(3, 0);
-        for n in [0usize, 1, 2, 7, 100] {
-            let mut order: Vec<u32> = (0..n as u32).collect();
-            for i in (1..n).rev() {
-                order.swap(i, (rng.next_u32() as usize) % (i + 1));
-            }
-            let want: Vec<u32> = order.iter().map(|&i| 10 * i).collect();
-            let mut items: Vec<u32> = (0..n as u32).map(|i| 10 * i).collect();
-            permute(&mut items, &mut order);
-            assert_eq!(items, want);
-            assert!(order.iter().all(|&o| o == u32::MAX));
-        }
     }
 
     /// The BVH must agree with brute force on closest hits and any-hits.
