@@ -134,7 +134,12 @@ enum Isect {
 /// Primitives and the tree over them (primitives are reordered at build time).
 #[derive(Clone, Debug)]
 pub struct Bvh {
+    /// The primitives in the caller's order (less those with non-finite bounds): a reordered
+    /// copy would be the largest allocation of a large scene, a random-access permutation in
+    /// place costs more than the indirection on hits.
     prims: Vec<Primitive>,
+    /// BVH position → index into `prims`.
+    order: Vec<u32>,
     isect: Vec<Isect>,
     nodes: Vec<Node>,
     /// A tree of at most [`TINY`] primitives, all triangles: (v0, e1, e2) of each, in BVH
@@ -584,39 +589,41 @@ type Entry = (u32, u32, f32);
 const STACK: usize = 16;
 
 impl Bvh {
-    pub fn build(prims: Vec<Primitive>) -> Self {
+    pub fn build(mut prims: Vec<Primitive>) -> Self {
         // Primitive indices are u32 below u32::MAX, the packets' "no hit" (see `replaces`).
         assert!(
             prims.len() < u32::MAX as usize,
             "a BVH holds fewer than 2^32 - 1 primitives"
         );
+        // Primitives with non-finite bounds can never be hit reliably: drop them.
+        prims.retain(|p| {
+            let b = p.bounds();
+            b.min.is_finite() && b.max.is_finite()
+        });
         let mut items: Vec<BuildItem> = prims
             .iter()
             .enumerate()
-            .filter_map(|(i, p)| {
+            .map(|(i, p)| {
                 let b = p.bounds();
-                // Primitives with non-finite bounds can never be hit reliably: drop them.
-                (b.min.is_finite() && b.max.is_finite()).then(|| BuildItem {
+                BuildItem {
                     bounds: b,
                     centroid: b.centroid(),
                     index: i as u32,
-                })
+                }
             })
             .collect();
         let mut bin = Vec::with_capacity(2 * items.len().max(1));
         let mut nodes = Vec::new();
         if !items.is_empty() {
-            let n = items.len();
-            build_node(&mut items, 0, n, 0, &mut bin);
+            build_node(&mut items, 0, 0, &mut bin);
             collapse(&bin, 0, &mut nodes);
         }
-        let ordered: Vec<Primitive> = items
+        drop(bin);
+        let order: Vec<u32> = items.iter().map(|it| it.index).collect();
+        drop(items);
+        let isect: Vec<Isect> = order
             .iter()
-            .map(|it| prims[it.index as usize].clone())
-            .collect();
-        let isect: Vec<Isect> = ordered
-            .iter()
-            .map(|p| match *p {
+            .map(|&i| match prims[i as usize] {
                 Primitive::Triangle { v, .. } => Isect::Triangle {
                     v0: v[0],
                     e1: v[1] - v[0],
@@ -626,7 +633,7 @@ impl Bvh {
                 _ => Isect::Other,
             })
             .collect();
-        let tiny = if ordered.len() <= TINY {
+        let tiny = if order.len() <= TINY {
             isect
                 .iter()
                 .map(|t| match *t {
@@ -639,7 +646,8 @@ impl Bvh {
             Vec::new()
         };
         Self {
-            prims: ordered,
+            prims,
+            order,
             isect,
             nodes,
             tiny,
@@ -648,7 +656,7 @@ impl Bvh {
     }
 
     pub fn primitive(&self, i: u32) -> &Primitive {
-        &self.prims[i as usize]
+        &self.prims[self.order[i as usize] as usize]
     }
 
     pub fn len(&self) -> usize {
@@ -664,7 +672,7 @@ impl Bvh {
     fn intersect_prim(&self, i: usize, ray: &Ray) -> Option<(f32, f32, f32)> {
         match self.isect[i] {
             Isect::Triangle { v0, e1, e2 } => intersect_triangle_edges(ray, v0, e1, e2),
-            Isect::Sphere { .. } | Isect::Other => self.prims[i].intersect(ray),
+            Isect::Sphere { .. } | Isect::Other => self.primitive(i as u32).intersect(ray),
         }
     }
 
@@ -989,7 +997,7 @@ impl Bvh {
         while m != 0 {
             let k = m.trailing_zeros() as usize;
             m &= m - 1;
-            if self.prims[i as usize].intersect(&lanes.get(k)).is_some() {
+            if self.primitive(i).intersect(&lanes.get(k)).is_some() {
                 occluded |= 1 << k;
             }
         }
@@ -1024,7 +1032,7 @@ impl Bvh {
                 t_max: packet.t_max[k],
                 ..lanes.get(k)
             };
-            if let Some((t, b1, b2)) = self.prims[i as usize].intersect(&ray) {
+            if let Some((t, b1, b2)) = self.primitive(i).intersect(&ray) {
                 if replaces(t, i, out.t[k], out.prim[k]) {
                     (out.t[k], out.prim[k]) = (t, i);
                     (out.b1[k], out.b2[k]) = (b1, b2);
@@ -1140,32 +1148,38 @@ impl Bvh {
     }
 }
 
+/// Subtrees of at least this many primitives build their two halves in parallel (rayon, with
+/// more than one thread).
+const PARALLEL_BUILD: usize = 4096;
+
+/// Build the subtree over `items` (the primitives `start ..` of the whole build) into `nodes`,
+/// in depth-first order (the left child follows its parent; `offset` of an interior node is the
+/// index of its right child), and return the index of its root.
 fn build_node(
     items: &mut [BuildItem],
     start: usize,
-    end: usize,
     depth: u32,
     nodes: &mut Vec<BuildNode>,
 ) -> u32 {
     let index = nodes.len() as u32;
     let mut bounds = Aabb::EMPTY;
     let mut cbounds = Aabb::EMPTY;
-    for it in &items[start..end] {
+    for it in items.iter() {
         bounds = bounds.union(&it.bounds);
         cbounds.grow(it.centroid);
     }
+    let n = items.len();
     nodes.push(BuildNode {
         bounds,
         offset: start as u32,
-        count: (end - start) as u32,
+        count: n as u32,
         axis: 0,
     });
-    let n = end - start;
     if n <= 1 {
         return index;
     }
     let split = if depth < SAH_DEPTH {
-        best_split(&items[start..end], &bounds, &cbounds)
+        best_split(items, &bounds, &cbounds)
     } else {
         None
     };
@@ -1174,57 +1188,90 @@ fn build_node(
             let lo = cbounds.min[axis];
             let scale = BINS as f32 / (cbounds.max[axis] - lo);
             let bin_of = |c: Vec3| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
-            let slice = &mut items[start..end];
             let mut m = 0;
-            for i in 0..slice.len() {
-                if bin_of(slice[i].centroid) <= bin {
-                    slice.swap(i, m);
+            for i in 0..n {
+                if bin_of(items[i].centroid) <= bin {
+                    items.swap(i, m);
                     m += 1;
                 }
             }
             nodes[index as usize].axis = axis as u8;
-            start + m
+            m
         }
         None if n <= MAX_LEAF => return index,
         None => {
             // No useful SAH split (coincident centroids, or too deep): median split on the
             // widest centroid axis.
             let axis = (cbounds.max - cbounds.min).max_position();
-            items[start..end].sort_by(|a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+            items.sort_by(|a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
             nodes[index as usize].axis = axis as u8;
-            start + n / 2
+            n / 2
         }
     };
-    if mid == start || mid == end {
+    if mid == 0 || mid == n {
         return index; // keep as leaf (cannot happen with the binning above, kept for safety)
     }
-    build_node(items, start, mid, depth + 1, nodes);
-    let right = build_node(items, mid, end, depth + 1, nodes);
+    let (left, right) = items.split_at_mut(mid);
+    let right_root = if n >= PARALLEL_BUILD && rayon::current_num_threads() > 1 {
+        // The right subtree goes to its own vector (indices from 0), appended after the left
+        // one and shifted: the same layout as the sequential build.
+        let ((), mut rnodes) = rayon::join(
+            || {
+                build_node(left, start, depth + 1, nodes);
+            },
+            || {
+                let mut r = Vec::with_capacity(2 * right.len());
+                build_node(right, start + mid, depth + 1, &mut r);
+                r
+            },
+        );
+        let base = nodes.len() as u32;
+        for node in &mut rnodes {
+            if node.count == 0 {
+                node.offset += base;
+            }
+        }
+        nodes.append(&mut rnodes);
+        base
+    } else {
+        build_node(left, start, depth + 1, nodes);
+        build_node(right, start + mid, depth + 1, nodes)
+    };
     let node = &mut nodes[index as usize];
-    node.offset = right;
+    node.offset = right_root;
     node.count = 0;
     index
 }
 
-/// Best (axis, last bin of the left side, cost) by binned SAH, if it beats a leaf.
+/// Best (axis, last bin of the left side, cost) by binned SAH, if it beats a leaf. One pass
+/// over the items fills the bins of all three axes.
 fn best_split(items: &[BuildItem], bounds: &Aabb, cbounds: &Aabb) -> Option<(usize, usize, f32)> {
     let leaf_cost = items.len() as f32;
     let mut best: Option<(usize, usize, f32)> = None;
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
+    let lo = cbounds.min;
+    let extent = cbounds.max - lo;
+    // An axis without extent gets scale 0 (every item in bin 0) and is skipped below.
+    let scale = Vec3::select(
+        extent.cmpgt(Vec3::ZERO),
+        Vec3::splat(BINS as f32) / extent,
+        Vec3::ZERO,
+    );
+    let mut bin_bounds = [[Aabb::EMPTY; BINS]; 3];
+    let mut bin_count = [[0usize; BINS]; 3];
+    for it in items {
+        let f = (it.centroid - lo) * scale;
+        for axis in 0..3 {
+            let b = (f[axis] as usize).min(BINS - 1);
+            bin_bounds[axis][b] = bin_bounds[axis][b].union(&it.bounds);
+            bin_count[axis][b] += 1;
+        }
+    }
     for axis in 0..3 {
-        let lo = cbounds.min[axis];
-        let extent = cbounds.max[axis] - lo;
-        if !(extent > 0.0) {
+        if !(extent[axis] > 0.0) {
             continue;
         }
-        let scale = BINS as f32 / extent;
-        let mut bin_bounds = [Aabb::EMPTY; BINS];
-        let mut bin_count = [0usize; BINS];
-        for it in items {
-            let b = (((it.centroid[axis] - lo) * scale) as usize).min(BINS - 1);
-            bin_bounds[b] = bin_bounds[b].union(&it.bounds);
-            bin_count[b] += 1;
-        }
+        let (bin_bounds, bin_count) = (&bin_bounds[axis], &bin_count[axis]);
         // Sweep from the right to get suffix areas and counts.
         let mut right_area = [0f32; BINS];
         let mut right_count = [0usize; BINS];
@@ -1289,6 +1336,58 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    /// The parallel build (subtrees of ≥ PARALLEL_BUILD primitives split across threads) lays
+    /// out the same nodes and primitive order as the build on one thread.
+    #[test]
+    fn parallel_build_equals_sequential() {
+        let mut rng = Pcg32::new(11, 0);
+        let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let mut prims = triangle_soup(&mut r3, 6 * PARALLEL_BUILD as u32, 0.4);
+        // Long thin triangles across the soup as well.
+        prims.extend(
+            triangle_soup(&mut r3, 2000, 0.0)
+                .into_iter()
+                .map(|p| match p {
+                    Primitive::Triangle { v, shape, .. } => Primitive::Triangle {
+                        v: [
+                            v[0],
+                            v[0] + Vec3::new(8.0, 0.01, 0.0),
+                            v[0] + Vec3::new(0.0, 0.02, 0.01),
+                        ],
+                        n: None,
+                        shape: shape + 6 * PARALLEL_BUILD as u32,
+                    },
+                    other => other,
+                }),
+        );
+        let pool = |t| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+        };
+        let one = pool(1).install(|| Bvh::build(prims.clone()));
+        let four = pool(4).install(|| Bvh::build(prims.clone()));
+        assert!(one.nodes.len() > 1000);
+        assert_eq!(one.nodes.len(), four.nodes.len());
+        for (a, b) in one.nodes.iter().zip(&four.nodes) {
+            assert_eq!((a.child, a.count), (b.child, b.count));
+            assert_eq!(
+                a.b.map(|c| c.map(|l| l.map(f32::to_bits))),
+                b.b.map(|c| c.map(|l| l.map(f32::to_bits)))
+            );
+        }
+        let shapes = |b: &Bvh| {
+            (0..b.len() as u32)
+                .map(|i| b.primitive(i).shape())
+                .collect::<Vec<_>>()
+        };
+        assert!(shapes(&one) == shapes(&four));
+        let mut seen = shapes(&one);
+        seen.sort_unstable();
+        assert!(seen == (0..prims.len() as u32).collect::<Vec<_>>());
     }
 
     /// The BVH must agree with brute force on closest hits and any-hits.
