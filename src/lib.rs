@@ -8,5 +8,6 @@ pub mod calibrate;
 pub mod certify;
 pub mod external;
 pub mod figures;
+pub mod ground_truth;
 pub mod merge;
 pub mod outputs;

@@ -9,8 +9,8 @@
 
 use std::path::PathBuf;
 
+use linlight::ground_truth::closed_form::unshadowed_pixel_average;
 use linlight_imagefile::Image;
-use linlight_render::closed_form::unshadowed_pixel_average;
 use linlight_render::scene::Scene;
 use linlight_render::xml::load_scene;
 use linlight_render::{render, RenderOptions};

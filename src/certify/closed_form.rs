@@ -1,10 +1,10 @@
 //! The exact R → 0 image of the scenes in [`super::matrix::EXACT_SCENES`] (unoccluded plane):
 //! K·∫ f·cos dΩ_R averaged over each pixel's footprint, zero variance — in closed form,
 //! (ρ/π)·K·Ω⊥_R, on Lambertian surfaces, by adaptive quadrature along the line on glossy ones
-//! (`linlight_render::closed_form`).
+//! (`crate::ground_truth::closed_form`).
 
+use crate::ground_truth::closed_form::unshadowed_pixel_average;
 use linlight_imagefile::Image;
-use linlight_render::closed_form::unshadowed_pixel_average;
 use linlight_render::scene::Scene;
 
 /// The exact image of `scene` (an error if the scene is not of the supported kind).

@@ -10,7 +10,7 @@
 //!   the hemisphere, but only logarithmically so (tail P(X > y) ~ y⁻², measured exponent 2.0),
 //!   and it certifies within the default budget (docs/glossy-scenes.md, "LTC alone").
 //! - [`EXACT_SCENES`]: unoccluded planes whose R → 0 image is known without sampling
-//!   (`linlight_render::closed_form`: closed form on Lambertian surfaces, quadrature along the line
+//!   (`crate::ground_truth::closed_form`: closed form on Lambertian surfaces, quadrature along the line
 //!   on glossy ones); every render of such a scene is compared with that image as well.
 
 use super::Subject;

@@ -821,6 +821,7 @@ fn run_plan(
     };
     if let Some(dir) = &opts.report_dir {
         report::write_report(dir, &report)?;
+        report_html::write(dir, &report)?;
     }
     Ok(report)
 }

@@ -11,7 +11,7 @@ use std::path::Path;
 use super::{Report, Row, Unusable};
 use crate::outputs::write_file;
 
-fn io_err(path: &Path, e: impl std::fmt::Display) -> Unusable {
+pub(super) fn io_err(path: &Path, e: impl std::fmt::Display) -> Unusable {
     Unusable(format!("cannot write {}: {e}", path.display()))
 }
 
@@ -436,7 +436,5 @@ pub fn write_report(dir: &Path, report: &Report) -> Result<(), Unusable> {
     let written = |r: Result<(), String>| r.map_err(Unusable);
     written(write_file(&json, text))?;
     written(write_file(&dir.join("report.md"), markdown(report)))?;
-    let html = dir.join("report.html");
-    written(write_file(&html, super::report_html::html(dir, report)))?;
     Ok(())
 }

@@ -17,7 +17,8 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::{Report, Row};
+use super::report::io_err;
+use super::{Report, Row, Unusable};
 
 /// Displayed width of the enlarged pictures, in CSS pixels (at least 1× the image).
 const PICTURE_WIDTH: usize = 256;
@@ -299,6 +300,13 @@ td:first-child,th:first-child{text-align:left}.pass{color:#1a7f37;font-weight:bo
 img.px{image-rendering:pixelated;image-rendering:crisp-edges;border:1px solid #aaa}\
 figure{margin:0}figcaption{font-size:13px;text-align:center}.row{display:flex;gap:16px;flex-wrap:wrap;margin:6px 0}\
 .bar .ticks{display:flex;justify-content:space-between;font-size:11px;width:256px}.note{background:#fff6d6;padding:6px 10px}";
+
+/// Writes [`html`] to `dir/report.html` (next to `report.json` and `report.md` of
+/// `report::write_report`).
+pub fn write(dir: &Path, report: &Report) -> Result<(), Unusable> {
+    let path = dir.join("report.html");
+    std::fs::write(&path, html(dir, report)).map_err(|e| io_err(&path, e))
+}
 
 /// The page (see the module documentation).
 pub fn html(dir: &Path, report: &Report) -> String {

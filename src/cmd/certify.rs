@@ -6,7 +6,7 @@
 use indicatif::{ProgressBar, ProgressStyle};
 use linlight::certify::budget::BudgetRule;
 use linlight::certify::shard::{self, Shard};
-use linlight::certify::{self, report, Event, Options, Oracle, Report, Subject};
+use linlight::certify::{self, report, report_html, Event, Options, Oracle, Report, Subject};
 use linlight::outputs;
 use linlight_render::Method;
 use std::io::IsTerminal;
@@ -266,7 +266,9 @@ fn merge(args: &Args) -> ExitCode {
             return unusable(format!("--json: {e}"));
         }
     }
-    if let Err(e) = report::write_report(&args.report_dir, &report) {
+    if let Err(e) = report::write_report(&args.report_dir, &report)
+        .and_then(|()| report_html::write(&args.report_dir, &report))
+    {
         return unusable(e);
     }
     println!("merged {n} shards: one Šidák correction over the full family, as unsharded");

@@ -1,11 +1,11 @@
 //! `linlight unshadowed`: the exact R → 0 image of an unoccluded plane lit by linear lights — the
 //! ground truth that `certify` compares renders with besides Mitsuba. Lambertian surfaces in
 //! closed form, any other BSDF by adaptive quadrature along the line
-//! (`linlight_render::closed_form`, `linlight_render::line_quadrature`); variance 0, so that
+//! (`linlight::ground_truth`); variance 0, so that
 //! `linlight compare` tests a render (or a Mitsuba reference) against it exactly.
 
+use linlight::ground_truth::closed_form::{unshadowed_pixel_average_with, Method};
 use linlight::outputs::{self, ImageFormat};
-use linlight_render::closed_form::{unshadowed_pixel_average_with, Method};
 use linlight_render::xml;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -104,7 +104,7 @@ pub fn run(args: Args) -> ExitCode {
     if unconverged > 0 {
         eprintln!(
             "warning: {unconverged} line integrals missed their error target (see \
-             linlight_render::line_quadrature)"
+             linlight::ground_truth::line_quadrature)"
         );
     }
     if !args.quiet {

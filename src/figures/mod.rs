@@ -446,7 +446,7 @@ pub struct HitPoint {
 /// Primary hits through the pixel centres of a scene's film (row-major; None: nothing hit, or
 /// the back of a one-sided surface).
 pub fn hit_points(scene: &Scene) -> Result<Vec<Option<HitPoint>>, String> {
-    use linlight_render::integrator::{reflecting_normal, RenderScene};
+    use linlight_render::render_scene::{reflecting_normal, RenderScene};
     let rs = RenderScene::new(scene).map_err(|e| e.to_string())?;
     let film = &scene.sensor.film;
     let mut out = Vec::with_capacity((film.width * film.height) as usize);

@@ -8,7 +8,7 @@
 //!   clipped segment (`LineFrame::clip_to_horizon` then `projected_solid_angle`), in closed form.
 //! - Any other BSDF (GGX conductor, principled, blends, twosided of these): the 1-D integral over
 //!   the line position t with dΩ_R = 2 |u × ω| dt / r², by adaptive quadrature in f64
-//!   ([`crate::line_quadrature`]), which shares nothing with the samplers. It also works for a
+//!   ([`crate::ground_truth::line_quadrature`]), which shares nothing with the samplers. It also works for a
 //!   Lambertian surface ([`Method::Quadrature`]), which cross-checks the two.
 //!
 //! This is exact only where no visibility term is needed, i.e. when nothing can stand between x
@@ -31,12 +31,12 @@
 //! contribute 0. For a pixel entirely on the plane the integrand is smooth and the rule's error
 //! is O(1/s²); pixels that contain a silhouette edge converge only as O(1/s).
 
-use crate::integrator::{diffuse_lobe, reflecting_normal, RenderScene};
-use crate::line_quadrature::{unshadowed_line_integral, QuadraturePoint};
-use crate::render::RenderError;
-use crate::scene::{Bsdf, Geometry, Scene};
+use crate::ground_truth::line_quadrature::{unshadowed_line_integral, QuadraturePoint};
 use glam::{DVec3, Vec3};
 use linlight_imagefile::{Image, Metadata};
+use linlight_render::render_scene::{diffuse_lobe, reflecting_normal, RenderScene};
+use linlight_render::scene::{Bsdf, Geometry, Scene};
+use linlight_render::RenderError;
 use linlight_sampling::LineFrame;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -300,8 +300,8 @@ pub fn unshadowed_pixel_average_with(
         format!(
             "unshadowed sum K int f cos dOmega_R, dOmega_R = 2|u x w| dt / r^2, adaptive \
              Gauss-Legendre over the line position t ({} equal-angle panels, relative error {:e})",
-            crate::line_quadrature::PANELS,
-            crate::line_quadrature::RELATIVE_ERROR
+            crate::ground_truth::line_quadrature::PANELS,
+            crate::ground_truth::line_quadrature::RELATIVE_ERROR
         )
     };
     meta.extra.insert(
@@ -324,15 +324,15 @@ pub fn unshadowed_pixel_average_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::{cornell_box, cuboid, diffuse, light, scene, sensor};
-    use crate::camera::Camera;
-    use crate::scene::Shape;
+    use linlight_render::build::{cornell_box, cuboid, diffuse, light, scene, sensor};
+    use linlight_render::camera::Camera;
+    use linlight_render::scene::Shape;
 
     const RHO: [f32; 3] = [0.7, 0.5, 0.3];
     const K: [f32; 3] = [1.0, 2.0, 0.5];
 
     fn floor() -> Shape {
-        crate::build::floor(3.0, RHO)
+        linlight_render::build::floor(3.0, RHO)
     }
 
     /// A floor filling most of the view, a tilted light that crosses the floor's plane (so some
@@ -476,7 +476,7 @@ mod tests {
     fn crop_is_a_window_of_the_full_film() {
         let full = unshadowed_pixel_average(&floor_scene(20, 12), 2).unwrap();
         let mut sc = floor_scene(20, 12);
-        sc.sensor.film.crop = Some(crate::scene::CropWindow {
+        sc.sensor.film.crop = Some(linlight_render::scene::CropWindow {
             offset_x: 5,
             offset_y: 3,
             width: 7,
@@ -587,10 +587,10 @@ mod tests {
         // A floor that fills the view (no silhouette edge in a pixel), so that the 8×8 midpoint
         // rule over the coarse pixels is accurate to ~1e-3 relative.
         let mut sc = floor_scene(16, 12);
-        sc.shapes[0] = crate::build::floor(30.0, RHO);
+        sc.shapes[0] = linlight_render::build::floor(30.0, RHO);
         sc.shapes[0].bsdf = conductor(0.25);
         let quad = unshadowed_pixel_average(&sc, 8).unwrap();
-        let opts = crate::RenderOptions {
+        let opts = linlight_render::RenderOptions {
             spp: 16_384,
             passes: 1,
             seed: 7,
@@ -598,7 +598,7 @@ mod tests {
             light_samples: 1,
             ..Default::default()
         };
-        let mc = crate::render(&sc, &opts, &|_, _| {}).unwrap();
+        let mc = linlight_render::render(&sc, &opts, &|_, _| {}).unwrap();
         let (mut sum_d, mut sum_v, mut worst) = (0.0f64, 0.0f64, 0.0f64);
         for ((q, m), v) in quad.mean.iter().zip(&mc.mean).zip(&mc.var) {
             for c in 0..3 {

@@ -15,22 +15,22 @@
 //! with f·cos exactly as the renderer evaluates it (`Bsdf::eval` in the shading frame of the side
 //! facing the viewer; the BSDF models are certified against Mitsuba's `BSDF.eval` on their own).
 //! No visibility term: this is exact only where nothing can occlude the line (see
-//! [`crate::closed_form`] for the scenes it is used on).
+//! [`crate::ground_truth::closed_form`] for the scenes it is used on).
 //!
 //! Quadrature. The integrand is zero below the tangent plane; the interval is cut at the plane
 //! crossing t_h = n·(x − p₀)/(n·u) (computed here in f64, not by the samplers' horizon clip) and
 //! only the part above is integrated. That part is split into [`PANELS`] pieces of equal angle
 //! as seen from x (t = t_⊥ + d·tan θ, t_⊥ the foot of the perpendicular, d the distance to the
 //! infinite line), so that a lobe as narrow as α = 0.05 (≳ 6° wide) is seen by many nodes of the
-//! panel it falls in, and then refined adaptively (`linlight_verify::quadrature::Adaptive`, Gauss–Legendre halves
+//! panel it falls in, and then refined adaptively (`linlight_quadrature::Adaptive`, Gauss–Legendre halves
 //! against a Gauss–Lobatto whole) until the sum of the three colour channels meets a relative
 //! error of [`RELATIVE_ERROR`]; each channel is then integrated with the same rule on the final
 //! panels (the channels are non-negative, so none is less accurate in absolute terms than the
 //! sum).
 
-use crate::scene::Bsdf;
 use glam::DVec3;
-use linlight_verify::quadrature::{Adaptive, GaussLegendre};
+use linlight_quadrature::{Adaptive, GaussLegendre};
+use linlight_render::scene::Bsdf;
 
 /// Initial panels of equal subtended angle on the part of the segment above the horizon.
 pub const PANELS: usize = 8;
@@ -39,7 +39,7 @@ pub const NODES: usize = 8;
 /// Relative error target of the integral (of the channel sum).
 pub const RELATIVE_ERROR: f64 = 1e-7;
 
-/// The quadrature's shading point (the renderer's own is [`crate::shading::ShadingPoint`]):
+/// The quadrature's shading point (the renderer's own is [`linlight_render::shading::ShadingPoint`]):
 /// position, unit normal of the reflecting side, and the orthonormal tangent frame (t, b, n)
 /// with v (unit, toward the viewer) expressed in it. Everything in f64.
 #[derive(Clone, Copy, Debug)]

@@ -11,10 +11,10 @@
 use glam::{Mat3, Vec3};
 use linlight_brdf::ltc::GgxLtcTable;
 use linlight_brdf::microfacet::ggx_cos;
+use linlight_quadrature::Adaptive;
 use linlight_sampling::ltc::LtcLine;
 use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
 use linlight_sampling::{LineSampler, Segment};
-use linlight_verify::quadrature::Adaptive;
 
 /// Shading frame (columns x̂, ŷ, n) with x̂ = normalize(v − (n·v)n), any x̂ ⊥ n when v ∥ n.
 fn shading_frame(n: Vec3, v: Vec3) -> Mat3 {

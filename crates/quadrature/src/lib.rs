@@ -1,5 +1,9 @@
 //! Gauss–Legendre quadrature in f64, fixed and adaptive.
 //!
+//! Its own crate so that the ground truths built on it (the LTC moments of linlight-brdf's
+//! tests, the line integrals of `linlight ground_truth`, the chi-square suite of linlight-verify)
+//! depend on nothing of the code they check.
+//!
 //! The chi-square suite integrates sampler densities (evaluated in f32) over intervals of
 //! φ = asin s. Densities may jump inside an interval (LTC: horizon clip inside the support), so
 //! the adaptive rule bisects where a panel and its two halves disagree. The acceptance test is

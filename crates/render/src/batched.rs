@@ -36,7 +36,7 @@
 //! two; then the visible lines'), and every step is the scalar step's arithmetic (the batch
 //! kernels and packet walks equal their scalar forms bit for bit, ties of the closest hit
 //! included; a light's samples are summed per lane as the scalar estimator sums them), so an
-//! image equals the one of the scalar reference path ([`crate::render::render_with`] with the
+//! image equals the one of the scalar reference path ([`crate::integrator::render_with`] with the
 //! same method and light selection) bit for bit — tests below check it on every committed
 //! scene, method and light selection. Pixels accumulate their samples in the same order
 //! (Welford in f64).
@@ -53,14 +53,12 @@
 
 use crate::bvh::{PacketHits, RayLanes, PACKET};
 use crate::film::Welford;
+use crate::frame::{metadata, pixel_entries, render_in_tiles};
 use crate::hooks::{LightSampling, Ltc, SceneBsdf};
-use crate::integrator::{
-    k_over_probability, offset_origin, reflecting_normal, RenderScene, SHADOW_EPSILON,
-};
 use crate::method::Method;
-use crate::render::{
-    check_options, metadata, pixel_entries, render_in_tiles, window, RenderError, RenderOptions,
-};
+use crate::options::{check_options, window, RenderError, RenderOptions};
+use crate::ray_offset::{offset_origin, SHADOW_EPSILON};
+use crate::render_scene::{k_over_probability, reflecting_normal, RenderScene};
 use crate::scene::{Bsdf, Scene};
 use crate::shading::{
     contribution, lambert_technique, shading_frame, single_contribution, single_sample, to_local,
@@ -1475,9 +1473,9 @@ fn shadow_ray_lane(p: Vec3, ng: Vec3, target: Vec3) -> (Ray, bool) {
 mod tests {
     use super::*;
     use crate::hooks::Hooks;
+    use crate::integrator::render_with;
     use crate::light_choice::LightSelection;
     use crate::method::Method;
-    use crate::render::render_with;
     use crate::xml;
     use linlight_sampling::mis::Heuristic;
 

@@ -210,7 +210,7 @@ macro_rules! with_resolved {
                 $body
             }
             (_, m) => {
-                let t = $crate::shading::lambert_technique(m);
+                let t = $crate::method::lambert_technique(m);
                 let $r = $crate::hooks::Resolved {
                     technique: &t,
                     specular: &hooks.specular,

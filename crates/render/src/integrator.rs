@@ -21,155 +21,21 @@
 //! numbers of one iteration. Lambertian surfaces take the fast path f = ρ/π with one diffuse
 //! technique (the single technique, or projected solid angle for the two-technique methods).
 
-use crate::bvh::Bvh;
-use crate::camera::Camera;
-use crate::hooks::{BsdfModel, LightSampling, Resolved, SpecularSampling};
-use crate::light_choice::{LightChoice, LightSelection};
-use crate::render::RenderOptions;
-use crate::scene::{Bsdf, Rgb};
+use crate::film::Welford;
+use crate::frame::{metadata, pixel_entries, render_in_tiles};
+use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
+use crate::method::Method;
+use crate::options::{check_options, window, RenderError, RenderOptions};
+use crate::ray_offset::shadow_ray_to;
+use crate::render_scene::{chosen_light, reflecting_normal, RenderScene};
+use crate::scene::{Rgb, Scene};
 use crate::shading::{estimate_resolved, single_technique, ShadingPoint};
-use crate::shadow_culling::ShadowCulling;
-use crate::shapes::{Ray, SurfacePoint};
-use crate::visible_line::VisibleLines;
+use crate::shapes::Ray;
+use crate::visible_line::PixelLine;
 use glam::Vec3;
-use linlight_sampling::noise::SampleStream;
+use linlight_imagefile::{Image, Metadata};
+use linlight_sampling::noise::{NoiseSource, SampleStream};
 use linlight_sampling::Segment;
-
-/// Mitsuba's ray epsilon for f32 variants: 1500 ulp(1) = 1500·2⁻²⁴.
-pub const RAY_EPSILON: f32 = 1500.0 / 16_777_216.0;
-/// Shadow rays stop this fraction of their length short of the target.
-pub const SHADOW_EPSILON: f32 = 10.0 * RAY_EPSILON;
-
-/// Everything the integrator needs, prepared from a [`crate::scene::Scene`].
-#[derive(Clone, Debug)]
-pub struct RenderScene {
-    pub camera: Camera,
-    pub bvh: Bvh,
-    /// The shadow BVH of each light ([`crate::shadow_culling`]): shadow rays toward light j
-    /// walk `shadows` with `bvh` as the fallback; same answers as `bvh`.
-    pub shadows: ShadowCulling,
-    /// Per `Scene::shapes` entry: its BSDF and flip_normals.
-    pub surfaces: Vec<(Bsdf, bool)>,
-    /// Per `Scene::shapes` entry: f = ρ/π when its BSDF is Lambertian (`Bsdf::lambertian`), the
-    /// integrator's fast path; `None` for glossy BSDFs.
-    pub lambert: Vec<Option<Vec3>>,
-    /// Segment and K = radiance × radius per light.
-    pub lights: Vec<(Segment, Vec3)>,
-    /// The distribution of the light chosen per light sample under [`LightSelection::One`].
-    pub choice: LightChoice,
-    /// The lights as the camera sees them (empty when the scene hides emitters).
-    pub visible: VisibleLines,
-    /// Light contributions dropped because they were not finite (reported by the renderer).
-    pub dropped: DroppedSamples,
-}
-
-/// A count shared by the threads of a render (relaxed: only the total is read, at the end).
-#[derive(Debug, Default)]
-pub struct DroppedSamples(pub std::sync::atomic::AtomicU64);
-
-impl Clone for DroppedSamples {
-    fn clone(&self) -> Self {
-        Self(std::sync::atomic::AtomicU64::new(self.get()))
-    }
-}
-
-impl DroppedSamples {
-    pub fn get(&self) -> u64 {
-        self.0.load(std::sync::atomic::Ordering::Relaxed)
-    }
-    #[cold]
-    fn add_many(&self, count: u64) {
-        self.0
-            .fetch_add(count, std::sync::atomic::Ordering::Relaxed);
-    }
-}
-
-/// Origin of a ray leaving surface point `p` (geometric normal `ng`) in direction `d`: pushed
-/// off the surface to the side `d` points to, by (1 + max|p_i|)·RAY_EPSILON, as Mitsuba does.
-#[inline]
-pub fn offset_origin(p: Vec3, ng: Vec3, d: Vec3) -> Vec3 {
-    let mag = (1.0 + p.abs().max_element()) * RAY_EPSILON;
-    let mag = if ng.dot(d) < 0.0 { -mag } else { mag };
-    p + mag * ng
-}
-
-/// Shadow ray from a surface point to `target`, ending (1 − SHADOW_EPSILON)·distance along.
-#[inline]
-pub fn shadow_ray_to(sp: &SurfacePoint, target: Vec3) -> Option<Ray> {
-    let o = offset_origin(sp.p, sp.ng, target - sp.p);
-    let d = target - o;
-    let dist = d.length();
-    if !(dist > 0.0 && dist.is_finite()) {
-        return None;
-    }
-    Some(Ray {
-        o,
-        d: d / dist,
-        t_min: 0.0,
-        t_max: dist * (1.0 - SHADOW_EPSILON),
-    })
-}
-
-/// The normal of the side of a surface that reflects toward the viewer (`wi`: unit, pointing
-/// away from the surface): the shading normal `ns`, its negation for a `twosided` BSDF seen from
-/// below, or `None` when the viewer is behind a one-sided BSDF (or exactly in the tangent plane),
-/// where Mitsuba's eval is zero.
-#[inline]
-pub fn reflecting_normal(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<Vec3> {
-    let c = ns.dot(wi);
-    if c > 0.0 {
-        Some(ns)
-    } else if c < 0.0 && bsdf.is_two_sided() {
-        Some(-ns)
-    } else {
-        None
-    }
-}
-
-/// The Lambertian lobe seen from direction `wi`: the normal of the side that reflects and the
-/// albedo, or `None` when nothing reflects toward the viewer or the BSDF is not Lambertian.
-pub fn diffuse_lobe(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
-    let n = reflecting_normal(bsdf, ns, wi)?;
-    Some((n, bsdf.lambertian()?.as_vec3()))
-}
-
-impl RenderScene {
-    /// Whether light samples choose one light ([`LightSelection::One`] with two or more
-    /// lights); otherwise every light is sampled (with one light the two are the same).
-    #[inline]
-    pub fn chooses_one(&self, selection: LightSelection) -> bool {
-        selection == LightSelection::One && self.lights.len() > 1
-    }
-
-    /// Numbers a camera sample that reaches a reflecting surface draws for its lights, with
-    /// `numbers` per iteration of one light (1 on Lambertian surfaces).
-    pub fn light_numbers(
-        &self,
-        selection: LightSelection,
-        light_samples: u32,
-        numbers: usize,
-    ) -> usize {
-        let samples = light_samples as usize;
-        if self.chooses_one(selection) {
-            samples * (1 + numbers)
-        } else {
-            samples * self.lights.len() * numbers
-        }
-    }
-}
-
-/// The light chosen by ξ_c under [`LightSelection::One`]: its index, and its K/p.
-#[inline]
-pub fn chosen_light(lights: &[(Segment, Vec3)], choice: &LightChoice, xi: f32) -> (usize, Vec3) {
-    let (j, _) = choice.pick(xi);
-    (j, k_over_probability(lights, choice, j))
-}
-
-/// K_j/p_j of light j (the same operation on both render paths).
-#[inline(always)]
-pub fn k_over_probability(lights: &[(Segment, Vec3)], choice: &LightChoice, j: usize) -> Vec3 {
-    lights[j].1 * choice.inverse_probability(j)
-}
 
 /// Σ estimate(segment, K, iterations, rng) over the lights of the light samples: every light
 /// with `opts.light_samples` iterations, or ([`RenderScene::chooses_one`]) `opts.light_samples`
@@ -276,31 +142,92 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     total.to_array()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn epsilons_match_mitsuba() {
-        assert!((RAY_EPSILON - 8.940697e-5).abs() < 1e-10);
-        assert!((1.0 - SHADOW_EPSILON - (1.0 - 8.94e-4)).abs() < 1e-6);
+/// [`render`] with replaced pieces ([`Hooks`]): the hook through which tests render with
+/// deliberately wrong techniques, specular samplers or BSDF evaluations (power controls, see
+/// [`crate::power_controls`]). `opts.method` still chooses the estimator; the header records
+/// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`). Always the
+/// scalar path (the batched renderer's images equal it bit for bit where it applies).
+pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    hooks: &Hooks<D, S, B>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    check_options(opts)?;
+    let mut image = with_resolved!(hooks, opts.method, |r| render_tiles(
+        scene, opts, r, progress
+    ))?;
+    let mut entries = Vec::new();
+    if let (Some(t), Method::Technique(_)) = (&hooks.technique, opts.method) {
+        entries.push(("technique", t.name()));
     }
+    entries.extend(hooks.header());
+    image.meta = metadata(opts, scene, std::mem::take(&mut image.meta.extra), entries);
+    Ok(image)
+}
 
-    #[test]
-    fn one_and_two_sided_lobes() {
-        let d = Bsdf::Diffuse {
-            reflectance: [0.5; 3],
+/// The image of [`render_with`] with the pieces resolved; its header holds only the pixels'
+/// entries ([`pixel_entries`]).
+fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    pieces: Resolved<T, S, B>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    let (x0, y0, w, h) = window(scene)?;
+    let rs = RenderScene::new(scene)?;
+    let full_width = scene.sensor.film.width;
+    let noise = NoiseSource::new(opts.noise, opts.seed, opts.spp);
+    let mut image = render_in_tiles(
+        &rs,
+        opts,
+        (x0, y0, w, h),
+        progress,
+        |pixels, seen, pass, single| {
+            for (i, &(fx, fy)) in pixels.iter().enumerate() {
+                // < 2^32: checked by `window`.
+                let index = fy.wrapping_mul(full_width).wrapping_add(fx);
+                single[i] =
+                    render_pixel_pass(&rs, opts, &noise, pieces, fx, fy, index, pass, &seen[i]);
+            }
+        },
+    );
+    image.meta = Metadata {
+        extra: pixel_entries(scene, &rs, (x0, y0, w, h)),
+        ..Default::default()
+    };
+    Ok(image)
+}
+
+/// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the
+/// camera sees in this pixel ([`VisibleLines::pixel`]).
+#[allow(clippy::too_many_arguments)]
+fn render_pixel_pass<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    rs: &RenderScene,
+    opts: &RenderOptions,
+    noise: &NoiseSource,
+    pieces: Resolved<T, S, B>,
+    fx: u32,
+    fy: u32,
+    index: u32,
+    pass: u32,
+    seen: &[PixelLine],
+) -> Welford {
+    let mut acc = Welford::default();
+    for sample in 0..opts.spp {
+        let mut rng = noise.stream(fx, fy, index, pass, sample);
+        let (u, v) = rng.film_position();
+        let ray = rs.camera.ray(fx as f32 + u, fy as f32 + v);
+        let l = radiance(rs, opts, pieces, &ray, &mut rng);
+        let l = if seen.is_empty() {
+            l
+        } else {
+            let mut t = Vec3::from_array(l);
+            rs.visible
+                .add_estimate(seen, &rs.bvh, || rng.next_f64(), &mut t);
+            t.to_array()
         };
-        assert!(diffuse_lobe(&d, Vec3::Z, Vec3::Z).is_some());
-        assert!(diffuse_lobe(&d, Vec3::Z, -Vec3::Z).is_none());
-        let t = Bsdf::TwoSided(Box::new(d));
-        assert_eq!(diffuse_lobe(&t, Vec3::Z, -Vec3::Z).unwrap().0, -Vec3::Z);
+        acc.push(l.map(|c| c as f64));
     }
-
-    #[test]
-    fn offset_moves_to_the_side_of_the_direction() {
-        let p = Vec3::new(3.0, 0.0, 0.0);
-        let o = offset_origin(p, Vec3::Z, Vec3::new(1.0, 0.0, -1.0));
-        assert!((o - p + Vec3::Z * 4.0 * RAY_EPSILON).length() < 1e-9);
-    }
+    acc
 }

@@ -8,18 +8,22 @@ pub mod batched;
 pub mod build;
 pub mod bvh;
 pub mod camera;
-pub mod closed_form;
 pub mod contacts;
 pub mod film;
+pub mod frame;
 pub mod hooks;
 pub mod integrator;
 pub mod light_choice;
-pub mod line_quadrature;
 pub mod method;
+pub mod options;
+#[cfg(feature = "test-support")]
 pub mod power_controls;
+pub mod ray_offset;
 pub mod render;
+pub mod render_scene;
 pub mod scene;
 pub mod shading;
+#[cfg(feature = "test-support")]
 pub mod shading_cost;
 pub mod shadow_culling;
 pub mod shapes;
@@ -28,8 +32,12 @@ mod test_scenes;
 pub mod visible_line;
 pub mod xml;
 
+pub use frame::record_inputs;
 pub use hooks::{Hooks, LightSampling};
+pub use integrator::render_with;
 pub use light_choice::LightSelection;
 pub use linlight_sampling::mis::Heuristic;
 pub use method::Method;
-pub use render::{record_inputs, render, render_with, RenderError, RenderOptions};
+pub use options::{RenderError, RenderOptions};
+pub use render::render;
+pub use render_scene::RenderScene;

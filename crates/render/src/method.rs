@@ -149,6 +149,15 @@ impl std::str::FromStr for Method {
     }
 }
 
+/// The diffuse technique of a method on a Lambertian surface: the single technique, or the
+/// projected solid angle (two-technique methods sample Lambertian surfaces diffusely only).
+pub fn lambert_technique(method: Method) -> Technique {
+    match method {
+        Method::Technique(t) => t,
+        Method::Ltc | Method::Mis(_) => Technique::ProjectedSolidAngle,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -27,6 +27,7 @@
 //! [`crate::light_choice`]).
 
 use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
+pub use crate::method::lambert_technique;
 use crate::method::Method;
 use glam::{DVec3, Mat3, Vec3};
 use linlight_brdf::ltc::GgxLtcTable;
@@ -34,7 +35,7 @@ use linlight_brdf::{Bsdf, Lobes};
 use linlight_sampling::mis::Heuristic;
 use linlight_sampling::noise::Uniforms;
 use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
-use linlight_sampling::{LineSampler, Segment, SpecularSampler, Technique};
+use linlight_sampling::{LineSampler, Segment, SpecularSampler};
 
 /// Smallest diffuse albedo in the diffuse technique weight W_d = max(ρ_d, 0.01)·Ω⊥_R.
 pub const MIN_DIFFUSE_WEIGHT: f32 = 0.01;
@@ -504,13 +505,4 @@ pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         }
     };
     total / samples as f32
-}
-
-/// The diffuse technique of a method on a Lambertian surface: the single technique, or the
-/// projected solid angle (two-technique methods sample Lambertian surfaces diffusely only).
-pub fn lambert_technique(method: Method) -> Technique {
-    match method {
-        Method::Technique(t) => t,
-        Method::Ltc | Method::Mis(_) => Technique::ProjectedSolidAngle,
-    }
 }

@@ -219,7 +219,7 @@ impl ShadowCulling {
         // off its surface by (1 + max|p|)·RAY_EPSILON.
         let far = lo.abs().max(hi.abs()).length();
         let grow = (1.0 + 1e-3 * (hi - lo).max_element())
-            .max(2.0 * (1.0 + far) * crate::integrator::RAY_EPSILON as f64);
+            .max(2.0 * (1.0 + far) * crate::ray_offset::RAY_EPSILON as f64);
         let (lo, hi) = (lo - grow, hi + grow);
         let box_corners = corners(lo, hi);
         let diameter = (hi - lo).length();
@@ -458,7 +458,8 @@ fn passes_first<const N: usize>(guards: &[Guard; MAX_GUARDS], rays: &RayLanes) -
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrator::{shadow_ray_to, RenderScene};
+    use crate::ray_offset::shadow_ray_to;
+    use crate::render_scene::RenderScene;
     use crate::shapes::SurfacePoint;
     use linlight_sampling::rng::Pcg32;
 

@@ -25,7 +25,7 @@
 
 use crate::bvh::Bvh;
 use crate::camera::Camera;
-use crate::integrator::SHADOW_EPSILON;
+use crate::ray_offset::SHADOW_EPSILON;
 use crate::shapes::Ray;
 use glam::{DMat4, DVec3, Vec3};
 

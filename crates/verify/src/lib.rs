@@ -7,10 +7,10 @@ pub mod chi2;
 pub mod configs;
 pub mod heatmap;
 pub mod image_stats;
-pub mod quadrature;
 pub mod quiet_panic;
 pub mod subjects;
 pub mod suite;
 pub mod z_score;
 
+pub use linlight_quadrature as quadrature;
 pub use suite::{run_suite, Settings, SuiteReport};

@@ -103,7 +103,7 @@ pub fn cosine_sample(u1: f64, u2: f64) -> DVec3 {
 mod tests {
     use super::*;
     use crate::ltc::test_support::integrate_sphere;
-    use linlight_verify::quadrature::GaussLegendre;
+    use linlight_quadrature::GaussLegendre;
 
     fn rows(r: [[f64; 3]; 3]) -> DMat3 {
         DMat3::from_cols_array_2d(&r).transpose()

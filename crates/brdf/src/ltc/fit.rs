@@ -27,6 +27,7 @@
 
 use super::distribution::{cosine_sample, Ltc};
 use super::nelder_mead::{minimise, Tolerance};
+pub use super::table::FitSettings;
 use super::table::{GgxLtcTable, LtcEntry};
 use crate::microfacet::{g1, ggx_cos, reflect, reflection_pdf, sample_visible_normal, MIN_ALPHA};
 use glam::{DMat3, DVec3};
@@ -36,33 +37,6 @@ use std::f64::consts::FRAC_PI_2;
 /// The largest θ_o at which entries are fitted: the last row (θ_o = π/2, where v_z = 0 and the
 /// lobe degenerates) is fitted at this angle instead.
 pub const MAX_FIT_THETA: f64 = 1.57;
-
-/// Grid sizes and sample counts of a fit. The defaults make the committed table.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct FitSettings {
-    /// Grid points per axis (√α and θ_o).
-    pub size: usize,
-    /// Stratified samples per axis per technique (LTC and BRDF) of the fit objective.
-    pub fit_samples: usize,
-    /// Stratified visible-normal samples per axis for ρ_s and the average direction.
-    pub albedo_samples: usize,
-    /// Stratified samples per axis per technique of the reported error E₁.
-    pub error_samples: usize,
-    /// Nelder–Mead budget (objective evaluations) per entry.
-    pub max_evaluations: usize,
-}
-
-impl Default for FitSettings {
-    fn default() -> Self {
-        Self {
-            size: 64,
-            fit_samples: 32,
-            albedo_samples: 256,
-            error_samples: 100,
-            max_evaluations: 1000,
-        }
-    }
-}
 
 /// α of grid column i: (i/(size−1))² (the texel centres of x = √α), clamped from below to
 /// Mitsuba's [`MIN_ALPHA`] (so column 0 is fitted at α = 1e-4).

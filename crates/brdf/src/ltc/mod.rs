@@ -36,5 +36,5 @@ pub mod table;
 mod test_support;
 
 pub use distribution::Ltc;
-pub use fit::{fit_table, FitSettings, FittedEntry, FittedTable};
-pub use table::{GgxLtcTable, LtcEntry, TableError};
+pub use fit::{fit_table, FittedEntry, FittedTable};
+pub use table::{FitSettings, GgxLtcTable, LtcEntry, TableError};

@@ -22,11 +22,38 @@
 //! (fit samples, albedo samples, error samples, Nelder–Mead budget); then N² records of seven
 //! f32 `a, b, c, d, e, ρ_s, E₁`, record j·N + i for √α column i and θ_o row j.
 
-use super::fit::FitSettings;
 use glam::{Mat3, Vec3};
 use std::f32::consts::FRAC_2_PI;
 use std::fmt;
 use std::sync::OnceLock;
+
+/// Grid sizes and sample counts of a fit (`fit::fit_table`), recorded in the table it made. The
+/// defaults make the committed table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FitSettings {
+    /// Grid points per axis (√α and θ_o).
+    pub size: usize,
+    /// Stratified samples per axis per technique (LTC and BRDF) of the fit objective.
+    pub fit_samples: usize,
+    /// Stratified visible-normal samples per axis for ρ_s and the average direction.
+    pub albedo_samples: usize,
+    /// Stratified samples per axis per technique of the reported error E₁.
+    pub error_samples: usize,
+    /// Nelder–Mead budget (objective evaluations) per entry.
+    pub max_evaluations: usize,
+}
+
+impl Default for FitSettings {
+    fn default() -> Self {
+        Self {
+            size: 64,
+            fit_samples: 32,
+            albedo_samples: 256,
+            error_samples: 100,
+            max_evaluations: 1000,
+        }
+    }
+}
 
 const MAGIC: &[u8; 8] = b"LTCGGX01";
 const HEADER_LEN: usize = 8 + 5 * 4;

@@ -5,7 +5,7 @@
 use super::distribution::Ltc;
 use crate::microfacet::{ggx_cos, reflect};
 use glam::DVec3;
-use linlight_verify::quadrature::GaussLegendre;
+use linlight_quadrature::GaussLegendre;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// ∫_a^b f by `panels` equal panels of the rule `gl`.

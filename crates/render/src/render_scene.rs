@@ -1,0 +1,285 @@
+//! The scene as the renderer sees it ([`RenderScene`]): the acceleration structures, the
+//! camera, each surface's BSDF, and the lights with their K = radiance × radius and the
+//! distribution of the light chosen per light sample, built once from a [`Scene`] and shared by
+//! the scalar integrator ([`crate::integrator`]) and the packet renderer ([`crate::batched`]).
+
+use crate::bvh::Bvh;
+use crate::camera::Camera;
+use crate::light_choice::{LightChoice, LightSelection};
+use crate::options::{window, RenderError};
+use crate::scene::{Bsdf, Geometry, Scene};
+use crate::shadow_culling::ShadowCulling;
+use crate::shapes::{transformed_normal, Primitive};
+use crate::visible_line::VisibleLines;
+use glam::Vec3;
+use linlight_sampling::Segment;
+
+/// Everything the integrator needs, prepared from a [`crate::scene::Scene`].
+#[derive(Clone, Debug)]
+pub struct RenderScene {
+    pub camera: Camera,
+    pub bvh: Bvh,
+    /// The shadow BVH of each light ([`crate::shadow_culling`]): shadow rays toward light j
+    /// walk `shadows` with `bvh` as the fallback; same answers as `bvh`.
+    pub shadows: ShadowCulling,
+    /// Per `Scene::shapes` entry: its BSDF and flip_normals.
+    pub surfaces: Vec<(Bsdf, bool)>,
+    /// Per `Scene::shapes` entry: f = ρ/π when its BSDF is Lambertian (`Bsdf::lambertian`), the
+    /// integrator's fast path; `None` for glossy BSDFs.
+    pub lambert: Vec<Option<Vec3>>,
+    /// Segment and K = radiance × radius per light.
+    pub lights: Vec<(Segment, Vec3)>,
+    /// The distribution of the light chosen per light sample under [`LightSelection::One`].
+    pub choice: LightChoice,
+    /// The lights as the camera sees them (empty when the scene hides emitters).
+    pub visible: VisibleLines,
+    /// Light contributions dropped because they were not finite (reported by the renderer).
+    pub dropped: DroppedSamples,
+}
+
+/// A count shared by the threads of a render (relaxed: only the total is read, at the end).
+#[derive(Debug, Default)]
+pub struct DroppedSamples(pub std::sync::atomic::AtomicU64);
+
+impl Clone for DroppedSamples {
+    fn clone(&self) -> Self {
+        Self(std::sync::atomic::AtomicU64::new(self.get()))
+    }
+}
+
+impl DroppedSamples {
+    pub fn get(&self) -> u64 {
+        self.0.load(std::sync::atomic::Ordering::Relaxed)
+    }
+    #[cold]
+    pub(crate) fn add_many(&self, count: u64) {
+        self.0
+            .fetch_add(count, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// The normal of the side of a surface that reflects toward the viewer (`wi`: unit, pointing
+/// away from the surface): the shading normal `ns`, its negation for a `twosided` BSDF seen from
+/// below, or `None` when the viewer is behind a one-sided BSDF (or exactly in the tangent plane),
+/// where Mitsuba's eval is zero.
+#[inline]
+pub fn reflecting_normal(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<Vec3> {
+    let c = ns.dot(wi);
+    if c > 0.0 {
+        Some(ns)
+    } else if c < 0.0 && bsdf.is_two_sided() {
+        Some(-ns)
+    } else {
+        None
+    }
+}
+
+/// The Lambertian lobe seen from direction `wi`: the normal of the side that reflects and the
+/// albedo, or `None` when nothing reflects toward the viewer or the BSDF is not Lambertian.
+pub fn diffuse_lobe(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+    let n = reflecting_normal(bsdf, ns, wi)?;
+    Some((n, bsdf.lambertian()?.as_vec3()))
+}
+
+impl RenderScene {
+    /// Whether light samples choose one light ([`LightSelection::One`] with two or more
+    /// lights); otherwise every light is sampled (with one light the two are the same).
+    #[inline]
+    pub fn chooses_one(&self, selection: LightSelection) -> bool {
+        selection == LightSelection::One && self.lights.len() > 1
+    }
+
+    /// Numbers a camera sample that reaches a reflecting surface draws for its lights, with
+    /// `numbers` per iteration of one light (1 on Lambertian surfaces).
+    pub fn light_numbers(
+        &self,
+        selection: LightSelection,
+        light_samples: u32,
+        numbers: usize,
+    ) -> usize {
+        let samples = light_samples as usize;
+        if self.chooses_one(selection) {
+            samples * (1 + numbers)
+        } else {
+            samples * self.lights.len() * numbers
+        }
+    }
+}
+
+/// The light chosen by ξ_c under [`LightSelection::One`]: its index, and its K/p.
+#[inline]
+pub fn chosen_light(lights: &[(Segment, Vec3)], choice: &LightChoice, xi: f32) -> (usize, Vec3) {
+    let (j, _) = choice.pick(xi);
+    (j, k_over_probability(lights, choice, j))
+}
+
+/// K_j/p_j of light j (the same operation on both render paths).
+#[inline(always)]
+pub fn k_over_probability(lights: &[(Segment, Vec3)], choice: &LightChoice, j: usize) -> Vec3 {
+    lights[j].1 * choice.inverse_probability(j)
+}
+
+impl RenderScene {
+    /// Acceleration structure, camera and lights of a scene.
+    pub fn new(scene: &Scene) -> Result<Self, RenderError> {
+        window(scene)?;
+        let camera = Camera::new(&scene.sensor).ok_or_else(|| {
+            RenderError::Scene(
+                "unusable perspective sensor (field of view outside (0°, 180°) or singular \
+                 to_world)"
+                    .into(),
+            )
+        })?;
+        let mut prims = Vec::new();
+        for (i, shape) in scene.shapes.iter().enumerate() {
+            let s = i as u32;
+            match &shape.geometry {
+                Geometry::Mesh {
+                    positions,
+                    normals,
+                    indices,
+                } => {
+                    let normals = normals.as_ref().filter(|n| n.len() == positions.len());
+                    for tri in indices {
+                        let Some(v) = tri
+                            .iter()
+                            .map(|&k| positions.get(k as usize).copied())
+                            .collect::<Option<Vec<_>>>()
+                        else {
+                            continue; // out-of-range index (the loader should have rejected it)
+                        };
+                        let n = normals.map(|n| tri.map(|k| n[k as usize]));
+                        prims.push(Primitive::Triangle {
+                            v: [v[0], v[1], v[2]],
+                            n,
+                            shape: s,
+                        });
+                    }
+                }
+                Geometry::Sphere { center, radius } => prims.push(Primitive::Sphere {
+                    center: *center,
+                    radius: radius.abs(),
+                    shape: s,
+                }),
+                Geometry::Disk { to_world } => {
+                    let det = to_world.determinant();
+                    if det != 0.0 && det.is_finite() {
+                        let to_local = to_world.inverse();
+                        let normal = transformed_normal(&to_local);
+                        prims.push(Primitive::Disk {
+                            to_local,
+                            normal,
+                            shape: s,
+                        });
+                    }
+                }
+                Geometry::Cylinder { p0, p1, radius } => {
+                    let axis = *p1 - *p0;
+                    let length = axis.length();
+                    if length > 0.0 && length.is_finite() && *radius != 0.0 {
+                        prims.push(Primitive::Cylinder {
+                            p0: *p0,
+                            axis: axis / length,
+                            length,
+                            radius: radius.abs(),
+                            shape: s,
+                        });
+                    }
+                }
+            }
+        }
+        // The integrator flips the shading frame toward the viewer only for a `twosided` at the
+        // top (the loader allows it nowhere else); one nested in a blend would be shaded as
+        // one-sided from below.
+        debug_assert!(
+            scene.shapes.iter().all(|s| !nested_two_sided(&s.bsdf)),
+            "twosided is supported only as the outermost BSDF"
+        );
+        let visible = if scene.integrator.hide_emitters {
+            VisibleLines::default()
+        } else {
+            let lights: Vec<(Vec3, Vec3, Vec3)> = scene
+                .lights
+                .iter()
+                .map(|l| (l.begin, l.end, Vec3::from_array(l.radiance_times_radius)))
+                .collect();
+            VisibleLines::new(&camera, &lights)
+        };
+        Ok(Self {
+            visible,
+            dropped: Default::default(),
+            camera,
+            shadows: ShadowCulling::new(
+                &prims,
+                &scene
+                    .lights
+                    .iter()
+                    .map(|l| (l.begin, l.end))
+                    .collect::<Vec<_>>(),
+            ),
+            bvh: Bvh::build(prims),
+            surfaces: scene
+                .shapes
+                .iter()
+                .map(|s| (s.bsdf.clone(), s.flip_normals))
+                .collect(),
+            lambert: scene
+                .shapes
+                .iter()
+                .map(|s| {
+                    s.bsdf
+                        .lambertian()
+                        .map(|rho| rho.as_vec3() * std::f32::consts::FRAC_1_PI)
+                })
+                .collect(),
+            lights: scene
+                .lights
+                .iter()
+                .map(|l| {
+                    (
+                        Segment::new(l.begin, l.end),
+                        Vec3::from_array(l.radiance_times_radius),
+                    )
+                })
+                .collect(),
+            choice: LightChoice::new(
+                &scene
+                    .lights
+                    .iter()
+                    .map(|l| l.sampling_weight)
+                    .collect::<Vec<_>>(),
+            ),
+        })
+    }
+}
+
+/// Whether a `twosided` occurs below the top of `bsdf`.
+fn nested_two_sided(bsdf: &Bsdf) -> bool {
+    fn any(b: &Bsdf) -> bool {
+        match b {
+            Bsdf::TwoSided(_) => true,
+            Bsdf::Blend(blend) => blend.bsdfs.iter().any(any),
+            _ => false,
+        }
+    }
+    match bsdf {
+        Bsdf::TwoSided(inner) => any(inner),
+        b => any(b),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_and_two_sided_lobes() {
+        let d = Bsdf::Diffuse {
+            reflectance: [0.5; 3],
+        };
+        assert!(diffuse_lobe(&d, Vec3::Z, Vec3::Z).is_some());
+        assert!(diffuse_lobe(&d, Vec3::Z, -Vec3::Z).is_none());
+        let t = Bsdf::TwoSided(Box::new(d));
+        assert_eq!(diffuse_lobe(&t, Vec3::Z, -Vec3::Z).unwrap().0, -Vec3::Z);
+    }
+}
