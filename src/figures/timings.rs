@@ -7,8 +7,8 @@
 use super::page::{num, table};
 use super::{csv, Ctx, Section};
 use linlight_render::shading_cost::{measure, Batched, RowKind};
-use linlight_sampling::batch::Isa;
 use linlight_sampling::Technique;
+use linlight_simd::Isa;
 use serde_json::json;
 
 /// The paper's figure 1 frame times (RTX 2080 Ti, 1920×1080, Bistro exterior), ms.

@@ -11,7 +11,7 @@
 use crate::real::{Real, V3};
 
 /// N lanes of a 3-vector (a direction in the shading frame, or an RGB value).
-pub type Lanes3<T, const N: usize> = [[T; N]; 3];
+pub use linlight_simd::Lanes3;
 
 /// Lane k of `v`.
 #[inline(always)]

@@ -27,8 +27,8 @@ use linlight_render::shading_cost::{
     hit_points, lights, measure, shade_batched, shade_packet, shade_scalar, shade_stand_in,
     Batched, RowKind, SPP,
 };
-use linlight_sampling::batch::{Isa, LANES, PACKET_LANES};
 use linlight_sampling::Technique;
+use linlight_simd::{Isa, BATCH_LANES, PACKET_LANES};
 
 /// The kernel variant of the x8 and x16 rows: `LINLIGHT_SHADING_ISA`, else the fastest the CPU
 /// runs. Exits with status 2 on a name that is not a variant or one the CPU does not run.
@@ -70,7 +70,7 @@ fn count_mode(spec: &str, stride: usize, isa: Isa) {
         "psa-x16" => shade_packet(Batched::ProjectedSolidAngle, isa, &h, lights, spp).0,
         "li-x16" => shade_packet(Batched::Li2018, isa, &h, lights, spp).0,
         "clipped-x16" => shade_packet(Batched::ClippedSolidAngle, isa, &h, lights, spp).0,
-        "shade-x8" => shade_stand_in(LANES, &h, lights, spp),
+        "shade-x8" => shade_stand_in(BATCH_LANES, &h, lights, spp),
         "shade-x16" => shade_stand_in(PACKET_LANES, &h, lights, spp),
         t => shade_scalar(t.parse().expect("technique"), &h, lights, spp),
     };

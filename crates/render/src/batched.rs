@@ -1,4 +1,4 @@
-//! The batched renderer: the camera samples of a tile are rendered [`LANES`] at a time, as
+//! The batched renderer: the camera samples of a tile are rendered [`PACKET_LANES`] at a time, as
 //! Mitsuba's LLVM variants do with their wavefronts — random numbers and camera rays of all
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
 //! the batch kernels of `linlight_sampling::batch` (the packet's sixteen lanes at once), one
@@ -68,16 +68,15 @@ use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_sampling::batch::{self, Isa, PsaInput, PsaOutput, Vec3xN, PACKET_LANES};
+use linlight_sampling::batch::{self, PsaInput, PsaOutput};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
+use linlight_simd::{dispatch, get3, set3, splat3, Aligned, Isa, Kernel, PACKET_LANES};
 use std::mem::MaybeUninit;
 
-/// Camera samples rendered together: one ray packet.
-pub const LANES: usize = PACKET;
 const _: () = assert!(
-    LANES == PACKET_LANES,
-    "a packet's light samples in one packet"
+    PACKET_LANES == PACKET,
+    "a packet's camera samples are one BVH ray packet"
 );
 
 /// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
@@ -219,42 +218,8 @@ fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
         .collect()
 }
 
-/// A 3-vector in each of the [`LANES`] lanes of a packet: `[x, y, z]`, each `[f32; LANES]`.
-type Lanes3 = [[f32; LANES]; 3];
-
-/// `T` at a 64-byte boundary. The packet's lane arrays are read and written as whole
-/// registers (16 f32 lanes: 64 bytes with AVX-512); at the 4-byte alignment of `[f32; 16]`
-/// most of those accesses split a cache line, and a store split over two lines does not
-/// forward to the whole-register load that reads it back. Locals of lanes are wrapped in it;
-/// structs of lanes are `#[repr(C, align(64))]` with their arrays first.
-#[derive(Clone, Copy, Default)]
-#[repr(C, align(64))]
-struct Aligned<T>(T);
-
-impl<T> std::ops::Deref for Aligned<T> {
-    type Target = T;
-    #[inline(always)]
-    fn deref(&self) -> &T {
-        &self.0
-    }
-}
-
-impl<T> std::ops::DerefMut for Aligned<T> {
-    #[inline(always)]
-    fn deref_mut(&mut self) -> &mut T {
-        &mut self.0
-    }
-}
-
-#[inline(always)]
-fn get3(v: &Lanes3, k: usize) -> Vec3 {
-    Vec3::new(v[0][k], v[1][k], v[2][k])
-}
-
-#[inline(always)]
-fn set3(v: &mut Lanes3, k: usize, x: Vec3) {
-    (v[0][k], v[1][k], v[2][k]) = (x.x, x.y, x.z);
-}
+/// A 3-vector in each of the [`PACKET_LANES`] lanes of a packet.
+type Lanes3 = linlight_simd::Lanes3<f32, PACKET_LANES>;
 
 /// The shading points of a packet, lane k from camera sample k (structure of arrays). Lanes
 /// outside `active` (no hit, or a surface that does not reflect toward the camera) hold zeros.
@@ -274,15 +239,15 @@ struct ShadingLanes<'a> {
     /// `glossy_mask` ≠ 0): columns x̂, ŷ (n is `n`), and v = (v_x, 0, v_z) as [v_x, v_z].
     frame_x: Lanes3,
     frame_y: Lanes3,
-    v: [[f32; LANES]; 2],
+    v: [[f32; PACKET_LANES]; 2],
     active: u32,
     /// The active lanes on non-Lambertian surfaces: `glossy[k]` is the scalar path's shading
     /// point of lane k there (its BSDF is evaluated lane by lane), `None` elsewhere and where
     /// the lanes sample in a batch kernel (they need only the frames below).
     glossy_mask: u32,
-    glossy: [Option<ShadingPoint<'a>>; LANES],
+    glossy: [Option<ShadingPoint<'a>>; PACKET_LANES],
     /// The BSDF of the lanes in `glossy_mask` (`None` everywhere when `one_bsdf` is set).
-    bsdf: [Option<&'a Bsdf>; LANES],
+    bsdf: [Option<&'a Bsdf>; PACKET_LANES],
     /// The BSDF of every lane in `glossy_mask`, when all hit lanes lie on one glossy shape
     /// (written with `glossy_mask` in one branch-free loop; lane by lane the stores of `n`
     /// stalled the frames' vector loads after them, store forwarding).
@@ -297,10 +262,10 @@ struct ShadingLanes<'a> {
 /// `uniform`: the light of every lane, when they share one (`every`).
 #[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct LightLanes {
-    rows: [[f32; LANES]; 9],
-    light: [u32; LANES],
-    xi: [f32; LANES],
-    scalar_xi: [[f32; LANES]; 2],
+    rows: [[f32; PACKET_LANES]; 9],
+    light: [u32; PACKET_LANES],
+    xi: [f32; PACKET_LANES],
+    scalar_xi: [[f32; PACKET_LANES]; 2],
     uniform: Option<usize>,
 }
 
@@ -328,11 +293,11 @@ impl LightLanes {
 /// The light samples of a packet for one [`LightLanes`], as the packet kernels return them
 /// (direction, density, distance to the line along the direction; `mask`: lanes with a
 /// sample), on cache lines ([`Aligned`]).
-type SampleLanes = Aligned<PsaOutput<LANES>>;
+type SampleLanes = Aligned<PsaOutput<PACKET_LANES>>;
 
 impl<'a> Context<'a> {
     /// One pass over the pixels of a tile (full-film coordinates): their camera samples in the
-    /// scalar order (pixel by pixel, sample by sample), `LANES` at a time, pushed into `acc`.
+    /// scalar order (pixel by pixel, sample by sample), `PACKET_LANES` at a time, pushed into `acc`.
     fn tile_pass(
         &self,
         pixels: &[(u32, u32)],
@@ -356,17 +321,27 @@ impl<'a> Context<'a> {
         let [mut packet, mut next] = packets.each_mut();
         let [mut primary, mut next_primary] = primaries.each_mut();
         let fill = |packet: &mut Packet, start: usize| {
-            let len = LANES.min(total - start);
-            fill_packet(
+            let len = PACKET_LANES.min(total - start);
+            dispatch(
                 self.isa,
-                packet,
-                pixels,
-                (spp, self.full_width),
-                (start, len),
+                FillPacket {
+                    packet,
+                    pixels,
+                    spp_width: (spp, self.full_width),
+                    start_len: (start, len),
+                },
             );
         };
         fill(packet, 0);
-        self::primary(self.isa, self, packet, pass, primary);
+        dispatch(
+            self.isa,
+            PrimaryRays {
+                ctx: self,
+                packet,
+                pass,
+                out: primary,
+            },
+        );
         let mut start = 0;
         while start < total {
             let next_start = start + packet.len;
@@ -375,18 +350,27 @@ impl<'a> Context<'a> {
                 fill(next, next_start);
             }
             let current = (&*packet, &*primary);
-            let mut radiance = run_packet(
+            let mut radiance = dispatch(
                 self.isa,
-                self,
-                current,
-                more.then_some(&*next),
-                next_primary,
-                pass,
+                ShadePacket {
+                    ctx: self,
+                    current,
+                    next: more.then_some(&*next),
+                    next_primary,
+                    pass,
+                },
             );
             if lines {
                 self.visible_lines(packet, seen, pass, &mut radiance);
             }
-            accumulate(self.isa, acc, packet, &radiance.total);
+            dispatch(
+                self.isa,
+                Accumulate {
+                    acc,
+                    packet,
+                    total: &radiance.total,
+                },
+            );
             start = next_start;
             // The references, not the packets.
             std::mem::swap(&mut packet, &mut next);
@@ -434,11 +418,11 @@ impl<'a> Context<'a> {
 #[derive(Default)]
 #[repr(C, align(64))] // the lane arrays first, each on its own cache line(s) ([`Aligned`])
 struct Packet {
-    pixel: [usize; LANES],
-    fx: [u32; LANES],
-    fy: [u32; LANES],
-    index: [u32; LANES],
-    sample: [u32; LANES],
+    pixel: [usize; PACKET_LANES],
+    fx: [u32; PACKET_LANES],
+    fy: [u32; PACKET_LANES],
+    index: [u32; PACKET_LANES],
+    sample: [u32; PACKET_LANES],
     len: usize,
 }
 
@@ -459,11 +443,11 @@ impl Packet {
         let (pixel, sample) = (start / spp, start % spp);
         // < 2^32: checked by `window`.
         let index = |(fx, fy): (u32, u32)| fy.wrapping_mul(full_width).wrapping_add(fx);
-        if spp >= LANES {
+        if spp >= PACKET_LANES {
             // At most one step to the next pixel inside the packet: every lane at once.
             let (a, b) = (pixels[pixel], pixels[(pixel + 1).min(pixels.len() - 1)]);
             let (ia, ib) = (index(a), index(b));
-            for k in 0..LANES {
+            for k in 0..PACKET_LANES {
                 let s = (sample + k.min(len - 1)) as u32;
                 let next = s >= spp as u32;
                 self.sample[k] = if next { s - spp as u32 } else { s };
@@ -476,7 +460,7 @@ impl Packet {
         }
         // Counting, one lane after the other.
         let (mut pixel, mut sample) = (pixel, sample as u32);
-        for k in 0..LANES {
+        for k in 0..PACKET_LANES {
             if k > 0 && k < len {
                 sample += 1;
                 if sample as usize == spp {
@@ -503,22 +487,77 @@ struct Radiance {
     two_per_light: u32,
 }
 
-linlight_sampling::isa_variants! {
-    fn run_packet(
-        ctx: &Context,
-        current: (&Packet, &Primary),
-        next: Option<&Packet>,
-        next_primary: &mut Primary,
-        pass: u32
-    ) -> Radiance = packet_kernel;
-    fn primary(ctx: &Context, packet: &Packet, pass: u32, out: &mut Primary) -> () = primary_kernel;
-    fn accumulate(acc: &mut [Welford], packet: &Packet, total: &Lanes3) -> () = accumulate_kernel;
-    fn fill_packet(
-        packet: &mut Packet,
-        pixels: &[(u32, u32)],
-        spp_width: (usize, u32),
-        start_len: (usize, usize)
-    ) -> () = fill_kernel;
+// The kernels, each compiled once per instruction set by `linlight_simd::dispatch`: a struct
+// holds a kernel's arguments and its `Kernel::run` calls the kernel function.
+
+/// [`packet_kernel`]: the radiance of the current packet.
+struct ShadePacket<'a, 'c> {
+    ctx: &'a Context<'c>,
+    current: (&'a Packet, &'a Primary),
+    next: Option<&'a Packet>,
+    next_primary: &'a mut Primary,
+    pass: u32,
+}
+
+impl Kernel for ShadePacket<'_, '_> {
+    type Output = Radiance;
+    #[inline(always)]
+    fn run(self) -> Radiance {
+        packet_kernel(
+            self.ctx,
+            self.current,
+            self.next,
+            self.next_primary,
+            self.pass,
+        )
+    }
+}
+
+/// [`primary_kernel`]: the primary rays and hits of a packet.
+struct PrimaryRays<'a, 'c> {
+    ctx: &'a Context<'c>,
+    packet: &'a Packet,
+    pass: u32,
+    out: &'a mut Primary,
+}
+
+impl Kernel for PrimaryRays<'_, '_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        primary_kernel(self.ctx, self.packet, self.pass, self.out)
+    }
+}
+
+/// [`accumulate_kernel`]: a packet's radiance into its pixels' accumulators.
+struct Accumulate<'a> {
+    acc: &'a mut [Welford],
+    packet: &'a Packet,
+    total: &'a Lanes3,
+}
+
+impl Kernel for Accumulate<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        accumulate_kernel(self.acc, self.packet, self.total)
+    }
+}
+
+/// [`fill_kernel`]: the camera samples of a packet.
+struct FillPacket<'a> {
+    packet: &'a mut Packet,
+    pixels: &'a [(u32, u32)],
+    spp_width: (usize, u32),
+    start_len: (usize, usize),
+}
+
+impl Kernel for FillPacket<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        fill_kernel(self.packet, self.pixels, self.spp_width, self.start_len)
+    }
 }
 
 /// [`Packet::fill`], inlined into one function per instruction set.
@@ -543,10 +582,10 @@ fn fill_kernel(
 fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
     // Bit k: lane k starts a run of lanes of one pixel (found for all lanes at once).
     let mut starts = 1u32;
-    for k in 1..LANES {
+    for k in 1..PACKET_LANES {
         starts |= ((packet.pixel[k] != packet.pixel[k - 1]) as u32) << k;
     }
-    let len = packet.len.min(LANES);
+    let len = packet.len.min(PACKET_LANES);
     starts &= ((1u64 << len) - 1) as u32;
     while starts != 0 {
         let k = starts.trailing_zeros() as usize;
@@ -589,7 +628,7 @@ fn packet_kernel(
     let one = rs.chooses_one(ctx.opts.lights);
     let kept = ctx.kept_blocks();
     let words = &primary.words;
-    let number = |dim: usize| -> [f32; LANES] {
+    let number = |dim: usize| -> [f32; PACKET_LANES] {
         if dim / 4 < kept {
             // SAFETY: blocks below `kept` were written (`primary_kernel`).
             let block = unsafe { words[dim / 4].assume_init_ref() };
@@ -620,7 +659,7 @@ fn packet_kernel(
         (None, false) => (0, shading.active, 0),
     };
 
-    let mut total = Aligned([[0.0f32; LANES]; 3]);
+    let mut total = Aligned([[0.0f32; PACKET_LANES]; 3]);
     let mut dropped = 0u64;
     // One pass per light (`every`), or one with each lane's chosen light (`one`): the scalar
     // lanes' samples lane by lane, the batch lanes' in the batch kernels, one packet shadow
@@ -651,11 +690,11 @@ fn packet_kernel(
         let lambert_lit = lit & !shading.glossy_mask;
         let mut lambert_dropped = 0u32;
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-        for k in 0..LANES {
+        for k in 0..PACKET_LANES {
             // glam's k·f·(n·ω/p) written on the lanes: the same operations in the same order
             // (the dot product adds x, y, then z), so the same bits.
             let (n, dir, f) = (&shading.n, &samples.dir, &shading.lambert);
-            let cos = n[0][k] * dir.x[k] + n[1][k] * dir.y[k] + n[2][k] * dir.z[k];
+            let cos = n[0][k] * dir[0][k] + n[1][k] * dir[1][k] + n[2][k] * dir[2][k];
             let s = cos / samples.pdf[k];
             let c: [f32; 3] = std::array::from_fn(|a| light.k()[a][k] * f[a][k] * s);
             let finite = c.iter().all(|x| x.is_finite());
@@ -690,7 +729,7 @@ fn packet_kernel(
 #[repr(C, align(64))]
 struct Primary {
     rays: RayLanes,
-    words: [MaybeUninit<[[u32; LANES]; 4]>; MAX_BLOCKS],
+    words: [MaybeUninit<[[u32; PACKET_LANES]; 4]>; MAX_BLOCKS],
 }
 
 impl Default for Primary {
@@ -726,8 +765,10 @@ fn primary_kernel(ctx: &Context, packet: &Packet, pass: u32, out: &mut Primary) 
         Aligned(block[0].map(unit_f32)),
         Aligned(block[1].map(unit_f32)),
     );
-    let px: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fx[k] as f32 + u[k]));
-    let py: Aligned<[f32; LANES]> = Aligned(std::array::from_fn(|k| packet.fy[k] as f32 + v[k]));
+    let px: Aligned<[f32; PACKET_LANES]> =
+        Aligned(std::array::from_fn(|k| packet.fx[k] as f32 + u[k]));
+    let py: Aligned<[f32; PACKET_LANES]> =
+        Aligned(std::array::from_fn(|k| packet.fy[k] as f32 + v[k]));
     ctx.rs.camera.ray_lanes(&px, &py, &mut out.rays);
 }
 
@@ -760,24 +801,24 @@ fn shading_points<'a>(
 ) -> ShadingLanes<'a> {
     let mut out = ShadingLanes {
         active: 0,
-        p: [[0.0; LANES]; 3],
-        ng: [[0.0; LANES]; 3],
-        n: [[0.0; LANES]; 3],
-        lambert: [[0.0; LANES]; 3],
+        p: [[0.0; PACKET_LANES]; 3],
+        ng: [[0.0; PACKET_LANES]; 3],
+        n: [[0.0; PACKET_LANES]; 3],
+        lambert: [[0.0; PACKET_LANES]; 3],
         glossy_mask: 0,
-        glossy: [None; LANES],
-        bsdf: [None; LANES],
+        glossy: [None; PACKET_LANES],
+        bsdf: [None; PACKET_LANES],
         one_bsdf: None,
-        frame_x: [[0.0; LANES]; 3],
-        frame_y: [[0.0; LANES]; 3],
-        v: [[0.0; LANES]; 2],
+        frame_x: [[0.0; PACKET_LANES]; 3],
+        frame_y: [[0.0; PACKET_LANES]; 3],
+        v: [[0.0; PACKET_LANES]; 2],
     };
     // Surface points (p, ng, ns) of the hits: triangles gathered into lanes and computed for
     // all lanes at once below, other primitives with their own `surface_point`.
     let (mut p, mut ng, mut ns) = (
-        Aligned([[0.0f32; LANES]; 3]),
-        Aligned([[0.0f32; LANES]; 3]),
-        Aligned([[0.0f32; LANES]; 3]),
+        Aligned([[0.0f32; PACKET_LANES]; 3]),
+        Aligned([[0.0f32; PACKET_LANES]; 3]),
+        Aligned([[0.0f32; PACKET_LANES]; 3]),
     );
     // The triangle lanes' arrays are locals of their own: as fields of `Triangles` built
     // uninitialised, LLVM merged them with its zeroed fields into a 1152-byte `memset`.
@@ -791,7 +832,7 @@ fn shading_points<'a>(
     // at once, its shape and triangle written into them by selects (lane by lane in groups
     // of at most SMALL_GROUP lanes). Lane-by-lane stores of every hit lane's vertices
     // stalled the first vector load after them (store forwarding).
-    let mut shape_of = [0u32; LANES];
+    let mut shape_of = [0u32; PACKET_LANES];
     // The shape every hit lane lies on, if one.
     let (mut first_shape, mut one_shape) = (None, true);
     let mut m = hits.mask;
@@ -799,7 +840,7 @@ fn shading_points<'a>(
         let i = hits.prim[m.trailing_zeros() as usize];
         let mut group = 0u32;
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-        for k in 0..LANES {
+        for k in 0..PACKET_LANES {
             group |= ((hits.prim[k] == i) as u32) << k;
         }
         group &= m;
@@ -846,7 +887,7 @@ fn shading_points<'a>(
         let f = lambert.unwrap_or(Vec3::ZERO).to_array();
         let mut active = 0u32;
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-        for k in 0..LANES {
+        for k in 0..PACKET_LANES {
             let wi = [-rays.d[0][k], -rays.d[1][k], -rays.d[2][k]];
             let c = ns[0][k] * wi[0] + ns[1][k] * wi[1] + ns[2][k] * wi[2];
             let front = c > 0.0;
@@ -899,7 +940,7 @@ fn shading_points<'a>(
     if out.glossy_mask != 0 && points.is_none() {
         // The scalar path's frames (ShadingPoint::new), all lanes at once (branch-free).
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-        for k in 0..LANES {
+        for k in 0..PACKET_LANES {
             let (frame, v) = shading_frame(get3(&out.n, k), -get3(&rays.d, k));
             set3(&mut out.frame_x, k, frame.x_axis);
             set3(&mut out.frame_y, k, frame.y_axis);
@@ -936,21 +977,21 @@ fn glossy_contributions(
         return 0;
     }
     // ω in the shading frames (ShadingPoint::local), all lanes at once.
-    let mut l = [[0.0f32; LANES]; 3];
+    let mut l = [[0.0f32; PACKET_LANES]; 3];
     #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-    for k in 0..LANES {
+    for k in 0..PACKET_LANES {
         let (x, y, n) = (
             get3(&shading.frame_x, k),
             get3(&shading.frame_y, k),
             get3(&shading.n, k),
         );
-        let lk = to_local(x, y, n, samples.dir.get(k));
+        let lk = to_local(x, y, n, get3(&samples.dir, k));
         (l[0][k], l[1][k], l[2][k]) = (lk.x, lk.y, lk.z);
     }
     // f·cos of the lanes in `todo`, BSDF by BSDF, each on all sixteen lanes at once (f32: one
     // 512-bit register; the lanes outside its group are computed and not kept).
-    let v = [shading.v[0], [0.0; LANES], shading.v[1]];
-    let mut f_cos = [[0.0f32; LANES]; 3];
+    let v = [shading.v[0], [0.0; PACKET_LANES], shading.v[1]];
+    let mut f_cos = [[0.0f32; PACKET_LANES]; 3];
     let mut todo = glossy;
     while todo != 0 {
         let (bsdf, group) = if let Some(bsdf) = shading.one_bsdf {
@@ -965,7 +1006,7 @@ fn glossy_contributions(
             // at once).
             let mut group = 0u32;
             #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-            for k in 0..LANES {
+            for k in 0..PACKET_LANES {
                 let same = shading.bsdf[k].map_or(std::ptr::null(), |b| b as *const Bsdf);
                 group |= (std::ptr::eq(same, bsdf) as u32) << k;
             }
@@ -979,7 +1020,7 @@ fn glossy_contributions(
             break;
         }
         #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-        for k in 0..LANES {
+        for k in 0..PACKET_LANES {
             let keep = group >> k & 1 == 1;
             for a in 0..3 {
                 f_cos[a][k] = if keep { f[a][k] } else { f_cos[a][k] };
@@ -990,7 +1031,7 @@ fn glossy_contributions(
     // glossy lanes added (+0 elsewhere leaves the sums, which start at +0, bitwise unchanged).
     let mut dropped = 0u32;
     #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
-    for k in 0..LANES {
+    for k in 0..PACKET_LANES {
         let c = contribution(get3(k_light, k), get3(&f_cos, k), samples.pdf[k]);
         let finite = c.is_finite();
         let on = glossy >> k & 1 == 1;
@@ -1011,7 +1052,7 @@ fn glossy_contributions(
 /// another triangle's values, computed on and not kept.
 #[repr(C, align(64))] // `sign` on its own cache line ([`Aligned`])
 struct Triangles<'t> {
-    sign: [f32; LANES],
+    sign: [f32; PACKET_LANES],
     mask: u32,
     v: &'t mut MaybeUninit<[Lanes3; 3]>,
     n: &'t mut MaybeUninit<[Lanes3; 3]>,
@@ -1027,7 +1068,7 @@ impl<'t> Triangles<'t> {
             v,
             n,
             normals: 0,
-            sign: [1.0; LANES],
+            sign: [1.0; PACKET_LANES],
         }
     }
 }
@@ -1041,7 +1082,7 @@ const SMALL_GROUP: u32 = 4;
 /// 642.8 instructions per sample, floor-tube 450 → 456, callgrind, AVX2 kernels; and the
 /// helper alone in `write_group` 629.0 → 638.9. So each keeps its own loop.)
 #[inline(always)]
-fn select_lanes<T: Copy>(lanes: &mut [T; LANES], group: u32, x: T) {
+fn select_lanes<T: Copy>(lanes: &mut [T; PACKET_LANES], group: u32, x: T) {
     if group.count_ones() <= SMALL_GROUP {
         let mut g = group;
         while g != 0 {
@@ -1070,7 +1111,13 @@ fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v
         // merged, each of which had removed that copy its own way; instructions per sample,
         // pointer vs literal: cornell-tube 631.8 vs 632.3, floor-tube 453.7 vs 447.2,
         // glossy-principled 600.3 vs 596.6), so the safe form stays.
-        let splat = |x: Vec3| [[x.x; LANES], [x.y; LANES], [x.z; LANES]];
+        let splat = |x: Vec3| {
+            [
+                [x.x; PACKET_LANES],
+                [x.y; PACKET_LANES],
+                [x.z; PACKET_LANES],
+            ]
+        };
         lanes.write([splat(v[0]), splat(v[1]), splat(v[2])]);
         return;
     }
@@ -1089,7 +1136,7 @@ fn write_group(lanes: &mut MaybeUninit<[Lanes3; 3]>, written: u32, group: u32, v
     }
     // A select by bit masks: with `if` LLVM turned it into a store per lane behind a branch
     // (≈ 850 instructions of scalar code); this loads and stores every lane, in vectors.
-    let masks: [u32; LANES] = std::array::from_fn(|k| 0u32.wrapping_sub(group >> k & 1));
+    let masks: [u32; PACKET_LANES] = std::array::from_fn(|k| 0u32.wrapping_sub(group >> k & 1));
     for (lj, vj) in lanes.iter_mut().zip(v) {
         for (l, c) in lj.iter_mut().zip(vj.to_array()) {
             for (x, m) in l.iter_mut().zip(masks) {
@@ -1140,7 +1187,7 @@ impl Triangles<'_> {
         ng: &mut Lanes3,
         ns: &mut Lanes3,
     ) {
-        for k in 0..LANES {
+        for k in 0..PACKET_LANES {
             let (b1, b2) = (hits.b1[k], hits.b2[k]);
             let b0 = 1.0 - b1 - b2;
             let [v0, v1, v2] = v.each_ref().map(|v| get3(v, k));
@@ -1175,13 +1222,13 @@ impl Triangles<'_> {
 fn shadow_rays(shading: &ShadingLanes, samples: &SampleLanes) -> (RayLanes, u32) {
     let mut rays = RayLanes::default();
     let mut mask = 0u32;
-    for k in 0..LANES {
+    for k in 0..PACKET_LANES {
         let (p, ng, n) = (
             get3(&shading.p, k),
             get3(&shading.ng, k),
             get3(&shading.n, k),
         );
-        let (dir, pdf, distance) = (samples.dir.get(k), samples.pdf[k], samples.distance[k]);
+        let (dir, pdf, distance) = (get3(&samples.dir, k), samples.pdf[k], samples.distance[k]);
         let cos = n.dot(dir);
         // distance = d/t with d > 0: the scalar test "t > 0 and d/t finite".
         let usable =
@@ -1205,7 +1252,7 @@ impl<'a> Context<'a> {
         &self,
         walk: usize,
         one: bool,
-        number: &impl Fn(usize) -> [f32; LANES],
+        number: &impl Fn(usize) -> [f32; PACKET_LANES],
         batch: bool,
         scalar: bool,
     ) -> LightLanes {
@@ -1217,7 +1264,7 @@ impl<'a> Context<'a> {
             (true, None) => (3, 1),
             (true, Some(_)) => (3, 2),
         };
-        let zero = [0.0; LANES];
+        let zero = [0.0; PACKET_LANES];
         let scalar_xi = if !scalar {
             [zero; 2]
         } else if scalar_per_light == 1 {
@@ -1237,8 +1284,8 @@ impl<'a> Context<'a> {
             let (segment, k) = &rs.lights[walk];
             return LightLanes {
                 uniform: Some(walk),
-                light: [walk as u32; LANES],
-                rows: light_row(segment, *k).map(|v| [v; LANES]),
+                light: [walk as u32; PACKET_LANES],
+                rows: light_row(segment, *k).map(|v| [v; PACKET_LANES]),
                 xi,
                 scalar_xi,
             };
@@ -1257,20 +1304,19 @@ impl<'a> Context<'a> {
     /// The sampling problems of the packet's lanes for [`Self::light_samples`]'s packet kernels.
     /// Lanes without a shading point have a zero normal: no contribution.
     #[inline(always)]
-    fn packet_input(&self, lights: &LightLanes, shading: &ShadingLanes) -> PsaInput<LANES> {
-        let vec3 = |[x, y, z]: Lanes3| Vec3xN { x, y, z };
+    fn packet_input(&self, lights: &LightLanes, shading: &ShadingLanes) -> PsaInput<PACKET_LANES> {
         let (begin, end) = match lights.uniform {
             Some(j) => {
                 let segment = &self.rs.lights[j].0;
-                (Vec3xN::splat(segment.begin), Vec3xN::splat(segment.end))
+                (splat3(segment.begin), splat3(segment.end))
             }
-            None => (vec3(*lights.row3(1)), vec3(*lights.row3(2))),
+            None => (*lights.row3(1), *lights.row3(2)),
         };
         PsaInput {
             begin,
             end,
-            x: vec3(shading.p),
-            n: vec3(shading.n),
+            x: shading.p,
+            n: shading.n,
             xi: lights.xi,
         }
     }
@@ -1413,7 +1459,7 @@ impl<'a> Context<'a> {
 struct CandidateLanes {
     dir: Lanes3,
     c: Lanes3,
-    distance: [f32; LANES],
+    distance: [f32; PACKET_LANES],
     mask: u32,
 }
 

@@ -148,7 +148,7 @@ pub struct Bvh {
     tiny: Vec<[Vec3; 3]>,
     /// The packet walks' kernel, detected once at build (detection per walk cost ~70
     /// instructions per packet): AVX-512 (with BW), AVX2 + FMA, or the target's baseline.
-    walk_isa: linlight_sampling::batch::Isa,
+    walk_isa: linlight_simd::Isa,
 }
 
 struct BuildItem {
@@ -651,7 +651,7 @@ impl Bvh {
             isect,
             nodes,
             tiny,
-            walk_isa: linlight_sampling::batch::Isa::detect(),
+            walk_isa: linlight_simd::Isa::detect(),
         }
     }
 
@@ -748,7 +748,7 @@ impl Bvh {
         }
         #[cfg(target_arch = "x86_64")]
         {
-            use linlight_sampling::batch::Isa;
+            use linlight_simd::Isa;
             #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
             unsafe fn avx512(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
                 bvh.occluded_walk::<kernels::Avx512>(lanes, active)
@@ -858,7 +858,7 @@ impl Bvh {
         }
         #[cfg(target_arch = "x86_64")]
         {
-            use linlight_sampling::batch::Isa;
+            use linlight_simd::Isa;
             #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
             unsafe fn avx512(bvh: &Bvh, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
                 bvh.intersect_walk::<kernels::Avx512>(lanes, active, out)
@@ -1312,7 +1312,7 @@ mod tests {
 
     /// The BVH once per packet-walk kernel this CPU runs (the baseline always).
     fn walk_variants(bvh: &Bvh) -> Vec<Bvh> {
-        use linlight_sampling::batch::Isa;
+        use linlight_simd::Isa;
         Isa::ALL
             .into_iter()
             .filter(|isa| isa.supported())

@@ -23,10 +23,11 @@ use glam::Vec3;
 use linlight_brdf::microfacet;
 use linlight_sampling::batch::{
     sample_clipped_solid_angle_packet, sample_li2018_with, sample_projected_solid_angle_packet,
-    ClippedBatch, Isa, PreparedBatch, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput, Vec3x8,
-    Vec3xN, LANES, PACKET_LANES,
+    ClippedBatch, Isa, PreparedBatch, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput,
+    BATCH_LANES, PACKET_LANES,
 };
 use linlight_sampling::{LineSampler, Segment, Technique};
+use linlight_simd::{get3, set3, splat3};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -167,10 +168,10 @@ pub fn shade_scalar(t: Technique, h: &HitPoints, lights: &[(Segment, Vec3)], spp
 /// The batch's shading: lane i's BRDF, in one loop over the lanes (vectorised with the
 /// kernel's ISA only where the compiler does so; here at the baseline).
 #[inline(always)]
-fn shade_lanes(out: &PsaBatchOutput, n: Vec3, v: Vec3, alpha: f32, k: &[f32; LANES]) -> f32 {
-    let mut c = [0.0f32; LANES];
+fn shade_lanes(out: &PsaBatchOutput, n: Vec3, v: Vec3, alpha: f32, k: &[f32; BATCH_LANES]) -> f32 {
+    let mut c = [0.0f32; BATCH_LANES];
     for (i, c) in c.iter_mut().enumerate() {
-        let w = out.dir.get(i);
+        let w = get3(&out.dir, i);
         let f = brdf_cos(n, v, w, alpha);
         *c = if out.pdf[i] > 0.0 {
             k[i] * f / out.pdf[i]
@@ -247,13 +248,13 @@ struct BatchRows<'a>(Work<'a>);
 /// [`shade_packet`]'s loop for more than one sample ([`shade_packets_prepared`]).
 struct PacketRows<'a>(Work<'a>);
 
-impl PreparedRows<LANES> for BatchRows<'_> {
+impl PreparedRows<BATCH_LANES> for BatchRows<'_> {
     #[inline(always)]
     fn shade<Q>(
         &self,
         prepare: impl Fn(&PsaBatchInput) -> Q,
         mask: impl Fn(&Q) -> u32,
-        sample: impl FnMut(&Q, &[f32; LANES]) -> PsaBatchOutput,
+        sample: impl FnMut(&Q, &[f32; BATCH_LANES]) -> PsaBatchOutput,
     ) -> f32 {
         shade_prepared(self.0, prepare, mask, sample)
     }
@@ -351,7 +352,7 @@ fn shade_packet_lanes(out: &PsaOutput<P>, h: &HitPoints, first: usize, k: f32) -
     let mut c = [0.0f32; P];
     for (l, c) in c.iter_mut().enumerate() {
         let i = (first + l).min(last);
-        let f = brdf_cos(h.n[i], h.v[i], out.dir.get(l), h.alpha[i]);
+        let f = brdf_cos(h.n[i], h.v[i], get3(&out.dir, l), h.alpha[i]);
         *c = if out.pdf[l] > 0.0 {
             k * f / out.pdf[l]
         } else {
@@ -369,8 +370,9 @@ fn packet_input(h: &HitPoints, first: usize) -> PsaInput<P> {
     let last = h.p.len() - 1;
     for l in 0..P {
         let i = (first + l).min(last);
-        input.x.set(l, h.p[i]);
-        input.n.set(
+        set3(&mut input.x, l, h.p[i]);
+        set3(
+            &mut input.n,
             l,
             if first + l <= last {
                 h.n[i]
@@ -393,8 +395,8 @@ fn shade_packets_fused(
     for first in (0..h.p.len()).step_by(P) {
         let mut input = packet_input(h, first);
         for (j, (segment, radiance)) in lights.iter().enumerate() {
-            input.begin = Vec3xN::splat(segment.begin);
-            input.end = Vec3xN::splat(segment.end);
+            input.begin = splat3(segment.begin);
+            input.end = splat3(segment.end);
             input.xi = std::array::from_fn(|l| xi(first + l, j, 0));
             let out = sample(&input);
             if out.mask != 0 {
@@ -417,8 +419,8 @@ fn shade_packets_prepared<Q>(
     for first in (0..h.p.len()).step_by(P) {
         let mut input = packet_input(h, first);
         for (j, (segment, radiance)) in lights.iter().enumerate() {
-            input.begin = Vec3xN::splat(segment.begin);
-            input.end = Vec3xN::splat(segment.end);
+            input.begin = splat3(segment.begin);
+            input.end = splat3(segment.end);
             let prepared = prepare(&input);
             if mask(&prepared) == 0 {
                 continue;
@@ -438,42 +440,42 @@ fn shade_prepared<Q>(
     Work { h, lights, spp }: Work,
     prepare: impl Fn(&PsaBatchInput) -> Q,
     mask: impl Fn(&Q) -> u32,
-    mut sample: impl FnMut(&Q, &[f32; LANES]) -> PsaBatchOutput,
+    mut sample: impl FnMut(&Q, &[f32; BATCH_LANES]) -> PsaBatchOutput,
 ) -> f32 {
     let mut sum = 0.0f32;
     for i in 0..h.p.len() {
         let (p, n, v, a) = (h.p[i], h.n[i], h.v[i], h.alpha[i]);
         let mut input = PsaBatchInput {
-            x: Vec3x8::splat(p),
-            n: Vec3x8::splat(n),
+            x: splat3(p),
+            n: splat3(n),
             ..Default::default()
         };
         if spp == 1 {
-            for (g, group) in lights.chunks(LANES).enumerate() {
-                let mut k = [0.0f32; LANES];
+            for (g, group) in lights.chunks(BATCH_LANES).enumerate() {
+                let mut k = [0.0f32; BATCH_LANES];
                 for (l, (segment, radiance)) in group.iter().enumerate() {
-                    input.begin.set(l, segment.begin);
-                    input.end.set(l, segment.end);
+                    set3(&mut input.begin, l, segment.begin);
+                    set3(&mut input.end, l, segment.end);
                     k[l] = radiance.x;
                 }
                 let prepared = prepare(&input);
                 if mask(&prepared) == 0 {
                     continue;
                 }
-                let xi: [f32; LANES] = std::array::from_fn(|l| xi(i, g * LANES + l, 0));
+                let xi: [f32; BATCH_LANES] = std::array::from_fn(|l| xi(i, g * BATCH_LANES + l, 0));
                 sum += shade_lanes(&sample(&prepared, &xi), n, v, a, &k);
             }
         } else {
             let (segment, radiance) = lights[0];
-            input.begin = Vec3x8::splat(segment.begin);
-            input.end = Vec3x8::splat(segment.end);
+            input.begin = splat3(segment.begin);
+            input.end = splat3(segment.end);
             let prepared = prepare(&input);
             if mask(&prepared) == 0 {
                 continue;
             }
-            let k = [radiance.x; LANES];
-            for s in (0..spp).step_by(LANES) {
-                let xi: [f32; LANES] = std::array::from_fn(|l| xi(i, 0, s + l));
+            let k = [radiance.x; BATCH_LANES];
+            for s in (0..spp).step_by(BATCH_LANES) {
+                let xi: [f32; BATCH_LANES] = std::array::from_fn(|l| xi(i, 0, s + l));
                 sum += shade_lanes(&sample(&prepared, &xi), n, v, a, &k);
             }
         }
@@ -481,14 +483,14 @@ fn shade_prepared<Q>(
     sum
 }
 
-/// The shading loops of [`shade_batched`] (`lanes` = [`LANES`]) or [`shade_packet`] (`lanes` =
+/// The shading loops of [`shade_batched`] (`lanes` = [`BATCH_LANES`]) or [`shade_packet`] (`lanes` =
 /// [`PACKET_LANES`]) with a stand-in sampler (the direction to the point at ξ along the segment,
 /// density 1, no preparation): what a row costs besides its sampler (the count mode's `shade-x8` and
 /// `shade-x16` rows; not a technique, not in the table).
 #[inline(never)]
 pub fn shade_stand_in(lanes: usize, h: &HitPoints, lights: &[(Segment, Vec3)], spp: usize) -> f32 {
     let work = Work { h, lights, spp };
-    if lanes == LANES {
+    if lanes == BATCH_LANES {
         BatchRows(work).shade(|input| *input, |_| u32::MAX, stand_in)
     } else if spp == 1 {
         shade_packets_fused(h, lights, |input| stand_in(input, &input.xi))
@@ -501,9 +503,9 @@ pub fn shade_stand_in(lanes: usize, h: &HitPoints, lights: &[(Segment, Vec3)], s
 fn stand_in<const N: usize>(input: &PsaInput<N>, xi: &[f32; N]) -> PsaOutput<N> {
     let mut out = PsaOutput::default();
     for (l, &xi) in xi.iter().enumerate() {
-        let m = input.begin.get(l).lerp(input.end.get(l), xi);
-        out.dir.set(l, (m - input.x.get(l)).normalize_or_zero());
-        out.pdf[l] = if input.n.get(l) == Vec3::ZERO {
+        let m = get3(&input.begin, l).lerp(get3(&input.end, l), xi);
+        set3(&mut out.dir, l, (m - get3(&input.x, l)).normalize_or_zero());
+        out.pdf[l] = if get3(&input.n, l) == Vec3::ZERO {
             0.0
         } else {
             1.0
@@ -691,7 +693,7 @@ pub fn measure(
             samples,
             frame_scale,
             rows,
-            li_iterations_per_batch: li_iterations as f64 / (samples / LANES as f64),
+            li_iterations_per_batch: li_iterations as f64 / (samples / BATCH_LANES as f64),
             li_iterations_per_packet: li_packet_iterations as f64
                 / (h.p.len().div_ceil(P) * lights.len() * spp) as f64,
             load: load_average(),

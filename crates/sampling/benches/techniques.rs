@@ -12,11 +12,12 @@ use linlight_sampling::batch::{
     sample_clipped_solid_angle_packet, sample_clipped_solid_angle_with,
     sample_projected_solid_angle_packet, sample_projected_solid_angle_slice,
     sample_projected_solid_angle_with, Isa, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput,
-    LANES, PACKET_LANES,
+    BATCH_LANES, PACKET_LANES,
 };
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::rng::Pcg32;
 use linlight_sampling::{LineSampler, Segment, Technique};
+use linlight_simd::set3;
 use std::time::Instant;
 
 /// Techniques skipped because they are still `todo!()` stubs (while written in parallel on
@@ -70,17 +71,17 @@ fn pass(technique: Technique, configurations: &[Configuration]) -> f32 {
     acc
 }
 
-/// The configurations as batches of [`LANES`] (1024 = 128 full batches).
+/// The configurations as batches of [`BATCH_LANES`] (1024 = 128 full batches).
 fn batches(configurations: &[Configuration]) -> Vec<PsaBatchInput> {
     configurations
-        .chunks(LANES)
+        .chunks(BATCH_LANES)
         .map(|chunk| {
             let mut b = PsaBatchInput::default();
             for (i, c) in chunk.iter().enumerate() {
-                b.begin.set(i, c.segment.begin);
-                b.end.set(i, c.segment.end);
-                b.x.set(i, c.x);
-                b.n.set(i, c.n);
+                set3(&mut b.begin, i, c.segment.begin);
+                set3(&mut b.end, i, c.segment.end);
+                set3(&mut b.x, i, c.x);
+                set3(&mut b.n, i, c.n);
                 b.xi[i] = c.xi;
             }
             b
@@ -94,7 +95,7 @@ fn batches(configurations: &[Configuration]) -> Vec<PsaBatchInput> {
 type LaneKernel<const N: usize> = fn(Isa, &PsaInput<N>) -> PsaOutput<N>;
 
 /// An 8-wide kernel.
-type Kernel = LaneKernel<LANES>;
+type Kernel = LaneKernel<BATCH_LANES>;
 
 /// A 16-lane packet kernel.
 type PacketKernel = LaneKernel<PACKET_LANES>;
@@ -113,7 +114,7 @@ fn lanes_pass<const N: usize>(kernel: LaneKernel<N>, isa: Isa, inputs: &[PsaInpu
     for input in inputs {
         let out = kernel(isa, input);
         for i in 0..N {
-            acc += out.dir.x[i] + out.pdf[i];
+            acc += out.dir[0][i] + out.pdf[i];
         }
     }
     acc
@@ -124,7 +125,11 @@ fn lanes_pass<const N: usize>(kernel: LaneKernel<N>, isa: Isa, inputs: &[PsaInpu
 fn slice_pass(isa: Isa, batches: &[PsaBatchInput], out: &mut [PsaBatchOutput]) -> f32 {
     sample_projected_solid_angle_slice(isa, batches, out);
     out.iter()
-        .map(|o| (0..LANES).map(|i| o.dir.x[i] + o.pdf[i]).sum::<f32>())
+        .map(|o| {
+            (0..BATCH_LANES)
+                .map(|i| o.dir[0][i] + o.pdf[i])
+                .sum::<f32>()
+        })
         .sum()
 }
 
@@ -241,7 +246,7 @@ fn main() {
         for (k, (name, kernel)) in KERNELS.into_iter().enumerate() {
             batch_rows.push((k, isa, rows.len(), kernel));
             rows.push((
-                format!("{name} batch x{LANES} {}", isa.name()),
+                format!("{name} batch x{BATCH_LANES} {}", isa.name()),
                 Box::new(move || lanes_pass(kernel, isa, black_box(b))),
             ));
         }
@@ -308,7 +313,7 @@ fn main() {
         };
         let (psa, clipped) = (row(0), row(1));
         println!(
-            "  ratio projected-solid-angle x{LANES} / clipped-solid-angle x{LANES} ({}): \
+            "  ratio projected-solid-angle x{BATCH_LANES} / clipped-solid-angle x{BATCH_LANES} ({}): \
              {:.3} (median)  {:.3} (minimum)",
             isa.name(),
             psa.0 / clipped.0,

@@ -18,7 +18,7 @@
 //! for AVX2 + FMA, and for the target's baseline (SSE2 on x86-64, or any other architecture) —
 //! and [`sample_projected_solid_angle`] picks one at run time (`is_x86_feature_detected!`), so
 //! the binary runs on any CPU of its target. The types are generic over the lane count N
-//! ([`PsaInput`], [`PsaOutput`], [`Vec3xN`]): a batch has [`LANES`] = 8, a renderer's packet
+//! ([`PsaInput`], [`PsaOutput`], [`Vec3xN`]): a batch has [`BATCH_LANES`] = 8, a renderer's packet
 //! [`PACKET_LANES`] = 16 ([`sample_projected_solid_angle_packet`], whose AVX-512 kernel fills
 //! 512-bit registers with sixteen f32 lanes). Cost per lane: `cargo bench -p linlight-sampling
 //! --bench techniques` (the `batch` and `slice` rows).
@@ -31,110 +31,135 @@ use crate::sampler::LineSampler;
 use crate::solid_angle::SolidAngle;
 use crate::trig::{atan2_coarse_select, atan2_f64_select};
 use glam::Vec3;
+pub use linlight_simd::Isa;
+use linlight_simd::{dispatch, get3, set3, zero3, Kernel, Lanes3};
+pub use linlight_simd::{BATCH_LANES, PACKET_LANES};
 
-/// Lanes of a batch.
-pub const LANES: usize = 8;
+// The kernels, each compiled once per instruction set by `linlight_simd::dispatch`: a struct
+// holds a kernel's arguments and its `Kernel::run` calls the kernel function.
 
-/// Lanes of a renderer's packet: [`sample_projected_solid_angle_packet`] samples two batches'
-/// worth in one loop.
-pub const PACKET_LANES: usize = 2 * LANES;
+/// [`kernel`] (one loop over the lanes) or, without `ONE_LOOP`, [`two_chains`] (lane pairs
+/// (i, i + N/2)), on `.0`.
+struct PsaSample<'a, const N: usize, const ONE_LOOP: bool>(&'a PsaInput<N>);
 
-/// `fn $name(isa, args…)`: `$kernel(args…)` compiled for the chosen ISA — inlined into a
-/// function with that ISA's target features — or for the baseline when the CPU lacks it.
-/// Exported for the batched renderer (`linlight_render::batched`), whose kernels are chosen the
-/// same way; `$kernel` should be `#[inline(always)]` down to its vectorised loops. An optional
-/// `<const N: usize>` after the name makes the function (and its ISA variants) generic over a
-/// lane count.
-#[macro_export]
-macro_rules! isa_variants {
-    ($(fn $name:ident $(<const $n:ident: usize>)? ($($a:ident: $t:ty),*) -> $r:ty = $kernel:path;)*) => {$(
-        fn $name $(<const $n: usize>)? (isa: $crate::batch::Isa, $($a: $t),*) -> $r {
-            #[allow(unused_imports)]
-            use $crate::batch::Isa;
-            #[cfg(target_arch = "x86_64")]
-            {
-                #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-                unsafe fn avx512 $(<const $n: usize>)? ($($a: $t),*) -> $r {
-                    $kernel($($a),*)
-                }
-                #[target_feature(enable = "avx2,fma")]
-                unsafe fn avx2 $(<const $n: usize>)? ($($a: $t),*) -> $r {
-                    $kernel($($a),*)
-                }
-                if isa == Isa::Avx512 && isa.supported() {
-                    // SAFETY: the features the function is compiled for were just detected.
-                    return unsafe { avx512 $(::<$n>)? ($($a),*) };
-                }
-                if isa == Isa::Avx2 && isa.supported() {
-                    // SAFETY: as above.
-                    return unsafe { avx2 $(::<$n>)? ($($a),*) };
-                }
-            }
-            let _ = isa;
-            $kernel($($a),*)
+impl<const N: usize, const ONE_LOOP: bool> Kernel for PsaSample<'_, N, ONE_LOOP> {
+    type Output = PsaOutput<N>;
+    #[inline(always)]
+    fn run(self) -> PsaOutput<N> {
+        if ONE_LOOP {
+            kernel(self.0)
+        } else {
+            two_chains(self.0)
         }
-    )*};
+    }
 }
 
-crate::isa_variants! {
-    fn run_kernel(input: &PsaBatchInput) -> PsaBatchOutput = kernel;
-    fn run_packet_one_loop(input: &PsaInput<PACKET_LANES>) -> PsaOutput<PACKET_LANES> = kernel;
-    fn run_packet_two_chains(input: &PsaInput<PACKET_LANES>) -> PsaOutput<PACKET_LANES> = two_chains;
-    fn run_slice_one_loop(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) -> () = slice::<true>;
-    fn run_slice_two_chains(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) -> () = slice::<false>;
-    fn run_prepare<const N: usize>(input: &PsaInput<N>) -> PreparedBatch<N> = prepare_kernel;
-    fn run_psa_sample<const N: usize>(prepared: &PreparedBatch<N>, xi: &[f32; N]) -> PsaOutput<N> = psa_sample_kernel;
-    fn run_li_sample<const N: usize>(prepared: &PreparedBatch<N>, xi: &[f32; N]) -> (PsaOutput<N>, u32) = li_sample_kernel;
-    fn run_clipped(input: &PsaBatchInput) -> PsaBatchOutput = clipped_kernel;
-    fn run_clipped_two_chains(input: &PsaInput<PACKET_LANES>) -> PsaOutput<PACKET_LANES> = clipped_two_chains;
-    fn run_clipped_prepare<const N: usize>(input: &PsaInput<N>) -> ClippedBatch<N> = clipped_prepare_kernel;
-    fn run_clipped_sample<const N: usize>(prepared: &ClippedBatch<N>, xi: &[f32; N]) -> PsaOutput<N> = clipped_sample_kernel;
+/// [`slice`] of `inputs` into `outputs`.
+struct PsaSlice<'a, const ONE_LOOP: bool> {
+    inputs: &'a [PsaBatchInput],
+    outputs: &'a mut [PsaBatchOutput],
 }
 
-/// N 3-vectors as structure of arrays.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Vec3xN<const N: usize> {
-    pub x: [f32; N],
-    pub y: [f32; N],
-    pub z: [f32; N],
+impl<const ONE_LOOP: bool> Kernel for PsaSlice<'_, ONE_LOOP> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        slice::<ONE_LOOP>(self.inputs, self.outputs)
+    }
 }
+
+/// [`prepare_kernel`] of `.0`.
+struct Prepare<'a, const N: usize>(&'a PsaInput<N>);
+
+impl<const N: usize> Kernel for Prepare<'_, N> {
+    type Output = PreparedBatch<N>;
+    #[inline(always)]
+    fn run(self) -> PreparedBatch<N> {
+        prepare_kernel(self.0)
+    }
+}
+
+/// [`psa_sample_kernel`] of prepared lanes.
+struct SamplePrepared<'a, const N: usize> {
+    prepared: &'a PreparedBatch<N>,
+    xi: &'a [f32; N],
+}
+
+impl<const N: usize> Kernel for SamplePrepared<'_, N> {
+    type Output = PsaOutput<N>;
+    #[inline(always)]
+    fn run(self) -> PsaOutput<N> {
+        psa_sample_kernel(self.prepared, self.xi)
+    }
+}
+
+/// [`li_sample_kernel`] of prepared lanes.
+struct SampleLi<'a, const N: usize> {
+    prepared: &'a PreparedBatch<N>,
+    xi: &'a [f32; N],
+}
+
+impl<const N: usize> Kernel for SampleLi<'_, N> {
+    type Output = (PsaOutput<N>, u32);
+    #[inline(always)]
+    fn run(self) -> (PsaOutput<N>, u32) {
+        li_sample_kernel(self.prepared, self.xi)
+    }
+}
+
+/// Clipped solid angle: [`clipped_kernel`] (one loop) or, without `ONE_LOOP`,
+/// [`clipped_two_chains`], on `.0`.
+struct ClippedSample<'a, const N: usize, const ONE_LOOP: bool>(&'a PsaInput<N>);
+
+impl<const N: usize, const ONE_LOOP: bool> Kernel for ClippedSample<'_, N, ONE_LOOP> {
+    type Output = PsaOutput<N>;
+    #[inline(always)]
+    fn run(self) -> PsaOutput<N> {
+        if ONE_LOOP {
+            clipped_kernel(self.0)
+        } else {
+            clipped_two_chains(self.0)
+        }
+    }
+}
+
+/// [`clipped_prepare_kernel`] of `.0`.
+struct ClippedPrepare<'a, const N: usize>(&'a PsaInput<N>);
+
+impl<const N: usize> Kernel for ClippedPrepare<'_, N> {
+    type Output = ClippedBatch<N>;
+    #[inline(always)]
+    fn run(self) -> ClippedBatch<N> {
+        clipped_prepare_kernel(self.0)
+    }
+}
+
+/// [`clipped_sample_kernel`] of prepared lanes.
+struct ClippedSamplePrepared<'a, const N: usize> {
+    prepared: &'a ClippedBatch<N>,
+    xi: &'a [f32; N],
+}
+
+impl<const N: usize> Kernel for ClippedSamplePrepared<'_, N> {
+    type Output = PsaOutput<N>;
+    #[inline(always)]
+    fn run(self) -> PsaOutput<N> {
+        clipped_sample_kernel(self.prepared, self.xi)
+    }
+}
+
+/// N 3-vectors as structure of arrays, `[x, y, z]` (the one lane layout of
+/// [`linlight_simd::Lanes3`]).
+pub type Vec3xN<const N: usize> = Lanes3<f32, N>;
 
 /// Eight 3-vectors as structure of arrays (a batch's).
-pub type Vec3x8 = Vec3xN<LANES>;
+pub type Vec3x8 = Vec3xN<BATCH_LANES>;
 
-// Zeros. Written out here and for the other lane types generic over N: std implements
-// `Default` for arrays of each length up to 32, not for `[T; N]` of a generic N, so
-// `#[derive(Default)]` cannot bound their fields.
-impl<const N: usize> Default for Vec3xN<N> {
-    fn default() -> Self {
-        Self::splat(Vec3::ZERO)
-    }
-}
+// Zeros in the lane types generic over N are written out: std implements `Default` for arrays
+// of each length up to 32, not for `[T; N]` of a generic N, so `#[derive(Default)]` cannot
+// bound their fields.
 
-impl<const N: usize> Vec3xN<N> {
-    /// The same vector in every lane.
-    pub fn splat(v: Vec3) -> Self {
-        Self {
-            x: [v.x; N],
-            y: [v.y; N],
-            z: [v.z; N],
-        }
-    }
-
-    #[inline(always)]
-    pub fn get(&self, i: usize) -> Vec3 {
-        Vec3::new(self.x[i], self.y[i], self.z[i])
-    }
-
-    #[inline(always)]
-    pub fn set(&mut self, i: usize, v: Vec3) {
-        self.x[i] = v.x;
-        self.y[i] = v.y;
-        self.z[i] = v.z;
-    }
-}
-
-/// N sampling problems (a batch has [`LANES`], a renderer's packet [`PACKET_LANES`]): lane i
+/// N sampling problems (a batch has [`BATCH_LANES`], a renderer's packet [`PACKET_LANES`]): lane i
 /// samples the segment `begin[i]` → `end[i]` seen from the shading point `x[i]` with normal
 /// `n[i]` (any length; rejected when zero or not finite, as by [`crate::unit_normal`];
 /// projected solid angle and Li et al. do not normalise it, their arithmetic being homogeneous
@@ -149,15 +174,15 @@ pub struct PsaInput<const N: usize> {
 }
 
 /// Eight sampling problems (a batch).
-pub type PsaBatchInput = PsaInput<LANES>;
+pub type PsaBatchInput = PsaInput<BATCH_LANES>;
 
 impl<const N: usize> Default for PsaInput<N> {
     fn default() -> Self {
         Self {
-            begin: Vec3xN::default(),
-            end: Vec3xN::default(),
-            x: Vec3xN::default(),
-            n: Vec3xN::default(),
+            begin: zero3(),
+            end: zero3(),
+            x: zero3(),
+            n: zero3(),
             xi: [0.0; N],
         }
     }
@@ -179,12 +204,12 @@ pub struct PsaOutput<const N: usize> {
 }
 
 /// Samples of a batch.
-pub type PsaBatchOutput = PsaOutput<LANES>;
+pub type PsaBatchOutput = PsaOutput<BATCH_LANES>;
 
 impl<const N: usize> Default for PsaOutput<N> {
     fn default() -> Self {
         Self {
-            dir: Vec3xN::default(),
+            dir: zero3(),
             pdf: [0.0; N],
             distance: [0.0; N],
             mask: 0,
@@ -200,79 +225,6 @@ impl<const N: usize> PsaOutput<N> {
     }
 }
 
-/// A compiled variant of the kernel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Isa {
-    /// The target's baseline (SSE2 on x86-64).
-    Baseline,
-    /// x86-64 with AVX2 and FMA.
-    Avx2,
-    /// x86-64 with AVX-512 (F, VL, DQ, BW).
-    Avx512,
-}
-
-impl Isa {
-    /// Every variant, fastest first.
-    pub const ALL: [Isa; 3] = [Isa::Avx512, Isa::Avx2, Isa::Baseline];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Isa::Baseline => "baseline",
-            Isa::Avx2 => "avx2",
-            Isa::Avx512 => "avx512",
-        }
-    }
-
-    /// Whether this CPU runs the variant.
-    pub fn supported(self) -> bool {
-        match self {
-            Isa::Baseline => true,
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => {
-                std::arch::is_x86_feature_detected!("avx2")
-                    && std::arch::is_x86_feature_detected!("fma")
-            }
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => {
-                std::arch::is_x86_feature_detected!("avx512f")
-                    && std::arch::is_x86_feature_detected!("avx512vl")
-                    && std::arch::is_x86_feature_detected!("avx512dq")
-                    && std::arch::is_x86_feature_detected!("avx512bw")
-                    && Isa::Avx2.supported()
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => false,
-        }
-    }
-
-    /// The fastest variant this CPU runs (cached by the standard library's feature detection).
-    pub fn detect() -> Isa {
-        Isa::ALL
-            .into_iter()
-            .find(|isa| isa.supported())
-            .unwrap_or(Isa::Baseline)
-    }
-}
-
-/// A variant by its [`Isa::name`] (the benchmarks' `…_ISA` variables). Whether the CPU runs it
-/// is the caller's check ([`Isa::supported`]).
-impl std::str::FromStr for Isa {
-    type Err = String;
-
-    fn from_str(name: &str) -> Result<Isa, String> {
-        Isa::ALL
-            .into_iter()
-            .find(|isa| isa.name() == name)
-            .ok_or_else(|| {
-                let names: Vec<&str> = Isa::ALL.iter().map(|isa| isa.name()).collect();
-                format!(
-                    "unknown kernel variant '{name}' (expected one of: {})",
-                    names.join(", ")
-                )
-            })
-    }
-}
-
 /// Sample every lane of `input` with the fastest kernel this CPU runs (see the module
 /// documentation). Lane i equals the scalar `ProjectedSolidAngle::prepare` + `sample_with_pdf`
 /// on lane i's inputs.
@@ -283,7 +235,7 @@ pub fn sample_projected_solid_angle(input: &PsaBatchInput) -> PsaBatchOutput {
 /// The same with a chosen kernel; one the CPU does not run ([`Isa::supported`]) falls back
 /// to the baseline.
 pub fn sample_projected_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBatchOutput {
-    run_kernel(isa, input)
+    dispatch(isa, PsaSample::<BATCH_LANES, true>(input))
 }
 
 /// Sample many batches (`outputs[k]` for `inputs[k]`; the slices must have the same length),
@@ -296,9 +248,9 @@ pub fn sample_projected_solid_angle_slice(
 ) {
     assert_eq!(inputs.len(), outputs.len(), "one output per input batch");
     if one_loop(isa) {
-        run_slice_one_loop(isa, inputs, outputs)
+        dispatch(isa, PsaSlice::<true> { inputs, outputs })
     } else {
-        run_slice_two_chains(isa, inputs, outputs)
+        dispatch(isa, PsaSlice::<false> { inputs, outputs })
     }
 }
 
@@ -321,9 +273,9 @@ pub fn sample_projected_solid_angle_packet(
     input: &PsaInput<PACKET_LANES>,
 ) -> PsaOutput<PACKET_LANES> {
     if one_loop(isa) {
-        run_packet_one_loop(isa, input)
+        dispatch(isa, PsaSample::<PACKET_LANES, true>(input))
     } else {
-        run_packet_two_chains(isa, input)
+        dispatch(isa, PsaSample::<PACKET_LANES, false>(input))
     }
 }
 
@@ -351,14 +303,14 @@ impl PsaInput<PACKET_LANES> {
 }
 
 impl PsaOutput<PACKET_LANES> {
-    /// Batch h (lanes h·[`LANES`] … h·[`LANES`] + [`LANES`] − 1) of the packet's samples.
+    /// Batch h (lanes h·[`BATCH_LANES`] … h·[`BATCH_LANES`] + [`BATCH_LANES`] − 1) of the packet's samples.
     #[inline(always)]
     pub fn batch(&self, h: usize) -> PsaBatchOutput {
         PsaOutput {
             dir: half3(&self.dir, h),
             pdf: half(&self.pdf, h),
             distance: half(&self.distance, h),
-            mask: self.mask >> (h * LANES) & ((1 << LANES) - 1),
+            mask: self.mask >> (h * BATCH_LANES) & ((1 << BATCH_LANES) - 1),
         }
     }
 }
@@ -379,20 +331,12 @@ fn half<const N: usize, const M: usize>(v: &[f32; M], h: usize) -> [f32; N] {
 
 #[inline(always)]
 fn join3<const N: usize, const M: usize>(a: &Vec3xN<N>, b: &Vec3xN<N>) -> Vec3xN<M> {
-    Vec3xN {
-        x: join(&a.x, &b.x),
-        y: join(&a.y, &b.y),
-        z: join(&a.z, &b.z),
-    }
+    [join(&a[0], &b[0]), join(&a[1], &b[1]), join(&a[2], &b[2])]
 }
 
 #[inline(always)]
 fn half3<const N: usize, const M: usize>(v: &Vec3xN<M>, h: usize) -> Vec3xN<N> {
-    Vec3xN {
-        x: half(&v.x, h),
-        y: half(&v.y, h),
-        z: half(&v.z, h),
-    }
+    [half(&v[0], h), half(&v[1], h), half(&v[2], h)]
 }
 
 /// The slice, two batches at a time as one packet: in one loop (`ONE_LOOP`) or as two chains.
@@ -415,14 +359,14 @@ fn slice<const ONE_LOOP: bool>(inputs: &[PsaBatchInput], outputs: &mut [PsaBatch
     }
 }
 
-/// N prepared samplers (a batch: [`LANES`] = 8 by default; a packet: [`PACKET_LANES`]) as
+/// N prepared samplers (a batch: [`BATCH_LANES`] = 8 by default; a packet: [`PACKET_LANES`]) as
 /// structure of arrays: what [`ProjectedSolidAngle::prepare`] (and [`Li2018::prepare`], which
 /// shares it) keep per (light, shading point), to draw any number of samples with
 /// [`PreparedBatch::sample_projected_solid_angle`] or [`PreparedBatch::sample_li2018`]. Lanes
 /// outside `mask` hold meaningless values. The sample kernel is one loop over the N lanes: with
 /// 16 lanes on AVX-512 its f32 half (start value, Halley steps, direction) fills one zmm.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PreparedBatch<const N: usize = LANES> {
+pub struct PreparedBatch<const N: usize = BATCH_LANES> {
     u: Vec3xN<N>,
     c_hat: Vec3xN<N>,
     n: Vec3xN<N>,
@@ -454,9 +398,9 @@ impl<const N: usize> Default for PreparedBatch<N> {
     fn default() -> Self {
         let zero = [0.0; N];
         Self {
-            u: Vec3xN::default(),
-            c_hat: Vec3xN::default(),
-            n: Vec3xN::default(),
+            u: zero3(),
+            c_hat: zero3(),
+            n: zero3(),
             d: zero,
             l_begin: zero,
             l_end: zero,
@@ -483,28 +427,28 @@ impl<const N: usize> Default for PreparedBatch<N> {
 impl<const N: usize> PreparedBatch<N> {
     /// Prepare every lane of `input` (its `xi` is not used) with the chosen kernel.
     pub fn prepare(isa: Isa, input: &PsaInput<N>) -> Self {
-        run_prepare(isa, input)
+        dispatch(isa, Prepare(input))
     }
 
     /// One sample per lane for `xi` (projected solid angle, two Halley steps): lane i equals
     /// the scalar sampler's `sample_with_pdf(xi[i])`.
     pub fn sample_projected_solid_angle(&self, isa: Isa, xi: &[f32; N]) -> PsaOutput<N> {
-        run_psa_sample(isa, self, xi)
+        dispatch(isa, SamplePrepared { prepared: self, xi })
     }
 
     /// One sample per lane for `xi` by Li et al. 2018, iterating until the slowest of the N
     /// lanes has converged (as on a GPU); also returns the number of iterations run.
     pub fn sample_li2018(&self, isa: Isa, xi: &[f32; N]) -> (PsaOutput<N>, u32) {
-        run_li_sample(isa, self, xi)
+        dispatch(isa, SampleLi { prepared: self, xi })
     }
 
     #[inline(always)]
     fn store(&mut self, i: usize, li: &Li2018) {
         let p = &li.exact;
         let f = &p.frame;
-        self.u.set(i, f.u);
-        self.c_hat.set(i, f.c_hat);
-        self.n.set(i, p.n);
+        set3(&mut self.u, i, f.u);
+        set3(&mut self.c_hat, i, f.c_hat);
+        set3(&mut self.n, i, p.n);
         (self.d[i], self.l_begin[i], self.l_end[i]) = (f.d, f.l_begin, f.l_end);
         (self.s_begin[i], self.s_end[i]) = (f.s_begin, f.s_end);
         let c = &p.core;
@@ -519,15 +463,15 @@ impl<const N: usize> PreparedBatch<N> {
     fn psa(&self, i: usize) -> ProjectedSolidAngle {
         ProjectedSolidAngle {
             frame: LineFrame {
-                u: self.u.get(i),
-                c_hat: self.c_hat.get(i),
+                u: get3(&self.u, i),
+                c_hat: get3(&self.c_hat, i),
                 d: self.d[i],
                 l_begin: self.l_begin[i],
                 l_end: self.l_end[i],
                 s_begin: self.s_begin[i],
                 s_end: self.s_end[i],
             },
-            n: self.n.get(i),
+            n: get3(&self.n, i),
             core: PsaCore {
                 ns: self.ns[i],
                 nt: self.nt[i],
@@ -563,12 +507,12 @@ fn prepare_kernel<const N: usize>(input: &PsaInput<N>) -> PreparedBatch<N> {
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
     for i in 0..N {
         // The normal as given, not normalised (see `ProjectedSolidAngle::lane`).
-        let n = input.n.get(i);
+        let n = get3(&input.n, i);
         let normal_ok = normal_is_valid(n);
         let (frame, ends, frame_ok) = LineFrame::lane(
-            input.begin.get(i),
-            input.end.get(i),
-            input.x.get(i),
+            get3(&input.begin, i),
+            get3(&input.end, i),
+            get3(&input.x, i),
             Some(n),
         );
         let (li, ok) = Li2018::lane(frame, ends, n);
@@ -628,8 +572,8 @@ impl<const N: usize> Default for Pending<N> {
             c_b: zero,
             p0: zero,
             p1: zero,
-            u: Vec3xN::default(),
-            c_hat: Vec3xN::default(),
+            u: zero3(),
+            c_hat: zero3(),
             d: zero,
             inv_psa: zero,
             ok: [false; N],
@@ -646,8 +590,8 @@ impl<const N: usize> Pending<N> {
         (self.tau[i], self.fresh[i], self.ok[i]) = (tau, fresh, ok);
         let c = &p.core;
         (self.s_b[i], self.c_b[i], self.p0[i], self.p1[i]) = (c.s_b, c.c_b, c.p0, c.p1);
-        self.u.set(i, p.frame.u);
-        self.c_hat.set(i, p.frame.c_hat);
+        set3(&mut self.u, i, p.frame.u);
+        set3(&mut self.c_hat, i, p.frame.c_hat);
         (self.d[i], self.inv_psa[i]) = (p.frame.d, p.inv_psa);
     }
 
@@ -679,7 +623,7 @@ impl<const N: usize> Pending<N> {
         #[allow(clippy::needless_range_loop)]
         for i in 0..N {
             // As the scalar `ProjectedSolidAngle::sample_with_pdf`.
-            let (u, c_hat) = (self.u.get(i), self.c_hat.get(i));
+            let (u, c_hat) = (get3(&self.u, i), get3(&self.c_hat, i));
             let dir = self.s[i] * u + self.t[i].max(0.0) * c_hat;
             let pdf = self.n_dot_w[i].max(0.0) * self.inv_psa[i];
             let distance = self.d[i] / c_hat.dot(dir);
@@ -737,7 +681,7 @@ fn li_sample_kernel<const N: usize>(
     (out, iterations)
 }
 
-/// Li et al. 2018 (technique 7) on every lane of `input` (prepare and one sample; N = [`LANES`]
+/// Li et al. 2018 (technique 7) on every lane of `input` (prepare and one sample; N = [`BATCH_LANES`]
 /// for a batch, [`PACKET_LANES`] for a renderer's packet), as on a GPU: the Newton–bisection
 /// iteration runs until the *last* of the N lanes has converged (at most 20 steps), every lane
 /// paying for the slowest. Lane i equals the scalar `Technique::Li2018` bit for bit. Returns
@@ -751,7 +695,7 @@ pub fn sample_li2018_with<const N: usize>(isa: Isa, input: &PsaInput<N>) -> (Psa
 /// `Technique::ClippedSolidAngle.prepare(..)` + `sample_with_pdf(xi)` bit for bit, its
 /// `distance` is d/(ĉ·ω) as for the other kernels.
 pub fn sample_clipped_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBatchOutput {
-    run_clipped(isa, input)
+    dispatch(isa, ClippedSample::<BATCH_LANES, true>(input))
 }
 
 /// Clipped solid angle sampling on the [`PACKET_LANES`] lanes of `input` with the chosen kernel
@@ -764,17 +708,17 @@ pub fn sample_clipped_solid_angle_packet(
     isa: Isa,
     input: &PsaInput<PACKET_LANES>,
 ) -> PsaOutput<PACKET_LANES> {
-    run_clipped_two_chains(isa, input)
+    dispatch(isa, ClippedSample::<PACKET_LANES, false>(input))
 }
 
-/// N prepared clipped-solid-angle samplers (a batch: [`LANES`] = 8 by default; a packet:
+/// N prepared clipped-solid-angle samplers (a batch: [`BATCH_LANES`] = 8 by default; a packet:
 /// [`PACKET_LANES`]) as structure of arrays: what `SolidAngle` keeps per (light, shading point)
 /// for its samples — the frame's u, ĉ, d, the arc of the clipped interval in f64 ([`FrameArc`]
 /// without its support tolerance, which sampling does not read) and 1/Ω_R. Lanes outside `mask`
 /// hold meaningless values. The sample kernel is one loop over the N lanes (its arcs are f64:
 /// eight lanes per zmm whatever N is).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClippedBatch<const N: usize = LANES> {
+pub struct ClippedBatch<const N: usize = BATCH_LANES> {
     u: Vec3xN<N>,
     c_hat: Vec3xN<N>,
     d: [f32; N],
@@ -790,8 +734,8 @@ pub struct ClippedBatch<const N: usize = LANES> {
 impl<const N: usize> Default for ClippedBatch<N> {
     fn default() -> Self {
         Self {
-            u: Vec3xN::default(),
-            c_hat: Vec3xN::default(),
+            u: zero3(),
+            c_hat: zero3(),
             d: [0.0; N],
             s_b: [0.0; N],
             c_b: [0.0; N],
@@ -806,19 +750,19 @@ impl<const N: usize> Default for ClippedBatch<N> {
 impl<const N: usize> ClippedBatch<N> {
     /// Prepare every lane of `input` (its `xi` is not used) with the chosen kernel.
     pub fn prepare(isa: Isa, input: &PsaInput<N>) -> Self {
-        run_clipped_prepare(isa, input)
+        dispatch(isa, ClippedPrepare(input))
     }
 
     /// One sample per lane for `xi`: lane i equals the scalar sampler's `sample_with_pdf(xi[i])`.
     pub fn sample(&self, isa: Isa, xi: &[f32; N]) -> PsaOutput<N> {
-        run_clipped_sample(isa, self, xi)
+        dispatch(isa, ClippedSamplePrepared { prepared: self, xi })
     }
 
     #[inline(always)]
     fn store(&mut self, i: usize, sampler: &SolidAngle) {
         let (frame, arc, inv_solid_angle) = (&sampler.frame, &sampler.arc, sampler.inv_solid_angle);
-        self.u.set(i, frame.u);
-        self.c_hat.set(i, frame.c_hat);
+        set3(&mut self.u, i, frame.u);
+        set3(&mut self.c_hat, i, frame.c_hat);
         (self.d[i], self.inv_solid_angle[i]) = (frame.d, inv_solid_angle);
         (self.s_b[i], self.c_b[i]) = (arc.s_b, arc.c_b);
         (self.width[i], self.delta_s[i]) = (arc.width, arc.delta_s);
@@ -828,8 +772,8 @@ impl<const N: usize> ClippedBatch<N> {
     #[inline(always)]
     fn sampler(&self, i: usize) -> SolidAngle {
         let frame = LineFrame {
-            u: self.u.get(i),
-            c_hat: self.c_hat.get(i),
+            u: get3(&self.u, i),
+            c_hat: get3(&self.c_hat, i),
             d: self.d[i],
             l_begin: 0.0,
             l_end: 0.0,
@@ -870,11 +814,11 @@ fn clipped_prepare_kernel<const N: usize>(input: &PsaInput<N>) -> ClippedBatch<N
 #[inline(always)]
 fn clipped_lane<const N: usize>(input: &PsaInput<N>, i: usize) -> (SolidAngle, bool) {
     // Clipped with the unit normal, as the scalar `SolidAngle::prepare_clipped`.
-    let (n, normal_ok) = unit_normal_lane(input.n.get(i));
+    let (n, normal_ok) = unit_normal_lane(get3(&input.n, i));
     let (frame, ends, frame_ok) = LineFrame::lane(
-        input.begin.get(i),
-        input.end.get(i),
-        input.x.get(i),
+        get3(&input.begin, i),
+        get3(&input.end, i),
+        get3(&input.x, i),
         Some(n),
     );
     let (sampler, ok) = SolidAngle::lane(frame, ends, atan2_f64_select);
@@ -919,7 +863,7 @@ fn clipped_sample_kernel<const N: usize>(
     #[allow(clippy::needless_range_loop)]
     for i in 0..N {
         let (dir, pdf) = prepared.sampler(i).sample_lane(xi[i], atan2_f64_select);
-        let distance = prepared.d[i] / prepared.c_hat.get(i).dot(dir);
+        let distance = prepared.d[i] / get3(&prepared.c_hat, i).dot(dir);
         let ok = prepared.mask & (1 << i) != 0;
         valid[i] = store(&mut out, i, (dir, pdf, distance, ok));
     }
@@ -928,7 +872,7 @@ fn clipped_sample_kernel<const N: usize>(
 }
 
 #[inline(always)]
-fn clipped_kernel(input: &PsaBatchInput) -> PsaBatchOutput {
+fn clipped_kernel<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
     clipped_sample_kernel(&clipped_prepare_kernel(input), &input.xi)
 }
 
@@ -952,9 +896,9 @@ fn store<const N: usize>(
     i: usize,
     (dir, pdf, distance, ok): (Vec3, f32, f32, bool),
 ) -> bool {
-    out.dir.x[i] = if ok { dir.x } else { 0.0 };
-    out.dir.y[i] = if ok { dir.y } else { 0.0 };
-    out.dir.z[i] = if ok { dir.z } else { 0.0 };
+    out.dir[0][i] = if ok { dir.x } else { 0.0 };
+    out.dir[1][i] = if ok { dir.y } else { 0.0 };
+    out.dir[2][i] = if ok { dir.z } else { 0.0 };
     out.pdf[i] = if ok { pdf } else { 0.0 };
     out.distance[i] = if ok { distance } else { 0.0 };
     ok
@@ -985,12 +929,12 @@ fn kernel<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
 #[inline(always)]
 fn lane<const N: usize>(input: &PsaInput<N>, i: usize, pending: &mut Pending<N>) {
     // The normal as given, not normalised (see `ProjectedSolidAngle::lane`).
-    let n = input.n.get(i);
+    let n = get3(&input.n, i);
     let normal_ok = normal_is_valid(n);
     let (frame, ends, frame_ok) = LineFrame::lane(
-        input.begin.get(i),
-        input.end.get(i),
-        input.x.get(i),
+        get3(&input.begin, i),
+        get3(&input.end, i),
+        get3(&input.x, i),
         Some(n),
     );
     let (sampler, sampler_ok) =
@@ -1028,21 +972,28 @@ mod tests {
         let mut out = Vec::new();
         for k in 0..count {
             let mut b = PsaBatchInput::default();
-            for i in 0..LANES {
+            for i in 0..BATCH_LANES {
                 let scale = [1.0, 1e-3, 1e3, 1e-12, 1e12][(k + i) % 5];
-                b.begin.set(
+                set3(
+                    &mut b.begin,
                     i,
                     scale * Vec3::new(r(-2.0, 2.0), r(-2.0, 2.0), r(-0.5, 2.0)),
                 );
-                b.end.set(
+                set3(
+                    &mut b.end,
                     i,
                     scale * Vec3::new(r(-2.0, 2.0), r(-2.0, 2.0), r(-0.5, 2.0)),
                 );
-                b.x.set(
+                set3(
+                    &mut b.x,
                     i,
                     scale * Vec3::new(r(-0.1, 0.1), r(-0.1, 0.1), r(-0.01, 0.01)),
                 );
-                b.n.set(i, Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-0.2, 1.0)));
+                set3(
+                    &mut b.n,
+                    i,
+                    Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-0.2, 1.0)),
+                );
                 // Every other batch with interior ξ only, so that (almost always) no lane needs
                 // the fresh evaluation of `Pending::finish`; the others with ends, guard band
                 // and invalid ξ in some lanes, so that it runs next to rotated lanes.
@@ -1057,34 +1008,38 @@ mod tests {
         // Degenerate lanes: zero / NaN normal, zero-length segment, shading point on the line,
         // segment below the horizon, in the tangent plane, non-finite input, far along the axis.
         let mut d = out[0];
-        d.n.set(0, Vec3::ZERO);
-        d.n.set(1, Vec3::new(f32::NAN, 0.0, 1.0));
-        d.end.set(2, d.begin.get(2));
-        d.x.set(3, 0.5 * (d.begin.get(3) + d.end.get(3)));
-        d.begin.set(4, Vec3::new(-1.0, 0.0, -1.0));
-        d.end.set(4, Vec3::new(1.0, 0.0, -1.0));
-        d.x.set(4, Vec3::ZERO);
-        d.n.set(4, Vec3::Z);
-        d.begin.set(5, Vec3::new(-1.0, 1.0, 0.0));
-        d.end.set(5, Vec3::new(1.0, 1.0, 0.0));
-        d.x.set(5, Vec3::ZERO);
-        d.n.set(5, Vec3::Z);
-        d.begin.set(6, Vec3::new(f32::INFINITY, 0.0, 1.0));
-        d.begin.set(7, Vec3::new(0.0, 1e-3, 1e4));
-        d.end.set(7, Vec3::new(0.0, 1e-3, 1e4 + 1.0));
-        d.x.set(7, Vec3::ZERO);
-        d.n.set(7, Vec3::Z);
+        set3(&mut d.n, 0, Vec3::ZERO);
+        set3(&mut d.n, 1, Vec3::new(f32::NAN, 0.0, 1.0));
+        set3(&mut d.end, 2, get3(&d.begin, 2));
+        set3(&mut d.x, 3, 0.5 * (get3(&d.begin, 3) + get3(&d.end, 3)));
+        set3(&mut d.begin, 4, Vec3::new(-1.0, 0.0, -1.0));
+        set3(&mut d.end, 4, Vec3::new(1.0, 0.0, -1.0));
+        set3(&mut d.x, 4, Vec3::ZERO);
+        set3(&mut d.n, 4, Vec3::Z);
+        set3(&mut d.begin, 5, Vec3::new(-1.0, 1.0, 0.0));
+        set3(&mut d.end, 5, Vec3::new(1.0, 1.0, 0.0));
+        set3(&mut d.x, 5, Vec3::ZERO);
+        set3(&mut d.n, 5, Vec3::Z);
+        set3(&mut d.begin, 6, Vec3::new(f32::INFINITY, 0.0, 1.0));
+        set3(&mut d.begin, 7, Vec3::new(0.0, 1e-3, 1e4));
+        set3(&mut d.end, 7, Vec3::new(0.0, 1e-3, 1e4 + 1.0));
+        set3(&mut d.x, 7, Vec3::ZERO);
+        set3(&mut d.n, 7, Vec3::Z);
         out.push(d);
         // Normals at the ends of `normal_is_valid`: infinite, too short (1e-25, rejected),
         // huge (1e38, valid: scaled by 2^-126 into [1, 2)), the shortest valid, subnormal ones.
         let mut e = out[1];
-        e.n.set(0, Vec3::new(0.0, f32::INFINITY, 1.0));
-        e.n.set(1, Vec3::new(1e-25, 0.0, 1e-25));
-        e.n.set(2, Vec3::new(0.3e38, -0.2e38, 1e38));
-        e.n.set(3, Vec3::splat(1e38));
-        e.n.set(4, Vec3::new(0.0, 0.0, 1.1e-20));
-        e.n.set(5, Vec3::new(f32::from_bits(3), 0.0, 2e-20));
-        e.n.set(6, Vec3::new(f32::NEG_INFINITY, 0.0, f32::INFINITY));
+        set3(&mut e.n, 0, Vec3::new(0.0, f32::INFINITY, 1.0));
+        set3(&mut e.n, 1, Vec3::new(1e-25, 0.0, 1e-25));
+        set3(&mut e.n, 2, Vec3::new(0.3e38, -0.2e38, 1e38));
+        set3(&mut e.n, 3, Vec3::splat(1e38));
+        set3(&mut e.n, 4, Vec3::new(0.0, 0.0, 1.1e-20));
+        set3(&mut e.n, 5, Vec3::new(f32::from_bits(3), 0.0, 2e-20));
+        set3(
+            &mut e.n,
+            6,
+            Vec3::new(f32::NEG_INFINITY, 0.0, f32::INFINITY),
+        );
         out.push(e);
         out
     }
@@ -1142,7 +1097,8 @@ mod tests {
                 let prepared = PreparedBatch::prepare(isa, &input);
                 let clipped = ClippedBatch::prepare(isa, &input);
                 for k in 0..3 {
-                    let xi: [f32; LANES] = std::array::from_fn(|i| input.xi[(i + k) % LANES]);
+                    let xi: [f32; BATCH_LANES] =
+                        std::array::from_fn(|i| input.xi[(i + k) % BATCH_LANES]);
                     let fused =
                         sample_projected_solid_angle_with(isa, &PsaBatchInput { xi, ..input });
                     assert_eq!(prepared.sample_projected_solid_angle(isa, &xi), fused);
@@ -1192,13 +1148,13 @@ mod tests {
                 let (out, iterations) = kernel(isa, input);
                 let mut slowest = 0;
                 for i in 0..N {
-                    let seg = Segment::new(input.begin.get(i), input.end.get(i));
-                    match Li2018::prepare(&seg, input.x.get(i), input.n.get(i)) {
+                    let seg = Segment::new(get3(&input.begin, i), get3(&input.end, i));
+                    match Li2018::prepare(&seg, get3(&input.x, i), get3(&input.n, i)) {
                         Some(li) => {
                             assert!(out.contributes(i));
                             let (dir, pdf) = li.sample_with_pdf(input.xi[i]);
                             assert_eq!(
-                                (out.dir.get(i).to_array(), out.pdf[i]),
+                                (get3(&out.dir, i).to_array(), out.pdf[i]),
                                 (dir.to_array(), pdf),
                                 "lane {i}"
                             );
@@ -1223,7 +1179,7 @@ mod tests {
     /// and the 16-lane prepared batches (prepare, then one sample).
     #[test]
     fn lanes_equal_the_scalar_technique() {
-        let kernels: [(Technique, Kernel<LANES>); 2] = [
+        let kernels: [(Technique, Kernel<BATCH_LANES>); 2] = [
             (
                 Technique::ProjectedSolidAngle,
                 sample_projected_solid_angle_with,
@@ -1276,8 +1232,8 @@ mod tests {
                 .map(|isa| (isa, kernel(isa, input)));
             for (isa, out) in outputs {
                 for i in 0..N {
-                    let seg = Segment::new(input.begin.get(i), input.end.get(i));
-                    let scalar = technique.prepare(&seg, input.x.get(i), input.n.get(i));
+                    let seg = Segment::new(get3(&input.begin, i), get3(&input.end, i));
+                    let scalar = technique.prepare(&seg, get3(&input.x, i), get3(&input.n, i));
                     match scalar {
                         Some(p) => {
                             valid += 1;
@@ -1286,7 +1242,7 @@ mod tests {
                                 "{technique} {isa:?} lane {i} of {input:?}"
                             );
                             let (dir, pdf) = p.sample_with_pdf(input.xi[i]);
-                            let got = out.dir.get(i);
+                            let got = get3(&out.dir, i);
                             assert_eq!(
                                 (got.to_array().map(f32::to_bits), out.pdf[i].to_bits()),
                                 (dir.to_array().map(f32::to_bits), pdf.to_bits()),
@@ -1305,7 +1261,7 @@ mod tests {
                                 !out.contributes(i),
                                 "{technique} {isa:?} lane {i} of {input:?}"
                             );
-                            assert_eq!((out.dir.get(i), out.pdf[i]), (Vec3::ZERO, 0.0));
+                            assert_eq!((get3(&out.dir, i), out.pdf[i]), (Vec3::ZERO, 0.0));
                         }
                     }
                 }

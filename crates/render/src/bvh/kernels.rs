@@ -1004,7 +1004,7 @@ mod tests {
         ($check:ident) => {
             #[cfg(target_arch = "x86_64")]
             {
-                use linlight_sampling::batch::Isa;
+                use linlight_simd::Isa;
                 if Isa::Avx512.supported() {
                     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
                     unsafe fn run() {
