@@ -1,7 +1,7 @@
 //! Power and false alarms of `linlight certify` on the real scenes (docs/statistics.md §2): the
 //! certification must reject deliberately wrong renders and must not reject renders that differ
 //! only in their seed. The wrong variants exist only here (test-only subjects through
-//! `linlight_render::render_with`), never as user-facing options.
+//! `linlight_render::render_scalar`), never as user-facing options.
 
 mod power;
 

@@ -104,7 +104,7 @@ impl BudgetRule {
     /// Light samples per light and camera sample to try for a subject whose budget at one light
     /// sample is `spp` (docs/budget.md, "Light samples"): the largest power of two N ≤
     /// `max_light_samples` with N·`min_spp` ≤ `spp`, or 1 when the subject renders in packets
-    /// (the batched renderer takes one light sample). On the scalar path a camera sample's ray,
+    /// (the packet renderer takes one light sample). On the scalar path a camera sample's ray,
     /// shading point and sampler preparation serve its N light samples, so where the light
     /// sample's variance dominates (a glossy lobe sampled by a diffuse technique) N light
     /// samples cost far less than N camera samples. The budget at N is planned again from its

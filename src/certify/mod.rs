@@ -125,7 +125,7 @@ impl Subject for VariantRender {
     /// White-noise renders of a batch technique with one light sample take the packets (the
     /// one-light renders: lanes choosing different lights in one packet).
     fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
-        linlight_render::batched::applies(scene, &self.options(opts))
+        linlight_render::packet::applies(scene, &self.options(opts))
     }
 }
 
@@ -181,7 +181,7 @@ pub trait Subject: Sync {
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError>;
-    /// Whether [`Self::render`] with `opts` takes the batched renderer, which renders one light
+    /// Whether [`Self::render`] with `opts` takes the packet renderer, which renders one light
     /// sample per camera sample (the budget then keeps one: [`BudgetRule::light_samples`]).
     /// False unless a subject says so.
     fn renders_in_packets(&self, _scene: &Scene, _opts: &RenderOptions) -> bool {
@@ -241,7 +241,7 @@ impl Subject for Method {
         render(scene, &with_method(*self, opts), progress)
     }
     fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
-        linlight_render::batched::applies(scene, &with_method(*self, opts))
+        linlight_render::packet::applies(scene, &with_method(*self, opts))
     }
 }
 
@@ -571,7 +571,6 @@ fn run_plan(
         oracle::check_ready(&opts.root)?;
     }
     let (m, cfg) = comparison_config(opts)?;
-    let alpha_c = cfg.alpha;
     if let Some(dir) = &opts.report_dir {
         std::fs::create_dir_all(dir).map_err(|e| {
             Unusable(format!(
@@ -587,43 +586,15 @@ fn run_plan(
             Plan::Only(_) => Vec::new(),
         })
         .collect();
-    // Per scene: its subjects, then its blue-noise renders; the plan (and a shard's part of
-    // it) is over these, scene-major.
-    let scene_subjects: Vec<Vec<&dyn Subject>> = chosen
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            let own: Vec<&dyn Subject> = match plan {
-                Plan::Default => per_scene[i].iter().map(|b| b.as_ref()).collect(),
-                Plan::Only(list) => list.to_vec(),
-            };
-            own.into_iter()
-                .chain(
-                    opts.variant_renders
-                        .iter()
-                        .filter(|r| r.scene == s.name)
-                        .map(|r| r as &dyn Subject),
-                )
-                .collect()
-        })
-        .collect();
+    let scene_subjects = scene_subjects(opts, &chosen, &plan, &per_scene);
     let plan = shard::plan(&chosen, &scene_subjects);
-    let first: Vec<usize> = scene_subjects
-        .iter()
-        .scan(0, |at, v| {
-            let first = *at;
-            *at += v.len();
-            Some(first)
-        })
-        .collect();
-    let mine = |j: usize| shard::runs(opts.shard, j);
-    // Scenes with at least one item of this shard.
-    let scene_runs = |si: usize| (0..scene_subjects[si].len()).any(|k| mine(first[si] + k));
+    // This shard's subjects of each scene (all of them without --shard).
+    let mine = shard_subjects(opts, &scene_subjects);
     let run_suite = opts.sampler_suite && opts.shard.is_none_or(|s| s.runs_suite());
+    let live_renders = usize::from(opts.oracle == Oracle::Live)
+        * mine.iter().filter(|subjects| !subjects.is_empty()).count();
     events(Event::Plan {
-        steps: (0..plan.len()).filter(|&j| mine(j)).count()
-            + usize::from(opts.oracle == Oracle::Live)
-                * (0..chosen.len()).filter(|&si| scene_runs(si)).count(),
+        steps: mine.iter().map(Vec::len).sum::<usize>() + live_renders,
     });
 
     // The sampler suite runs alongside the renders (both are data-parallel on the same pool:
@@ -636,161 +607,18 @@ fn run_plan(
             s
         })
     };
-    let tiles = |done: usize, total: usize| events(Event::Tiles { done, total });
+    let run = SceneRun {
+        opts,
+        cfg: &cfg,
+        events,
+    };
     let render_all = || -> Result<Vec<SceneReport>, Unusable> {
-        let mut scene_reports = Vec::new();
-        for (si, s) in chosen.iter().enumerate() {
-            if !scene_runs(si) {
-                continue;
-            }
-            let mut live_oracle_seconds = None;
-            let reference = match opts.oracle {
-                Oracle::Committed => s.reference.clone(),
-                Oracle::Live => {
-                    events(Event::Step {
-                        label: format!("{}: live Mitsuba render", s.name),
-                    });
-                    let t = Instant::now();
-                    let dir = opts
-                        .report_dir
-                        .clone()
-                        .unwrap_or_else(std::env::temp_dir)
-                        .join("mitsuba");
-                    let img = oracle::render_live(&opts.root, s, &dir)?;
-                    live_oracle_seconds = Some(t.elapsed().as_secs_f64());
-                    img
-                }
-            };
-            let exact = if matrix::has_exact_oracle(&s.name) {
-                let subsamples = if matrix::is_glossy(&s.scene) {
-                    opts.quadrature_subsamples
-                } else {
-                    opts.closed_form_subsamples
-                };
-                closed_form::image(&s.scene, subsamples)
-                    .map_err(|e| Unusable(format!("exact image of {}: {e}", s.name)))?
-            } else {
-                None
-            };
-            let mut rows = Vec::new();
-            for (k, &subject) in scene_subjects[si].iter().enumerate() {
-                if !mine(first[si] + k) {
-                    continue;
-                }
-                let name = subject.name();
-                events(Event::Step {
-                    label: format!("{}: {name}", s.name),
-                });
-                let base = RenderOptions {
-                    spp: opts.budget.pilot_spp.max(2),
-                    passes: 1,
-                    seed: pilot_seed(opts.seed),
-                    method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
-                    light_samples: 1,
-                    // Every light (`linlight render`'s default); the choice of one light is
-                    // certified by the renders of `LIGHT_SELECTION_RENDERS`.
-                    lights: LightSelection::Every,
-                    noise: Default::default(),
-                };
-                let planned = |rule: &BudgetRule, base: &RenderOptions| {
-                    let t = Instant::now();
-                    let pilot = subject
-                        .render(&s.scene, base, &|_, _| {})
-                        .map_err(|e| render_error(&s.name, &name, e))?;
-                    let seconds = t.elapsed().as_secs_f64();
-                    let (budget, pixel_spp) = rule.plan(&pilot, &reference, &cfg).map_err(|e| {
-                        Unusable(format!(
-                            "cannot choose the budget of {} / {name}: {e}",
-                            s.name
-                        ))
-                    })?;
-                    Ok::<_, Unusable>((budget, pixel_spp, seconds))
-                };
-                let (mut budget, mut pixel_spp, mut pilot_seconds) = planned(&opts.budget, &base)?;
-                // Several light samples per camera sample where they are cheaper than camera
-                // samples (docs/budget.md, "Light samples"): planned again from a pilot of as
-                // many light samples at N per camera sample, kept if the cost model says so.
-                let mut light_samples = 1;
-                let n = opts
-                    .budget
-                    .light_samples(budget.spp, subject.renders_in_packets(&s.scene, &base));
-                if n > 1 {
-                    let rule = opts.budget.light_sample_pilot(n);
-                    let trial = RenderOptions {
-                        light_samples: n,
-                        spp: rule.pilot_spp,
-                        ..base
-                    };
-                    let (b, p, seconds) = planned(&rule, &trial)?;
-                    pilot_seconds += seconds;
-                    if BudgetRule::light_samples_pay(&budget, &b, n) {
-                        (budget, pixel_spp, light_samples) = (b, p, n);
-                    }
-                }
-                let base = RenderOptions {
-                    light_samples,
-                    ..base
-                };
-                let t = Instant::now();
-                let mut image = planned::render(
-                    &|scene, o, p| subject.render(scene, o, p),
-                    &s.scene,
-                    &RenderOptions {
-                        spp: budget.spp,
-                        seed: opts.seed,
-                        ..base
-                    },
-                    pixel_spp.as_deref(),
-                    &tiles,
-                )
-                .map_err(|e| render_error(&s.name, &name, e))?;
-                let render_seconds = t.elapsed().as_secs_f64();
-                record_inputs(&mut image.meta, &s.scene_file, &s.overrides);
-                let mut oracles = vec![("mitsuba", &reference)];
-                if let Some(c) = &exact {
-                    oracles.push((closed_form::oracle_name(c), c));
-                }
-                for (oracle_name, b) in oracles {
-                    let cmp = compare(&image, b, &cfg).map_err(|e| {
-                        Unusable(format!(
-                            "cannot compare {} / {name} with the {oracle_name} image: {e}",
-                            s.name
-                        ))
-                    })?;
-                    let (rel_diff, rel_ci, worst_tile_p) = summarise(&cmp);
-                    let mut row = Row {
-                        scene: s.name.clone(),
-                        subject: name.clone(),
-                        oracle: oracle_name.to_string(),
-                        verdict: cmp.verdict,
-                        budget,
-                        light_samples,
-                        seed: opts.seed,
-                        pilot_seconds,
-                        render_seconds,
-                        precision: budget::precision(&image, b),
-                        rel_diff,
-                        rel_ci,
-                        worst_tile_p,
-                        files: Vec::new(),
-                        comparison: cmp,
-                    };
-                    if let Some(dir) = &opts.report_dir {
-                        row.files = report::write_row_images(dir, &row, &image, b)?;
-                    }
-                    events(Event::RowDone(&row));
-                    rows.push(row);
-                }
-            }
-            scene_reports.push(SceneReport {
-                name: s.name.clone(),
-                scene_file: s.scene_file.clone(),
-                reference: reference_info(s),
-                live_oracle_seconds,
-                rows,
-            });
-        }
-        Ok(scene_reports)
+        chosen
+            .iter()
+            .zip(&mine)
+            .filter(|(_, subjects)| !subjects.is_empty())
+            .map(|(s, subjects)| run.scene(s, subjects))
+            .collect()
     };
     let (sampler_suite, scene_reports) = rayon::join(suite, render_all);
     let scene_reports = scene_reports?;
@@ -803,7 +631,7 @@ fn run_plan(
         scenes_pattern: opts.scenes.clone(),
         alpha: opts.alpha,
         comparisons_in_family: m,
-        alpha_per_comparison: alpha_c,
+        alpha_per_comparison: cfg.alpha,
         tolerance: opts.tolerance,
         budget_rule: opts.budget,
         seed: opts.seed,
@@ -824,4 +652,268 @@ fn run_plan(
         report_html::write(dir, &report)?;
     }
     Ok(report)
+}
+
+/// Per scene: its subjects (`per_scene`'s defaults, or the plan's list), then its blue-noise
+/// renders; the plan (and a shard's part of it) is over these, scene-major.
+fn scene_subjects<'a>(
+    opts: &'a Options,
+    chosen: &[ReferencedScene],
+    plan: &Plan<'a>,
+    per_scene: &'a [Vec<Box<dyn Subject>>],
+) -> Vec<Vec<&'a dyn Subject>> {
+    chosen
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let own: Vec<&dyn Subject> = match plan {
+                Plan::Default => per_scene[i].iter().map(|b| b.as_ref()).collect(),
+                Plan::Only(list) => list.to_vec(),
+            };
+            own.into_iter()
+                .chain(
+                    opts.variant_renders
+                        .iter()
+                        .filter(|r| r.scene == s.name)
+                        .map(|r| r as &dyn Subject),
+                )
+                .collect()
+        })
+        .collect()
+}
+
+/// The subjects of each scene that this shard runs (item j of the scene-major plan is the
+/// shard's when `shard::runs(opts.shard, j)`).
+fn shard_subjects<'a>(
+    opts: &Options,
+    scene_subjects: &[Vec<&'a dyn Subject>],
+) -> Vec<Vec<&'a dyn Subject>> {
+    let mut j = 0;
+    scene_subjects
+        .iter()
+        .map(|subjects| {
+            subjects
+                .iter()
+                .filter(|_| {
+                    j += 1;
+                    shard::runs(opts.shard, j - 1)
+                })
+                .copied()
+                .collect()
+        })
+        .collect()
+}
+
+/// What the rows of every scene share: the options, the comparison and the event sink.
+struct SceneRun<'a> {
+    opts: &'a Options,
+    cfg: &'a CompareConfig,
+    events: &'a (dyn Fn(Event) + Sync),
+}
+
+/// A subject's budget: the spp (and per-pixel spp), the light samples per camera sample and
+/// the seconds its pilot renders took.
+struct Planned {
+    budget: Budget,
+    pixel_spp: Option<Vec<u32>>,
+    light_samples: u32,
+    pilot_seconds: f64,
+}
+
+impl SceneRun<'_> {
+    /// The rows of `subjects` on scene `s`: each rendered with its budget and compared with
+    /// the Mitsuba reference and, where the scene has one, the exact image.
+    fn scene(
+        &self,
+        s: &ReferencedScene,
+        subjects: &[&dyn Subject],
+    ) -> Result<SceneReport, Unusable> {
+        let (reference, live_oracle_seconds) = self.reference(s)?;
+        let exact = self.exact(s)?;
+        let mut rows = Vec::new();
+        for &subject in subjects {
+            rows.extend(self.subject_rows(s, subject, &reference, exact.as_ref())?);
+        }
+        Ok(SceneReport {
+            name: s.name.clone(),
+            scene_file: s.scene_file.clone(),
+            reference: reference_info(s),
+            live_oracle_seconds,
+            rows,
+        })
+    }
+
+    /// The Mitsuba image of `s`: the committed reference, or a live render (and its seconds).
+    fn reference(&self, s: &ReferencedScene) -> Result<(Image, Option<f64>), Unusable> {
+        match self.opts.oracle {
+            Oracle::Committed => Ok((s.reference.clone(), None)),
+            Oracle::Live => {
+                (self.events)(Event::Step {
+                    label: format!("{}: live Mitsuba render", s.name),
+                });
+                let t = Instant::now();
+                let dir = self
+                    .opts
+                    .report_dir
+                    .clone()
+                    .unwrap_or_else(std::env::temp_dir)
+                    .join("mitsuba");
+                let img = oracle::render_live(&self.opts.root, s, &dir)?;
+                Ok((img, Some(t.elapsed().as_secs_f64())))
+            }
+        }
+    }
+
+    /// The exact image of `s` (closed form or line quadrature) where the scene has one.
+    fn exact(&self, s: &ReferencedScene) -> Result<Option<Image>, Unusable> {
+        if !matrix::has_exact_oracle(&s.name) {
+            return Ok(None);
+        }
+        let subsamples = if matrix::is_glossy(&s.scene) {
+            self.opts.quadrature_subsamples
+        } else {
+            self.opts.closed_form_subsamples
+        };
+        closed_form::image(&s.scene, subsamples)
+            .map_err(|e| Unusable(format!("exact image of {}: {e}", s.name)))
+    }
+
+    /// The budget of `subject` on `s` from pilot renders: camera samples by `opts.budget`, and
+    /// several light samples per camera sample where they are cheaper than camera samples
+    /// (docs/budget.md, "Light samples"): planned again from a pilot of as many light samples
+    /// at N per camera sample, kept if the cost model says so.
+    fn plan(
+        &self,
+        s: &ReferencedScene,
+        subject: &dyn Subject,
+        reference: &Image,
+        base: &RenderOptions,
+    ) -> Result<Planned, Unusable> {
+        let name = subject.name();
+        let planned = |rule: &BudgetRule, base: &RenderOptions| {
+            let t = Instant::now();
+            let pilot = subject
+                .render(&s.scene, base, &|_, _| {})
+                .map_err(|e| render_error(&s.name, &name, e))?;
+            let seconds = t.elapsed().as_secs_f64();
+            let (budget, pixel_spp) = rule.plan(&pilot, reference, self.cfg).map_err(|e| {
+                Unusable(format!(
+                    "cannot choose the budget of {} / {name}: {e}",
+                    s.name
+                ))
+            })?;
+            Ok::<_, Unusable>((budget, pixel_spp, seconds))
+        };
+        let (budget, pixel_spp, pilot_seconds) = planned(&self.opts.budget, base)?;
+        let mut plan = Planned {
+            budget,
+            pixel_spp,
+            light_samples: 1,
+            pilot_seconds,
+        };
+        let n = self
+            .opts
+            .budget
+            .light_samples(budget.spp, subject.renders_in_packets(&s.scene, base));
+        if n > 1 {
+            let rule = self.opts.budget.light_sample_pilot(n);
+            let trial = RenderOptions {
+                light_samples: n,
+                spp: rule.pilot_spp,
+                ..*base
+            };
+            let (b, p, seconds) = planned(&rule, &trial)?;
+            plan.pilot_seconds += seconds;
+            if BudgetRule::light_samples_pay(&budget, &b, n) {
+                (plan.budget, plan.pixel_spp, plan.light_samples) = (b, p, n);
+            }
+        }
+        Ok(plan)
+    }
+
+    /// `subject` on `s`, rendered with its budget, one row per oracle.
+    fn subject_rows(
+        &self,
+        s: &ReferencedScene,
+        subject: &dyn Subject,
+        reference: &Image,
+        exact: Option<&Image>,
+    ) -> Result<Vec<Row>, Unusable> {
+        let (opts, events) = (self.opts, self.events);
+        let name = subject.name();
+        events(Event::Step {
+            label: format!("{}: {name}", s.name),
+        });
+        let base = RenderOptions {
+            spp: opts.budget.pilot_spp.max(2),
+            passes: 1,
+            seed: pilot_seed(opts.seed),
+            method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
+            light_samples: 1,
+            // Every light (`linlight render`'s default); the choice of one light is
+            // certified by the renders of `LIGHT_SELECTION_RENDERS`.
+            lights: LightSelection::Every,
+            noise: Default::default(),
+        };
+        let Planned {
+            budget,
+            pixel_spp,
+            light_samples,
+            pilot_seconds,
+        } = self.plan(s, subject, reference, &base)?;
+        let tiles = |done: usize, total: usize| events(Event::Tiles { done, total });
+        let t = Instant::now();
+        let mut image = planned::render(
+            &|scene, o, p| subject.render(scene, o, p),
+            &s.scene,
+            &RenderOptions {
+                spp: budget.spp,
+                seed: opts.seed,
+                light_samples,
+                ..base
+            },
+            pixel_spp.as_deref(),
+            &tiles,
+        )
+        .map_err(|e| render_error(&s.name, &name, e))?;
+        let render_seconds = t.elapsed().as_secs_f64();
+        record_inputs(&mut image.meta, &s.scene_file, &s.overrides);
+        let mut oracles = vec![("mitsuba", reference)];
+        if let Some(c) = exact {
+            oracles.push((closed_form::oracle_name(c), c));
+        }
+        let mut rows = Vec::new();
+        for (oracle_name, b) in oracles {
+            let cmp = compare(&image, b, self.cfg).map_err(|e| {
+                Unusable(format!(
+                    "cannot compare {} / {name} with the {oracle_name} image: {e}",
+                    s.name
+                ))
+            })?;
+            let (rel_diff, rel_ci, worst_tile_p) = summarise(&cmp);
+            let mut row = Row {
+                scene: s.name.clone(),
+                subject: name.clone(),
+                oracle: oracle_name.to_string(),
+                verdict: cmp.verdict,
+                budget,
+                light_samples,
+                seed: opts.seed,
+                pilot_seconds,
+                render_seconds,
+                precision: budget::precision(&image, b),
+                rel_diff,
+                rel_ci,
+                worst_tile_p,
+                files: Vec::new(),
+                comparison: cmp,
+            };
+            if let Some(dir) = &opts.report_dir {
+                row.files = report::write_row_images(dir, &row, &image, b)?;
+            }
+            events(Event::RowDone(&row));
+            rows.push(row);
+        }
+        Ok(rows)
+    }
 }

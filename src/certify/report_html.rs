@@ -18,7 +18,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::report::io_err;
-use super::{Report, Row, Unusable};
+use super::sampler_suite::SuiteSummary;
+use super::{Report, Row, SceneReport, Unusable};
 
 /// Displayed width of the enlarged pictures, in CSS pixels (at least 1× the image).
 const PICTURE_WIDTH: usize = 256;
@@ -308,16 +309,10 @@ pub fn write(dir: &Path, report: &Report) -> Result<(), Unusable> {
     std::fs::write(&path, html(dir, report)).map_err(|e| io_err(&path, e))
 }
 
-/// The page (see the module documentation).
+/// The page (see the module documentation): the header, the sampler suite, the forest plot,
+/// then one section per scene.
 pub fn html(dir: &Path, report: &Report) -> String {
     let mut s = String::new();
-    let verdict = |ok: bool| {
-        if ok {
-            "<span class=\"pass\">PASS</span>"
-        } else {
-            "<span class=\"fail\">FAIL</span>"
-        }
-    };
     let _ = write!(
         s,
         "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>linlight certify</title><style>{STYLE}</style></head><body>"
@@ -340,34 +335,7 @@ pub fn html(dir: &Path, report: &Report) -> String {
         report.seed
     );
     if let Some(suite) = &report.sampler_suite {
-        let _ = write!(
-            s,
-            "<h2>Sampler chi-square suite: {}</h2><p>{} configurations, {} samples each, α = {} ({:.2e} per test), {:.1} s.</p>\
-             <table><tr><th>subject</th><th>role</th><th>verdict</th><th>failing configs</th><th>worst p</th><th>time</th></tr>",
-            verdict(suite.passed),
-            suite.configurations,
-            suite.samples,
-            suite.alpha,
-            suite.alpha_per_test,
-            suite.elapsed_seconds
-        );
-        for (role, rows) in [
-            ("technique", &suite.techniques),
-            ("negative control", &suite.negative_controls),
-        ] {
-            for r in rows {
-                let _ = write!(
-                    s,
-                    "<tr><td>{}</td><td>{role}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1} s</td></tr>",
-                    esc(&r.name),
-                    esc(&r.verdict),
-                    r.failing_configs,
-                    fmt_p(r.worst_p_value),
-                    r.seconds
-                );
-            }
-        }
-        s += "</table>";
+        s += &suite_section(suite);
     }
     if report.rows().next().is_some() {
         let _ = write!(
@@ -382,140 +350,212 @@ pub fn html(dir: &Path, report: &Report) -> String {
         );
     }
     for sc in &report.scenes {
-        let r = &sc.reference;
-        let _ = write!(
-            s,
-            "<h2>{}</h2><p>Scene <code>{}</code>; reference <code>{}</code>: {}, {} spp in {} passes (dof {}), overrides <code>{}</code>.</p>",
-            esc(&sc.name),
-            esc(&sc.scene_file.display().to_string()),
-            esc(&r.file.display().to_string()),
-            esc(&r.renderer),
-            r.spp,
-            r.passes,
-            r.dof,
-            esc(&r.overrides)
-        );
-        // Renders per subject (one per subject, shared by its oracles).
-        let mut renders: BTreeMap<&str, Image> = BTreeMap::new();
-        for row in &sc.rows {
-            if let (Some(f), false) = (
-                row_images(row).0,
-                renders.contains_key(row.subject.as_str()),
-            ) {
-                if let Some(img) = read_image(dir, f) {
-                    renders.insert(row.subject.as_str(), img);
-                }
-            }
-        }
-        let seconds: BTreeMap<&str, f64> = sc
-            .rows
-            .iter()
-            .map(|r| (r.subject.as_str(), r.render_seconds))
-            .collect();
-        let cost: BTreeMap<&str, f64> = renders
-            .iter()
-            .filter_map(|(k, img)| Some((*k, mean_variance(img) * seconds.get(k)?)))
-            .filter(|(_, c)| *c > 0.0)
-            .collect();
-        let best = cost.values().copied().fold(f64::INFINITY, f64::min);
-        let _ = write!(
-            s,
-            "<table><tr><th>technique</th><th>oracle</th><th>verdict</th><th>rel. diff ± CI (worst channel)</th>\
-             <th>worst tile p</th><th>spp</th><th>render time</th><th>variance × time</th><th>relative to best</th></tr>"
-        );
-        for row in &sc.rows {
-            let worst = (0..3)
-                .filter_map(|c| Some((c, row.rel_diff[c]?, row.rel_ci[c]?)))
-                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
-            let rel = worst.map_or_else(
-                || "undefined".into(),
-                |(c, d, [lo, hi])| {
-                    format!(
-                        "{} [{}, {}] ({})",
-                        pct(d),
-                        pct(lo),
-                        pct(hi),
-                        ["R", "G", "B"][c]
-                    )
-                },
-            );
-            let tile = row
-                .comparison
-                .channels
-                .iter()
-                .filter_map(|c| c.tiles.worst.as_ref().map(|t| t.p_holm))
-                .min_by(f64::total_cmp);
-            let (eff, ratio) = cost.get(row.subject.as_str()).map_or_else(
-                || ("–".to_string(), "–".to_string()),
-                |c| (format!("{c:.3e}"), format!("{:.2}×", c / best)),
-            );
+        s += &scene_section(dir, sc);
+    }
+    s += "</body></html>\n";
+    s
+}
+
+/// PASS or FAIL, coloured.
+fn verdict(ok: bool) -> &'static str {
+    if ok {
+        "<span class=\"pass\">PASS</span>"
+    } else {
+        "<span class=\"fail\">FAIL</span>"
+    }
+}
+
+/// The sampler chi-square suite: its verdict and one table row per subject.
+fn suite_section(suite: &SuiteSummary) -> String {
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        "<h2>Sampler chi-square suite: {}</h2><p>{} configurations, {} samples each, α = {} ({:.2e} per test), {:.1} s.</p>\
+         <table><tr><th>subject</th><th>role</th><th>verdict</th><th>failing configs</th><th>worst p</th><th>time</th></tr>",
+        verdict(suite.passed),
+        suite.configurations,
+        suite.samples,
+        suite.alpha,
+        suite.alpha_per_test,
+        suite.elapsed_seconds
+    );
+    for (role, rows) in [
+        ("technique", &suite.techniques),
+        ("negative control", &suite.negative_controls),
+    ] {
+        for r in rows {
             let _ = write!(
                 s,
-                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{rel}</td><td>{}</td><td>{}</td><td>{:.1} s</td><td>{eff}</td><td>{ratio}</td></tr>",
-                esc(&row.subject),
-                esc(&oracle_label(&row.oracle)),
-                if row.passed() {
-                    format!("<span class=\"pass\">{:?}</span>", row.verdict)
-                } else {
-                    format!("<span class=\"fail\">{:?}</span>", row.verdict)
-                },
-                fmt_p(tile),
-                super::report::spp_cell(row),
-                row.render_seconds
+                "<tr><td>{}</td><td>{role}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1} s</td></tr>",
+                esc(&r.name),
+                esc(&r.verdict),
+                r.failing_configs,
+                fmt_p(r.worst_p_value),
+                r.seconds
             );
         }
-        s += "</table><p>Variance × time: variance of the image mean (average over channels) times the render time; \
-              lower is better, the ratio is the time a technique needs for the precision of the best one.</p>";
-        let names: Vec<&&str> = renders.keys().collect();
-        for (i, a) in names.iter().enumerate() {
-            for b in &names[i + 1..] {
-                let (x, y) = (&renders[**a], &renders[**b]);
-                if x.mean == y.mean && x.var == y.var {
-                    let _ = write!(
-                        s,
-                        "<p class=\"note\">{} and {} rendered identical images of this scene (the techniques coincide \
-                         here, e.g. no light crosses a horizon): their comparisons are one piece of evidence, not two.</p>",
-                        esc(a),
-                        esc(b)
-                    );
-                }
-            }
-        }
-        for row in &sc.rows {
-            let _ = write!(
-                s,
-                "<h3>{} vs {}: {}</h3>",
-                esc(&row.subject),
-                esc(&oracle_label(&row.oracle)),
-                if row.passed() {
-                    "consistent"
-                } else {
-                    "DIFFERENT"
-                }
-            );
-            let (fa, fb) = row_images(row);
-            match (
-                fa.and_then(|f| read_image(dir, f)),
-                fb.and_then(|f| read_image(dir, f)),
-            ) {
-                (Some(a), Some(b)) if (a.width, a.height) == (b.width, b.height) => {
-                    s += &triptych(&a, &b, &row.oracle);
-                }
-                _ => s += "<p>(images not found in the report directory)</p>",
-            }
-            s += &maps(row);
-            for f in &row.comparison.failures {
+    }
+    s += "</table>";
+    s
+}
+
+/// A scene: its reference, the table of its comparisons, a note per pair of identical
+/// renders, and each comparison's pictures and maps.
+fn scene_section(dir: &Path, sc: &SceneReport) -> String {
+    let mut s = String::new();
+    let r = &sc.reference;
+    let _ = write!(
+        s,
+        "<h2>{}</h2><p>Scene <code>{}</code>; reference <code>{}</code>: {}, {} spp in {} passes (dof {}), overrides <code>{}</code>.</p>",
+        esc(&sc.name),
+        esc(&sc.scene_file.display().to_string()),
+        esc(&r.file.display().to_string()),
+        esc(&r.renderer),
+        r.spp,
+        r.passes,
+        r.dof,
+        esc(&r.overrides)
+    );
+    let renders = scene_renders(dir, sc);
+    s += &scene_table(sc, &renders);
+    let names: Vec<&&str> = renders.keys().collect();
+    for (i, a) in names.iter().enumerate() {
+        for b in &names[i + 1..] {
+            let (x, y) = (&renders[**a], &renders[**b]);
+            if x.mean == y.mean && x.var == y.var {
                 let _ = write!(
                     s,
-                    "<p class=\"fail\">{:?} [{}]: {}</p>",
-                    f.test,
-                    esc(f.channel),
-                    esc(&f.detail)
+                    "<p class=\"note\">{} and {} rendered identical images of this scene (the techniques coincide \
+                     here, e.g. no light crosses a horizon): their comparisons are one piece of evidence, not two.</p>",
+                    esc(a),
+                    esc(b)
                 );
             }
         }
     }
-    s += "</body></html>\n";
+    for row in &sc.rows {
+        s += &row_detail(dir, row);
+    }
+    s
+}
+
+/// The render of each subject of a scene (one per subject, shared by its oracles), read back
+/// from the report directory.
+fn scene_renders<'a>(dir: &Path, sc: &'a SceneReport) -> BTreeMap<&'a str, Image> {
+    let mut renders: BTreeMap<&str, Image> = BTreeMap::new();
+    for row in &sc.rows {
+        if let (Some(f), false) = (
+            row_images(row).0,
+            renders.contains_key(row.subject.as_str()),
+        ) {
+            if let Some(img) = read_image(dir, f) {
+                renders.insert(row.subject.as_str(), img);
+            }
+        }
+    }
+    renders
+}
+
+/// A scene's comparisons as a table, with the efficiency (variance × time) of each render.
+fn scene_table(sc: &SceneReport, renders: &BTreeMap<&str, Image>) -> String {
+    let mut s = String::new();
+    let seconds: BTreeMap<&str, f64> = sc
+        .rows
+        .iter()
+        .map(|r| (r.subject.as_str(), r.render_seconds))
+        .collect();
+    let cost: BTreeMap<&str, f64> = renders
+        .iter()
+        .filter_map(|(k, img)| Some((*k, mean_variance(img) * seconds.get(k)?)))
+        .filter(|(_, c)| *c > 0.0)
+        .collect();
+    let best = cost.values().copied().fold(f64::INFINITY, f64::min);
+    let _ = write!(
+        s,
+        "<table><tr><th>technique</th><th>oracle</th><th>verdict</th><th>rel. diff ± CI (worst channel)</th>\
+         <th>worst tile p</th><th>spp</th><th>render time</th><th>variance × time</th><th>relative to best</th></tr>"
+    );
+    for row in &sc.rows {
+        let worst = (0..3)
+            .filter_map(|c| Some((c, row.rel_diff[c]?, row.rel_ci[c]?)))
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+        let rel = worst.map_or_else(
+            || "undefined".into(),
+            |(c, d, [lo, hi])| {
+                format!(
+                    "{} [{}, {}] ({})",
+                    pct(d),
+                    pct(lo),
+                    pct(hi),
+                    ["R", "G", "B"][c]
+                )
+            },
+        );
+        let tile = row
+            .comparison
+            .channels
+            .iter()
+            .filter_map(|c| c.tiles.worst.as_ref().map(|t| t.p_holm))
+            .min_by(f64::total_cmp);
+        let (eff, ratio) = cost.get(row.subject.as_str()).map_or_else(
+            || ("–".to_string(), "–".to_string()),
+            |c| (format!("{c:.3e}"), format!("{:.2}×", c / best)),
+        );
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{rel}</td><td>{}</td><td>{}</td><td>{:.1} s</td><td>{eff}</td><td>{ratio}</td></tr>",
+            esc(&row.subject),
+            esc(&oracle_label(&row.oracle)),
+            if row.passed() {
+                format!("<span class=\"pass\">{:?}</span>", row.verdict)
+            } else {
+                format!("<span class=\"fail\">{:?}</span>", row.verdict)
+            },
+            fmt_p(tile),
+            super::report::spp_cell(row),
+            row.render_seconds
+        );
+    }
+    s += "</table><p>Variance × time: variance of the image mean (average over channels) times the render time; \
+          lower is better, the ratio is the time a technique needs for the precision of the best one.</p>";
+    s
+}
+
+/// One comparison: heading, the pictures (Rust | oracle | difference), the z and tile maps,
+/// and the failed tests.
+fn row_detail(dir: &Path, row: &Row) -> String {
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        "<h3>{} vs {}: {}</h3>",
+        esc(&row.subject),
+        esc(&oracle_label(&row.oracle)),
+        if row.passed() {
+            "consistent"
+        } else {
+            "DIFFERENT"
+        }
+    );
+    let (fa, fb) = row_images(row);
+    match (
+        fa.and_then(|f| read_image(dir, f)),
+        fb.and_then(|f| read_image(dir, f)),
+    ) {
+        (Some(a), Some(b)) if (a.width, a.height) == (b.width, b.height) => {
+            s += &triptych(&a, &b, &row.oracle);
+        }
+        _ => s += "<p>(images not found in the report directory)</p>",
+    }
+    s += &maps(row);
+    for f in &row.comparison.failures {
+        let _ = write!(
+            s,
+            "<p class=\"fail\">{:?} [{}]: {}</p>",
+            f.test,
+            esc(f.channel),
+            esc(&f.detail)
+        );
+    }
     s
 }
 

@@ -5,10 +5,15 @@
 
 use super::imaging::{enlarge, log_colour, log_colour_bar, luminance, white_scale};
 use super::page::{colour_bar, num, picture, row, table};
+use super::HitPoint;
 use super::{csv, hit_points, Ctx, Section};
-use linlight_sampling::backward_error::{sampler_backward_error, sweep, Precision, SweepConfig};
+use glam::Vec3;
+use linlight_sampling::backward_error::{
+    sampler_backward_error, sweep, Precision, SweepConfig, SweepRow,
+};
 use linlight_sampling::noise::{Noise, NoiseSource};
 use linlight_sampling::projected_solid_angle::{ProjectedSolidAngle, XI_GUARD};
+use linlight_sampling::Segment;
 use linlight_verify::heatmap::Rgb8;
 use serde_json::json;
 
@@ -44,55 +49,15 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let mut files = Vec::new();
     let mut csv_rows = Vec::new();
     for k in 1..=3u32 {
-        let (mut raw, mut weighted) = (
-            Rgb8::filled(res as usize, res as usize, [0; 3]),
-            Rgb8::filled(res as usize, res as usize, [0; 3]),
-        );
-        let (mut worst, mut worst_w, mut above, mut counted) = (0.0f64, 0.0f64, 0usize, 0usize);
-        // Outside the ξ guard band, where the sampler returns its start value unrefined (so
-        // more iterations cannot lower the error there).
-        let mut worst_out = 0.0f64;
-        for (i, h) in hits.iter().enumerate() {
-            let (x, y) = ((i % res as usize), (i / res as usize));
-            let mut e_max: Option<f64> = None;
-            let mut w_max: Option<f64> = None;
-            if let Some(h) = h {
-                let mut stream = noise.stream(h.x, h.y, h.y * width + h.x, 0, 0);
-                let _ = stream.film_position();
-                for (seg, kr) in &lights {
-                    let xi = stream.next_f32();
-                    let Some(s) = ProjectedSolidAngle::prepare_with_iterations(seg, h.p, h.n, k)
-                    else {
-                        continue;
-                    };
-                    let Some(e) = sampler_backward_error(&s, xi) else {
-                        continue;
-                    };
-                    let e = e.abs();
-                    let xi64 = xi as f64;
-                    if xi64 > XI_GUARD && xi64 < 1.0 - XI_GUARD {
-                        worst_out = worst_out.max(e);
-                    }
-                    // The pixel's unshadowed diffuse radiance from this light, in display
-                    // units (1 = the figure's white): (ρ/π)·K·Ω⊥_R.
-                    let rho = h.albedo.unwrap_or(glam::Vec3::splat(0.5));
-                    let l = *kr * rho * std::f32::consts::FRAC_1_PI * s.projected_solid_angle();
-                    let w = e * luminance(l.to_array()) * scale;
-                    e_max = Some(e_max.map_or(e, |m| m.max(e)));
-                    w_max = Some(w_max.map_or(w, |m| m.max(w)));
-                }
-            }
-            if let Some(e) = e_max {
-                worst = worst.max(e);
-                counted += 1;
-                above += usize::from(e > 1e-5);
-            }
-            if let Some(w) = w_max {
-                worst_w = worst_w.max(w);
-            }
-            raw.set(x, y, log_colour(e_max, LO, HI));
-            weighted.set(x, y, log_colour(w_max, LO, HI));
-        }
+        let IterationMaps {
+            raw,
+            weighted,
+            worst,
+            worst_w,
+            worst_out,
+            above,
+            counted,
+        } = iteration_maps(&hits, &lights, &noise, (width, res), scale, k);
         files.push(ctx.write_png(&format!("backward-error-{k}-iterations"), &raw)?);
         files.push(ctx.write_png(
             &format!("backward-error-{k}-iterations-weighted"),
@@ -122,20 +87,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         ]);
         ctx.progress(k as f64 / 4.0);
     }
-    // The parameter-space sweep of `linlight backward-error` (f32, the sampler's precision).
-    let cfg = if ctx.opts.quick {
-        SweepConfig {
-            normals: 16,
-            xi_per_interval: 128,
-            ..SweepConfig::default()
-        }
-    } else {
-        SweepConfig::default()
-    };
-    let sweep_rows: Vec<_> = sweep(&cfg)
-        .into_iter()
-        .filter(|r| r.precision == Precision::F32)
-        .collect();
+    let (cfg, sweep_rows) = f32_sweep(ctx.opts.quick);
     ctx.progress(1.0);
     files.push(ctx.write_text(
         "backward-error.csv",
@@ -155,7 +107,135 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         &log_colour_bar(256, LO, HI),
         &["1e-7", "1e-6", "1e-5", "1e-4", "1e-3", "1e-2"].map(String::from),
     );
-    let sweep_table = table(
+    let sweep_table = sweep_table(&sweep_rows);
+    let body = format!(
+        "<h3>Raw backward error |e| (units of ξ)</h3>{}<h3>Weighted by the pixel's contribution</h3>{}<p>Colour map (log10, clamped; grey-blue: no light or nothing hit):</p>{legend}<p>The worst over the parameter space (f32 sampler, sweep of <code>linlight backward-error</code>, {} normals × sub-intervals × {} ξ):</p>{sweep_table}",
+        row(&items_raw),
+        row(&items_weighted),
+        cfg.normals,
+        cfg.xi_per_interval
+    );
+    let (caption, summary_html) = caption_and_summary(&numbers, &sweep_rows, res);
+    Ok(Section {
+        caption,
+        body,
+        files,
+        numbers: json!({
+            "image": numbers,
+            "sweep": sweep_rows.iter().map(|r| json!({"iterations": r.iterations,
+                "worst_excluding_guard": r.worst_outside_guard,
+                "worst_including_guard": r.worst_including_guard, "problems": r.samples})).collect::<Vec<_>>(),
+            "paper_two_iterations": PAPER,
+            "summary_html": summary_html,
+        }),
+        ..Default::default()
+    })
+}
+
+/// The backward-error maps of `k` Halley iterations over the pixels' hit points.
+struct IterationMaps {
+    /// |e| per pixel, and |e| × the pixel's contribution (the largest over the lights).
+    raw: Rgb8,
+    weighted: Rgb8,
+    /// The largest raw, weighted, and raw outside the ξ guard band (where the sampler returns
+    /// its start value unrefined, so more iterations cannot lower the error there).
+    worst: f64,
+    worst_w: f64,
+    worst_out: f64,
+    /// Pixels with |e| > 1e-5, and pixels with a sample.
+    above: usize,
+    counted: usize,
+}
+
+fn iteration_maps(
+    hits: &[Option<HitPoint>],
+    lights: &[(Segment, Vec3)],
+    noise: &NoiseSource,
+    (width, res): (u32, u32),
+    scale: f64,
+    k: u32,
+) -> IterationMaps {
+    let (mut raw, mut weighted) = (
+        Rgb8::filled(res as usize, res as usize, [0; 3]),
+        Rgb8::filled(res as usize, res as usize, [0; 3]),
+    );
+    let (mut worst, mut worst_w, mut above, mut counted) = (0.0f64, 0.0f64, 0usize, 0usize);
+    // Outside the ξ guard band, where the sampler returns its start value unrefined (so
+    // more iterations cannot lower the error there).
+    let mut worst_out = 0.0f64;
+    for (i, h) in hits.iter().enumerate() {
+        let (x, y) = ((i % res as usize), (i / res as usize));
+        let mut e_max: Option<f64> = None;
+        let mut w_max: Option<f64> = None;
+        if let Some(h) = h {
+            let mut stream = noise.stream(h.x, h.y, h.y * width + h.x, 0, 0);
+            let _ = stream.film_position();
+            for (seg, kr) in lights {
+                let xi = stream.next_f32();
+                let Some(s) = ProjectedSolidAngle::prepare_with_iterations(seg, h.p, h.n, k) else {
+                    continue;
+                };
+                let Some(e) = sampler_backward_error(&s, xi) else {
+                    continue;
+                };
+                let e = e.abs();
+                let xi64 = xi as f64;
+                if xi64 > XI_GUARD && xi64 < 1.0 - XI_GUARD {
+                    worst_out = worst_out.max(e);
+                }
+                // The pixel's unshadowed diffuse radiance from this light, in display
+                // units (1 = the figure's white): (ρ/π)·K·Ω⊥_R.
+                let rho = h.albedo.unwrap_or(glam::Vec3::splat(0.5));
+                let l = *kr * rho * std::f32::consts::FRAC_1_PI * s.projected_solid_angle();
+                let w = e * luminance(l.to_array()) * scale;
+                e_max = Some(e_max.map_or(e, |m| m.max(e)));
+                w_max = Some(w_max.map_or(w, |m| m.max(w)));
+            }
+        }
+        if let Some(e) = e_max {
+            worst = worst.max(e);
+            counted += 1;
+            above += usize::from(e > 1e-5);
+        }
+        if let Some(w) = w_max {
+            worst_w = worst_w.max(w);
+        }
+        raw.set(x, y, log_colour(e_max, LO, HI));
+        weighted.set(x, y, log_colour(w_max, LO, HI));
+    }
+    IterationMaps {
+        raw,
+        weighted,
+        worst,
+        worst_w,
+        worst_out,
+        above,
+        counted,
+    }
+}
+
+/// The parameter-space sweep of `linlight backward-error` (f32, the sampler's precision),
+/// smaller with `quick`.
+fn f32_sweep(quick: bool) -> (SweepConfig, Vec<SweepRow>) {
+    let cfg = if quick {
+        SweepConfig {
+            normals: 16,
+            xi_per_interval: 128,
+            ..SweepConfig::default()
+        }
+    } else {
+        SweepConfig::default()
+    };
+    let rows = sweep(&cfg)
+        .into_iter()
+        .filter(|r| r.precision == Precision::F32)
+        .collect();
+    (cfg, rows)
+}
+
+/// The sweep's worst errors per iteration count, as an HTML table.
+fn sweep_table(rows: &[SweepRow]) -> String {
+    table(
         &[
             "iterations",
             "worst |e| outside the ξ guard",
@@ -163,7 +243,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             "near the arc's ends",
             "problems",
         ],
-        &sweep_rows
+        &rows
             .iter()
             .map(|r| {
                 vec![
@@ -175,14 +255,16 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
                 ]
             })
             .collect::<Vec<_>>(),
-    );
-    let body = format!(
-        "<h3>Raw backward error |e| (units of ξ)</h3>{}<h3>Weighted by the pixel's contribution</h3>{}<p>Colour map (log10, clamped; grey-blue: no light or nothing hit):</p>{legend}<p>The worst over the parameter space (f32 sampler, sweep of <code>linlight backward-error</code>, {} normals × sub-intervals × {} ξ):</p>{sweep_table}",
-        row(&items_raw),
-        row(&items_weighted),
-        cfg.normals,
-        cfg.xi_per_interval
-    );
+    )
+}
+
+/// The figure's caption and the one-paragraph summary, from the image's worst values
+/// (`numbers`, one JSON object per iteration count) and the sweep's.
+fn caption_and_summary(
+    numbers: &[serde_json::Value],
+    sweep_rows: &[SweepRow],
+    res: u32,
+) -> (String, String) {
     let image_worst = |k: u32, key: &str| {
         numbers
             .iter()
@@ -241,18 +323,5 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         num(sweep_worst(3)),
         num(sweep_out(3))
     );
-    Ok(Section {
-        caption,
-        body,
-        files,
-        numbers: json!({
-            "image": numbers,
-            "sweep": sweep_rows.iter().map(|r| json!({"iterations": r.iterations,
-                "worst_excluding_guard": r.worst_outside_guard,
-                "worst_including_guard": r.worst_including_guard, "problems": r.samples})).collect::<Vec<_>>(),
-            "paper_two_iterations": PAPER,
-            "summary_html": summary_html,
-        }),
-        ..Default::default()
-    })
+    (caption, summary_html)
 }

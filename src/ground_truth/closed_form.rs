@@ -324,15 +324,15 @@ pub fn unshadowed_pixel_average_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use linlight_render::build::{cornell_box, cuboid, diffuse, light, scene, sensor};
     use linlight_render::camera::Camera;
     use linlight_render::scene::Shape;
+    use linlight_render::scene_builder::{cornell_box, cuboid, diffuse, light, scene, sensor};
 
     const RHO: [f32; 3] = [0.7, 0.5, 0.3];
     const K: [f32; 3] = [1.0, 2.0, 0.5];
 
     fn floor() -> Shape {
-        linlight_render::build::floor(3.0, RHO)
+        linlight_render::scene_builder::floor(3.0, RHO)
     }
 
     /// A floor filling most of the view, a tilted light that crosses the floor's plane (so some
@@ -587,7 +587,7 @@ mod tests {
         // A floor that fills the view (no silhouette edge in a pixel), so that the 8×8 midpoint
         // rule over the coarse pixels is accurate to ~1e-3 relative.
         let mut sc = floor_scene(16, 12);
-        sc.shapes[0] = linlight_render::build::floor(30.0, RHO);
+        sc.shapes[0] = linlight_render::scene_builder::floor(30.0, RHO);
         sc.shapes[0].bsdf = conductor(0.25);
         let quad = unshadowed_pixel_average(&sc, 8).unwrap();
         let opts = linlight_render::RenderOptions {

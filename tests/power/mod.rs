@@ -9,7 +9,7 @@ use linlight::certify::{self, matrix, Options, Oracle, Report, Subject};
 use linlight_imagefile::Image;
 use linlight_render::hooks::{BsdfModel, LightSampling, SpecularSampling};
 use linlight_render::scene::Scene;
-use linlight_render::{render_with, Hooks, Method, RenderError, RenderOptions};
+use linlight_render::{render_scalar, Hooks, Method, RenderError, RenderOptions};
 use linlight_verify::image_stats::Verdict;
 use std::path::Path;
 
@@ -85,7 +85,7 @@ impl<D: LightSampling, S: SpecularSampling, B: BsdfModel> Subject for Hooked<D, 
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        render_with(
+        render_scalar(
             scene,
             &RenderOptions {
                 method: self.method,

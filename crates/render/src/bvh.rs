@@ -213,7 +213,7 @@ impl RayBoxes {
 /// Most rays in one packet ([`Bvh::intersect_lanes`], [`Bvh::occluded_lanes`]).
 pub const PACKET: usize = 16;
 
-/// Up to [`PACKET`] rays as structure of arrays (the rays of a batched renderer); which lanes
+/// Up to [`PACKET`] rays as structure of arrays (the rays of a packet renderer); which lanes
 /// hold rays is a separate bit mask.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))] // one cache line per component: whole-register loads never split
@@ -730,7 +730,7 @@ impl Bvh {
         self.intersect_lanes(&RayLanes::from_rays(rays), all)
     }
 
-    /// Any-hit for the rays of `lanes` in `active` (shadow rays of a batched renderer): bit i of
+    /// Any-hit for the rays of `lanes` in `active` (shadow rays of a packet renderer): bit i of
     /// the result is set iff ray i is occluded, exactly as [`Self::occluded`] says.
     ///
     /// The packet walks the tree once: each node's four boxes are tested against the rays still
@@ -831,7 +831,7 @@ impl Bvh {
         }
     }
 
-    /// Closest hits for the rays of `lanes` in `active` (camera rays of a batched renderer):
+    /// Closest hits for the rays of `lanes` in `active` (camera rays of a packet renderer):
     /// lane i of the result is exactly what [`Self::intersect`] returns for ray i, ties
     /// included (see [`Self::intersect`]).
     ///

@@ -72,7 +72,7 @@ pub(crate) fn metadata(
     meta
 }
 
-/// The tile loop of both renderers (the scalar path here and [`crate::batched`]): tiles of
+/// The tile loop of both renderers (the scalar path here and [`crate::packet`]): tiles of
 /// TILE² pixels of `window` in parallel; per tile the lines each pixel sees, then per pass
 /// `pass_samples(pixels, seen, pass, single)`, which sets each pixel's accumulator of that
 /// pass's samples. The pass means and the last pass's samples give each pixel's value

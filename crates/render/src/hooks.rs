@@ -1,6 +1,6 @@
 //! The pieces of the integrator that tests may replace: the line technique, the specular
 //! sampler and the BSDF evaluation. Production renders use [`Hooks::new`] (through
-//! [`crate::render`](fn@crate::render)); [`crate::render_with`] renders with any [`Hooks`], which is how power
+//! [`crate::render`](fn@crate::render)); [`crate::render_scalar`] renders with any [`Hooks`], which is how power
 //! controls render deliberately wrong variants ([`crate::power_controls`] has the ready-made
 //! ones). Generic, so that the production path stays monomorphic.
 //!
@@ -23,7 +23,7 @@
 //! use linlight_render::{Method, RenderOptions};
 //! let hooks = Hooks::new().with_specular(LtcWithoutKappa);
 //! let opts = RenderOptions { spp: 4, method: Method::default(), ..Default::default() };
-//! // linlight_render::render_with(&scene, &opts, &hooks, &|_, _| {})
+//! // linlight_render::render_scalar(&scene, &opts, &hooks, &|_, _| {})
 //! # let _ = (hooks, opts);
 //! ```
 
@@ -93,7 +93,7 @@ pub trait BsdfModel: Sync {
 
 /// The scene's BSDFs, evaluated as loaded, in f32 as Mitsuba evaluates them
 /// ([`Bsdf::eval_f32`] of v and l rounded to f32: the renderer passes f32 values, so nothing
-/// is rounded, and the batched renderer's lanes give the same bits).
+/// is rounded, and the packet renderer's lanes give the same bits).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SceneBsdf;
 

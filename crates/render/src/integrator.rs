@@ -146,8 +146,8 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
 /// deliberately wrong techniques, specular samplers or BSDF evaluations (power controls, see
 /// [`crate::power_controls`]). `opts.method` still chooses the estimator; the header records
 /// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`). Always the
-/// scalar path (the batched renderer's images equal it bit for bit where it applies).
-pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
+/// scalar path (the packet renderer's images equal it bit for bit where it applies).
+pub fn render_scalar<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &Scene,
     opts: &RenderOptions,
     hooks: &Hooks<D, S, B>,
@@ -166,7 +166,7 @@ pub fn render_with<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     Ok(image)
 }
 
-/// The image of [`render_with`] with the pieces resolved; its header holds only the pixels'
+/// The image of [`render_scalar`] with the pieces resolved; its header holds only the pixels'
 /// entries ([`pixel_entries`]).
 fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &Scene,

@@ -4,8 +4,6 @@
 // `!(x > 0.0)` is deliberate throughout: it rejects NaN together with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod batched;
-pub mod build;
 pub mod bvh;
 pub mod camera;
 pub mod contacts;
@@ -16,12 +14,15 @@ pub mod integrator;
 pub mod light_choice;
 pub mod method;
 pub mod options;
+pub mod packet;
 #[cfg(feature = "test-support")]
 pub mod power_controls;
 pub mod ray_offset;
 pub mod render;
 pub mod render_scene;
 pub mod scene;
+#[cfg(any(test, feature = "test-support"))]
+pub mod scene_builder;
 pub mod shading;
 #[cfg(feature = "test-support")]
 pub mod shading_cost;
@@ -34,7 +35,7 @@ pub mod xml;
 
 pub use frame::record_inputs;
 pub use hooks::{Hooks, LightSampling};
-pub use integrator::render_with;
+pub use integrator::render_scalar;
 pub use light_choice::LightSelection;
 pub use linlight_sampling::mis::Heuristic;
 pub use method::Method;

@@ -1,6 +1,6 @@
 //! Deliberately wrong variants of the glossy integrator, for power controls: a certification
 //! that cannot reject these proves nothing. They exist for tests only (never a user-facing
-//! option) and plug into [`crate::render_with`] through [`Hooks`](crate::hooks::Hooks):
+//! option) and plug into [`crate::render_scalar`] through [`Hooks`](crate::hooks::Hooks):
 //!
 //! | control | hook | what is wrong |
 //! |---|---|---|
@@ -16,7 +16,7 @@
 //! use linlight_render::power_controls::{AlphaScaledEval, LtcHemisphereDensity};
 //! let alpha_off = Hooks::new().with_bsdf(AlphaScaledEval(1.05));
 //! let hemisphere = Hooks::new().with_specular(LtcHemisphereDensity);
-//! // render_with(&scene, &RenderOptions { method: Method::Mis(h), .. }, &alpha_off, &progress)
+//! // render_scalar(&scene, &RenderOptions { method: Method::Mis(h), .. }, &alpha_off, &progress)
 //! # let _ = (alpha_off, hemisphere);
 //! ```
 //!

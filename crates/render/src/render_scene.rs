@@ -1,7 +1,7 @@
 //! The scene as the renderer sees it ([`RenderScene`]): the acceleration structures, the
 //! camera, each surface's BSDF, and the lights with their K = radiance × radius and the
 //! distribution of the light chosen per light sample, built once from a [`Scene`] and shared by
-//! the scalar integrator ([`crate::integrator`]) and the packet renderer ([`crate::batched`]).
+//! the scalar integrator ([`crate::integrator`]) and the packet renderer ([`crate::packet`]).
 
 use crate::bvh::Bvh;
 use crate::camera::Camera;

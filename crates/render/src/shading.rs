@@ -2,7 +2,7 @@
 //! [`Method`], written once as scalar code that the integrator calls per light. Each
 //! iteration is split at the shadow ray — [`single_sample`] and [`TwoTechniqueLight::candidates`]
 //! return the samples that can contribute before visibility is known — so that the batched
-//! renderer (`crate::batched`) runs the same code lane by lane and traces the shadow rays of
+//! renderer (`crate::packet`) runs the same code lane by lane and traces the shadow rays of
 //! all lanes in one packet walk, with the same bits.
 //!
 //! Measure: densities per radius (dΩ_R); a contribution is K·f(v, ω)·cos θ·V(ω)·w(ω)/p(ω) with
@@ -43,7 +43,7 @@ pub const MIN_DIFFUSE_WEIGHT: f32 = 0.01;
 /// The shading frame of the LTC tables: columns x̂, ŷ, n with x̂ = normalize(v − (n·v)n)
 /// (any unit x̂ ⊥ n when v ∥ n) and ŷ = n × x̂; and v in it. `n`, `wi` unit, n·wi > 0.
 /// Branch-free (glam's `try_normalize` written out, the fallback selected), so that the
-/// batched renderer's loop over its lanes vectorises.
+/// packet renderer's loop over its lanes vectorises.
 #[inline(always)]
 pub fn shading_frame(n: Vec3, wi: Vec3) -> (Mat3, DVec3) {
     let d = wi - n.dot(wi) * n;
@@ -139,7 +139,7 @@ impl<'a> ShadingPoint<'a> {
     }
 
     /// f(v, ω)·cos θ for a unit world direction ω (v and ω in the frame are f32 values, so
-    /// [`SceneBsdf`](crate::hooks::SceneBsdf) evaluates exactly what the batched renderer's
+    /// [`SceneBsdf`](crate::hooks::SceneBsdf) evaluates exactly what the packet renderer's
     /// f32 lanes do).
     #[inline]
     pub fn eval<B: BsdfModel>(&self, model: &B, w: Vec3) -> Vec3 {
@@ -147,7 +147,7 @@ impl<'a> ShadingPoint<'a> {
     }
 
     /// A world direction in the shading frame, as [`ShadingPoint::eval`] passes it to the
-    /// BSDF (f32 values, exactly; the batched renderer's lanes call [`to_local`] too).
+    /// BSDF (f32 values, exactly; the packet renderer's lanes call [`to_local`] too).
     #[inline(always)]
     pub fn local(&self, w: Vec3) -> DVec3 {
         to_local(self.frame.x_axis, self.frame.y_axis, self.frame.z_axis, w).as_dvec3()
@@ -216,7 +216,7 @@ fn distance_to_line<L: LineSampler>(sampler: &L, w: Vec3) -> Option<f32> {
 
 /// The contribution K·f(v, ω)·cos θ/p(ω) of one sample ω (density `pdf`) of a single
 /// technique at a non-Lambertian shading point, not yet tested for finiteness: the expression
-/// of [`estimate_resolved`], which the batched renderer evaluates lane by lane.
+/// of [`estimate_resolved`], which the packet renderer evaluates lane by lane.
 #[inline]
 pub fn single_contribution<B: BsdfModel>(
     model: &B,
@@ -229,7 +229,7 @@ pub fn single_contribution<B: BsdfModel>(
 }
 
 /// K·(f·cos)/p: the last step of [`single_contribution`] (`f_cos` from the BSDF), which the
-/// batched renderer applies to its lanes' BSDF values.
+/// packet renderer applies to its lanes' BSDF values.
 #[inline(always)]
 pub fn contribution(k: Vec3, f_cos: Vec3, pdf: f32) -> Vec3 {
     k * f_cos / pdf
@@ -353,7 +353,7 @@ impl<S: SpecularSampler> TwoTechniqueLight<S> {
     /// Step 4 before visibility: the diffuse sample of ξ_d, then the specular sample of ξ_s,
     /// each `None` where it cannot contribute (zero density, weight or f·cos, no finite
     /// distance to the line). `eval`: f·cos of a world direction. [`two_techniques`] traces
-    /// them one after the other; the batched renderer traces each in a packet walk.
+    /// them one after the other; the packet renderer traces each in a packet walk.
     #[inline]
     pub fn candidates(
         &self,

@@ -23,7 +23,7 @@ use glam::Vec3;
 use linlight_brdf::microfacet;
 use linlight_sampling::batch::{
     sample_clipped_solid_angle_packet, sample_li2018_with, sample_projected_solid_angle_packet,
-    ClippedBatch, Isa, PreparedBatch, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput,
+    BatchProblems, BatchSamples, ClippedBatch, Isa, LineProblems, LineSamples, PreparedBatch,
     BATCH_LANES, PACKET_LANES,
 };
 use linlight_sampling::{LineSampler, Segment, Technique};
@@ -168,7 +168,7 @@ pub fn shade_scalar(t: Technique, h: &HitPoints, lights: &[(Segment, Vec3)], spp
 /// The batch's shading: lane i's BRDF, in one loop over the lanes (vectorised with the
 /// kernel's ISA only where the compiler does so; here at the baseline).
 #[inline(always)]
-fn shade_lanes(out: &PsaBatchOutput, n: Vec3, v: Vec3, alpha: f32, k: &[f32; BATCH_LANES]) -> f32 {
+fn shade_lanes(out: &BatchSamples, n: Vec3, v: Vec3, alpha: f32, k: &[f32; BATCH_LANES]) -> f32 {
     let mut c = [0.0f32; BATCH_LANES];
     for (i, c) in c.iter_mut().enumerate() {
         let w = get3(&out.dir, i);
@@ -236,9 +236,9 @@ struct Work<'a> {
 trait PreparedRows<const N: usize> {
     fn shade<Q>(
         &self,
-        prepare: impl Fn(&PsaInput<N>) -> Q,
+        prepare: impl Fn(&LineProblems<N>) -> Q,
         mask: impl Fn(&Q) -> u32,
-        sample: impl FnMut(&Q, &[f32; N]) -> PsaOutput<N>,
+        sample: impl FnMut(&Q, &[f32; N]) -> LineSamples<N>,
     ) -> f32;
 }
 
@@ -252,9 +252,9 @@ impl PreparedRows<BATCH_LANES> for BatchRows<'_> {
     #[inline(always)]
     fn shade<Q>(
         &self,
-        prepare: impl Fn(&PsaBatchInput) -> Q,
+        prepare: impl Fn(&BatchProblems) -> Q,
         mask: impl Fn(&Q) -> u32,
-        sample: impl FnMut(&Q, &[f32; BATCH_LANES]) -> PsaBatchOutput,
+        sample: impl FnMut(&Q, &[f32; BATCH_LANES]) -> BatchSamples,
     ) -> f32 {
         shade_prepared(self.0, prepare, mask, sample)
     }
@@ -264,9 +264,9 @@ impl PreparedRows<P> for PacketRows<'_> {
     #[inline(always)]
     fn shade<Q>(
         &self,
-        prepare: impl Fn(&PsaInput<P>) -> Q,
+        prepare: impl Fn(&LineProblems<P>) -> Q,
         mask: impl Fn(&Q) -> u32,
-        sample: impl FnMut(&Q, &[f32; P]) -> PsaOutput<P>,
+        sample: impl FnMut(&Q, &[f32; P]) -> LineSamples<P>,
     ) -> f32 {
         shade_packets_prepared(self.0, prepare, mask, sample)
     }
@@ -281,7 +281,7 @@ fn shade_prepared_lanes<const N: usize>(
     rows: &impl PreparedRows<N>,
 ) -> (f32, u64) {
     let mut iterations = 0u64;
-    let psa = |input: &PsaInput<N>| PreparedBatch::prepare(isa, input);
+    let psa = |input: &LineProblems<N>| PreparedBatch::prepare(isa, input);
     let sum = match which {
         Batched::ProjectedSolidAngle => rows.shade(
             psa,
@@ -347,7 +347,7 @@ pub fn shade_packet(
 /// The packet's shading: lane l is hit point `first + l` (clamped; padding lanes have pdf 0),
 /// all lanes lit by one light of radiance `k`.
 #[inline(always)]
-fn shade_packet_lanes(out: &PsaOutput<P>, h: &HitPoints, first: usize, k: f32) -> f32 {
+fn shade_packet_lanes(out: &LineSamples<P>, h: &HitPoints, first: usize, k: f32) -> f32 {
     let last = h.p.len() - 1;
     let mut c = [0.0f32; P];
     for (l, c) in c.iter_mut().enumerate() {
@@ -365,8 +365,8 @@ fn shade_packet_lanes(out: &PsaOutput<P>, h: &HitPoints, first: usize, k: f32) -
 /// The input of the packet of hit points `first..`: shading points and normals (zero normals in
 /// padding lanes past the last hit point, so that they do not contribute).
 #[inline(always)]
-fn packet_input(h: &HitPoints, first: usize) -> PsaInput<P> {
-    let mut input = PsaInput::default();
+fn packet_input(h: &HitPoints, first: usize) -> LineProblems<P> {
+    let mut input = LineProblems::default();
     let last = h.p.len() - 1;
     for l in 0..P {
         let i = (first + l).min(last);
@@ -389,7 +389,7 @@ fn packet_input(h: &HitPoints, first: usize) -> PsaInput<P> {
 fn shade_packets_fused(
     h: &HitPoints,
     lights: &[(Segment, Vec3)],
-    mut sample: impl FnMut(&PsaInput<P>) -> PsaOutput<P>,
+    mut sample: impl FnMut(&LineProblems<P>) -> LineSamples<P>,
 ) -> f32 {
     let mut sum = 0.0f32;
     for first in (0..h.p.len()).step_by(P) {
@@ -411,9 +411,9 @@ fn shade_packets_fused(
 #[inline(always)]
 fn shade_packets_prepared<Q>(
     Work { h, lights, spp }: Work,
-    prepare: impl Fn(&PsaInput<P>) -> Q,
+    prepare: impl Fn(&LineProblems<P>) -> Q,
     mask: impl Fn(&Q) -> u32,
-    mut sample: impl FnMut(&Q, &[f32; P]) -> PsaOutput<P>,
+    mut sample: impl FnMut(&Q, &[f32; P]) -> LineSamples<P>,
 ) -> f32 {
     let mut sum = 0.0f32;
     for first in (0..h.p.len()).step_by(P) {
@@ -438,14 +438,14 @@ fn shade_packets_prepared<Q>(
 #[inline(always)]
 fn shade_prepared<Q>(
     Work { h, lights, spp }: Work,
-    prepare: impl Fn(&PsaBatchInput) -> Q,
+    prepare: impl Fn(&BatchProblems) -> Q,
     mask: impl Fn(&Q) -> u32,
-    mut sample: impl FnMut(&Q, &[f32; BATCH_LANES]) -> PsaBatchOutput,
+    mut sample: impl FnMut(&Q, &[f32; BATCH_LANES]) -> BatchSamples,
 ) -> f32 {
     let mut sum = 0.0f32;
     for i in 0..h.p.len() {
         let (p, n, v, a) = (h.p[i], h.n[i], h.v[i], h.alpha[i]);
-        let mut input = PsaBatchInput {
+        let mut input = BatchProblems {
             x: splat3(p),
             n: splat3(n),
             ..Default::default()
@@ -500,8 +500,8 @@ pub fn shade_stand_in(lanes: usize, h: &HitPoints, lights: &[(Segment, Vec3)], s
 }
 
 #[inline(always)]
-fn stand_in<const N: usize>(input: &PsaInput<N>, xi: &[f32; N]) -> PsaOutput<N> {
-    let mut out = PsaOutput::default();
+fn stand_in<const N: usize>(input: &LineProblems<N>, xi: &[f32; N]) -> LineSamples<N> {
+    let mut out = LineSamples::default();
     for (l, &xi) in xi.iter().enumerate() {
         let m = get3(&input.begin, l).lerp(get3(&input.end, l), xi);
         set3(&mut out.dir, l, (m - get3(&input.x, l)).normalize_or_zero());

@@ -659,7 +659,7 @@ mod tests {
                     let Some(sample) = single_sample(&sampler, ng, xi) else {
                         continue;
                     };
-                    // The integrator's target (`radiance`'s `visible`, the batched renderer's
+                    // The integrator's target (`radiance`'s `visible`, the packet renderer's
                     // `shadow_rays`).
                     let target = p + sample.dist * sample.w;
                     let Some(ray) = shadow_ray_to(&sp, target) else {

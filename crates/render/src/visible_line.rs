@@ -225,8 +225,8 @@ impl VisibleLines {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::{scene, sensor};
     use crate::render::render;
+    use crate::scene_builder::{scene, sensor};
     use crate::RenderOptions;
     use linlight_sampling::Technique;
 
@@ -275,7 +275,7 @@ mod tests {
         let mut sc = scene(
             cam,
             vec![],
-            vec![crate::build::light(
+            vec![crate::scene_builder::light(
                 Vec3::new(-2.0, -0.5, 3.0),
                 Vec3::new(2.0, 0.8, 5.0),
                 [1.0, 1.0, 1.0],

@@ -2,9 +2,9 @@
 
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_render::build::{cuboid, diffuse, light, scene, sensor};
 use linlight_render::camera::Camera;
 use linlight_render::scene::{Bsdf, CropWindow, Scene};
+use linlight_render::scene_builder::{cuboid, diffuse, light, scene, sensor};
 use linlight_render::{render, LightSelection, RenderOptions};
 use linlight_sampling::{LineFrame, Segment, Technique};
 
@@ -12,7 +12,7 @@ const RHO: [f32; 3] = [0.8, 0.5, 0.2];
 const K: [f32; 3] = [2.0, 1.0, 0.5];
 
 fn floor() -> linlight_render::scene::Shape {
-    linlight_render::build::floor(3.0, RHO)
+    linlight_render::scene_builder::floor(3.0, RHO)
 }
 
 /// Diffuse floor z = 0 seen from above, one tilted light above it.
@@ -226,7 +226,7 @@ fn passes_estimate_the_variance() {
 
 #[test]
 fn deterministic_across_thread_counts() {
-    let sc = linlight_render::build::cornell_box(40, 30);
+    let sc = linlight_render::scene_builder::cornell_box(40, 30);
     let o = opts(4, 2, 5, Technique::ClippedSolidAngle);
     let run = |threads| {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -246,7 +246,7 @@ fn deterministic_across_thread_counts() {
 
 #[test]
 fn crop_is_a_window_of_the_full_render() {
-    let mut sc = linlight_render::build::cornell_box(40, 30);
+    let mut sc = linlight_render::scene_builder::cornell_box(40, 30);
     let o = opts(3, 1, 9, Technique::SolidAngle);
     let full = render(&sc, &o, &quiet).unwrap();
     let crop = CropWindow {

@@ -11,7 +11,7 @@ use glam::Vec3;
 use linlight_sampling::batch::{
     sample_clipped_solid_angle_packet, sample_clipped_solid_angle_with,
     sample_projected_solid_angle_packet, sample_projected_solid_angle_slice,
-    sample_projected_solid_angle_with, Isa, PsaBatchInput, PsaBatchOutput, PsaInput, PsaOutput,
+    sample_projected_solid_angle_with, BatchProblems, BatchSamples, Isa, LineProblems, LineSamples,
     BATCH_LANES, PACKET_LANES,
 };
 use linlight_sampling::li2018::Li2018;
@@ -72,11 +72,11 @@ fn pass(technique: Technique, configurations: &[Configuration]) -> f32 {
 }
 
 /// The configurations as batches of [`BATCH_LANES`] (1024 = 128 full batches).
-fn batches(configurations: &[Configuration]) -> Vec<PsaBatchInput> {
+fn batches(configurations: &[Configuration]) -> Vec<BatchProblems> {
     configurations
         .chunks(BATCH_LANES)
         .map(|chunk| {
-            let mut b = PsaBatchInput::default();
+            let mut b = BatchProblems::default();
             for (i, c) in chunk.iter().enumerate() {
                 set3(&mut b.begin, i, c.segment.begin);
                 set3(&mut b.end, i, c.segment.end);
@@ -92,7 +92,7 @@ fn batches(configurations: &[Configuration]) -> Vec<PsaBatchInput> {
 /// A kernel of N lanes (prepare + sample + pdf of every lane): an 8-wide batch or, with
 /// N = 16, a packet entry point (the renderer's: 16 lanes per call, built in place, not joined
 /// from two batches as the slice does).
-type LaneKernel<const N: usize> = fn(Isa, &PsaInput<N>) -> PsaOutput<N>;
+type LaneKernel<const N: usize> = fn(Isa, &LineProblems<N>) -> LineSamples<N>;
 
 /// An 8-wide kernel.
 type Kernel = LaneKernel<BATCH_LANES>;
@@ -109,7 +109,7 @@ const KERNELS: [(&str, Kernel); 2] = [
 /// One pass of an N-lane kernel over all configurations (same work as `pass` for its
 /// technique, same checksum).
 #[inline(never)]
-fn lanes_pass<const N: usize>(kernel: LaneKernel<N>, isa: Isa, inputs: &[PsaInput<N>]) -> f32 {
+fn lanes_pass<const N: usize>(kernel: LaneKernel<N>, isa: Isa, inputs: &[LineProblems<N>]) -> f32 {
     let mut acc = 0.0f32;
     for input in inputs {
         let out = kernel(isa, input);
@@ -122,7 +122,7 @@ fn lanes_pass<const N: usize>(kernel: LaneKernel<N>, isa: Isa, inputs: &[PsaInpu
 
 /// One pass through the slice entry point (two batches as one packet per call).
 #[inline(never)]
-fn slice_pass(isa: Isa, batches: &[PsaBatchInput], out: &mut [PsaBatchOutput]) -> f32 {
+fn slice_pass(isa: Isa, batches: &[BatchProblems], out: &mut [BatchSamples]) -> f32 {
     sample_projected_solid_angle_slice(isa, batches, out);
     out.iter()
         .map(|o| {
@@ -221,13 +221,13 @@ fn main() {
     println!("  {:<40} {:>8}    {:>8}", "", "median", "minimum");
     let techniques: Vec<Technique> = active().collect();
     let batches = batches(&configurations);
-    let packets: Vec<PsaInput<PACKET_LANES>> = batches
+    let packets: Vec<LineProblems<PACKET_LANES>> = batches
         .chunks_exact(2)
-        .map(|p| PsaInput::from_batches(&p[0], &p[1]))
+        .map(|p| LineProblems::from_batches(&p[0], &p[1]))
         .collect();
     assert_eq!(2 * packets.len(), batches.len(), "whole packets");
     let packets = &packets;
-    let out = std::cell::RefCell::new(vec![PsaBatchOutput::default(); batches.len()]);
+    let out = std::cell::RefCell::new(vec![BatchSamples::default(); batches.len()]);
     let out = &out;
     let mut rows: Vec<Row> = techniques
         .iter()

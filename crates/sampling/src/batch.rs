@@ -1,7 +1,7 @@
 //! Projected-solid-angle sampling (technique 8), Li et al. 2018 (technique 7) and clipped solid
 //! angle sampling (technique 4) of eight (light, shading point) pairs at once.
 //!
-//! For a batched renderer: structure-of-arrays inputs (segment ends, shading point, normal, ξ
+//! For a packet renderer: structure-of-arrays inputs (segment ends, shading point, normal, ξ
 //! per lane) and outputs (direction, density per radius, distance to the line along the
 //! direction, and a mask of the lanes that contribute). Lane i is exactly what the scalar
 //! `Technique::ProjectedSolidAngle.prepare(..)` + `sample_with_pdf(ξ)` return for the same
@@ -11,14 +11,14 @@
 //! operations (no fused multiply-adds are formed by the compiler); likewise clipped solid angle
 //! ([`sample_clipped_solid_angle_with`], [`ClippedBatch`]: `LineFrame::lane`,
 //! `SolidAngle::lane` and its `sample_lane`, on the same inputs and outputs). A lane whose scalar
-//! preparation returns `None` has its bit cleared in [`PsaBatchOutput::mask`] and zero outputs.
+//! preparation returns `None` has its bit cleared in [`BatchSamples::mask`] and zero outputs.
 //!
 //! SIMD: the kernel is one loop over the lanes of branch-free code, which the compiler
 //! vectorises (f32 and f64 lanes side by side); it is compiled three times — for AVX-512,
 //! for AVX2 + FMA, and for the target's baseline (SSE2 on x86-64, or any other architecture) —
 //! and [`sample_projected_solid_angle`] picks one at run time (`is_x86_feature_detected!`), so
 //! the binary runs on any CPU of its target. The types are generic over the lane count N
-//! ([`PsaInput`], [`PsaOutput`], [`Vec3xN`]): a batch has [`BATCH_LANES`] = 8, a renderer's packet
+//! ([`LineProblems`], [`LineSamples`], [`Vec3xN`]): a batch has [`BATCH_LANES`] = 8, a renderer's packet
 //! [`PACKET_LANES`] = 16 ([`sample_projected_solid_angle_packet`], whose AVX-512 kernel fills
 //! 512-bit registers with sixteen f32 lanes). Cost per lane: `cargo bench -p linlight-sampling
 //! --bench techniques` (the `batch` and `slice` rows).
@@ -40,12 +40,12 @@ pub use linlight_simd::{BATCH_LANES, PACKET_LANES};
 
 /// [`kernel`] (one loop over the lanes) or, without `ONE_LOOP`, [`two_chains`] (lane pairs
 /// (i, i + N/2)), on `.0`.
-struct PsaSample<'a, const N: usize, const ONE_LOOP: bool>(&'a PsaInput<N>);
+struct PsaSample<'a, const N: usize, const ONE_LOOP: bool>(&'a LineProblems<N>);
 
 impl<const N: usize, const ONE_LOOP: bool> Kernel for PsaSample<'_, N, ONE_LOOP> {
-    type Output = PsaOutput<N>;
+    type Output = LineSamples<N>;
     #[inline(always)]
-    fn run(self) -> PsaOutput<N> {
+    fn run(self) -> LineSamples<N> {
         if ONE_LOOP {
             kernel(self.0)
         } else {
@@ -56,8 +56,8 @@ impl<const N: usize, const ONE_LOOP: bool> Kernel for PsaSample<'_, N, ONE_LOOP>
 
 /// [`slice`] of `inputs` into `outputs`.
 struct PsaSlice<'a, const ONE_LOOP: bool> {
-    inputs: &'a [PsaBatchInput],
-    outputs: &'a mut [PsaBatchOutput],
+    inputs: &'a [BatchProblems],
+    outputs: &'a mut [BatchSamples],
 }
 
 impl<const ONE_LOOP: bool> Kernel for PsaSlice<'_, ONE_LOOP> {
@@ -69,7 +69,7 @@ impl<const ONE_LOOP: bool> Kernel for PsaSlice<'_, ONE_LOOP> {
 }
 
 /// [`prepare_kernel`] of `.0`.
-struct Prepare<'a, const N: usize>(&'a PsaInput<N>);
+struct Prepare<'a, const N: usize>(&'a LineProblems<N>);
 
 impl<const N: usize> Kernel for Prepare<'_, N> {
     type Output = PreparedBatch<N>;
@@ -86,9 +86,9 @@ struct SamplePrepared<'a, const N: usize> {
 }
 
 impl<const N: usize> Kernel for SamplePrepared<'_, N> {
-    type Output = PsaOutput<N>;
+    type Output = LineSamples<N>;
     #[inline(always)]
-    fn run(self) -> PsaOutput<N> {
+    fn run(self) -> LineSamples<N> {
         psa_sample_kernel(self.prepared, self.xi)
     }
 }
@@ -100,21 +100,21 @@ struct SampleLi<'a, const N: usize> {
 }
 
 impl<const N: usize> Kernel for SampleLi<'_, N> {
-    type Output = (PsaOutput<N>, u32);
+    type Output = (LineSamples<N>, u32);
     #[inline(always)]
-    fn run(self) -> (PsaOutput<N>, u32) {
+    fn run(self) -> (LineSamples<N>, u32) {
         li_sample_kernel(self.prepared, self.xi)
     }
 }
 
 /// Clipped solid angle: [`clipped_kernel`] (one loop) or, without `ONE_LOOP`,
 /// [`clipped_two_chains`], on `.0`.
-struct ClippedSample<'a, const N: usize, const ONE_LOOP: bool>(&'a PsaInput<N>);
+struct ClippedSample<'a, const N: usize, const ONE_LOOP: bool>(&'a LineProblems<N>);
 
 impl<const N: usize, const ONE_LOOP: bool> Kernel for ClippedSample<'_, N, ONE_LOOP> {
-    type Output = PsaOutput<N>;
+    type Output = LineSamples<N>;
     #[inline(always)]
-    fn run(self) -> PsaOutput<N> {
+    fn run(self) -> LineSamples<N> {
         if ONE_LOOP {
             clipped_kernel(self.0)
         } else {
@@ -124,7 +124,7 @@ impl<const N: usize, const ONE_LOOP: bool> Kernel for ClippedSample<'_, N, ONE_L
 }
 
 /// [`clipped_prepare_kernel`] of `.0`.
-struct ClippedPrepare<'a, const N: usize>(&'a PsaInput<N>);
+struct ClippedPrepare<'a, const N: usize>(&'a LineProblems<N>);
 
 impl<const N: usize> Kernel for ClippedPrepare<'_, N> {
     type Output = ClippedBatch<N>;
@@ -141,9 +141,9 @@ struct ClippedSamplePrepared<'a, const N: usize> {
 }
 
 impl<const N: usize> Kernel for ClippedSamplePrepared<'_, N> {
-    type Output = PsaOutput<N>;
+    type Output = LineSamples<N>;
     #[inline(always)]
-    fn run(self) -> PsaOutput<N> {
+    fn run(self) -> LineSamples<N> {
         clipped_sample_kernel(self.prepared, self.xi)
     }
 }
@@ -165,7 +165,7 @@ pub type Vec3x8 = Vec3xN<BATCH_LANES>;
 /// projected solid angle and Li et al. do not normalise it, their arithmetic being homogeneous
 /// in n, see `ProjectedSolidAngle::lane`) for the primary sample `xi[i]` (clamped to [0, 1]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PsaInput<const N: usize> {
+pub struct LineProblems<const N: usize> {
     pub begin: Vec3xN<N>,
     pub end: Vec3xN<N>,
     pub x: Vec3xN<N>,
@@ -174,9 +174,9 @@ pub struct PsaInput<const N: usize> {
 }
 
 /// Eight sampling problems (a batch).
-pub type PsaBatchInput = PsaInput<BATCH_LANES>;
+pub type BatchProblems = LineProblems<BATCH_LANES>;
 
-impl<const N: usize> Default for PsaInput<N> {
+impl<const N: usize> Default for LineProblems<N> {
     fn default() -> Self {
         Self {
             begin: zero3(),
@@ -191,7 +191,7 @@ impl<const N: usize> Default for PsaInput<N> {
 /// Samples of N lanes. Lanes outside `mask` (no contribution: the light is degenerate, below
 /// the horizon or seen from on its line) hold zeros.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PsaOutput<const N: usize> {
+pub struct LineSamples<const N: usize> {
     /// Unit direction toward the line.
     pub dir: Vec3xN<N>,
     /// Density per radius (w.r.t. dΩ_R) of `dir`: (n·ω)/Ω⊥_R.
@@ -204,9 +204,9 @@ pub struct PsaOutput<const N: usize> {
 }
 
 /// Samples of a batch.
-pub type PsaBatchOutput = PsaOutput<BATCH_LANES>;
+pub type BatchSamples = LineSamples<BATCH_LANES>;
 
-impl<const N: usize> Default for PsaOutput<N> {
+impl<const N: usize> Default for LineSamples<N> {
     fn default() -> Self {
         Self {
             dir: zero3(),
@@ -217,7 +217,7 @@ impl<const N: usize> Default for PsaOutput<N> {
     }
 }
 
-impl<const N: usize> PsaOutput<N> {
+impl<const N: usize> LineSamples<N> {
     /// Whether lane i contributes.
     #[inline]
     pub fn contributes(&self, i: usize) -> bool {
@@ -228,13 +228,13 @@ impl<const N: usize> PsaOutput<N> {
 /// Sample every lane of `input` with the fastest kernel this CPU runs (see the module
 /// documentation). Lane i equals the scalar `ProjectedSolidAngle::prepare` + `sample_with_pdf`
 /// on lane i's inputs.
-pub fn sample_projected_solid_angle(input: &PsaBatchInput) -> PsaBatchOutput {
+pub fn sample_projected_solid_angle(input: &BatchProblems) -> BatchSamples {
     sample_projected_solid_angle_with(Isa::detect(), input)
 }
 
 /// The same with a chosen kernel; one the CPU does not run ([`Isa::supported`]) falls back
 /// to the baseline.
-pub fn sample_projected_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBatchOutput {
+pub fn sample_projected_solid_angle_with(isa: Isa, input: &BatchProblems) -> BatchSamples {
     dispatch(isa, PsaSample::<BATCH_LANES, true>(input))
 }
 
@@ -243,8 +243,8 @@ pub fn sample_projected_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> Psa
 /// [`PACKET_LANES`] lanes, as [`sample_projected_solid_angle_packet`] does.
 pub fn sample_projected_solid_angle_slice(
     isa: Isa,
-    inputs: &[PsaBatchInput],
-    outputs: &mut [PsaBatchOutput],
+    inputs: &[BatchProblems],
+    outputs: &mut [BatchSamples],
 ) {
     assert_eq!(inputs.len(), outputs.len(), "one output per input batch");
     if one_loop(isa) {
@@ -270,8 +270,8 @@ pub fn sample_projected_solid_angle_slice(
 /// pairs (i, i + 8): two eight-lane chains interleaved.
 pub fn sample_projected_solid_angle_packet(
     isa: Isa,
-    input: &PsaInput<PACKET_LANES>,
-) -> PsaOutput<PACKET_LANES> {
+    input: &LineProblems<PACKET_LANES>,
+) -> LineSamples<PACKET_LANES> {
     if one_loop(isa) {
         dispatch(isa, PsaSample::<PACKET_LANES, true>(input))
     } else {
@@ -288,11 +288,11 @@ fn one_loop(isa: Isa) -> bool {
     isa == Isa::Avx512
 }
 
-impl PsaInput<PACKET_LANES> {
+impl LineProblems<PACKET_LANES> {
     /// The packet of two batches.
     #[inline(always)]
-    pub fn from_batches(a: &PsaBatchInput, b: &PsaBatchInput) -> Self {
-        PsaInput {
+    pub fn from_batches(a: &BatchProblems, b: &BatchProblems) -> Self {
+        LineProblems {
             begin: join3(&a.begin, &b.begin),
             end: join3(&a.end, &b.end),
             x: join3(&a.x, &b.x),
@@ -302,11 +302,11 @@ impl PsaInput<PACKET_LANES> {
     }
 }
 
-impl PsaOutput<PACKET_LANES> {
+impl LineSamples<PACKET_LANES> {
     /// Batch h (lanes h·[`BATCH_LANES`] … h·[`BATCH_LANES`] + [`BATCH_LANES`] − 1) of the packet's samples.
     #[inline(always)]
-    pub fn batch(&self, h: usize) -> PsaBatchOutput {
-        PsaOutput {
+    pub fn batch(&self, h: usize) -> BatchSamples {
+        LineSamples {
             dir: half3(&self.dir, h),
             pdf: half(&self.pdf, h),
             distance: half(&self.distance, h),
@@ -341,11 +341,11 @@ fn half3<const N: usize, const M: usize>(v: &Vec3xN<M>, h: usize) -> Vec3xN<N> {
 
 /// The slice, two batches at a time as one packet: in one loop (`ONE_LOOP`) or as two chains.
 #[inline(always)]
-fn slice<const ONE_LOOP: bool>(inputs: &[PsaBatchInput], outputs: &mut [PsaBatchOutput]) {
+fn slice<const ONE_LOOP: bool>(inputs: &[BatchProblems], outputs: &mut [BatchSamples]) {
     let mut pairs_in = inputs.chunks_exact(2);
     let mut pairs_out = outputs.chunks_exact_mut(2);
     for (i, o) in (&mut pairs_in).zip(&mut pairs_out) {
-        let packet = PsaInput::from_batches(&i[0], &i[1]);
+        let packet = LineProblems::from_batches(&i[0], &i[1]);
         let out = if ONE_LOOP {
             kernel(&packet)
         } else {
@@ -426,19 +426,19 @@ impl<const N: usize> Default for PreparedBatch<N> {
 
 impl<const N: usize> PreparedBatch<N> {
     /// Prepare every lane of `input` (its `xi` is not used) with the chosen kernel.
-    pub fn prepare(isa: Isa, input: &PsaInput<N>) -> Self {
+    pub fn prepare(isa: Isa, input: &LineProblems<N>) -> Self {
         dispatch(isa, Prepare(input))
     }
 
     /// One sample per lane for `xi` (projected solid angle, two Halley steps): lane i equals
     /// the scalar sampler's `sample_with_pdf(xi[i])`.
-    pub fn sample_projected_solid_angle(&self, isa: Isa, xi: &[f32; N]) -> PsaOutput<N> {
+    pub fn sample_projected_solid_angle(&self, isa: Isa, xi: &[f32; N]) -> LineSamples<N> {
         dispatch(isa, SamplePrepared { prepared: self, xi })
     }
 
     /// One sample per lane for `xi` by Li et al. 2018, iterating until the slowest of the N
     /// lanes has converged (as on a GPU); also returns the number of iterations run.
-    pub fn sample_li2018(&self, isa: Isa, xi: &[f32; N]) -> (PsaOutput<N>, u32) {
+    pub fn sample_li2018(&self, isa: Isa, xi: &[f32; N]) -> (LineSamples<N>, u32) {
         dispatch(isa, SampleLi { prepared: self, xi })
     }
 
@@ -501,7 +501,7 @@ impl<const N: usize> PreparedBatch<N> {
 }
 
 #[inline(always)]
-fn prepare_kernel<const N: usize>(input: &PsaInput<N>) -> PreparedBatch<N> {
+fn prepare_kernel<const N: usize>(input: &LineProblems<N>) -> PreparedBatch<N> {
     let mut out = PreparedBatch::default();
     let mut valid = [false; N];
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
@@ -524,7 +524,7 @@ fn prepare_kernel<const N: usize>(input: &PsaInput<N>) -> PreparedBatch<N> {
 }
 
 #[inline(always)]
-fn psa_sample_kernel<const N: usize>(prepared: &PreparedBatch<N>, xi: &[f32; N]) -> PsaOutput<N> {
+fn psa_sample_kernel<const N: usize>(prepared: &PreparedBatch<N>, xi: &[f32; N]) -> LineSamples<N> {
     let mut pending = Pending::default();
     #[allow(clippy::needless_range_loop)]
     for i in 0..N {
@@ -596,7 +596,7 @@ impl<const N: usize> Pending<N> {
     }
 
     #[inline(always)]
-    fn finish(mut self) -> PsaOutput<N> {
+    fn finish(mut self) -> LineSamples<N> {
         if self.fresh.contains(&true) {
             #[allow(clippy::needless_range_loop)]
             for i in 0..N {
@@ -618,7 +618,7 @@ impl<const N: usize> Pending<N> {
                 }
             }
         }
-        let mut out = PsaOutput::default();
+        let mut out = LineSamples::default();
         let mut valid = [false; N];
         #[allow(clippy::needless_range_loop)]
         for i in 0..N {
@@ -638,7 +638,7 @@ impl<const N: usize> Pending<N> {
 fn li_sample_kernel<const N: usize>(
     prepared: &PreparedBatch<N>,
     xi: &[f32; N],
-) -> (PsaOutput<N>, u32) {
+) -> (LineSamples<N>, u32) {
     // The iteration state as structure of arrays (so that the step loop vectorises).
     let (mut l, mut lo, mut hi, mut done) = ([0.0f32; N], [0.0; N], [0.0; N], [0u32; N]);
     let mut xs = [0.0f32; N];
@@ -667,7 +667,7 @@ fn li_sample_kernel<const N: usize>(
         l: l[i],
         ..LiState::default()
     });
-    let mut out = PsaOutput::default();
+    let mut out = LineSamples::default();
     let mut valid = [false; N];
     #[allow(clippy::needless_range_loop)]
     for i in 0..N {
@@ -686,7 +686,10 @@ fn li_sample_kernel<const N: usize>(
 /// iteration runs until the *last* of the N lanes has converged (at most 20 steps), every lane
 /// paying for the slowest. Lane i equals the scalar `Technique::Li2018` bit for bit. Returns
 /// the outputs and the number of iterations run.
-pub fn sample_li2018_with<const N: usize>(isa: Isa, input: &PsaInput<N>) -> (PsaOutput<N>, u32) {
+pub fn sample_li2018_with<const N: usize>(
+    isa: Isa,
+    input: &LineProblems<N>,
+) -> (LineSamples<N>, u32) {
     PreparedBatch::prepare(isa, input).sample_li2018(isa, &input.xi)
 }
 
@@ -694,7 +697,7 @@ pub fn sample_li2018_with<const N: usize>(isa: Isa, input: &PsaInput<N>) -> (Psa
 /// with the chosen kernel (the baseline where the CPU does not run it): lane i equals the scalar
 /// `Technique::ClippedSolidAngle.prepare(..)` + `sample_with_pdf(xi)` bit for bit, its
 /// `distance` is d/(ĉ·ω) as for the other kernels.
-pub fn sample_clipped_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBatchOutput {
+pub fn sample_clipped_solid_angle_with(isa: Isa, input: &BatchProblems) -> BatchSamples {
     dispatch(isa, ClippedSample::<BATCH_LANES, true>(input))
 }
 
@@ -706,8 +709,8 @@ pub fn sample_clipped_solid_angle_with(isa: Isa, input: &PsaBatchInput) -> PsaBa
 /// f64 (the arcs), which the compiler vectorises eight lanes at a time either way.
 pub fn sample_clipped_solid_angle_packet(
     isa: Isa,
-    input: &PsaInput<PACKET_LANES>,
-) -> PsaOutput<PACKET_LANES> {
+    input: &LineProblems<PACKET_LANES>,
+) -> LineSamples<PACKET_LANES> {
     dispatch(isa, ClippedSample::<PACKET_LANES, false>(input))
 }
 
@@ -749,12 +752,12 @@ impl<const N: usize> Default for ClippedBatch<N> {
 
 impl<const N: usize> ClippedBatch<N> {
     /// Prepare every lane of `input` (its `xi` is not used) with the chosen kernel.
-    pub fn prepare(isa: Isa, input: &PsaInput<N>) -> Self {
+    pub fn prepare(isa: Isa, input: &LineProblems<N>) -> Self {
         dispatch(isa, ClippedPrepare(input))
     }
 
     /// One sample per lane for `xi`: lane i equals the scalar sampler's `sample_with_pdf(xi[i])`.
-    pub fn sample(&self, isa: Isa, xi: &[f32; N]) -> PsaOutput<N> {
+    pub fn sample(&self, isa: Isa, xi: &[f32; N]) -> LineSamples<N> {
         dispatch(isa, ClippedSamplePrepared { prepared: self, xi })
     }
 
@@ -796,7 +799,7 @@ impl<const N: usize> ClippedBatch<N> {
 }
 
 #[inline(always)]
-fn clipped_prepare_kernel<const N: usize>(input: &PsaInput<N>) -> ClippedBatch<N> {
+fn clipped_prepare_kernel<const N: usize>(input: &LineProblems<N>) -> ClippedBatch<N> {
     let mut out = ClippedBatch::default();
     let mut valid = [false; N];
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
@@ -812,7 +815,7 @@ fn clipped_prepare_kernel<const N: usize>(input: &PsaInput<N>) -> ClippedBatch<N
 /// Lane i's clipped solid angle sampler (meaningless where the lane does not contribute) and
 /// whether it contributes.
 #[inline(always)]
-fn clipped_lane<const N: usize>(input: &PsaInput<N>, i: usize) -> (SolidAngle, bool) {
+fn clipped_lane<const N: usize>(input: &LineProblems<N>, i: usize) -> (SolidAngle, bool) {
     // Clipped with the unit normal, as the scalar `SolidAngle::prepare_clipped`.
     let (n, normal_ok) = unit_normal_lane(get3(&input.n, i));
     let (frame, ends, frame_ok) = LineFrame::lane(
@@ -829,9 +832,9 @@ fn clipped_lane<const N: usize>(input: &PsaInput<N>, i: usize) -> (SolidAngle, b
 /// contributes.
 #[inline(always)]
 fn clipped_sample_lane<const N: usize>(
-    input: &PsaInput<N>,
+    input: &LineProblems<N>,
     i: usize,
-    out: &mut PsaOutput<N>,
+    out: &mut LineSamples<N>,
 ) -> bool {
     let (sampler, ok) = clipped_lane(input, i);
     let (dir, pdf) = sampler.sample_lane(input.xi[i], atan2_f64_select);
@@ -842,8 +845,8 @@ fn clipped_sample_lane<const N: usize>(
 /// Clipped solid angle on the lanes of `input` as two interleaved chains, lanes i and i + N/2
 /// (see [`two_chains`]).
 #[inline(always)]
-fn clipped_two_chains<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
-    let mut out = PsaOutput::default();
+fn clipped_two_chains<const N: usize>(input: &LineProblems<N>) -> LineSamples<N> {
+    let mut out = LineSamples::default();
     let mut valid = [false; N];
     for i in 0..N / 2 {
         valid[i] = clipped_sample_lane(input, i, &mut out);
@@ -857,8 +860,8 @@ fn clipped_two_chains<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
 fn clipped_sample_kernel<const N: usize>(
     prepared: &ClippedBatch<N>,
     xi: &[f32; N],
-) -> PsaOutput<N> {
-    let mut out = PsaOutput::default();
+) -> LineSamples<N> {
+    let mut out = LineSamples::default();
     let mut valid = [false; N];
     #[allow(clippy::needless_range_loop)]
     for i in 0..N {
@@ -872,14 +875,14 @@ fn clipped_sample_kernel<const N: usize>(
 }
 
 #[inline(always)]
-fn clipped_kernel<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
+fn clipped_kernel<const N: usize>(input: &LineProblems<N>) -> LineSamples<N> {
     clipped_sample_kernel(&clipped_prepare_kernel(input), &input.xi)
 }
 
 /// The lanes of `input` as two interleaved chains: one loop over the lane pairs (i, i + N/2)
 /// (two independent dependency chains per vector instruction stream).
 #[inline(always)]
-fn two_chains<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
+fn two_chains<const N: usize>(input: &LineProblems<N>) -> LineSamples<N> {
     const { assert!(N.is_multiple_of(2)) };
     let mut pending = Pending::default();
     for i in 0..N / 2 {
@@ -892,7 +895,7 @@ fn two_chains<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
 /// Write lane i's results (zeros where it does not contribute); returns whether it does.
 #[inline(always)]
 fn store<const N: usize>(
-    out: &mut PsaOutput<N>,
+    out: &mut LineSamples<N>,
     i: usize,
     (dir, pdf, distance, ok): (Vec3, f32, f32, bool),
 ) -> bool {
@@ -915,7 +918,7 @@ fn pack<const N: usize>(valid: [bool; N]) -> u32 {
 
 /// One loop over the lanes of branch-free code (vectorised by the compiler).
 #[inline(always)]
-fn kernel<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
+fn kernel<const N: usize>(input: &LineProblems<N>) -> LineSamples<N> {
     let mut pending = Pending::default();
     #[allow(clippy::needless_range_loop)] // lane i of every array: the loop that vectorises
     for i in 0..N {
@@ -927,7 +930,7 @@ fn kernel<const N: usize>(input: &PsaInput<N>) -> PsaOutput<N> {
 /// Lane i up to its direction (every value computed, garbage where the lane does not
 /// contribute), into `pending`.
 #[inline(always)]
-fn lane<const N: usize>(input: &PsaInput<N>, i: usize, pending: &mut Pending<N>) {
+fn lane<const N: usize>(input: &LineProblems<N>, i: usize, pending: &mut Pending<N>) {
     // The normal as given, not normalised (see `ProjectedSolidAngle::lane`).
     let n = get3(&input.n, i);
     let normal_ok = normal_is_valid(n);
@@ -953,25 +956,13 @@ mod tests {
     use crate::rng::Pcg32;
     use crate::{LineSampler, Segment, Technique};
 
-    #[test]
-    fn isa_names_parse_back() {
-        for isa in Isa::ALL {
-            assert_eq!(isa.name().parse::<Isa>(), Ok(isa));
-        }
-        let err = "sse4".parse::<Isa>().unwrap_err();
-        assert!(
-            err.contains("'sse4'") && err.contains("avx512, avx2, baseline"),
-            "{err}"
-        );
-    }
-
     /// Random problems in the benchmark's box plus degenerate lanes of every kind.
-    fn batches(count: usize) -> Vec<PsaBatchInput> {
+    fn batches(count: usize) -> Vec<BatchProblems> {
         let mut rng = Pcg32::new(99, 4);
         let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
         let mut out = Vec::new();
         for k in 0..count {
-            let mut b = PsaBatchInput::default();
+            let mut b = BatchProblems::default();
             for i in 0..BATCH_LANES {
                 let scale = [1.0, 1e-3, 1e3, 1e-12, 1e12][(k + i) % 5];
                 set3(
@@ -1052,7 +1043,7 @@ mod tests {
     fn slices_and_packets_equal_single_batches() {
         let inputs = batches(7);
         for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
-            let mut outputs = vec![PsaBatchOutput::default(); inputs.len()];
+            let mut outputs = vec![BatchSamples::default(); inputs.len()];
             sample_projected_solid_angle_slice(isa, &inputs, &mut outputs);
             for (input, out) in inputs.iter().zip(&outputs) {
                 assert_eq!(
@@ -1062,7 +1053,7 @@ mod tests {
                 );
             }
             for pair in inputs.windows(2) {
-                let packet = PsaInput::from_batches(&pair[0], &pair[1]);
+                let packet = LineProblems::from_batches(&pair[0], &pair[1]);
                 let out = sample_projected_solid_angle_packet(isa, &packet);
                 let single = pair
                     .iter()
@@ -1080,10 +1071,10 @@ mod tests {
     }
 
     /// The batches of [`batches`] joined pairwise into packets (every batch in both halves).
-    fn packets(count: usize) -> Vec<PsaInput<PACKET_LANES>> {
+    fn packets(count: usize) -> Vec<LineProblems<PACKET_LANES>> {
         let b = batches(count);
         b.windows(2)
-            .map(|pair| PsaInput::from_batches(&pair[0], &pair[1]))
+            .map(|pair| LineProblems::from_batches(&pair[0], &pair[1]))
             .collect()
     }
 
@@ -1100,10 +1091,10 @@ mod tests {
                     let xi: [f32; BATCH_LANES] =
                         std::array::from_fn(|i| input.xi[(i + k) % BATCH_LANES]);
                     let fused =
-                        sample_projected_solid_angle_with(isa, &PsaBatchInput { xi, ..input });
+                        sample_projected_solid_angle_with(isa, &BatchProblems { xi, ..input });
                     assert_eq!(prepared.sample_projected_solid_angle(isa, &xi), fused);
                     let fused =
-                        sample_clipped_solid_angle_with(isa, &PsaBatchInput { xi, ..input });
+                        sample_clipped_solid_angle_with(isa, &BatchProblems { xi, ..input });
                     assert_eq!(clipped.sample(isa, &xi), fused);
                 }
             }
@@ -1115,7 +1106,7 @@ mod tests {
                 for k in 0..3 {
                     let xi: [f32; PACKET_LANES] =
                         std::array::from_fn(|i| input.xi[(i + 5 * k) % PACKET_LANES]);
-                    let packet = PsaInput { xi, ..input };
+                    let packet = LineProblems { xi, ..input };
                     let fused = sample_projected_solid_angle_packet(isa, &packet);
                     assert_eq!(
                         prepared.sample_projected_solid_angle(isa, &xi),
@@ -1139,8 +1130,8 @@ mod tests {
     }
 
     fn li2018_lanes_equal<const N: usize>(
-        inputs: &[PsaInput<N>],
-        kernel: fn(Isa, &PsaInput<N>) -> (PsaOutput<N>, u32),
+        inputs: &[LineProblems<N>],
+        kernel: fn(Isa, &LineProblems<N>) -> (LineSamples<N>, u32),
     ) {
         let mut total = (0u64, 0u64);
         for input in inputs {
@@ -1216,12 +1207,12 @@ mod tests {
     }
 
     /// A kernel of N lanes (prepare and one sample per lane).
-    type Kernel<const N: usize> = fn(Isa, &PsaInput<N>) -> PsaOutput<N>;
+    type Kernel<const N: usize> = fn(Isa, &LineProblems<N>) -> LineSamples<N>;
 
     fn lanes_equal<const N: usize>(
         technique: Technique,
         kernel: Kernel<N>,
-        inputs: &[PsaInput<N>],
+        inputs: &[LineProblems<N>],
     ) {
         let mut valid = 0;
         let mut invalid = 0;

@@ -64,8 +64,11 @@ impl std::str::FromStr for Isa {
             .into_iter()
             .find(|isa| isa.name() == name)
             .ok_or_else(|| {
-                let names: Vec<&str> = Isa::ALL.iter().map(|i| i.name()).collect();
-                format!("unknown ISA {name:?} (one of {})", names.join(", "))
+                let names: Vec<&str> = Isa::ALL.iter().map(|isa| isa.name()).collect();
+                format!(
+                    "unknown kernel variant '{name}' (expected one of: {})",
+                    names.join(", ")
+                )
             })
     }
 }
@@ -130,10 +133,14 @@ mod tests {
     }
 
     #[test]
-    fn names_parse_back() {
+    fn isa_names_parse_back() {
         for isa in Isa::ALL {
             assert_eq!(isa.name().parse::<Isa>(), Ok(isa));
         }
-        assert!("sse9".parse::<Isa>().is_err());
+        let err = "sse4".parse::<Isa>().unwrap_err();
+        assert!(
+            err.contains("'sse4'") && err.contains("avx512, avx2, baseline"),
+            "{err}"
+        );
     }
 }

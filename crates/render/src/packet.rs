@@ -1,4 +1,4 @@
-//! The batched renderer: the camera samples of a tile are rendered [`PACKET_LANES`] at a time, as
+//! The packet renderer: the camera samples of a tile are rendered [`PACKET_LANES`] at a time, as
 //! Mitsuba's LLVM variants do with their wavefronts — random numbers and camera rays of all
 //! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
 //! the batch kernels of `linlight_sampling::batch` (the packet's sixteen lanes at once), one
@@ -36,7 +36,7 @@
 //! two; then the visible lines'), and every step is the scalar step's arithmetic (the batch
 //! kernels and packet walks equal their scalar forms bit for bit, ties of the closest hit
 //! included; a light's samples are summed per lane as the scalar estimator sums them), so an
-//! image equals the one of the scalar reference path ([`crate::integrator::render_with`] with the
+//! image equals the one of the scalar reference path ([`crate::integrator::render_scalar`] with the
 //! same method and light selection) bit for bit — tests below check it on every committed
 //! scene, method and light selection. Pixels accumulate their samples in the same order
 //! (Welford in f64).
@@ -68,7 +68,7 @@ use crate::shapes::{Primitive, Ray};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::Image;
-use linlight_sampling::batch::{self, PsaInput, PsaOutput};
+use linlight_sampling::batch::{self, LineProblems, LineSamples};
 use linlight_sampling::philox::{unit_f32, CounterRng};
 use linlight_sampling::{Segment, Technique};
 use linlight_simd::{dispatch, get3, set3, splat3, Aligned, Isa, Kernel, PACKET_LANES};
@@ -79,7 +79,7 @@ const _: () = assert!(
     "a packet's camera samples are one BVH ray packet"
 );
 
-/// Whether [`crate::render::render`] renders `scene` with `opts` by the batched renderer: one
+/// Whether [`crate::render::render`] renders `scene` with `opts` by the packet renderer: one
 /// light sample per camera sample, white noise, and either a technique with a batch kernel
 /// (projected solid angle, Li et al., clipped solid angle) or a scene with Lambertian surfaces.
 /// The other methods sample lane by lane with the scalar code, which pays in packets only
@@ -101,7 +101,7 @@ fn has_batch_kernel(technique: Technique) -> bool {
     )
 }
 
-/// Whether the batched renderer can render with `opts` at all: one light sample per camera
+/// Whether the packet renderer can render with `opts` at all: one light sample per camera
 /// sample and white noise (every scene and method).
 fn renders(opts: &RenderOptions) -> bool {
     opts.light_samples == 1
@@ -109,7 +109,7 @@ fn renders(opts: &RenderOptions) -> bool {
         && opts.noise == linlight_sampling::noise::Noise::White
 }
 
-/// Render `scene` with the batched renderer (see the module documentation); the same
+/// Render `scene` with the packet renderer (see the module documentation); the same
 /// contract as [`crate::render::render`]. An error with several light samples or blue noise.
 pub fn render(
     scene: &Scene,
@@ -129,7 +129,7 @@ pub fn render_isa(
     check_options(opts)?;
     if !renders(opts) {
         return Err(RenderError::Options(format!(
-            "the batched renderer needs one light sample and white noise (method {}, {} light \
+            "the packet renderer needs one light sample and white noise (method {}, {} light \
              samples, {} noise)",
             opts.method,
             opts.light_samples,
@@ -293,7 +293,7 @@ impl LightLanes {
 /// The light samples of a packet for one [`LightLanes`], as the packet kernels return them
 /// (direction, density, distance to the line along the direction; `mask`: lanes with a
 /// sample), on cache lines ([`Aligned`]).
-type SampleLanes = Aligned<PsaOutput<PACKET_LANES>>;
+type SampleLanes = Aligned<LineSamples<PACKET_LANES>>;
 
 impl<'a> Context<'a> {
     /// One pass over the pixels of a tile (full-film coordinates): their camera samples in the
@@ -1304,7 +1304,11 @@ impl<'a> Context<'a> {
     /// The sampling problems of the packet's lanes for [`Self::light_samples`]'s packet kernels.
     /// Lanes without a shading point have a zero normal: no contribution.
     #[inline(always)]
-    fn packet_input(&self, lights: &LightLanes, shading: &ShadingLanes) -> PsaInput<PACKET_LANES> {
+    fn packet_input(
+        &self,
+        lights: &LightLanes,
+        shading: &ShadingLanes,
+    ) -> LineProblems<PACKET_LANES> {
         let (begin, end) = match lights.uniform {
             Some(j) => {
                 let segment = &self.rs.lights[j].0;
@@ -1312,7 +1316,7 @@ impl<'a> Context<'a> {
             }
             None => (*lights.row3(1), *lights.row3(2)),
         };
-        PsaInput {
+        LineProblems {
             begin,
             end,
             x: shading.p,
@@ -1519,7 +1523,7 @@ fn shadow_ray_lane(p: Vec3, ng: Vec3, target: Vec3) -> (Ray, bool) {
 mod tests {
     use super::*;
     use crate::hooks::Hooks;
-    use crate::integrator::render_with;
+    use crate::integrator::render_scalar;
     use crate::light_choice::LightSelection;
     use crate::method::Method;
     use crate::xml;
@@ -1618,7 +1622,7 @@ mod tests {
                         lights,
                         noise: Default::default(),
                     };
-                    let scalar = render_with(&scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
+                    let scalar = render_scalar(&scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
                     // Every kernel this CPU runs (the baseline always: CPUs without AVX).
                     for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
                         let batched = render_isa(&scene, &opts, isa, &|_, _| {}).unwrap();
