@@ -1,4 +1,4 @@
-//! The frame and its tiles, shared by both renderers: tiles of [`TILE`]² pixels rendered in
+//! The frame and its tiles, shared by both renderers: tiles of `TILE`² (16²) pixels rendered in
 //! parallel, the random stream of each camera sample, the per-pixel mean and variance of the
 //! mean from passes or samples, and the image header.
 //!
@@ -28,7 +28,7 @@ pub(crate) const TILE: u32 = 16;
 /// pass). Every pixel, pass and sample has its own counter-based stream (no state shared between
 /// pixels, so neighbouring pixels' errors are independent); its numbers are the sample's
 /// dimensions: film position (2), then the lights' numbers (`crate::shading`, and the choice of
-/// a light per light sample of [`crate::light_choice`]), then those of the visible lines. The renderer draws them through [`NoiseSource::stream`], which returns
+/// a light per light sample of [`crate::light_choice`]), then those of the visible lines. The renderer draws them through [`NoiseSource::stream`](linlight_sampling::noise::NoiseSource::stream), which returns
 /// exactly these numbers for [`Noise::White`].
 pub fn sample_rng(seed: u64, pass: u32, pixel_index: u32, sample: u32) -> CounterRng {
     CounterRng::camera_sample(seed, pass, pixel_index, sample)

@@ -5,10 +5,10 @@
 //! where p is a technique's density per radius (dΩ_R), K = radiance × radius (the radius cancels
 //! between the tube's solid angle R·Ω_R and its radiance K/R), f the surface's full BSDF
 //! (`linlight_brdf::Bsdf::eval`, which includes the cosine) in the shading frame of the side
-//! facing the viewer, and w the weight of the render's [`Method`](crate::method::Method) (1 for single techniques; see
+//! facing the viewer, and w the weight of the render's [`Method`] (1 for single techniques; see
 //! [`crate::method`] and [`crate::shading`]). Each camera sample takes `light_samples` light
 //! samples and their mean (Mitsuba's `emitter_samples`); what one light sample is depends on
-//! the [`LightSelection`] of the render ([`crate::light_choice`]):
+//! the [`LightSelection`](crate::light_choice::LightSelection) of the render ([`crate::light_choice`]):
 //! - `every` (default): every light, one after the other, each estimated with its own K.
 //! - `one` (Mitsuba's estimator): one light j, chosen with probability p_j from an extra number
 //!   ξ_c drawn first, estimated with K_j/p_j in place of K_j. A scene with one light draws no ξ_c
@@ -142,7 +142,7 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     total.to_array()
 }
 
-/// [`render`] with replaced pieces ([`Hooks`]): the hook through which tests render with
+/// [`render`](crate::render::render) with replaced pieces ([`Hooks`]): the hook through which tests render with
 /// deliberately wrong techniques, specular samplers or BSDF evaluations (power controls, see
 /// [`crate::power_controls`]). `opts.method` still chooses the estimator; the header records
 /// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`). Always the

@@ -1,4 +1,4 @@
-//! Answer sources: samplers under test that are not Rust [`LineSampler`]s — a program speaking
+//! Answer sources: samplers under test that are not Rust [`LineSampler`](linlight_sampling::LineSampler)s — a program speaking
 //! the external protocol (docs/external-protocol.md), shader kernels on a GPU — answer the
 //! suite's queries in batches, and the suite judges the answers exactly as it judges a Rust
 //! sampler's own samples.

@@ -15,7 +15,7 @@
 //! - integral agreement: the Monte Carlo estimate of ∫(n·ω)⁺ dΩ_R lies within z_c standard
 //!   errors (plus an f32 floor, below) of the closed form Ω⊥_R.
 //!
-//! Each check is a function; the samples are tabulated once ([`tabulate`]: histogram, worst
+//! Each check is a function; the samples are tabulated once (`tabulate`: histogram, worst
 //! deviations, moments, round trips) and each test then judges its tally. The samples are a Rust
 //! sampler's own, or the answers of an [`crate::answers::AnswerSource`] to the same primary
 //! samples, judged against its reference technique (and then also `answer`,
