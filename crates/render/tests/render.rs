@@ -442,9 +442,11 @@ fn progress_advances_per_pass_of_each_tile_in_samples() {
         calls.fetch_add(1, Ordering::Relaxed);
     };
     render(&sc, &opts(3, 4, 0, Technique::SolidAngle), &progress).unwrap();
+    // One call with 0 before the first tile (the end of the scene's preparation), then one per
+    // tile and pass.
     assert_eq!(
         (last.into_inner(), calls.into_inner()),
-        (total_samples, 9 * 4)
+        (total_samples, 1 + 9 * 4)
     );
 }
 
