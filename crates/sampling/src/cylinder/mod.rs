@@ -339,32 +339,11 @@ pub(crate) fn clamp_xi(xi: f32) -> f64 {
 pub(crate) mod test_support {
     use super::*;
 
-    /// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n).
+    /// Gauss–Legendre nodes and weights on [−1, 1].
     pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-        let mut out = vec![(0.0, 0.0); n];
-        for i in 0..n.div_ceil(2) {
-            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            let mut dp = 1.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let kf = k as f64;
-                    let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-16 {
-                    break;
-                }
-            }
-            let w = 2.0 / ((1.0 - x * x) * dp * dp);
-            out[i] = (-x, w);
-            out[n - 1 - i] = (x, w);
-        }
-        out
+        linlight_quadrature::GaussLegendre::new(n)
+            .points()
+            .collect()
     }
 
     /// ∫ g(α, φ) dΩ over the visible side: θ-panels × φ between the ends, Gauss–Legendre in
