@@ -274,33 +274,60 @@ pub fn sweep(cfg: &SweepConfig) -> Vec<SweepRow> {
     rows
 }
 
+impl SweepRow {
+    fn empty(iterations: u32, precision: Precision) -> Self {
+        SweepRow {
+            iterations,
+            precision,
+            worst_outside_guard: 0.0,
+            worst_including_guard: 0.0,
+            worst_wide_intervals: 0.0,
+            worst_near_ends: 0.0,
+            worst_case: Case::default(),
+            worst_case_including_guard: Case::default(),
+            samples: 0,
+        }
+    }
+}
+
+/// The sweep's ξ: the same sequence for every (iterations, precision, implementation), so rows
+/// are comparable. The near-end intervals draw from a stream of their own, so that the other
+/// intervals' ξ (and their worst cases) do not depend on whether near-end intervals are swept.
+struct SweepStreams {
+    rng: Pcg32,
+    near_rng: Pcg32,
+    xi_per_interval: u32,
+}
+
+impl SweepStreams {
+    fn new(cfg: &SweepConfig) -> Self {
+        SweepStreams {
+            rng: Pcg32::new(cfg.seed, 0x6261_636b),
+            near_rng: Pcg32::new(cfg.seed, NEAR_END_STREAM),
+            xi_per_interval: cfg.xi_per_interval,
+        }
+    }
+
+    /// The intervals of normal angle ψ with their ξ, and whether each is a near-end interval.
+    fn cases(&mut self, psi: f64) -> Vec<((f64, f64), Vec<f64>, bool)> {
+        let k = self.xi_per_interval;
+        let mut out = Vec::new();
+        for i in intervals(psi) {
+            out.push((i, xi_values(&mut self.rng, k), false));
+        }
+        for i in near_end_intervals(psi) {
+            out.push((i, xi_values(&mut self.near_rng, k), true));
+        }
+        out
+    }
+}
+
 fn sweep_one(cfg: &SweepConfig, iterations: u32, precision: Precision) -> SweepRow {
-    let mut row = SweepRow {
-        iterations,
-        precision,
-        worst_outside_guard: 0.0,
-        worst_including_guard: 0.0,
-        worst_wide_intervals: 0.0,
-        worst_near_ends: 0.0,
-        worst_case: Case::default(),
-        worst_case_including_guard: Case::default(),
-        samples: 0,
-    };
-    // Same ξ sequence for every (iterations, precision): the rows are comparable. The near-end
-    // intervals draw from a stream of their own, so that the other intervals' ξ (and their
-    // worst cases) do not depend on whether near-end intervals are swept.
-    let mut rng = Pcg32::new(cfg.seed, 0x6261_636b);
-    let mut near_rng = Pcg32::new(cfg.seed, NEAR_END_STREAM);
+    let mut row = SweepRow::empty(iterations, precision);
+    let mut streams = SweepStreams::new(cfg);
     for psi in normal_angles(cfg.normals) {
         let (ns, nt) = psi.sin_cos();
-        let k = cfg.xi_per_interval;
-        let swept = intervals(psi)
-            .into_iter()
-            .map(|i| (i, xi_values(&mut rng, k), false));
-        let near = near_end_intervals(psi)
-            .into_iter()
-            .map(|i| (i, xi_values(&mut near_rng, k), true));
-        for ((phi_b, width), xis, near_end) in swept.chain(near) {
+        for ((phi_b, width), xis, near_end) in streams.cases(psi) {
             match precision {
                 Precision::F32 => {
                     if let Some((core, exact)) = cores::<f32>(ns, nt, phi_b, width) {
@@ -362,32 +389,13 @@ pub fn sweep_f32_with(
     iterations: u32,
     mut solve: impl FnMut(&[F32Problem]) -> Vec<f32>,
 ) -> Option<SweepRow> {
-    let mut row = SweepRow {
-        iterations,
-        precision: Precision::F32,
-        worst_outside_guard: 0.0,
-        worst_including_guard: 0.0,
-        worst_wide_intervals: 0.0,
-        worst_near_ends: 0.0,
-        worst_case: Case::default(),
-        worst_case_including_guard: Case::default(),
-        samples: 0,
-    };
-    // The streams of `sweep_one`, drawn in its order.
-    let mut rng = Pcg32::new(cfg.seed, 0x6261_636b);
-    let mut near_rng = Pcg32::new(cfg.seed, NEAR_END_STREAM);
+    let mut row = SweepRow::empty(iterations, Precision::F32);
+    let mut streams = SweepStreams::new(cfg);
     for psi in normal_angles(cfg.normals) {
         let (ns, nt) = psi.sin_cos();
-        let k = cfg.xi_per_interval;
-        let swept = intervals(psi)
-            .into_iter()
-            .map(|i| (i, xi_values(&mut rng, k), false));
-        let near = near_end_intervals(psi)
-            .into_iter()
-            .map(|i| (i, xi_values(&mut near_rng, k), true));
         let mut problems = Vec::new();
         let mut cases = Vec::new();
-        for ((phi_b, width), xis, near_end) in swept.chain(near) {
+        for ((phi_b, width), xis, near_end) in streams.cases(psi) {
             if let Some((core, exact)) = cores::<f32>(ns, nt, phi_b, width) {
                 for &xi in &xis {
                     let x = xi as f32;
