@@ -230,6 +230,19 @@ pub fn gib(bytes: u64) -> String {
     format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
 }
 
+/// The inputs' file names (the whole path where there is none), `;`-separated: the provenance
+/// list that `merge` and `stack` record in their output's header.
+pub fn file_names(paths: &[std::path::PathBuf]) -> String {
+    let names: Vec<String> = paths
+        .iter()
+        .map(|p| {
+            p.file_name()
+                .map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into())
+        })
+        .collect();
+    names.join(";")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

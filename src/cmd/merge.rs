@@ -72,18 +72,10 @@ pub fn run(args: Args) -> ExitCode {
         Ok(m) => m,
         Err(e) => return unusable(e),
     };
-    let files: Vec<String> = args
-        .images
-        .iter()
-        .map(|p| {
-            p.file_name()
-                .map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into())
-        })
-        .collect();
     merged
         .meta
         .extra
-        .insert("merged_from".into(), files.join(";"));
+        .insert("merged_from".into(), outputs::file_names(&args.images));
     if let Err(e) = merged.write(&args.out) {
         return unusable(e);
     }

@@ -255,17 +255,9 @@ pub fn run(args: Args) -> ExitCode {
         img.meta.spp = s * plain.len() as u64;
         img.meta.extra.insert("spp_per_pass".into(), s.to_string());
     }
-    let files: Vec<String> = args
-        .images
-        .iter()
-        .map(|p| {
-            p.file_name()
-                .map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into())
-        })
-        .collect();
     img.meta
         .extra
-        .insert("stacked_from".into(), files.join(";"));
+        .insert("stacked_from".into(), outputs::file_names(&args.images));
     let dof = img.meta.dof;
     if let Err(e) = img.write(&args.out) {
         return unusable(e);
