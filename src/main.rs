@@ -67,7 +67,27 @@ fn technique_help() -> String {
     format!("Light sampling method: {}", names.join("; "))
 }
 
+/// `linlight … | head`: when stdout's reader has gone, the program ends as a C tool does on
+/// SIGPIPE (status 141 in a shell) instead of panicking in `println!`. Only that panic is caught:
+/// the pipes to an external sampler report their errors as values (SIGPIPE stays ignored there).
+fn end_quietly_on_closed_stdout() {
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info.payload_as_str().unwrap_or("");
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            // SAFETY: restoring the default disposition and raising a signal have no
+            // preconditions; the default action of SIGPIPE ends the process.
+            unsafe {
+                libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+                libc::raise(libc::SIGPIPE);
+            }
+        }
+        previous(info)
+    }));
+}
+
 fn main() -> ExitCode {
+    end_quietly_on_closed_stdout();
     let command = Cli::command().mut_subcommand("render", |c| {
         c.mut_arg("technique", |a| a.help(technique_help()))
     });
