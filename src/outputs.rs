@@ -226,10 +226,6 @@ pub fn default_memory_limit() -> u64 {
     physical_memory().map_or(8 << 30, |m| m / 10 * 8)
 }
 
-pub fn gib(bytes: u64) -> String {
-    format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
-}
-
 /// The inputs' file names (the whole path where there is none), `;`-separated: the provenance
 /// list that `merge` and `stack` record in their output's header.
 pub fn file_names(paths: &[std::path::PathBuf]) -> String {
@@ -286,7 +282,7 @@ mod tests {
     #[test]
     fn memory_estimate() {
         let m = render_memory(100_000, 100_000, 12);
-        assert!(m > 800 << 30, "{}", gib(m));
+        assert!(m > 800 << 30, "{}", linlight_imagefile::memory_size(m));
         assert!(render_memory(64, 64, 1000) < 128 << 20);
         assert!(thread_pool(Some(0)).is_err());
         assert!(thread_pool(Some(1_000_000)).is_err());

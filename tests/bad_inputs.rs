@@ -301,7 +301,7 @@ fn cases() -> Vec<Case> {
                 "0.01",
             ],
             2,
-            "more than the limit of",
+            "more than the limit of 10 MiB (--max-memory)",
         ),
         case(
             "--threads 10000",

@@ -208,9 +208,9 @@ fn check_memory(scene: &Scene, limit_gib: Option<f64>) -> Result<(), String> {
         return Err(format!(
             "the render needs about {} ({w}×{h} px × {} B + geometry), more than the limit of {} \
              ({why})",
-            outputs::gib(need),
+            linlight_imagefile::memory_size(need),
             outputs::RENDER_BYTES_PER_PIXEL,
-            outputs::gib(limit)
+            linlight_imagefile::memory_size(limit)
         ));
     }
     Ok(())

@@ -717,16 +717,30 @@ pub fn check_claimed_size(path: &Path, max_bytes: u64) -> Result<(), ImageError>
         )));
     }
     if need > max_bytes as u128 {
-        let gib = |b: u128| b as f64 / (1u64 << 30) as f64;
         return Err(ImageError::Format(format!(
-            "{}: reading {claim} needs about {:.1} GiB of memory, more than the limit of {:.1} \
-             GiB",
+            "{}: reading {claim} needs about {} of memory, more than the limit of {}",
             path.display(),
-            gib(need),
-            gib(max_bytes as u128)
+            memory_size(need.min(u64::MAX as u128) as u64),
+            memory_size(max_bytes)
         )));
     }
     Ok(())
+}
+
+/// A byte count for messages, in the largest binary unit that keeps it ≥ 1 ("0.3 GiB" would hide
+/// a limit of 300 MiB): "1.5 GiB", "51 MiB", "12 KiB", "800 B".
+pub fn memory_size(bytes: u64) -> String {
+    const KIB: f64 = 1024.0;
+    let b = bytes as f64;
+    if b >= KIB * KIB * KIB {
+        format!("{:.1} GiB", b / (KIB * KIB * KIB))
+    } else if b >= KIB * KIB {
+        format!("{:.0} MiB", b / (KIB * KIB))
+    } else if b >= KIB {
+        format!("{:.0} KiB", b / KIB)
+    } else {
+        format!("{bytes} B")
+    }
 }
 
 /// An attribute value as the header stores it: unchanged if it is Latin-1 (what an EXR text
@@ -1665,5 +1679,13 @@ mod tests {
         img.write_preview_png(&path).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         assert_eq!(&bytes[1..4], b"PNG");
+    }
+
+    #[test]
+    fn memory_sizes_keep_small_limits_readable() {
+        assert_eq!(memory_size(3 << 29), "1.5 GiB");
+        assert_eq!(memory_size((0.05 * (1u64 << 30) as f64) as u64), "51 MiB");
+        assert_eq!(memory_size(12 << 10), "12 KiB");
+        assert_eq!(memory_size(800), "800 B");
     }
 }
