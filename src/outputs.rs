@@ -213,19 +213,6 @@ pub fn render_memory(width: u64, height: u64, primitives: u64) -> u64 {
         .saturating_add(64 << 20)
 }
 
-/// Physical memory of this machine in bytes (Linux `/proc/meminfo`), if known.
-pub fn physical_memory() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
-/// The default memory limit of a render: 80 % of the physical memory, 8 GiB if unknown.
-pub fn default_memory_limit() -> u64 {
-    physical_memory().map_or(8 << 30, |m| m / 10 * 8)
-}
-
 /// The inputs' file names (the whole path where there is none), `;`-separated: the provenance
 /// list that `merge` and `stack` record in their output's header.
 pub fn file_names(paths: &[std::path::PathBuf]) -> String {

@@ -473,6 +473,58 @@ fn cases() -> Vec<Case> {
             2,
             "required",
         ),
+        case(
+            "info: image above --max-memory",
+            &["info", "{dir}/a.exr", "--max-memory", "0.00001"],
+            2,
+            "more than the limit of 10 KiB",
+        ),
+        case(
+            "compare: image above --max-memory",
+            &[
+                "compare",
+                "{dir}/a.exr",
+                "{dir}/a.exr",
+                "--max-memory",
+                "0.00001",
+            ],
+            2,
+            "more than the limit of 10 KiB",
+        ),
+        case(
+            "compare: --max-memory 0",
+            &["compare", "{dir}/a.exr", "{dir}/a.exr", "--max-memory", "0"],
+            2,
+            "--max-memory must be positive",
+        ),
+        case(
+            "merge: image above --max-memory",
+            &[
+                "merge",
+                "{dir}/a.exr",
+                "{dir}/same_seed.exr",
+                "-o",
+                "{dir}/m.exr",
+                "--max-memory",
+                "0.00001",
+            ],
+            2,
+            "more than the limit of 10 KiB",
+        ),
+        case(
+            "stack: image above --max-memory",
+            &[
+                "stack",
+                "{dir}/a.exr",
+                "{dir}/same_seed.exr",
+                "-o",
+                "{dir}/m.exr",
+                "--max-memory",
+                "0.00001",
+            ],
+            2,
+            "more than the limit of 10 KiB",
+        ),
     ]
 }
 

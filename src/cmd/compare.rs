@@ -52,6 +52,8 @@ pub struct Args {
     /// Write the per-pixel normal scores z as an RGB EXR (0 where a pixel is not tested).
     #[arg(long, value_name = "FILE.exr")]
     pub z_exr: Option<PathBuf>,
+    #[command(flatten)]
+    pub memory: super::MemoryLimit,
 }
 
 fn unusable(msg: impl std::fmt::Display) -> ExitCode {
@@ -81,11 +83,15 @@ pub fn run(args: Args) -> ExitCode {
             return unusable(e);
         }
     }
-    let a = match Image::read(&args.a) {
+    let limit = match args.memory.bytes() {
+        Ok((bytes, _)) => bytes,
+        Err(e) => return unusable(e),
+    };
+    let a = match Image::read_within(&args.a, limit) {
         Ok(img) => img,
         Err(e) => return unusable(e),
     };
-    let b = match Image::read(&args.b) {
+    let b = match Image::read_within(&args.b, limit) {
         Ok(img) => img,
         Err(e) => return unusable(e),
     };

@@ -20,6 +20,8 @@ pub struct Args {
     /// Print the same as JSON.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    memory: super::MemoryLimit,
 }
 
 /// Per channel: the image mean (average over pixels) and its standard error √(Σ var)/N, with
@@ -163,12 +165,19 @@ pub fn text(i: &Info) -> String {
 }
 
 pub fn run(args: Args) -> ExitCode {
-    let img = match Image::read_unchecked(&args.image) {
+    let limit = match args.memory.bytes() {
+        Ok((bytes, _)) => bytes,
+        Err(e) => {
+            eprintln!("linlight info: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let img = match Image::read_unchecked_within(&args.image, limit) {
         Ok(i) => i,
         Err(e) => {
             // A readable plain RGB EXR (another renderer's) is an image, not of the shared
             // format: say so, and how to make one.
-            if let Ok(p) = super::stack::read_plain(&args.image) {
+            if let Ok(p) = super::stack::read_plain(&args.image, limit) {
                 println!(
                     "{}: {}×{} px plain RGB image\nNOT a valid image of the shared format: no \
                      variance channels (var.R, var.G, var.B); make one from N ≥ 2 independent \

@@ -28,6 +28,8 @@ pub struct Args {
     /// No summary line.
     #[arg(short = 'q', long)]
     quiet: bool,
+    #[command(flatten)]
+    memory: super::MemoryLimit,
 }
 
 fn unusable(msg: impl std::fmt::Display) -> ExitCode {
@@ -49,9 +51,13 @@ pub fn run(args: Args) -> ExitCode {
     if let Err(e) = outputs::check_writable(&args.out) {
         return unusable(e);
     }
+    let limit = match args.memory.bytes() {
+        Ok((bytes, _)) => bytes,
+        Err(e) => return unusable(e),
+    };
     let mut images = Vec::new();
     for p in &args.images {
-        match Image::read(p) {
+        match Image::read_within(p, limit) {
             Ok(i) => images.push(i),
             Err(e) => return unusable(e),
         }

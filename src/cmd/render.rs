@@ -118,10 +118,8 @@ pub struct Args {
     /// are merged as by `linlight merge`.
     #[arg(long, value_name = "SECONDS")]
     time: Option<f64>,
-    /// Refuse renders that need more memory than this many GiB [default: 80 % of the physical
-    /// memory].
-    #[arg(long, value_name = "GiB")]
-    max_memory: Option<f64>,
+    #[command(flatten)]
+    memory: super::MemoryLimit,
 }
 
 fn usage_error(msg: impl std::fmt::Display) -> ExitCode {
@@ -182,7 +180,7 @@ fn check_outputs(args: &Args) -> Result<Outputs, String> {
 }
 
 /// The render window (crop or full film) and the memory it needs, refused above the limit.
-fn check_memory(scene: &Scene, limit_gib: Option<f64>) -> Result<(), String> {
+fn check_memory(scene: &Scene, limit: u64, why: &str) -> Result<(), String> {
     let film = &scene.sensor.film;
     let (w, h) = film
         .crop
@@ -196,14 +194,6 @@ fn check_memory(scene: &Scene, limit_gib: Option<f64>) -> Result<(), String> {
         })
         .sum();
     let need = outputs::render_memory(w as u64, h as u64, prims);
-    let (limit, why) = match limit_gib {
-        Some(g) if g > 0.0 && g.is_finite() => ((g * (1u64 << 30) as f64) as u64, "--max-memory"),
-        Some(g) => return Err(format!("--max-memory must be positive (got {g})")),
-        None => (
-            outputs::default_memory_limit(),
-            "80 % of this machine's memory; raise it with --max-memory",
-        ),
-    };
     if need > limit {
         return Err(format!(
             "the render needs about {} ({w}×{h} px × {} B + geometry), more than the limit of {} \
@@ -354,13 +344,15 @@ fn plan(args: &Args, req: &Request, started: Instant) -> Result<Plan, String> {
                 .into(),
         );
     }
-    check_memory(&scene, args.max_memory)?;
+    let (limit, why) = args.memory.bytes()?;
+    check_memory(&scene, limit, why)?;
     outputs::check_radiance(&scene)?;
     let pool = outputs::thread_pool(args.threads)?;
     let reference = match &args.match_variance {
         None => None,
         Some(path) => {
-            let r = Image::read(path).map_err(|e| format!("--match-variance: {e}"))?;
+            let r =
+                Image::read_within(path, limit).map_err(|e| format!("--match-variance: {e}"))?;
             let film = &scene.sensor.film;
             let (w, h) = film
                 .crop

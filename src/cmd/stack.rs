@@ -44,6 +44,8 @@ pub struct Args {
     /// No summary line.
     #[arg(short = 'q', long)]
     quiet: bool,
+    #[command(flatten)]
+    memory: super::MemoryLimit,
 }
 
 fn unusable(msg: impl std::fmt::Display) -> ExitCode {
@@ -63,11 +65,11 @@ fn hex(d: impl AsRef<[u8]>) -> String {
     d.as_ref().iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// Reads the R, G, B channels of the first layer that has them.
-pub fn read_plain(path: &Path) -> Result<Plain, String> {
+/// Reads the R, G, B channels of the first layer that has them, refusing an image that needs more
+/// than `max_bytes` of memory.
+pub fn read_plain(path: &Path, max_bytes: u64) -> Result<Plain, String> {
     // A regular file whose claimed size fits in it and in memory, before anything is allocated.
-    linlight_imagefile::check_claimed_size(path, linlight_imagefile::default_read_limit())
-        .map_err(|e| e.to_string())?;
+    linlight_imagefile::check_claimed_size(path, max_bytes).map_err(|e| e.to_string())?;
     let bytes =
         linlight_imagefile::input::read_capped(path, linlight_imagefile::input::MAX_BINARY_BYTES)?;
     use exr::prelude::{ReadChannels, ReadLayers};
@@ -231,9 +233,13 @@ pub fn run(args: Args) -> ExitCode {
             Err(e) => return unusable(format!("--scene: {e}")),
         },
     };
+    let limit = match args.memory.bytes() {
+        Ok((bytes, _)) => bytes,
+        Err(e) => return unusable(e),
+    };
     let mut plain = Vec::new();
     for p in &args.images {
-        match read_plain(p) {
+        match read_plain(p, limit) {
             Ok(i) => plain.push(i),
             Err(e) => return unusable(e),
         }

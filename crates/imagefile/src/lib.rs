@@ -256,14 +256,14 @@ impl Image {
     }
 
     pub fn read(path: &Path) -> Result<Self, ImageError> {
-        Self::read_within(path, default_read_limit())
+        Self::read_within(path, default_memory_limit())
     }
 
     /// Reads an image of the shared format without checking its content (for `linlight info`,
     /// which reports what is wrong): non-finite values and negative variances are returned as
     /// they are, and a missing `dof` is NaN. The six channels are still required.
     pub fn read_unchecked(path: &Path) -> Result<Self, ImageError> {
-        Self::read_unchecked_within(path, default_read_limit())
+        Self::read_unchecked_within(path, default_memory_limit())
     }
 
     /// [`Image::read`] refusing an image that needs more than `max_bytes` of memory to read.
@@ -656,9 +656,9 @@ fn write_layer(layer: Layer<AnyChannels<FlatSamples>>, path: &Path) -> Result<()
     }
 }
 
-/// Memory a reader may use by default: 80 % of the physical memory (Linux `/proc/meminfo`),
-/// 8 GiB if unknown.
-pub fn default_read_limit() -> u64 {
+/// Memory a reader (or a render) may use by default: 80 % of the physical memory (Linux
+/// `/proc/meminfo`), 8 GiB if unknown.
+pub fn default_memory_limit() -> u64 {
     let total = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
         let line = t.lines().find(|l| l.starts_with("MemTotal:"))?;
         line.split_whitespace().nth(1)?.parse::<u64>().ok()
