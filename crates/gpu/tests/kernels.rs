@@ -1,7 +1,7 @@
 //! The kernels on the adapter wgpu finds (lavapipe without a GPU): agreement with the Rust f32
 //! samplers, the backward-error sweep, the table lookup and the MIS weights. Without an adapter
 //! every test prints a loud SKIPPED line and passes, unless LINLIGHT_REQUIRE_ADAPTER=1
-//! (scripts/test's gpu stage, after scripts/setup-gpu), where a missing adapter fails.
+//! (scripts/test's rust stage, after scripts/setup-gpu), where a missing adapter fails.
 
 use linlight_gpu::certify::{
     agreement, backward_error_sweep, lookup_difference, mis_difference, AGREEMENT_BOUND,
