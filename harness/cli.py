@@ -40,6 +40,19 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
     r.add_argument("--out", type=Path, required=True)
     r.add_argument("--seed-offset", type=int, default=0, help="pass p uses mi.render(seed=OFFSET + p)")
+    r.add_argument(
+        "--emitter",
+        choices=("area", "linearlight"),
+        default="area",
+        help="area: the file's cylinders; linearlight: replace every emitting cylinder by the "
+        "linearlight plugin (harness/linearlight.py, docs/mitsuba-plugin.md)",
+    )
+    r.add_argument(
+        "--sampling",
+        choices=("psa", "solid-angle", "area"),
+        default="psa",
+        help="the linearlight plugin's technique (with --emitter linearlight)",
+    )
     r.add_argument("--quiet", action="store_true")
 
     s = sub.add_parser("radius-sweep", help="image mean vs. radius against the R -> 0 limit")
@@ -83,12 +96,22 @@ def cmd_render(a: argparse.Namespace) -> int:
     variant = oracle.choose_variant(a.variant)
     oracle.set_variant(variant)
     defines = _defines(a.defines)
-    loaded = oracle.load_scene(a.scene, defines, a.radius)
+    if a.emitter != "linearlight" and a.sampling != "psa":
+        print("harness: --sampling needs --emitter linearlight", file=sys.stderr)
+        return 2
+    loaded = oracle.load_scene(a.scene, defines, a.radius, a.sampling if a.emitter == "linearlight" else None)
     print(
         f"harness: render {a.scene} variant={variant} passes={a.passes} spp/pass={a.spp} "
-        f"radius={'file' if a.radius is None else a.radius} lights={[l.id for l in loaded.lights]}",
+        f"radius={'file' if a.radius is None else a.radius} lights={[l.id for l in loaded.lights]} "
+        f"emitter={loaded.emitter}",
         file=sys.stderr,
     )
+    if loaded.k_divisor > 1:
+        print(
+            f"harness: note: K / {loaded.k_divisor} in the linearlight emitters: the direct integrator "
+            f"adds each of its {loaded.k_divisor} delta emitter samples with weight 1",
+            file=sys.stderr,
+        )
     result = render.render_passes(loaded, variant, a.passes, a.spp, defines, quiet=a.quiet, seed_offset=a.seed_offset)
     render.write_result(result, a.out)
     m = result.mean.mean(axis=(0, 1))
