@@ -65,9 +65,8 @@ def load_scene(
     if linearlight is not None:
         if radius is not None:
             raise scene_xml.SceneError("--radius has no meaning with --emitter linearlight (R -> 0)")
-        from harness import linearlight as _plugin, linearlight_scene
+        from harness import linearlight as _plugin, linearlight_scene  # noqa: F401 (registers it)
 
-        _plugin.register()
         new_text, converted, divisor = linearlight_scene.convert(text, overrides, linearlight)
         lights = [
             scene_xml.LinearLightSpec(l.id, l.p0, l.p1, l.radius, tuple(k / l.radius for k in l.k), l.k)  # type: ignore[arg-type]
