@@ -132,7 +132,9 @@ class _Frame:
         self.c = b - self.sigma_b * u
         self.d = dr.norm(self.c)
         self.valid = (self.d > 0.0) & dr.isfinite(self.d)
-        self.c_hat = self.c / dr.select(self.valid, self.d, 1.0)
+        # d where it may divide (results where not `valid` are masked by the callers)
+        self.d_safe = dr.select(self.valid, self.d, 1.0)
+        self.c_hat = self.c / self.d_safe
         self.u = u
         self.n_s = dr.dot(n, u)
         self.n_t = dr.dot(n, self.c_hat)
@@ -149,7 +151,7 @@ class _Frame:
         return dr.atan2(sigma, self.d)
 
     def sin_phi(self, sigma: Any) -> Any:
-        return sigma * dr.rsqrt(dr.fma(sigma, sigma, self.d * self.d))
+        return sigma / dr.sqrt(dr.fma(sigma, sigma, self.d_safe * self.d_safe))
 
     def cdf(self, phi: Any) -> Any:
         """C(phi) = n_s sin^2 phi + n_t (sin phi cos phi + phi): d x the projected solid angle
@@ -190,7 +192,7 @@ def _sample_psa(f: _Frame, xi: Any) -> tuple[Any, Any]:
         phi = dr.clip(phi + h, phi_b, phi_e)
     guard = (xi < XI_GUARD) | (xi > 1.0 - XI_GUARD)
     phi = dr.select(guard, start, phi)
-    return phi, c_total / f.d
+    return phi, c_total / f.d_safe
 
 
 def _psa_density(f: _Frame, w: Any, n: Any, psa: Any, phi: Any) -> Any:
@@ -200,13 +202,14 @@ def _psa_density(f: _Frame, w: Any, n: Any, psa: Any, phi: Any) -> Any:
 
 def _solid_angle_norm(f: _Frame) -> Any:
     """Omega_R = (2/d)(s_e - s_b) over the whole line."""
-    return 2.0 * (f.sin_phi(f.sigma_e) - f.sin_phi(f.sigma_b)) / f.d
+    return 2.0 * (f.sin_phi(f.sigma_e) - f.sin_phi(f.sigma_b)) / f.d_safe
 
 
 def _area_density(f: _Frame, phi: Any, length: Any) -> Any:
     """r^2 / (2 l sin(alpha)) with r = d / cos(phi) and sin(alpha) = cos(phi)."""
     t = dr.cos(phi)
-    return f.d * f.d / (2.0 * length * t * t * t)
+    t3 = dr.select(t > 0.0, t * t * t, dr.inf)
+    return f.d * f.d / (2.0 * length * t3)
 
 
 def register() -> None:
@@ -253,11 +256,12 @@ def _emitter_class() -> type:
         def density(self, f: _Frame, w: Any, n: Any, phi: Any) -> Any:
             """p_R(w) per radius for directions w toward the line at angle phi."""
             if self.sampling == "psa":
-                psa = (f.cdf(f.phi(f.clip_e)) - f.cdf(f.phi(f.clip_b))) / f.d
+                psa = (f.cdf(f.phi(f.clip_e)) - f.cdf(f.phi(f.clip_b))) / f.d_safe
                 return _psa_density(f, w, n, psa, phi)
             inside = f.valid & (phi >= f.phi(f.sigma_b)) & (phi <= f.phi(f.sigma_e))
             if self.sampling == "solid-angle":
-                p = 1.0 / _solid_angle_norm(f)
+                norm = _solid_angle_norm(f)
+                p = 1.0 / dr.select(norm > 0.0, norm, dr.inf)
             else:
                 p = _area_density(f, phi, self.length)
             return dr.select(inside & dr.isfinite(p), p, 0.0)
@@ -270,13 +274,14 @@ def _emitter_class() -> type:
                 phi, psa = _sample_psa(f, xi)
                 w = f.direction(phi)
                 # the sample lies on the clipped line by construction: no range test
-                pdf = dr.maximum(dr.dot(n, w), 0.0) / psa
+                pdf = dr.maximum(dr.dot(n, w), 0.0) / dr.select(psa > 0.0, psa, dr.inf)
                 ok = f.visible
             else:
                 if self.sampling == "solid-angle":
                     s_b, s_e = f.sin_phi(f.sigma_b), f.sin_phi(f.sigma_e)
                     phi = dr.safe_asin(dr.fma(xi, s_e - s_b, s_b))
-                    pdf = 1.0 / _solid_angle_norm(f)
+                    norm = _solid_angle_norm(f)
+                    pdf = 1.0 / dr.select(norm > 0.0, norm, dr.inf)
                 else:
                     phi = f.phi(dr.fma(xi, f.sigma_e - f.sigma_b, f.sigma_b))
                     pdf = _area_density(f, phi, self.length)
@@ -285,6 +290,7 @@ def _emitter_class() -> type:
                 ok = f.valid
             ok = ok & active & (pdf > 0.0) & dr.isfinite(pdf)
             s, t = dr.sincos(phi)
+            t = dr.select(t > 0.0, t, 1.0)  # cos(phi) = 0 only for phi = +-pi/2, never on a segment
             ds = dr.zeros(mi.DirectionSample3f, dr.width(sample.x)) if dr.is_jit_v(mi.Float) else mi.DirectionSample3f()
             ds.p = mi.Point3f(mi.Point3d(it.p) + f.c + (f.d * s / t) * f.u)
             ds.n = mi.Normal3f(-w)

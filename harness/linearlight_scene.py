@@ -99,8 +99,10 @@ def _vector(el: ET.Element, params: Mapping[str, str], key: str, default: float)
 
 
 def _rotation(axis: Vec3, degrees: float) -> Mat:
-    """Right-handed rotation about `axis` by `degrees` (Mitsuba's <rotate>)."""
-    x, y, z = _normalize(axis)
+    """Right-handed rotation about `axis` by `degrees`, Mitsuba's <rotate> arithmetic: like
+    Mitsuba, the axis is not normalised (an axis of length != 1 makes a shear, which
+    `world_tube` then refuses, as Mitsuba's cylinder warns of it)."""
+    x, y, z = axis
     a = math.radians(degrees)
     c, s, t = math.cos(a), math.sin(a), 1.0 - math.cos(a)
     return [
