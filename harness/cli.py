@@ -1,4 +1,4 @@
-"""Command line: `python -m harness {render,radius-sweep,preview,bsdf-golden} ...`.
+"""Command line: `python -m harness {render,radius-sweep,preview,bsdf-golden,linearlight-table} ...`.
 Exit codes: 0 success, 1 a check failed, 2 bad usage / unusable input."""
 
 from __future__ import annotations
@@ -84,6 +84,15 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="exit 1 unless the committed references/bsdf data equals a fresh evaluation bit for bit",
     )
+    t = sub.add_parser(
+        "linearlight-table",
+        help="cylinder vs linearlight plugin vs linlight render: samples/s, variance, time to equal error",
+    )
+    t.add_argument("scenes", nargs="*", help="scene files (default: every committed scene)")
+    t.add_argument("--res", type=int, default=64)
+    t.add_argument("--passes", type=int, default=16)
+    t.add_argument("--spp", type=int, default=64, help="samples per pixel per pass")
+    t.add_argument("--variant")
     return p
 
 
@@ -148,6 +157,10 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_sweep(a)
         if a.cmd == "preview":
             return cmd_preview(a)
+        if a.cmd == "linearlight-table":
+            from harness import linearlight_table
+
+            return linearlight_table.main(a.scenes, a.res, a.passes, a.spp, a.variant)
         if a.cmd == "bsdf-golden":
             from harness import bsdf_golden
 
