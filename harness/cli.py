@@ -1,4 +1,4 @@
-"""Command line: `python -m harness {render,radius-sweep,preview,bsdf-golden} ...`.
+"""Command line: `python -m harness {render,radius-sweep,preview,bsdf-golden,linearlight-table} ...`.
 Exit codes: 0 success, 1 a check failed, 2 bad usage / unusable input."""
 
 from __future__ import annotations
@@ -40,6 +40,19 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
     r.add_argument("--out", type=Path, required=True)
     r.add_argument("--seed-offset", type=int, default=0, help="pass p uses mi.render(seed=OFFSET + p)")
+    r.add_argument(
+        "--emitter",
+        choices=("area", "linearlight"),
+        default="area",
+        help="area: the file's cylinders; linearlight: replace every emitting cylinder by the "
+        "linearlight plugin (harness/linearlight.py, docs/mitsuba-plugin.md)",
+    )
+    r.add_argument(
+        "--sampling",
+        choices=("psa", "solid-angle", "area"),
+        default="psa",
+        help="the linearlight plugin's technique (with --emitter linearlight)",
+    )
     r.add_argument("--quiet", action="store_true")
 
     s = sub.add_parser("radius-sweep", help="image mean vs. radius against the R -> 0 limit")
@@ -71,6 +84,15 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="exit 1 unless the committed references/bsdf data equals a fresh evaluation bit for bit",
     )
+    t = sub.add_parser(
+        "linearlight-table",
+        help="cylinder vs linearlight plugin vs linlight render: samples/s, variance, time to equal error",
+    )
+    t.add_argument("scenes", nargs="*", help="scene files (default: every committed scene)")
+    t.add_argument("--res", type=int, default=64)
+    t.add_argument("--passes", type=int, default=16)
+    t.add_argument("--spp", type=int, default=64, help="samples per pixel per pass")
+    t.add_argument("--variant")
     return p
 
 
@@ -83,12 +105,22 @@ def cmd_render(a: argparse.Namespace) -> int:
     variant = oracle.choose_variant(a.variant)
     oracle.set_variant(variant)
     defines = _defines(a.defines)
-    loaded = oracle.load_scene(a.scene, defines, a.radius)
+    if a.emitter != "linearlight" and a.sampling != "psa":
+        print("harness: --sampling needs --emitter linearlight", file=sys.stderr)
+        return 2
+    loaded = oracle.load_scene(a.scene, defines, a.radius, a.sampling if a.emitter == "linearlight" else None)
     print(
         f"harness: render {a.scene} variant={variant} passes={a.passes} spp/pass={a.spp} "
-        f"radius={'file' if a.radius is None else a.radius} lights={[l.id for l in loaded.lights]}",
+        f"radius={'file' if a.radius is None else a.radius} lights={[l.id for l in loaded.lights]} "
+        f"emitter={loaded.emitter}",
         file=sys.stderr,
     )
+    if loaded.k_divisor > 1:
+        print(
+            f"harness: note: K / {loaded.k_divisor} in the linearlight emitters: the direct integrator "
+            f"adds each of its {loaded.k_divisor} delta emitter samples with weight 1",
+            file=sys.stderr,
+        )
     result = render.render_passes(loaded, variant, a.passes, a.spp, defines, quiet=a.quiet, seed_offset=a.seed_offset)
     render.write_result(result, a.out)
     m = result.mean.mean(axis=(0, 1))
@@ -125,6 +157,10 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_sweep(a)
         if a.cmd == "preview":
             return cmd_preview(a)
+        if a.cmd == "linearlight-table":
+            from harness import linearlight_table
+
+            return linearlight_table.main(a.scenes, a.res, a.passes, a.spp, a.variant)
         if a.cmd == "bsdf-golden":
             from harness import bsdf_golden
 

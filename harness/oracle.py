@@ -42,18 +42,40 @@ class LoadedScene:
     sha256: str
     lights: list[scene_xml.LinearLightSpec]
     radius_override: float | None
+    # "area" (the file's cylinders) or "linearlight:<sampling>" (harness/linearlight.py)
+    emitter: str = "area"
+    # K divisor of the linearlight conversion (a direct integrator's emitter_samples), else 1
+    k_divisor: int = 1
 
 
 def sha256_file(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def load_scene(path: Path, overrides: Mapping[str, str], radius: float | None) -> LoadedScene:
-    """Loads with mi.load_file, or, with a radius override, from the rewritten XML text with the
-    scene's directory on the file resolver (so relative mesh paths still resolve)."""
+def load_scene(
+    path: Path, overrides: Mapping[str, str], radius: float | None, linearlight: str | None = None
+) -> LoadedScene:
+    """Loads with mi.load_file, or, with a radius override or `linearlight` (a sampling of the
+    plugin harness/linearlight.py: every emitting cylinder becomes that emitter), from the
+    rewritten XML text with the scene's directory on the file resolver (so relative mesh paths
+    still resolve)."""
     import mitsuba as mi
 
     text = path.read_text()
+    if linearlight is not None:
+        if radius is not None:
+            raise scene_xml.SceneError("--radius has no meaning with --emitter linearlight (R -> 0)")
+        from harness import linearlight as _plugin, linearlight_scene  # noqa: F401 (registers it)
+
+        new_text, converted, divisor = linearlight_scene.convert(text, overrides, linearlight)
+        lights = [
+            scene_xml.LinearLightSpec(l.id, l.p0, l.p1, l.radius, tuple(k / l.radius for k in l.k), l.k)  # type: ignore[arg-type]
+            for l in converted
+        ]
+        resolver = mi.file_resolver()
+        resolver.prepend(str(path.parent.resolve()))
+        scene = mi.load_string(new_text, **overrides)
+        return LoadedScene(scene, path, sha256_file(path), lights, None, f"linearlight:{linearlight}", divisor)
     if radius is None:
         lights = scene_xml.linear_lights(text, overrides)
         scene = mi.load_file(str(path), **overrides)

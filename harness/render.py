@@ -122,6 +122,10 @@ def render_passes(
         "overrides": ",".join(f"{k}={v}" for k, v in sorted(overrides.items())),
         "wall_time_s": f"{wall:.3f}",
     }
+    if loaded.emitter != "area":
+        # the lights' K above is the tubes'; the emitters hold K / k_divisor (docs/mitsuba-plugin.md)
+        meta["emitter"] = loaded.emitter
+        meta["emitter_k_divisor"] = str(loaded.k_divisor)
     return RenderResult(stats.mean, stats.var_of_mean(), stats.tail_share(), meta, np.array(pass_means))
 
 
