@@ -8,7 +8,8 @@ use linlight_verify::image_stats::Verdict;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::{Report, Row, Unusable};
+use super::sampler_suite::SuiteSummary;
+use super::{Report, Row, SceneReport, Unusable};
 use crate::outputs::write_file;
 
 pub(super) fn io_err(path: &Path, e: impl std::fmt::Display) -> Unusable {
@@ -223,135 +224,155 @@ pub fn markdown(report: &Report) -> String {
     );
     s += &calibration_section(report.calibration.as_ref());
     if let Some(suite) = &report.sampler_suite {
-        let _ = writeln!(
-            s,
-            "## Sampler chi-square suite: {}\n\n{} configurations, {} samples each, α = {} \
-             (α per test {:.2e}), {:.1} s.\n",
-            if suite.passed { "PASS" } else { "FAIL" },
-            suite.configurations,
-            suite.samples,
-            suite.alpha,
-            suite.alpha_per_test,
-            suite.elapsed_seconds
-        );
-        let _ = writeln!(
-            s,
-            "| subject | role | verdict | failing configs | worst p | time |\n|---|---|---|---|---|---|"
-        );
-        for (role, rows) in [
-            ("technique", &suite.techniques),
-            ("negative control", &suite.negative_controls),
-        ] {
-            for r in rows {
-                let _ = writeln!(
-                    s,
-                    "| {} | {role} | {} | {} | {} | {:.1} s |",
-                    r.name,
-                    r.verdict,
-                    r.failing_configs,
-                    p_cell(r.worst_p_value),
-                    r.seconds
-                );
-            }
-        }
-        s.push('\n');
+        s += &suite_section(suite);
     }
     for sc in &report.scenes {
-        let r = &sc.reference;
-        let _ = writeln!(s, "## {}\n", sc.name);
-        let _ =
-            writeln!(
-            s,
-            "Scene `{}`; reference `{}`: {}, {} spp in {} passes (dof {}), overrides `{}`, {}{}.\n",
-            sc.scene_file.display(),
-            r.file.display(),
-            r.renderer,
-            r.spp,
-            r.passes,
-            r.dof,
-            r.overrides,
-            r.wall_time_s
-                .map_or_else(|| "render time unknown".into(), |t| format!("rendered in {t:.0} s")),
-            sc.live_oracle_seconds
-                .map_or_else(String::new, |t| format!(" (live render now: {t:.0} s)"))
-        );
-        let _ = writeln!(
-            s,
-            "| technique | oracle | verdict | rel. diff R | rel. diff G | rel. diff B | worst tile p | Σz² p (min) | max\\|z\\| | spp | v_A ≤ v_B | render | pictures |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-        );
-        for row in &sc.rows {
-            let ch = |c: usize| match (row.rel_diff[c], row.rel_ci[c]) {
-                (Some(d), Some([lo, hi])) => {
-                    format!("{} [{}, {}]", pct(d), pct(lo), pct(hi))
-                }
-                _ => "-".into(),
-            };
-            let chi2 = row
-                .comparison
-                .channels
-                .iter()
-                .filter_map(|c| c.pixels.chi2_p)
-                .min_by(f64::total_cmp);
-            let maxz = row
-                .comparison
-                .channels
-                .iter()
-                .map(|c| c.pixels.max_abs_z)
-                .fold(0.0, f64::max);
-            let pics: Vec<String> = row
-                .files
-                .iter()
-                .filter(|f| f.ends_with(".png"))
-                .map(|f| {
-                    format!(
-                        "[{}]({f})",
-                        // `\|`: a bare `|` would end the table cell.
-                        if f.contains("z-tiles") {
-                            "z"
-                        } else {
-                            "A \\| B \\| Δ"
-                        }
-                    )
-                })
-                .collect();
-            let _ = writeln!(
-                s,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {} | {:.1}% | {:.1} s | {} |",
-                row.subject,
-                row.oracle,
-                verdict(row.verdict),
-                ch(0),
-                ch(1),
-                ch(2),
-                p_cell(row.worst_tile_p),
-                p_cell(chi2),
-                maxz,
-                spp_cell(row),
-                100.0 * row.precision.at_least_as_precise,
-                row.render_seconds,
-                pics.join(" ")
-            );
-        }
-        let failures: Vec<&Row> = sc.rows.iter().filter(|r| !r.passed()).collect();
-        if !failures.is_empty() {
-            s.push('\n');
-            for row in failures {
-                let c = &row.comparison;
-                for f in c.failures.iter().chain(&c.not_equivalent) {
-                    let _ = writeln!(
-                        s,
-                        "- {} vs {}: {:?} [{}]: {}",
-                        row.subject, row.oracle, f.test, f.channel, f.detail
-                    );
-                }
-                if let Some(h) = &c.precision {
-                    let _ = writeln!(s, "- {} vs {}: {}", row.subject, row.oracle, h.text);
-                }
-            }
-        }
-        s.push('\n');
+        s += &scene_section(sc);
     }
     s
+}
+
+/// The sampler suite's section of `report.md`: its verdict and one table row per subject.
+fn suite_section(suite: &SuiteSummary) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "## Sampler chi-square suite: {}\n\n{} configurations, {} samples each, α = {} \
+         (α per test {:.2e}), {:.1} s.\n",
+        if suite.passed { "PASS" } else { "FAIL" },
+        suite.configurations,
+        suite.samples,
+        suite.alpha,
+        suite.alpha_per_test,
+        suite.elapsed_seconds
+    );
+    let _ = writeln!(
+        s,
+        "| subject | role | verdict | failing configs | worst p | time |\n|---|---|---|---|---|---|"
+    );
+    for (role, rows) in [
+        ("technique", &suite.techniques),
+        ("negative control", &suite.negative_controls),
+    ] {
+        for r in rows {
+            let _ = writeln!(
+                s,
+                "| {} | {role} | {} | {} | {} | {:.1} s |",
+                r.name,
+                r.verdict,
+                r.failing_configs,
+                p_cell(r.worst_p_value),
+                r.seconds
+            );
+        }
+    }
+    s.push('\n');
+    s
+}
+
+/// One scene's section of `report.md`: its reference, one table row per comparison, and the
+/// failures of the comparisons that did not pass.
+fn scene_section(sc: &SceneReport) -> String {
+    let mut s = String::new();
+    let r = &sc.reference;
+    let _ = writeln!(s, "## {}\n", sc.name);
+    let _ = writeln!(
+        s,
+        "Scene `{}`; reference `{}`: {}, {} spp in {} passes (dof {}), overrides `{}`, {}{}.\n",
+        sc.scene_file.display(),
+        r.file.display(),
+        r.renderer,
+        r.spp,
+        r.passes,
+        r.dof,
+        r.overrides,
+        r.wall_time_s.map_or_else(
+            || "render time unknown".into(),
+            |t| format!("rendered in {t:.0} s")
+        ),
+        sc.live_oracle_seconds
+            .map_or_else(String::new, |t| format!(" (live render now: {t:.0} s)"))
+    );
+    let _ = writeln!(
+        s,
+        "| technique | oracle | verdict | rel. diff R | rel. diff G | rel. diff B | worst tile p | Σz² p (min) | max\\|z\\| | spp | v_A ≤ v_B | render | pictures |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for row in &sc.rows {
+        s += &markdown_row(row);
+    }
+    let failures: Vec<&Row> = sc.rows.iter().filter(|r| !r.passed()).collect();
+    if !failures.is_empty() {
+        s.push('\n');
+        for row in failures {
+            let c = &row.comparison;
+            for f in c.failures.iter().chain(&c.not_equivalent) {
+                let _ = writeln!(
+                    s,
+                    "- {} vs {}: {:?} [{}]: {}",
+                    row.subject, row.oracle, f.test, f.channel, f.detail
+                );
+            }
+            if let Some(h) = &c.precision {
+                let _ = writeln!(s, "- {} vs {}: {}", row.subject, row.oracle, h.text);
+            }
+        }
+    }
+    s.push('\n');
+    s
+}
+
+/// One comparison's row of a scene's table in `report.md`.
+fn markdown_row(row: &Row) -> String {
+    let ch = |c: usize| match (row.rel_diff[c], row.rel_ci[c]) {
+        (Some(d), Some([lo, hi])) => {
+            format!("{} [{}, {}]", pct(d), pct(lo), pct(hi))
+        }
+        _ => "-".into(),
+    };
+    let chi2 = row
+        .comparison
+        .channels
+        .iter()
+        .filter_map(|c| c.pixels.chi2_p)
+        .min_by(f64::total_cmp);
+    let maxz = row
+        .comparison
+        .channels
+        .iter()
+        .map(|c| c.pixels.max_abs_z)
+        .fold(0.0, f64::max);
+    let pics: Vec<String> = row
+        .files
+        .iter()
+        .filter(|f| f.ends_with(".png"))
+        .map(|f| {
+            format!(
+                "[{}]({f})",
+                // `\|`: a bare `|` would end the table cell.
+                if f.contains("z-tiles") {
+                    "z"
+                } else {
+                    "A \\| B \\| Δ"
+                }
+            )
+        })
+        .collect();
+    format!(
+        "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {} | {:.1}% | {:.1} s | {} |\n",
+        row.subject,
+        row.oracle,
+        verdict(row.verdict),
+        ch(0),
+        ch(1),
+        ch(2),
+        p_cell(row.worst_tile_p),
+        p_cell(chi2),
+        maxz,
+        spp_cell(row),
+        100.0 * row.precision.at_least_as_precise,
+        row.render_seconds,
+        pics.join(" ")
+    )
 }
 
 /// The measured false-alarm rates and power of the comparison (`linlight calibrate`, committed

@@ -29,7 +29,9 @@ use super::sampler_suite::SuiteSummary;
 use super::scenes::ReferencedScene;
 use super::{matrix, Options, Report, Row, SceneReport, Subject, Unusable};
 use linlight_imagefile::input::{read_text_capped, MAX_TEXT_BYTES};
-use linlight_verify::image_stats::{CompareConfig, Verdict, TESTS_PER_CHANNEL};
+use linlight_verify::image_stats::{
+    ChannelReport, CompareConfig, Comparison, Verdict, TESTS_PER_CHANNEL,
+};
 use linlight_verify::z_score::{normal_upper_tail, sidak, t_two_sided_p};
 
 /// The version written into every report and required of every shard by `--merge`.
@@ -254,8 +256,34 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
     let Some((first_path, first)) = shards.first() else {
         return Err(refuse("no shard given"));
     };
-    // The family's level: the command line's α and δ, Šidák over m comparisons, m at least
-    // the plan's comparisons.
+    let alpha_c = family_level(first_path, first)?;
+    check_split(&shards)?;
+    // Every plan item once, in plan order (a shard's rows are checked against its part).
+    let plan = first.plan.clone();
+    let (rows_of, scene_info) = rows_by_item(&shards, &plan, alpha_c, first.tolerance)?;
+    check_one_row_per_oracle(&plan, &rows_of)?;
+    let scenes = scenes_in_plan_order(&plan, rows_of, &scene_info)?;
+    let sampler_suite = merged_suite(&shards, require_suite)?;
+    let verdict = super::overall_verdict(sampler_suite.as_ref(), &scenes);
+    Ok(Report {
+        passed: verdict == Verdict::Consistent,
+        verdict,
+        sampler_suite,
+        scenes,
+        shard: None,
+        content_sha256: None,
+        // The wall time of the slowest shard (they run in parallel).
+        elapsed_seconds: shards
+            .iter()
+            .map(|(_, r)| r.elapsed_seconds)
+            .fold(0.0, f64::max),
+        ..first.clone()
+    })
+}
+
+/// The family's Šidák level per comparison, after checking that `first` (read from
+/// `first_path`) ran at the command line's α and δ over at least the plan's comparisons.
+fn family_level(first_path: &Path, first: &Report) -> Result<f64, Unusable> {
     let defaults = Options::new(Path::new("."));
     if first.alpha != defaults.alpha || first.tolerance != defaults.tolerance {
         return Err(refuse(format!(
@@ -278,10 +306,17 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
             first.plan.len()
         )));
     }
+    Ok(alpha_c)
+}
+
+/// Checks that `shards` are the N shards of one split (each once, none missing) of one plan
+/// with the same settings as the first.
+fn check_split(shards: &[(PathBuf, Report)]) -> Result<(), Unusable> {
+    let (first_path, first) = &shards[0];
     let name = |p: &Path| p.display().to_string();
     let mut seen: BTreeMap<usize, &Path> = BTreeMap::new();
     let mut count = None;
-    for (path, r) in &shards {
+    for (path, r) in shards {
         let Some(s) = r.shard else {
             return Err(refuse(format!(
                 "{} is not a shard (written without --shard i/N)",
@@ -348,12 +383,24 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
                 .join(", ")
         )));
     }
+    Ok(())
+}
 
-    // Every plan item once, in plan order (a shard's rows are checked against its part).
-    let plan = first.plan.clone();
-    let mut rows_of: BTreeMap<usize, Vec<super::Row>> = BTreeMap::new();
+/// The rows of each plan item (by its index in the plan).
+type RowsByItem = BTreeMap<usize, Vec<Row>>;
+
+/// The rows of every shard by plan item, each rechecked at the family's level `alpha_c` and
+/// tolerance, and each scene's report without its rows (the shards must agree on it).
+fn rows_by_item(
+    shards: &[(PathBuf, Report)],
+    plan: &[PlanItem],
+    alpha_c: f64,
+    tolerance: f64,
+) -> Result<(RowsByItem, BTreeMap<String, SceneReport>), Unusable> {
+    let name = |p: &Path| p.display().to_string();
+    let mut rows_of = RowsByItem::new();
     let mut scene_info: BTreeMap<String, SceneReport> = BTreeMap::new();
-    for (path, r) in &shards {
+    for (path, r) in shards {
         let shard = r.shard.expect("checked above");
         for s in &r.scenes {
             for row in &s.rows {
@@ -385,7 +432,7 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
                         s.name
                     )));
                 }
-                recheck_row(row, alpha_c, first.tolerance).map_err(|e| {
+                recheck_row(row, alpha_c, tolerance).map_err(|e| {
                     refuse(format!(
                         "{}: {} / {} against {}: {e}",
                         name(path),
@@ -429,9 +476,13 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
             }
         }
     }
-    // Each item: one comparison per oracle (Mitsuba, and the exact image on the scenes that
-    // have one), no duplicates.
-    for (j, rows) in &rows_of {
+    Ok((rows_of, scene_info))
+}
+
+/// Checks that every plan item has exactly one comparison per oracle (Mitsuba, and the exact
+/// image on the scenes that have one): no duplicated, removed or absent rows.
+fn check_one_row_per_oracle(plan: &[PlanItem], rows_of: &RowsByItem) -> Result<(), Unusable> {
+    for (j, rows) in rows_of {
         let p = &plan[*j];
         let oracles: BTreeSet<&str> = rows.iter().map(|r| r.oracle.as_str()).collect();
         let want = 1 + usize::from(matrix::has_exact_oracle(&p.scene));
@@ -461,6 +512,15 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
             absent.join(", ")
         )));
     }
+    Ok(())
+}
+
+/// The scenes of the plan in plan order, each with its items' rows in plan order.
+fn scenes_in_plan_order(
+    plan: &[PlanItem],
+    mut rows_of: RowsByItem,
+    scene_info: &BTreeMap<String, SceneReport>,
+) -> Result<Vec<SceneReport>, Unusable> {
     let mut scenes: Vec<SceneReport> = Vec::new();
     for (j, p) in plan.iter().enumerate() {
         if scenes.last().is_none_or(|s| s.name != p.scene) {
@@ -473,7 +533,16 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
         let last = scenes.last_mut().expect("pushed above");
         last.rows.extend(rows_of.remove(&j).unwrap_or_default());
     }
+    Ok(scenes)
+}
 
+/// The sampler suite of the one shard that carries it (shard 1), rechecked; `None` only if
+/// no shard carries it and `require_suite` is false.
+fn merged_suite(
+    shards: &[(PathBuf, Report)],
+    require_suite: bool,
+) -> Result<Option<SuiteSummary>, Unusable> {
+    let name = |p: &Path| p.display().to_string();
     let suites: Vec<&(PathBuf, Report)> = shards
         .iter()
         .filter(|(_, r)| r.sampler_suite.is_some())
@@ -500,21 +569,7 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
         }
         None => {}
     }
-    let verdict = super::overall_verdict(sampler_suite.as_ref(), &scenes);
-    Ok(Report {
-        passed: verdict == Verdict::Consistent,
-        verdict,
-        sampler_suite,
-        scenes,
-        shard: None,
-        content_sha256: None,
-        // The wall time of the slowest shard (they run in parallel).
-        elapsed_seconds: shards
-            .iter()
-            .map(|(_, r)| r.elapsed_seconds)
-            .fold(0.0, f64::max),
-        ..first.clone()
-    })
+    Ok(sampler_suite)
 }
 
 fn name_of(p: &Path) -> String {
@@ -550,30 +605,9 @@ fn p_agrees(stored: f64, recomputed: f64) -> bool {
 /// from their p-values; an exact-value mismatch. Any stored flag or label that disagrees with
 /// the recomputation, or a comparison run at another level, is an error.
 pub fn recheck_row(row: &Row, alpha_c: f64, tolerance: f64) -> Result<(), String> {
-    use statrs::distribution::{ChiSquared, ContinuousCDF};
     let c = &row.comparison;
     let bad = |what: String| Err(format!("statistics do not support the report: {what}"));
-    let want_cfg = CompareConfig {
-        alpha: alpha_c,
-        tolerance,
-        ..CompareConfig::default()
-    };
-    let json = |c: &CompareConfig| serde_json::to_string(c).unwrap_or_default();
-    if json(&c.config) != json(&want_cfg) {
-        return bad(format!(
-            "compared with {} instead of the family's configuration {}",
-            json(&c.config),
-            json(&want_cfg)
-        ));
-    }
-    let tests = 3 * (TESTS_PER_CHANNEL + usize::from(!c.contact_pixels.is_empty()));
-    let alpha_test = alpha_c / tests as f64;
-    if c.tests != tests || c.alpha_test != alpha_test || c.alpha_equivalence != alpha_c / 3.0 {
-        return bad(format!(
-            "{} tests at α {:e} (equivalence {:e}); the family's level gives {tests} at {:e}",
-            c.tests, c.alpha_test, c.alpha_equivalence, alpha_test
-        ));
-    }
+    let alpha_test = recheck_level(c, alpha_c, tolerance)?;
     if c.channels.len() != 3 {
         return bad(format!("{} channels instead of 3", c.channels.len()));
     }
@@ -583,142 +617,15 @@ pub fn recheck_row(row: &Row, alpha_c: f64, tolerance: f64) -> Result<(), String
     for (k, ch) in c.channels.iter().enumerate() {
         let name = ch.channel;
         let g = &ch.global;
-        let finite = [
-            g.mean_a,
-            g.mean_b,
-            g.diff,
-            g.std_err,
-            g.rel_var_a,
-            g.rel_var_b,
-        ];
-        if finite.iter().any(|x| !x.is_finite()) || g.std_err < 0.0 {
-            return bad(format!("channel {name}: non-finite global statistics"));
-        }
-        if (g.diff - (g.mean_a - g.mean_b)).abs() > 1e-9 * g.mean_a.abs().max(g.mean_b.abs()) {
-            return bad(format!(
-                "channel {name}: difference {} is not mean A − mean B = {}",
-                g.diff,
-                g.mean_a - g.mean_b
-            ));
-        }
-        let p = match (g.p, g.dof) {
-            (Some(p), Some(dof)) if g.std_err > 0.0 && dof > 0.0 => {
-                let re = t_two_sided_p(g.diff / g.std_err, dof);
-                if !p_agrees(p, re) {
-                    return bad(format!(
-                        "channel {name}: global p = {p:e}, but its difference, standard error \
-                         and dof give {re:e}"
-                    ));
-                }
-                Some(re)
-            }
-            (None, None) if g.std_err == 0.0 => None,
-            _ => return bad(format!("channel {name}: global p without a standard error")),
-        };
-        let significant = p.is_some_and(|p| p <= alpha_test);
-        if g.significant != significant {
-            return bad(format!(
-                "channel {name}: global test flagged {}",
-                g.significant
-            ));
-        }
+        let (significant, equivalent) = recheck_global(ch, alpha_test, z_eq, tolerance)?;
         different |= significant;
-        // Relative difference and its interval.
-        let rel = if g.mean_b != 0.0 {
-            Some(g.mean_a / g.mean_b - 1.0)
-        } else {
-            (g.mean_a == 0.0).then_some(0.0)
-        };
-        match (g.rel_diff, rel) {
-            (Some(a), Some(b)) if (a - b).abs() <= 1e-9 * (1.0 + b.abs()) => {}
-            (None, None) => {}
-            (stored, re) => {
-                return bad(format!(
-                    "channel {name}: relative difference {stored:?}, its means give {re:?}"
-                ))
-            }
-        }
-        let min_half = z_eq * (g.rel_var_a + g.rel_var_b).sqrt() * (1.0 - 1e-9);
-        let equivalent = match (rel, g.rel_ci) {
-            (Some(r), Some([lo, hi])) => {
-                if !(lo <= r + 1e-12 && r - 1e-12 <= hi && (hi - lo) / 2.0 >= min_half) {
-                    return bad(format!(
-                        "channel {name}: interval [{lo:e}, {hi:e}] does not hold the relative \
-                         difference {r:e} with half-width ≥ {min_half:e}"
-                    ));
-                }
-                lo >= -tolerance && hi <= tolerance
-            }
-            (_, None) => false,
-            (None, Some(_)) => {
-                return bad(format!("channel {name}: interval without a difference"))
-            }
-        };
-        if g.equivalent != equivalent {
-            return bad(format!(
-                "channel {name}: equivalence flagged {}",
-                g.equivalent
-            ));
-        }
         inconclusive |= !equivalent;
         if row.rel_diff[k] != g.rel_diff || row.rel_ci[k] != g.rel_ci {
             return bad(format!(
                 "channel {name}: the row's summary differs from its comparison"
             ));
         }
-        // Tiles (Holm-adjusted), pixels, contacts.
-        let t = &ch.tiles;
-        let tile_rejects = match &t.worst {
-            Some(w) => {
-                if !((0.0..=1.0).contains(&w.p) && w.p <= w.p_holm && w.p_holm <= 1.0) {
-                    return bad(format!(
-                        "channel {name}: tile p {} / Holm {}",
-                        w.p, w.p_holm
-                    ));
-                }
-                w.p_holm <= alpha_test
-            }
-            None => false,
-        };
-        if tile_rejects != (t.rejected > 0) {
-            return bad(format!(
-                "channel {name}: {} tiles flagged rejected",
-                t.rejected
-            ));
-        }
-        different |= tile_rejects;
-        let px = &ch.pixels;
-        if px.tested > 0 {
-            if !(px.sum_z2 >= 0.0 && px.max_abs_z >= 0.0) {
-                return bad(format!("channel {name}: negative Σz² or max|z|"));
-            }
-            let chi2 = ChiSquared::new(px.tested as f64)
-                .map(|d| d.sf(px.sum_z2).clamp(0.0, 1.0))
-                .map_err(|e| format!("channel {name}: {e}"))?;
-            let p_min = (2.0 * normal_upper_tail(px.max_abs_z)).min(1.0);
-            let max_p = (-(px.tested as f64 * (-p_min).ln_1p()).exp_m1()).clamp(0.0, 1.0);
-            match (px.chi2_p, px.max_p) {
-                (Some(a), Some(b)) if p_agrees(a, chi2) && p_agrees(b, max_p) => {}
-                (a, b) => {
-                    return bad(format!(
-                        "channel {name}: pixel p-values {a:?}, {b:?}; Σz² and max|z| over {} \
-                         pixels give {chi2:e}, {max_p:e}",
-                        px.tested
-                    ))
-                }
-            }
-            different |= chi2 <= alpha_test || max_p <= alpha_test;
-        } else if px.chi2_p.is_some() || px.max_p.is_some() {
-            return bad(format!(
-                "channel {name}: pixel p-values without tested pixels"
-            ));
-        }
-        if let Some(p) = ch.contacts.p {
-            if !(0.0..=1.0).contains(&p) {
-                return bad(format!("channel {name}: contact p = {p}"));
-            }
-            different |= p <= alpha_test;
-        }
+        different |= recheck_local(ch, alpha_test)?;
     }
     let verdict = if different {
         Verdict::Different
@@ -742,6 +649,185 @@ pub fn recheck_row(row: &Row, alpha_c: f64, tolerance: f64) -> Result<(), String
         ));
     }
     Ok(())
+}
+
+/// Checks that comparison `c` ran at the family's configuration (level `alpha_c`, margin
+/// `tolerance`) and its number of tests; returns the level of one test.
+fn recheck_level(c: &Comparison, alpha_c: f64, tolerance: f64) -> Result<f64, String> {
+    let bad = |what: String| Err(format!("statistics do not support the report: {what}"));
+    let want_cfg = CompareConfig {
+        alpha: alpha_c,
+        tolerance,
+        ..CompareConfig::default()
+    };
+    let json = |c: &CompareConfig| serde_json::to_string(c).unwrap_or_default();
+    if json(&c.config) != json(&want_cfg) {
+        return bad(format!(
+            "compared with {} instead of the family's configuration {}",
+            json(&c.config),
+            json(&want_cfg)
+        ));
+    }
+    let tests = 3 * (TESTS_PER_CHANNEL + usize::from(!c.contact_pixels.is_empty()));
+    let alpha_test = alpha_c / tests as f64;
+    if c.tests != tests || c.alpha_test != alpha_test || c.alpha_equivalence != alpha_c / 3.0 {
+        return bad(format!(
+            "{} tests at α {:e} (equivalence {:e}); the family's level gives {tests} at {:e}",
+            c.tests, c.alpha_test, c.alpha_equivalence, alpha_test
+        ));
+    }
+    Ok(alpha_test)
+}
+
+/// Channel `ch`'s global test recomputed at the level `alpha_test` of one test, and its
+/// equivalence at the quantile `z_eq` and margin `tolerance`: (significant, equivalent), each
+/// checked against its stored flag.
+fn recheck_global(
+    ch: &ChannelReport,
+    alpha_test: f64,
+    z_eq: f64,
+    tolerance: f64,
+) -> Result<(bool, bool), String> {
+    let bad = |what: String| Err(format!("statistics do not support the report: {what}"));
+    let name = ch.channel;
+    let g = &ch.global;
+    let finite = [
+        g.mean_a,
+        g.mean_b,
+        g.diff,
+        g.std_err,
+        g.rel_var_a,
+        g.rel_var_b,
+    ];
+    if finite.iter().any(|x| !x.is_finite()) || g.std_err < 0.0 {
+        return bad(format!("channel {name}: non-finite global statistics"));
+    }
+    if (g.diff - (g.mean_a - g.mean_b)).abs() > 1e-9 * g.mean_a.abs().max(g.mean_b.abs()) {
+        return bad(format!(
+            "channel {name}: difference {} is not mean A − mean B = {}",
+            g.diff,
+            g.mean_a - g.mean_b
+        ));
+    }
+    let p = match (g.p, g.dof) {
+        (Some(p), Some(dof)) if g.std_err > 0.0 && dof > 0.0 => {
+            let re = t_two_sided_p(g.diff / g.std_err, dof);
+            if !p_agrees(p, re) {
+                return bad(format!(
+                    "channel {name}: global p = {p:e}, but its difference, standard error \
+                     and dof give {re:e}"
+                ));
+            }
+            Some(re)
+        }
+        (None, None) if g.std_err == 0.0 => None,
+        _ => return bad(format!("channel {name}: global p without a standard error")),
+    };
+    let significant = p.is_some_and(|p| p <= alpha_test);
+    if g.significant != significant {
+        return bad(format!(
+            "channel {name}: global test flagged {}",
+            g.significant
+        ));
+    }
+    // Relative difference and its interval.
+    let rel = if g.mean_b != 0.0 {
+        Some(g.mean_a / g.mean_b - 1.0)
+    } else {
+        (g.mean_a == 0.0).then_some(0.0)
+    };
+    match (g.rel_diff, rel) {
+        (Some(a), Some(b)) if (a - b).abs() <= 1e-9 * (1.0 + b.abs()) => {}
+        (None, None) => {}
+        (stored, re) => {
+            return bad(format!(
+                "channel {name}: relative difference {stored:?}, its means give {re:?}"
+            ))
+        }
+    }
+    let min_half = z_eq * (g.rel_var_a + g.rel_var_b).sqrt() * (1.0 - 1e-9);
+    let equivalent = match (rel, g.rel_ci) {
+        (Some(r), Some([lo, hi])) => {
+            if !(lo <= r + 1e-12 && r - 1e-12 <= hi && (hi - lo) / 2.0 >= min_half) {
+                return bad(format!(
+                    "channel {name}: interval [{lo:e}, {hi:e}] does not hold the relative \
+                     difference {r:e} with half-width ≥ {min_half:e}"
+                ));
+            }
+            lo >= -tolerance && hi <= tolerance
+        }
+        (_, None) => false,
+        (None, Some(_)) => return bad(format!("channel {name}: interval without a difference")),
+    };
+    if g.equivalent != equivalent {
+        return bad(format!(
+            "channel {name}: equivalence flagged {}",
+            g.equivalent
+        ));
+    }
+    Ok((significant, equivalent))
+}
+
+/// Channel `ch`'s local tests recomputed from their p-values at the level `alpha_test` of one
+/// test — tiles (Holm-adjusted), pixels (χ² from Σz², max|z| by Šidák) and contacts — and
+/// checked against their stored flags: whether any rejects.
+fn recheck_local(ch: &ChannelReport, alpha_test: f64) -> Result<bool, String> {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    let bad = |what: String| Err(format!("statistics do not support the report: {what}"));
+    let name = ch.channel;
+    let t = &ch.tiles;
+    let tile_rejects = match &t.worst {
+        Some(w) => {
+            if !((0.0..=1.0).contains(&w.p) && w.p <= w.p_holm && w.p_holm <= 1.0) {
+                return bad(format!(
+                    "channel {name}: tile p {} / Holm {}",
+                    w.p, w.p_holm
+                ));
+            }
+            w.p_holm <= alpha_test
+        }
+        None => false,
+    };
+    if tile_rejects != (t.rejected > 0) {
+        return bad(format!(
+            "channel {name}: {} tiles flagged rejected",
+            t.rejected
+        ));
+    }
+    let mut different = tile_rejects;
+    let px = &ch.pixels;
+    if px.tested > 0 {
+        if !(px.sum_z2 >= 0.0 && px.max_abs_z >= 0.0) {
+            return bad(format!("channel {name}: negative Σz² or max|z|"));
+        }
+        let chi2 = ChiSquared::new(px.tested as f64)
+            .map(|d| d.sf(px.sum_z2).clamp(0.0, 1.0))
+            .map_err(|e| format!("channel {name}: {e}"))?;
+        let p_min = (2.0 * normal_upper_tail(px.max_abs_z)).min(1.0);
+        let max_p = (-(px.tested as f64 * (-p_min).ln_1p()).exp_m1()).clamp(0.0, 1.0);
+        match (px.chi2_p, px.max_p) {
+            (Some(a), Some(b)) if p_agrees(a, chi2) && p_agrees(b, max_p) => {}
+            (a, b) => {
+                return bad(format!(
+                    "channel {name}: pixel p-values {a:?}, {b:?}; Σz² and max|z| over {} \
+                     pixels give {chi2:e}, {max_p:e}",
+                    px.tested
+                ))
+            }
+        }
+        different |= chi2 <= alpha_test || max_p <= alpha_test;
+    } else if px.chi2_p.is_some() || px.max_p.is_some() {
+        return bad(format!(
+            "channel {name}: pixel p-values without tested pixels"
+        ));
+    }
+    if let Some(p) = ch.contacts.p {
+        if !(0.0..=1.0).contains(&p) {
+            return bad(format!("channel {name}: contact p = {p}"));
+        }
+        different |= p <= alpha_test;
+    }
+    Ok(different)
 }
 
 /// The sampler suite as the merge requires it: every technique and negative control of this

@@ -2,7 +2,7 @@
 //! program (docs/external-protocol.md). Exit 0 iff it passes every configuration; 1 if it fails
 //! one; 2 if it could not be certified (no protocol, crash, hang, wrong counts).
 
-use super::samplers::{print_failures, print_techniques, write_json};
+use super::suite_tables::{print_failures, print_techniques, write_json};
 use linlight::external::ExternalSampler;
 use linlight_sampling::Technique;
 use linlight_verify::subjects::{ltc, technique, SamplerUnderTest};

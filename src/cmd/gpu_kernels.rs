@@ -88,9 +88,9 @@ fn run_answer_suite(gpu: linlight_gpu::Gpu, samples: usize) -> Result<bool, Exit
             return Err(ExitCode::from(2));
         }
     }
-    super::samplers::print_techniques(&report.techniques);
-    super::samplers::print_failures(&report.techniques);
-    super::samplers::print_controls(&report.negative_controls);
+    super::suite_tables::print_techniques(&report.techniques);
+    super::suite_tables::print_failures(&report.techniques);
+    super::suite_tables::print_controls(&report.negative_controls);
     Ok(report.passed)
 }
 

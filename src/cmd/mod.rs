@@ -14,6 +14,7 @@ pub mod merge;
 pub mod render;
 pub mod samplers;
 pub mod stack;
+pub mod suite_tables;
 pub mod unshadowed;
 
 /// `--max-memory` of the commands that read images or render.

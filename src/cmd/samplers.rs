@@ -6,6 +6,7 @@
 //! (docs/external-protocol.md) instead; exit 0 iff it passes every configuration, 1 if it fails
 //! one, 2 if it could not be certified (did not speak the protocol, crashed, hung).
 
+use super::suite_tables::{print_controls, print_failures, print_techniques, write_json};
 use linlight_verify::subjects::{certified, negative_controls, tilt_power_controls};
 use linlight_verify::suite::{run_suite_at, Check, SubjectReport, SuiteReport};
 use linlight_verify::{run_suite, Settings};
@@ -58,89 +59,6 @@ pub struct Args {
     backend: String,
 }
 
-fn fmt_opt(v: Option<f64>) -> String {
-    v.map_or_else(|| "-".to_string(), |v| format!("{v:.2e}"))
-}
-
-pub(crate) fn print_techniques(rows: &[SubjectReport]) {
-    println!(
-        "{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  verdict",
-        "technique", "class", "configs", "tested", "zero", "worst p", "max |∫p−1|"
-    );
-    for t in rows {
-        if let Some(p) = &t.panic {
-            println!(
-                "{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  panicked: {p}",
-                t.name,
-                "-",
-                t.configs.len(),
-                0,
-                0,
-                "-",
-                "-"
-            );
-            continue;
-        }
-        println!("{:<24} ({:.1} s)", t.name, t.elapsed_seconds);
-        for c in &t.classes {
-            println!(
-                "{:<24} {:<26} {:>7} {:>6} {:>5} {:>10} {:>12}  {}",
-                t.name,
-                c.class.name(),
-                c.configs,
-                c.tested,
-                c.zero_contribution,
-                fmt_opt(c.worst_p_value),
-                fmt_opt(c.max_normalisation_error),
-                if c.passed {
-                    "pass".to_string()
-                } else {
-                    format!("FAIL ({} configs)", c.failing)
-                }
-            );
-        }
-    }
-}
-
-pub(crate) fn print_controls(rows: &[SubjectReport]) {
-    println!(
-        "{:<46} {:>11} {:>14} {:>10}  {:<52} verdict",
-        "negative control", "rejected", "as required", "worst p", "failing checks (configs)"
-    );
-    for c in rows {
-        let checks: Vec<String> = c
-            .failures_by_check
-            .iter()
-            .map(|(k, n)| format!("{}:{n}", k.name()))
-            .collect();
-        let verdict = match &c.panic {
-            Some(p) => format!("panicked: {p}"),
-            None => c.verdict.clone(),
-        };
-        let required = c.rejection.as_ref().map_or_else(String::new, |r| {
-            if r.by.is_empty() {
-                "any".to_string()
-            } else {
-                r.by.iter().map(|k| k.name()).collect::<Vec<_>>().join("|")
-            }
-        });
-        println!(
-            "{:<46} {:>5}/{:<5} {:>6}/{:<3}{:>4} {:>10}  {:<52} {verdict}",
-            c.name,
-            c.configs.iter().filter(|r| r.rejected()).count(),
-            c.tested,
-            c.rejected_as_required,
-            c.needed,
-            "",
-            fmt_opt(c.worst_p_value),
-            checks.join(" "),
-        );
-        if !required.is_empty() {
-            println!("{:<46} must be rejected by: {required}", "");
-        }
-    }
-}
-
 /// The tilt power table: per control, the share of tested configurations rejected by the fine
 /// χ², the coarse χ², either, and any check.
 fn print_tilt_power(rows: &[SubjectReport]) {
@@ -167,22 +85,6 @@ fn print_tilt_power(rows: &[SubjectReport]) {
             share(&|r| has(Check::Chi2)(r) || has(Check::Chi2Coarse)(r)),
             share(&|_| true),
         );
-    }
-}
-
-pub(crate) fn print_failures(rows: &[SubjectReport]) {
-    for t in rows.iter().filter(|t| !t.passed && t.panic.is_none()) {
-        for r in t.configs.iter().filter(|r| !r.passed()).take(10) {
-            for f in &r.failures {
-                println!(
-                    "  {} / {}: [{}] {}",
-                    t.name,
-                    r.config,
-                    f.check.name(),
-                    f.message
-                );
-            }
-        }
     }
 }
 
@@ -293,19 +195,5 @@ pub fn run(args: Args) -> ExitCode {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
-    }
-}
-
-pub(crate) fn write_json(path: &std::path::Path, report: &SuiteReport) -> ExitCode {
-    // Serialised first, then written atomically: a write error is not lost in a dropped buffer.
-    let written = serde_json::to_string_pretty(report)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
-        .and_then(|t| linlight::outputs::write_file(path, t + "\n"));
-    match written {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::from(2)
-        }
     }
 }

@@ -262,6 +262,52 @@ fn slope_list(slopes: &[serde_json::Value]) -> String {
         .join(", ")
 }
 
+/// Mitsuba's own curve against `reference`, rendered in this run when the oracle venv is there
+/// (and not --quick), else the committed numbers; and where it came from.
+fn mitsuba_curve(ctx: &Ctx, reference: &Image) -> Result<(Vec<Point>, String), String> {
+    Ok(match venv(&ctx.opts.root).filter(|_| !ctx.opts.quick) {
+        Some(v) => {
+            let pts = mitsuba_live(ctx, &v, reference)?;
+            (pts, "rendered in this run by scripts/harness (Mitsuba 3, emitter sampling of the cylinder = area sampling)".to_string())
+        }
+        None => {
+            let path = ctx.opts.root.join(COMMITTED);
+            let text =
+                std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
+            let pts: Vec<Point> =
+                serde_json::from_value(v["points"].clone()).map_err(|e| e.to_string())?;
+            (pts, format!("the committed numbers {COMMITTED} (from an earlier run with the oracle venv; no venv, or --quick, in this run)"))
+        }
+    })
+}
+
+/// Every point of both sets of curves as convergence.csv.
+fn write_csv(ctx: &Ctx, curves: &Curves, glossy: &Curves) -> Result<String, String> {
+    let mut csv_rows = Vec::new();
+    for (scene_name, set) in [("cornell-tube", curves), ("glossy-blend", glossy)] {
+        for (name, method, pts) in set.iter() {
+            for p in pts {
+                csv_rows.push(vec![
+                    scene_name.to_string(),
+                    name.clone(),
+                    method.clone(),
+                    p.spp.to_string(),
+                    format!("{}", p.rmse),
+                    format!("{}", p.seconds),
+                ]);
+            }
+        }
+    }
+    ctx.write_text(
+        "convergence.csv",
+        &csv(
+            &["scene", "curve", "method", "spp", "rmse", "seconds"],
+            &csv_rows,
+        ),
+    )
+}
+
 pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let overrides = vec![("res", "64".to_string())];
     let (reference, what) = ctx.reference(SCENE, &overrides)?;
@@ -282,22 +328,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let mut curves = curves(ctx, &scene, &reference, &techniques, &spps, &|i| {
         ctx.progress(i as f64 / steps)
     })?;
-    // Mitsuba's own curve.
-    let (mitsuba, mitsuba_source) = match venv(&ctx.opts.root).filter(|_| !ctx.opts.quick) {
-        Some(v) => {
-            let pts = mitsuba_live(ctx, &v, &reference)?;
-            (pts, "rendered in this run by scripts/harness (Mitsuba 3, emitter sampling of the cylinder = area sampling)".to_string())
-        }
-        None => {
-            let path = ctx.opts.root.join(COMMITTED);
-            let text =
-                std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| e.to_string())?;
-            let pts: Vec<Point> =
-                serde_json::from_value(v["points"].clone()).map_err(|e| e.to_string())?;
-            (pts, format!("the committed numbers {COMMITTED} (from an earlier run with the oracle venv; no venv, or --quick, in this run)"))
-        }
-    };
+    let (mitsuba, mitsuba_source) = mitsuba_curve(ctx, &reference)?;
     ctx.progress((techniques.len() + 1) as f64 / steps);
     let mitsuba_file = ctx.write_text(
         "mitsuba-convergence.json",
@@ -333,28 +364,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let [(gsvg_spp, gf_spp), (gsvg_time, gf_time)] =
         plots(ctx, "convergence-mis", "glossy-blend", &glossy)?;
     let mut files = vec![f_spp, f_time, gf_spp, gf_time, mitsuba_file];
-    let mut csv_rows = Vec::new();
-    for (scene_name, set) in [("cornell-tube", &curves), ("glossy-blend", &glossy)] {
-        for (name, method, pts) in set.iter() {
-            for p in pts {
-                csv_rows.push(vec![
-                    scene_name.to_string(),
-                    name.clone(),
-                    method.clone(),
-                    p.spp.to_string(),
-                    format!("{}", p.rmse),
-                    format!("{}", p.seconds),
-                ]);
-            }
-        }
-    }
-    files.push(ctx.write_text(
-        "convergence.csv",
-        &csv(
-            &["scene", "curve", "method", "spp", "rmse", "seconds"],
-            &csv_rows,
-        ),
-    )?);
+    files.push(write_csv(ctx, &curves, &glossy)?);
     let (rows, slopes) = slope_rows(&curves);
     let (grows, gslopes) = slope_rows(&glossy);
     let slope_table = table(&SLOPE_HEADER, &rows);

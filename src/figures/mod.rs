@@ -15,6 +15,7 @@
 pub mod imaging;
 pub mod page;
 pub mod plot;
+pub mod shading_cost;
 
 mod backward_error;
 mod convergence;

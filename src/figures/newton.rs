@@ -6,7 +6,7 @@
 use super::imaging::enlarge;
 use super::page::{num, picture, plot, row, table};
 use super::plot::{histogram, PALETTE};
-use super::{csv, hit_points, Ctx, Section};
+use super::{csv, hit_points, Ctx, HitPoint, Section};
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::noise::{Noise, NoiseSource};
 use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
@@ -28,20 +28,28 @@ fn percentile(v: &mut [f64], q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
-pub fn make(ctx: &Ctx) -> Result<Section, String> {
-    let res = ctx.settings.res;
-    let rel = super::cornell::SCENE;
-    let scene = ctx.scene(rel, &[("res", res.to_string())])?;
-    let hits = hit_points(&scene)?;
-    let segs: Vec<Segment> = scene
-        .lights
-        .iter()
-        .map(|l| Segment::new(l.begin, l.end))
-        .collect();
-    let samples: u32 = if ctx.opts.quick { 32 } else { 128 };
-    let source = NoiseSource::new(Noise::White, ctx.opts.seed, samples);
-    let width = scene.sensor.film.width;
-    // Iteration counts and the per-pixel map.
+/// Li et al.'s iteration counts: their histogram over every sample, the per-pixel map, and
+/// the pixels' numbers.
+struct Iterations {
+    /// Samples that took k iterations (k = [`LIMIT`]: ran out).
+    counts: Vec<u64>,
+    /// Mean iterations per pixel; [`RAN_OUT`] where some sample ran out.
+    map: Rgb8,
+    total: u64,
+    ran_out_pixels: usize,
+    /// Each pixel with a light above its horizon: its index and its numbers ξ.
+    xis: Vec<(usize, Vec<f32>)>,
+}
+
+/// [`Iterations`] of `samples` numbers of `source` per hit point and light.
+fn iteration_counts(
+    hits: &[Option<HitPoint>],
+    segs: &[Segment],
+    source: &NoiseSource,
+    samples: u32,
+    width: u32,
+    res: u32,
+) -> Iterations {
     let mut counts = vec![0u64; LIMIT as usize + 1];
     let mut map = Rgb8::filled(res as usize, res as usize, super::imaging::NO_VALUE);
     let mut total = 0u64;
@@ -59,7 +67,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         let mut sum = 0u64;
         let mut n = 0u64;
         let mut out = false;
-        for seg in &segs {
+        for seg in segs {
             let Some(li) = Li2018::prepare(seg, h.p, h.n) else {
                 continue;
             };
@@ -88,9 +96,24 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             xis.push((i, xi));
         }
     }
-    ctx.progress(0.3);
-    // Cost per sample, per pixel: prepare once, then all samples of the pixel; three
-    // interleaved repeats, the minimum per pixel (least disturbed by the machine's load).
+    Iterations {
+        counts,
+        map,
+        total,
+        ran_out_pixels,
+        xis,
+    }
+}
+
+/// Cost per sample (ns) of Li et al. and of ours, per pixel of `xis`: prepare once, then all
+/// samples of the pixel; three interleaved repeats, the minimum per pixel (least disturbed by
+/// the machine's load).
+fn cost_per_sample(
+    ctx: &Ctx,
+    hits: &[Option<HitPoint>],
+    segs: &[Segment],
+    xis: &[(usize, Vec<f32>)],
+) -> (Vec<f64>, Vec<f64>) {
     let repeats = 3;
     let mut li_ns = vec![f64::INFINITY; xis.len()];
     let mut psa_ns = vec![f64::INFINITY; xis.len()];
@@ -98,7 +121,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         for (j, (i, xi)) in xis.iter().enumerate() {
             let h = hits[*i].expect("hit");
             let t = Instant::now();
-            for seg in &segs {
+            for seg in segs {
                 if let Some(li) = Li2018::prepare(seg, h.p, h.n) {
                     for &x in xi {
                         black_box(li.sample_with_pdf(black_box(x)));
@@ -107,7 +130,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             }
             let li_t = t.elapsed().as_secs_f64();
             let t = Instant::now();
-            for seg in &segs {
+            for seg in segs {
                 if let Some(p) = ProjectedSolidAngle::prepare(seg, h.p, h.n) {
                     for &x in xi {
                         black_box(p.sample_with_pdf(black_box(x)));
@@ -121,6 +144,25 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         }
         ctx.progress(0.3 + 0.7 * (rep + 1) as f64 / repeats as f64);
     }
+    (li_ns, psa_ns)
+}
+
+pub fn make(ctx: &Ctx) -> Result<Section, String> {
+    let res = ctx.settings.res;
+    let rel = super::cornell::SCENE;
+    let scene = ctx.scene(rel, &[("res", res.to_string())])?;
+    let hits = hit_points(&scene)?;
+    let segs: Vec<Segment> = scene
+        .lights
+        .iter()
+        .map(|l| Segment::new(l.begin, l.end))
+        .collect();
+    let samples: u32 = if ctx.opts.quick { 32 } else { 128 };
+    let source = NoiseSource::new(Noise::White, ctx.opts.seed, samples);
+    let width = scene.sensor.film.width;
+    let it = iteration_counts(&hits, &segs, &source, samples, width, res);
+    ctx.progress(0.3);
+    let (li_ns, psa_ns) = cost_per_sample(ctx, &hits, &segs, &it.xis);
     let stats = |v: &[f64]| {
         let mut v = v.to_vec();
         let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
@@ -133,6 +175,13 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         )
     };
     let (li_s, psa_s) = (stats(&li_ns), stats(&psa_ns));
+    let Iterations {
+        counts,
+        map,
+        total,
+        ran_out_pixels,
+        ..
+    } = it;
     let mean_iterations = counts
         .iter()
         .enumerate()

@@ -1,12 +1,12 @@
 //! The paper's timing table: every technique shading the cached hit points of a 1920×1080 frame
 //! (BRDF evaluated, no shadow rays), 128 lights × 1 spp and 1 light × 128 spp, as ratios to
 //! clipped solid angle, next to the paper's frame times (clipped solid angle 1.1 ms, ours
-//! 1.1 ms, ours + LTC MIS 1.5 ms). The measurement is `linlight_render::shading_cost`, the same
-//! code as `cargo bench -p linlight-render --bench shading`.
+//! 1.1 ms, ours + LTC MIS 1.5 ms). The measurement is [`super::shading_cost`], the same code as
+//! `cargo bench -p linlight --bench shading`.
 
 use super::page::{num, table};
+use super::shading_cost::{measure, Batched, ConfigTiming, RowKind};
 use super::{csv, Ctx, Section};
-use linlight_render::shading_cost::{measure, Batched, RowKind};
 use linlight_sampling::Technique;
 use linlight_simd::Isa;
 use serde_json::json;
@@ -94,7 +94,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         "paper (GPU, 128 lights)",
     ];
     let body = table(&header, &rows);
-    let ratio = |c: &linlight_render::shading_cost::ConfigTiming, t: Technique| {
+    let ratio = |c: &ConfigTiming, t: Technique| {
         c.row(RowKind::Scalar(t))
             .map_or(f64::NAN, |r| c.ratio_to_clipped(r).0)
     };
@@ -126,9 +126,9 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         num(psa.1),
         num(li.0),
         num(li.1),
-        num(a.row(RowKind::Batched(linlight_render::shading_cost::Batched::ProjectedSolidAngle))
+        num(a.row(RowKind::Batched(Batched::ProjectedSolidAngle))
             .map_or(f64::NAN, |r| a.ratio_to_clipped(r).0)),
-        num(b.row(RowKind::Batched(linlight_render::shading_cost::Batched::ProjectedSolidAngle))
+        num(b.row(RowKind::Batched(Batched::ProjectedSolidAngle))
             .map_or(f64::NAN, |r| b.ratio_to_clipped(r).0)),
         num(a.ratio(x8(Batched::ProjectedSolidAngle), x8(Batched::ClippedSolidAngle)).0),
         num(b.ratio(x8(Batched::ProjectedSolidAngle), x8(Batched::ClippedSolidAngle)).0),

@@ -63,7 +63,7 @@ impl Principled {
         self.alpha_in()
     }
 
-    /// [`Principled::alpha`] in either precision (max in f32, as before, then the floor).
+    /// [`Principled::alpha`] in either precision (max in f32, then the floor).
     #[inline(always)]
     fn alpha_in<T: Real>(&self) -> T {
         let r2 = (self.roughness * self.roughness).max(0.001);

@@ -6,7 +6,7 @@
 //!
 //! Invariant: [`V3`]'s operations are glam's `DVec3`/`Vec3` expressions written out in the same
 //! order (`dot` adds x, y, then z; `normalize` multiplies by 1/√(v·v)), so the f64 evaluation
-//! has the same bits as before this type existed, and each operation rounds once per component,
+//! has the bits of the glam expressions, and each operation rounds once per component,
 //! the same on every instruction set (Rust forms no fused multiply-add).
 
 use glam::{DVec3, Vec3};

@@ -402,23 +402,35 @@ impl Image {
             img.pixel_spp = Some(spp);
         }
 
-        let attrs = &layer.attributes.other;
+        img.read_attributes(&layer.attributes, &ctx)?;
+        Ok(img)
+    }
+
+    /// The header attributes of a file read into `meta` (dof NaN where the file has none),
+    /// and its `content_sha256`, if it has one, checked against the pixels read; `ctx` names
+    /// the file in an error.
+    fn read_attributes(
+        &mut self,
+        attributes: &LayerAttributes,
+        ctx: &impl Fn(String) -> ImageError,
+    ) -> Result<(), ImageError> {
+        let attrs = &attributes.other;
         let get = |key: &str| attrs.iter().find(|(k, _)| Text::eq(k, key)).map(|(_, v)| v);
-        img.meta.dof = match get(KEY_DOF) {
+        self.meta.dof = match get(KEY_DOF) {
             Some(v) => attr_f64(KEY_DOF, v).map_err(ctx)?,
             None => f64::NAN,
         };
         if let Some(v) = get(KEY_SPP) {
-            img.meta.spp = attr_u64(KEY_SPP, v).map_err(ctx)?;
+            self.meta.spp = attr_u64(KEY_SPP, v).map_err(ctx)?;
         }
         if let Some(v) = get(KEY_PASSES) {
-            img.meta.passes = attr_u64(KEY_PASSES, v).map_err(ctx)?;
+            self.meta.passes = attr_u64(KEY_PASSES, v).map_err(ctx)?;
         }
         if let Some(v) = get(KEY_RENDERER) {
-            img.meta.renderer = attr_string(v).unwrap_or_default();
+            self.meta.renderer = attr_string(v).unwrap_or_default();
         }
         if let Some(v) = get(KEY_SCENE) {
-            img.meta.scene_sha256 = attr_string(v).unwrap_or_default();
+            self.meta.scene_sha256 = attr_string(v).unwrap_or_default();
         }
         for (k, v) in attrs {
             let key = k.to_string();
@@ -426,12 +438,12 @@ impl Image {
                 continue;
             }
             if let Some(s) = attr_string(v) {
-                img.meta.extra.insert(key, s);
+                self.meta.extra.insert(key, s);
             }
         }
         if let Some(v) = get(KEY_CONTENT) {
             let stored = attr_string(v).unwrap_or_default();
-            let actual = content_sha256(&img);
+            let actual = content_sha256(self);
             if stored.trim() != actual {
                 return Err(ctx(format!(
                     "header attribute {KEY_CONTENT} ({stored}) does not match the content \
@@ -440,8 +452,7 @@ impl Image {
                 )));
             }
         }
-
-        Ok(img)
+        Ok(())
     }
 
     /// The header attributes of this image as written (own keys and extras, without

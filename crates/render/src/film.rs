@@ -73,7 +73,7 @@ impl Welford {
     /// step M2 ← M2 + δ·(x − mean). The serial chain of the running mean is a subtraction and
     /// a fused multiply-add per sample instead of a subtraction, a product and a sum (1/n does
     /// not depend on it): the packet renderer pushes a packet's sixteen lanes of one pixel one
-    /// after the other, and that chain was most of the push's time. Same statistic, same
+    /// after the other, so that chain bounds the push's time. Same statistic, same
     /// error bounds as the textbook step mean + δ/n (1/n rounded within u = 2⁻⁵³ relative, each
     /// step's result rounded once; M2 keeps Welford's stability, Chan, Golub & LeVeque 1983:
     /// relative error O(n·κ·u) after n samples, κ the data's condition number;

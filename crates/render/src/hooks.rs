@@ -1,8 +1,8 @@
 //! The pieces of the integrator that tests may replace: the line technique, the specular
 //! sampler and the BSDF evaluation. Production renders use [`Hooks::new`] (through
 //! [`crate::render`](fn@crate::render)); [`crate::render_scalar`] renders with any [`Hooks`], which is how power
-//! controls render deliberately wrong variants ([`crate::power_controls`] has the ready-made
-//! ones). Generic, so that the production path stays monomorphic.
+//! controls render deliberately wrong variants (`power_controls`, with the `test-support`
+//! feature, has the ready-made ones). Generic, so that the production path stays monomorphic.
 //!
 //! What each hook replaces:
 //!

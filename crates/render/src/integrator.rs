@@ -144,7 +144,7 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
 
 /// [`render`](crate::render::render) with replaced pieces ([`Hooks`]): the hook through which tests render with
 /// deliberately wrong techniques, specular samplers or BSDF evaluations (power controls, see
-/// [`crate::power_controls`]). `opts.method` still chooses the estimator; the header records
+/// `power_controls`, with the `test-support` feature). `opts.method` still chooses the estimator; the header records
 /// the hooks (`technique` of a replaced technique, `specular_hook`, `bsdf_hook`). Always the
 /// scalar path (the packet renderer's images equal it bit for bit where it applies).
 pub fn render_scalar<D: LightSampling, S: SpecularSampling, B: BsdfModel>(

@@ -24,8 +24,6 @@ pub mod scene;
 #[cfg(any(test, feature = "test-support"))]
 pub mod scene_builder;
 pub mod shading;
-#[cfg(feature = "test-support")]
-pub mod shading_cost;
 pub mod shadow_culling;
 pub mod shapes;
 #[cfg(test)]

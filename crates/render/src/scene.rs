@@ -39,6 +39,29 @@ pub enum FovAxis {
     Larger,
 }
 
+impl FovAxis {
+    /// Mitsuba's conversion of a field of view `fov` along this axis to the horizontal one
+    /// (degrees), for a film of width / height `aspect`.
+    pub fn horizontal_fov(self, fov: f64, aspect: f64) -> f64 {
+        let axis = match self {
+            FovAxis::Smaller if aspect > 1.0 => FovAxis::Y,
+            FovAxis::Smaller => FovAxis::X,
+            FovAxis::Larger if aspect > 1.0 => FovAxis::X,
+            FovAxis::Larger => FovAxis::Y,
+            a => a,
+        };
+        let half = (0.5 * fov).to_radians().tan();
+        match axis {
+            FovAxis::Y => 2.0 * (half * aspect).atan().to_degrees(),
+            FovAxis::Diagonal => {
+                let width = 2.0 * half / (1.0 + 1.0 / (aspect * aspect)).sqrt();
+                2.0 * (0.5 * width).atan().to_degrees()
+            }
+            _ => fov,
+        }
+    }
+}
+
 /// `sensor type="perspective"` with its `film` (hdrfilm, box filter) and `sampler`.
 #[derive(Clone, Debug)]
 pub struct Sensor {

@@ -790,9 +790,9 @@ mod tests {
             let mut expect = 0u32;
             let mut filled = 0usize;
             let mut packet_diffs = 0u64;
-            // The packet walks against the full BVH's packet walk (what the renderer walked
-            // before). Returns (differences, lanes where the full packet walk differs from the
-            // full scalar walk: rounding of the existing kernels, not asserted here).
+            // The packet walks against the full BVH's packet walk. Returns (differences, lanes
+            // where the full packet walk differs from the full scalar walk: rounding of the
+            // existing kernels, not asserted here).
             let flush = |lanes: &RayLanes, lights: &[u32; PACKET], scalar: u32, n: usize| {
                 let mask = ((1u64 << n) - 1) as u32;
                 let expect = bvh.occluded_lanes(lanes, mask);

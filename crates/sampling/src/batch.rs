@@ -13,6 +13,22 @@
 //! `SolidAngle::lane` and its `sample_lane`, on the same inputs and outputs). A lane whose scalar
 //! preparation returns `None` has its bit cleared in [`BatchSamples::mask`] and zero outputs.
 //!
+//! One implementation per technique: each sampler's math is written once, as functions of one
+//! (light, shading point) pair without data-dependent branches — `LineFrame::lane`,
+//! `ProjectedSolidAngle::lane`, `PsaCore::solve_rotated_lane` and `direction_and_density`,
+//! `Li2018::lane`, `step` and `finish`, `SolidAngle::lane` and `sample_lane`,
+//! `LineFrame::direction_to`. The scalar sampler is the one-lane instance: it calls these
+//! functions on one pair (taking the rare fresh evaluation of `solve_rotated_lane` and Li et
+//! al.'s convergence as branches); a kernel here calls them on every lane of the structure of
+//! arrays in one loop. The value type is the lane: the loop over lanes of f32/f64 code is what
+//! the compiler vectorises, so the lane types are the arrays of [`linlight_simd::Lanes3`] and
+//! `[f32; N]`, not an operator-overloaded vector type. Two pieces keep a scalar form next to the
+//! branch-free one, each checked bit for bit against it by the tests here: the frame's
+//! constructor (`LineFrame::build`: its early rejections keep the square roots of |a|² and d²
+//! apart, see there) and atan2 (`trig::atan2_f64` / `atan2_coarse` against their `_select`
+//! forms: the branch starts the division on the predicted path); on the scalar path their
+//! branch-free forms take more instructions per sample than the 3 % this layout allows.
+//!
 //! SIMD: the kernel is one loop over the lanes of branch-free code, which the compiler
 //! vectorises (f32 and f64 lanes side by side); it is compiled three times — for AVX-512,
 //! for AVX2 + FMA, and for the target's baseline (SSE2 on x86-64, or any other architecture) —
@@ -25,7 +41,9 @@
 
 use crate::geometry::{normal_is_valid, unit_normal_lane, FrameArc, LineFrame};
 use crate::li2018::{Li2018, LiState, MAX_ITERATIONS};
-use crate::projected_solid_angle::{ProjectedSolidAngle, PsaCore, DEFAULT_ITERATIONS};
+use crate::projected_solid_angle::{
+    direction_and_density, ProjectedSolidAngle, PsaCore, DEFAULT_ITERATIONS,
+};
 use crate::sampler::clamp_xi;
 use crate::sampler::LineSampler;
 use crate::solid_angle::SolidAngle;
@@ -281,7 +299,7 @@ pub fn sample_projected_solid_angle_packet(
 
 /// Whether the packet's lanes run in one loop (AVX-512) rather than as two interleaved
 /// chains (see [`sample_projected_solid_angle_packet`]). Not `Isa::supported`: the dispatch
-/// tests that (once per call, not twice: ~0.3 % of a render's CPU time), and AVX-512 asked of
+/// tests that (once per call, not twice), and AVX-512 asked of
 /// a CPU without it runs the baseline's one loop, as fast there as its two chains.
 #[inline(always)]
 fn one_loop(isa: Isa) -> bool {
@@ -536,7 +554,7 @@ fn psa_sample_kernel<const N: usize>(prepared: &PreparedBatch<N>, xi: &[f32; N])
 /// The samples of a batch before their directions: the lane loop is split where a lane may need
 /// a fresh sin/cos of its sample (`PsaCore::solve_rotated_lane`: in the ξ guard or after a long
 /// last step, rare), which is then evaluated only if some lane of the batch needs it, instead of
-/// in every lane (it was one of the longest pieces of a lane's work). Bitwise what
+/// in every lane (a sin/cos on the lane's dependency chain). Bitwise what
 /// the scalar [`LineSampler::sample_with_pdf`] returns.
 #[derive(Clone, Copy)]
 struct Pending<const N: usize> {
@@ -622,10 +640,9 @@ impl<const N: usize> Pending<N> {
         let mut valid = [false; N];
         #[allow(clippy::needless_range_loop)]
         for i in 0..N {
-            // As the scalar `ProjectedSolidAngle::sample_with_pdf`.
             let (u, c_hat) = (get3(&self.u, i), get3(&self.c_hat, i));
-            let dir = self.s[i] * u + self.t[i].max(0.0) * c_hat;
-            let pdf = self.n_dot_w[i].max(0.0) * self.inv_psa[i];
+            let values = (self.s[i], self.t[i], self.n_dot_w[i]);
+            let (dir, pdf) = direction_and_density(u, c_hat, self.inv_psa[i], values);
             let distance = self.d[i] / c_hat.dot(dir);
             valid[i] = store(&mut out, i, (dir, pdf, distance, self.ok[i]));
         }

@@ -292,28 +292,16 @@ impl LineFrame {
         self.d * self.c_hat + l * self.u
     }
 
-    /// Unit direction toward the line point at parameter l.
-    #[inline]
+    /// Unit direction toward the line point at parameter l (overflow-safe, unlike
+    /// `point(l).normalize()`). Without a branch (both ways computed, one selected): the same
+    /// code for one sample and for the lanes of [`crate::batch`].
+    #[inline(always)]
     pub fn direction_to(&self, l: f32) -> Vec3 {
         let p = self.point(l);
         let len2 = p.length_squared();
-        if len2 > 1e-30 && len2 <= f32::MAX {
-            return p / len2.sqrt();
-        }
+        let direct = p / len2.sqrt();
         // Outside ~[1e-19, 1e19] the squares leave the normal range (or d ĉ + l u overflows):
         // scale by max(d, |l|) first.
-        let m = self.d.max(l.abs());
-        let p = (self.d / m) * self.c_hat + (l / m) * self.u;
-        p / p.length()
-    }
-
-    /// [`Self::direction_to`] without a branch (both ways computed, one selected; bitwise the
-    /// same), for the lanes of [`crate::batch`].
-    #[inline(always)]
-    pub(crate) fn direction_to_lane(&self, l: f32) -> Vec3 {
-        let p = self.point(l);
-        let len2 = p.length_squared();
-        let direct = p / len2.sqrt();
         let m = self.d.max(l.abs());
         let q = (self.d / m) * self.c_hat + (l / m) * self.u;
         let scaled = q / q.length();

@@ -146,11 +146,12 @@ impl Li2018 {
         (Self::on_exact(exact), ok)
     }
 
-    /// Direction and density of the sample at line parameter l (the end of `sample_with_pdf`).
+    /// Direction and density of the sample at line parameter l (the end of `sample_with_pdf`,
+    /// scalar and in the lanes of [`crate::batch`]).
     #[inline(always)]
     pub(crate) fn finish(&self, l: f32) -> (Vec3, f32) {
         let f = self.exact.support();
-        let dir = f.direction_to_lane(l.max(f.l_begin).min(f.l_end));
+        let dir = f.direction_to(l.max(f.l_begin).min(f.l_end));
         (dir, self.exact.density_in_support(dir))
     }
 }
@@ -166,9 +167,7 @@ pub(crate) struct LiState {
 
 impl LineSampler for Li2018 {
     fn sample(&self, xi: f32) -> Vec3 {
-        let f = self.exact.support();
-        let l = self.sample_l(xi).0.max(f.l_begin).min(f.l_end);
-        f.direction_to(l) // overflow-safe, unlike point(l).normalize()
+        self.finish(self.sample_l(xi).0).0
     }
 
     fn pdf(&self, dir: Vec3) -> f32 {
@@ -186,8 +185,7 @@ impl LineSampler for Li2018 {
     /// The sample lies in the support by construction, so its density is (n·ω)/Ω⊥_R without
     /// the support test of `pdf` (as in technique 8; keeps the timing comparison fair).
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
-        let dir = self.sample(xi);
-        (dir, self.exact.density_in_support(dir))
+        self.finish(self.sample_l(xi).0)
     }
 }
 

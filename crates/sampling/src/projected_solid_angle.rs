@@ -533,14 +533,11 @@ impl<T: Real> PsaCore<T> {
         e.delta_c_cos + (e.delta_c_lin - xi * self.total)
     }
 
-    /// τ of the sample for ξ ∈ [0, 1] after `iterations` Halley steps.
+    /// τ of the sample for ξ ∈ [0, 1] after `iterations` Halley steps (that of
+    /// [`Self::solve_rotated_lane`]).
     #[inline]
     pub fn solve(&self, xi: T, iterations: u32) -> T {
-        if iterations == 0 || Self::in_guard(xi) {
-            return self.start(xi);
-        }
-        let (_, tau, e) = self.iterate(xi, iterations, T::atan2);
-        self.halley_from(tau, xi, &e)
+        self.solve_rotated_lane(xi, iterations, T::atan2).1
     }
 
     /// The first `iterations − 1` Halley steps (`iterations` ≥ 1) from the start value (whose
@@ -570,32 +567,24 @@ impl<T: Real> PsaCore<T> {
         (s, t, self.p0 * ct + self.p1 * st)
     }
 
-    /// [`Self::solve`] and (sin φ, cos φ, n·ω) at the sample. The last step starts from values
-    /// at τ that its evaluation already holds; rotating them by the step h (short Taylor series
-    /// for |h| ≤ [`ROTATION_STEP`], almost always the case for the last step) replaces a
-    /// further sin/cos.
+    /// [`Self::solve`] and (sin φ, cos φ, n·ω) at the sample: the one-lane instance of
+    /// [`Self::solve_rotated_lane`], whose fresh evaluation it takes as a branch.
     #[inline(always)]
     pub fn solve_with_values(&self, xi: T, iterations: u32) -> (T, (T, T, T)) {
-        if iterations == 0 || Self::in_guard(xi) {
-            let tau = self.start(xi);
-            return (tau, self.at(tau));
-        }
-        let (_, tau, e) = self.iterate(xi, iterations, T::atan2);
-        let next = self.halley_from(tau, xi, &e);
-        let h = next - tau;
-        if h.abs() > T::from_f64(ROTATION_STEP) {
-            return (next, self.at(next));
-        }
-        (next, Self::rotate_by(&e, h))
+        let (rotated, tau, fresh) = self.solve_rotated_lane(xi, iterations, T::atan2);
+        (tau, if fresh { self.at(tau) } else { rotated })
     }
 
-    /// [`Self::solve_with_values`] without branches up to its last decision (both ways of every
-    /// earlier decision computed, then selected; bitwise the same results): the values rotated
-    /// by the last step, the τ at which the lane needs them evaluated afresh instead (with
-    /// [`Self::at`]), and whether it does
-    /// (in the ξ guard, or after a last step longer than [`ROTATION_STEP`]; rare). The lanes of
-    /// [`crate::batch`] evaluate `at(τ)` only when some lane of the batch needs it (one sin/cos
-    /// of the chain's length per lane saved in almost every batch).
+    /// [`Self::solve`] without branches up to its last decision (both ways of every earlier
+    /// decision computed, then selected): the values (sin φ, cos φ, n·ω) at the sample, the τ
+    /// of the sample, and whether the values must be evaluated afresh at τ (with [`Self::at`])
+    /// instead.
+    /// The last step starts from values at τ that its evaluation already holds; rotating them
+    /// by the step h (short Taylor series for |h| ≤ [`ROTATION_STEP`], almost always the case
+    /// for the last step) replaces a further sin/cos. Fresh values are needed in the ξ guard
+    /// and after a last step longer than [`ROTATION_STEP`] (rare): the lanes of [`crate::batch`]
+    /// evaluate `at(τ)` only when some lane of the batch needs it (one sin/cos of the chain's
+    /// length per lane saved in almost every batch).
     #[inline(always)]
     pub(crate) fn solve_rotated_lane(
         &self,
@@ -884,12 +873,11 @@ impl ProjectedSolidAngle {
         self.core.solve(clamp_xi(xi), self.iterations)
     }
 
-    /// Direction and n·ω of the sample for ξ.
+    /// Direction and density of the sample for ξ.
     #[inline]
     fn sample_values(&self, xi: f32) -> (Vec3, f32) {
-        let (_, (s, t, n_dot_w)) = self.core.solve_with_values(clamp_xi(xi), self.iterations);
-        let dir = s * self.frame.u + t.max(0.0) * self.frame.c_hat;
-        (dir, n_dot_w)
+        let (_, values) = self.core.solve_with_values(clamp_xi(xi), self.iterations);
+        direction_and_density(self.frame.u, self.frame.c_hat, self.inv_psa, values)
     }
 
     /// [`LineSampler::sample_with_pdf`] without branches, up to the direction, for the lanes of
@@ -922,6 +910,19 @@ impl ProjectedSolidAngle {
     }
 }
 
+/// The sample's direction s·u + max(t, 0)·ĉ and density max(n·ω, 0)·`inv_psa` from its values
+/// (s, t, n·ω) = (sin φ, cos φ, n·ω) on the frame (u, ĉ): the end of
+/// [`LineSampler::sample_with_pdf`], scalar and in the lanes of [`crate::batch`].
+#[inline(always)]
+pub(crate) fn direction_and_density(
+    u: Vec3,
+    c_hat: Vec3,
+    inv_psa: f32,
+    (s, t, n_dot_w): (f32, f32, f32),
+) -> (Vec3, f32) {
+    (s * u + t.max(0.0) * c_hat, n_dot_w.max(0.0) * inv_psa)
+}
+
 impl LineSampler for ProjectedSolidAngle {
     fn sample(&self, xi: f32) -> Vec3 {
         self.sample_values(xi).0
@@ -946,8 +947,7 @@ impl LineSampler for ProjectedSolidAngle {
 
     #[inline]
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
-        let (dir, n_dot_w) = self.sample_values(xi);
-        (dir, n_dot_w.max(0.0) * self.inv_psa)
+        self.sample_values(xi)
     }
 }
 

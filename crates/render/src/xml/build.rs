@@ -460,7 +460,7 @@ impl<'a> Builder<'a> {
                 (focal_length_fov(mm), FovAxis::Diagonal)
             }
         };
-        let fov_x = horizontal_fov(fov_deg, fov_axis, aspect);
+        let fov_x = fov_axis.horizontal_fov(fov_deg, aspect);
         if fov_x <= 0.0 || fov_x >= 180.0 || !fov_x.is_finite() {
             return err(
                 &e.loc,
@@ -1008,24 +1008,4 @@ fn focal_length_fov(mm: f64) -> f64 {
     2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * mm))
         .atan()
         .to_degrees()
-}
-
-/// Mitsuba's conversion of `fov` along `axis` to the horizontal field of view (degrees).
-pub fn horizontal_fov(fov: f64, axis: FovAxis, aspect: f64) -> f64 {
-    let axis = match axis {
-        FovAxis::Smaller if aspect > 1.0 => FovAxis::Y,
-        FovAxis::Smaller => FovAxis::X,
-        FovAxis::Larger if aspect > 1.0 => FovAxis::X,
-        FovAxis::Larger => FovAxis::Y,
-        a => a,
-    };
-    let half = (0.5 * fov).to_radians().tan();
-    match axis {
-        FovAxis::Y => 2.0 * (half * aspect).atan().to_degrees(),
-        FovAxis::Diagonal => {
-            let width = 2.0 * half / (1.0 + 1.0 / (aspect * aspect)).sqrt();
-            2.0 * (0.5 * width).atan().to_degrees()
-        }
-        _ => fov,
-    }
 }

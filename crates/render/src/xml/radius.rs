@@ -148,7 +148,7 @@ fn first_hit(scene: &Scene, o: DVec3, d: DVec3) -> Option<(f64, DVec3)> {
 fn pixel_size(scene: &Scene, dist: f64) -> f64 {
     let s = &scene.sensor;
     let aspect = s.film.width as f64 / s.film.height as f64;
-    let fov_x = super::build::horizontal_fov(s.fov_deg as f64, s.fov_axis, aspect);
+    let fov_x = s.fov_axis.horizontal_fov(s.fov_deg as f64, aspect);
     2.0 * (0.5 * fov_x).to_radians().tan() * dist / s.film.width.max(1) as f64
 }
 

@@ -1,4 +1,4 @@
-//! The paper's timing table: `linlight_render::shading_cost` (every technique shading the cached
+//! The paper's timing table: `linlight::figures::shading_cost` (every technique shading the cached
 //! hit points of a 1920×1080 frame, Lambert + GGX, no shadow rays, 128 lights × 1 spp and
 //! 1 light × 128 spp), printed as ns per sample, ms per frame, ratios to clipped solid angle,
 //! and Peters / clipped and Li / Peters scalar, x8 (8-wide batches) and x16 (16-lane packets of
@@ -21,9 +21,9 @@
 //! variant instead of the fastest the CPU runs (both modes), e.g. the 8-wide batch with AVX2,
 //! whose f32 lanes fill a register, on a CPU with AVX-512.
 //!
-//! Run: `cargo bench -p linlight-render --bench shading`.
+//! Run: `cargo bench -p linlight --bench shading`.
 
-use linlight_render::shading_cost::{
+use linlight::figures::shading_cost::{
     hit_points, lights, measure, shade_batched, shade_packet, shade_scalar, shade_stand_in,
     Batched, RowKind, SPP,
 };

@@ -16,7 +16,7 @@
 //! times interleaved across the rows (timings on a shared machine are noisy: only rows of one
 //! run are compared), and reports per sample, per extrapolated full frame, and as ratios to
 //! clipped solid angle (scalar; [`ConfigTiming::ratio`] compares any two rows, e.g. the x8
-//! batches like for like). Both the shading benchmark (`cargo bench -p linlight-render --bench
+//! batches like for like). Both the shading benchmark (`cargo bench -p linlight --bench
 //! shading`) and `linlight figures` (the timings table) call it.
 
 use glam::Vec3;
