@@ -295,7 +295,7 @@ fn method_flags_are_recorded_in_the_header() {
         ),
     );
     type Case<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)]);
-    let cases: [Case; 6] = [
+    let cases: [Case; 7] = [
         (
             &[],
             &[
@@ -307,6 +307,7 @@ fn method_flags_are_recorded_in_the_header() {
             ],
         ),
         (&["--lights", "one"], &[("light_selection", "one")]),
+        (&["--lights", "tree"], &[("light_selection", "tree")]),
         (
             &["--mis", "power", "--light-samples", "2"],
             &[
@@ -377,7 +378,7 @@ fn method_flags_are_recorded_in_the_header() {
     let r = linlight(&["render", &scene, "-q", "--lights", "all"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(
-        r.stderr.contains("--lights") && r.stderr.contains("one or every"),
+        r.stderr.contains("--lights") && r.stderr.contains("one, every or tree"),
         "{}",
         r.stderr
     );

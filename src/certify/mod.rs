@@ -10,8 +10,8 @@
 //!    surfaces, quadrature along the line on glossy ones).
 //!
 //! 3. Besides them, the renders of [`NOISE_RENDERS`] (blue noise) and
-//!    [`LIGHT_SELECTION_RENDERS`] (one light chosen per light sample, on the two-light scenes;
-//!    the technique matrix samples every light) on their scenes, against the same oracles.
+//!    [`LIGHT_SELECTION_RENDERS`] (one light chosen per light sample, uniformly or by the light
+//!    tree, on the two-light scenes; the technique matrix samples every light) on their scenes, against the same oracles.
 //!
 //! Multiple testing: every comparison runs at the Šidák level α_c = 1 − (1 − α)^(1/m), m the
 //! number of comparisons of the *full default* certification (every scene with a reference ×
@@ -81,8 +81,10 @@ pub const NOISE_RENDERS: [VariantRender; 2] = [
 /// committed scenes with two lights: the diffuse room (lanes choosing different lights in one
 /// packet) and the glossy scene (full BSDF, evaluated lane by lane in the packets), both on the
 /// batched path with one light sample and on the scalar path where the budget gives several
-/// (several chosen lights per camera sample). White noise, one pass, like the matrix's renders.
-pub const LIGHT_SELECTION_RENDERS: [VariantRender; 2] = [
+/// (several chosen lights per camera sample); and the light tree's choice
+/// (`--lights tree`, probabilities from the shading point) on the diffuse room. White noise, one
+/// pass, like the matrix's renders.
+pub const LIGHT_SELECTION_RENDERS: [VariantRender; 3] = [
     VariantRender {
         scene: "two-tubes",
         technique: Technique::ProjectedSolidAngle,
@@ -94,6 +96,12 @@ pub const LIGHT_SELECTION_RENDERS: [VariantRender; 2] = [
         technique: Technique::ProjectedSolidAngle,
         noise: Noise::White,
         lights: LightSelection::One,
+    },
+    VariantRender {
+        scene: "two-tubes",
+        technique: Technique::ProjectedSolidAngle,
+        noise: Noise::White,
+        lights: LightSelection::Tree,
     },
 ];
 

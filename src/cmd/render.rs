@@ -36,6 +36,7 @@ Examples:
   linlight render glossy.xml --technique ltc                   # LTC only (see below)
   linlight render glossy.xml --technique projected-solid-angle # one technique, full BSDF
   linlight render two-tubes.xml --lights one       # one light per light sample, as Mitsuba
+  linlight render many-tubes.xml --lights tree     # one light per light sample, by a light tree
 
 Methods (--technique): `mis` (default) takes per light and iteration one projected-solid-angle
 (diffuse) and one LTC (specular) sample, both shadow-traced, combined by --mis; `ltc` takes an
@@ -50,8 +51,11 @@ samples EVERY light (N × lights shadow rays). With --lights one (Mitsuba's dire
 each light sample picks ONE light j with probability p_j (proportional to the emitters'
 sampling_weight, uniform by default) and divides its estimate by p_j: the same work per sample
 as Mitsuba, the same expectation, but far more noise where the lights light different regions
-(two-tubes: 720× the per-pixel variance for 0.78× the work). Scenes with one light render the
-same image either way.
+(two-tubes: 720× the per-pixel variance for 0.78× the work). With --lights tree each light
+sample picks one light from a tree over the lights, with a probability p_j(x) that follows each
+light's power and a bound of its projected solid angle at the shading point x, and divides by
+it: the work of `one`, for scenes with many lights (docs/light-tree.md). Scenes with one light
+render the same image under every selection.
 
 The header of the .exr records technique, mis, mis_v (clamped optimal), light_samples and
 light_selection.
@@ -86,8 +90,8 @@ pub struct Args {
     #[arg(long, value_name = "N")]
     light_samples: Option<u32>,
     /// Lights of each light sample: every light, or one chosen at random and divided by its
-    /// probability (Mitsuba's estimator; see below).
-    #[arg(long, default_value = "every", value_name = "every|one")]
+    /// probability (`one`: Mitsuba's estimator; `tree`: by a light tree; see below).
+    #[arg(long, default_value = "every", value_name = "every|one|tree")]
     lights: String,
     /// Independent passes; with P > 1 the variance comes from the P pass means (dof = P − 1).
     #[arg(long, default_value_t = 1)]

@@ -13,11 +13,13 @@
 //! - `one` (Mitsuba's estimator): one light j, chosen with probability p_j from an extra number
 //!   ξ_c drawn first, estimated with K_j/p_j in place of K_j. A scene with one light draws no ξ_c
 //!   (p = 1).
+//! - `tree`: as `one`, with p_j(x, n) of the light tree at the shading point
+//!   ([`crate::light_tree`]).
 //!
 //! Numbers of a camera sample that reaches a reflecting surface, after its film position:
 //! `every`: light by light, each light's `light_samples` iterations ([`crate::shading`]: one
 //! number per iteration, two for the two-technique methods on non-Lambertian surfaces);
-//! `one`: per light sample ξ_c (scenes with two or more lights), then the chosen light's
+//! `one` and `tree`: per light sample ξ_c (scenes with two or more lights), then the chosen light's
 //! numbers of one iteration. Lambertian surfaces take the fast path f = ρ/π with one diffuse
 //! technique (the single technique, or projected solid angle for the two-technique methods).
 
@@ -27,7 +29,7 @@ use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, Spe
 use crate::method::Method;
 use crate::options::{check_options, window, RenderError, RenderOptions};
 use crate::ray_offset::shadow_ray_to;
-use crate::render_scene::{chosen_light, reflecting_normal, RenderScene};
+use crate::render_scene::{reflecting_normal, RenderScene};
 use crate::scene::{Rgb, Scene};
 use crate::shading::{estimate_resolved, single_technique, ShadingPoint};
 use crate::shapes::Ray;
@@ -39,11 +41,13 @@ use linlight_sampling::Segment;
 
 /// Σ estimate(segment, K, iterations, rng) over the lights of the light samples: every light
 /// with `opts.light_samples` iterations, or ([`RenderScene::chooses_one`]) `opts.light_samples`
-/// times the light chosen by ξ_c, with K/p and one iteration.
+/// times the light chosen by ξ_c (from shading point x with normal n), with K/p and one
+/// iteration.
 #[inline(always)]
 fn sum_over_light_samples(
     scene: &RenderScene,
     opts: &RenderOptions,
+    (x, n): (Vec3, Vec3),
     rng: &mut SampleStream,
     mut estimate: impl FnMut(usize, &Segment, Vec3, u32, &mut SampleStream) -> Vec3,
 ) -> Vec3 {
@@ -51,7 +55,7 @@ fn sum_over_light_samples(
     if scene.chooses_one(opts.lights) {
         for _ in 0..opts.light_samples {
             let xi = rng.next_f32_unstratified();
-            let (j, k) = chosen_light(&scene.lights, &scene.choice, xi);
+            let (j, k) = scene.choose_light(opts.lights, x, n, xi);
             total += estimate(j, &scene.lights[j].0, k, 1, rng);
         }
     } else {
@@ -99,17 +103,23 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     match scene.lambert[shape] {
         Some(f) => {
             // K·(ρ/π)·cos θ/p(ω), p per radius (dΩ_R).
-            total = sum_over_light_samples(scene, opts, rng, |j, segment, k, samples, rng| {
-                single_technique(
-                    pieces.technique.prepare(segment, sp.p, n).as_ref(),
-                    n,
-                    samples,
-                    rng,
-                    &mut visible(j),
-                    |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
-                    &mut dropped,
-                )
-            });
+            total = sum_over_light_samples(
+                scene,
+                opts,
+                (sp.p, n),
+                rng,
+                |j, segment, k, samples, rng| {
+                    single_technique(
+                        pieces.technique.prepare(segment, sp.p, n).as_ref(),
+                        n,
+                        samples,
+                        rng,
+                        &mut visible(j),
+                        |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
+                        &mut dropped,
+                    )
+                },
+            );
             if light_samples > 1 {
                 total /= light_samples as f32;
             }
@@ -118,19 +128,25 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             let point = ShadingPoint::for_method(pieces.bsdf, opts.method, bsdf, sp.p, n, wi);
             // `every`: each light's estimate is its iterations' mean; `one`: the mean of the
             // light samples is taken here.
-            total = sum_over_light_samples(scene, opts, rng, |j, segment, k, samples, rng| {
-                estimate_resolved(
-                    pieces,
-                    opts.method,
-                    &point,
-                    segment,
-                    k,
-                    samples,
-                    rng,
-                    &mut visible(j),
-                    &mut dropped,
-                )
-            });
+            total = sum_over_light_samples(
+                scene,
+                opts,
+                (sp.p, n),
+                rng,
+                |j, segment, k, samples, rng| {
+                    estimate_resolved(
+                        pieces,
+                        opts.method,
+                        &point,
+                        segment,
+                        k,
+                        samples,
+                        rng,
+                        &mut visible(j),
+                        &mut dropped,
+                    )
+                },
+            );
             if one && light_samples > 1 {
                 total /= light_samples as f32;
             }

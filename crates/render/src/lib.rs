@@ -12,6 +12,7 @@ pub mod frame;
 pub mod hooks;
 pub mod integrator;
 pub mod light_choice;
+pub mod light_tree;
 pub mod method;
 pub mod options;
 pub mod packet;

@@ -38,16 +38,26 @@ pub enum LightSelection {
     /// where the lights light different regions).
     #[default]
     Every,
+    /// One light per light sample, chosen by a tree over the lights with probability
+    /// p_j(x, n) from the shading point (their power and a bound of their projected solid
+    /// angle, [`crate::light_tree`]) and divided by it: the work of `one`, for scenes with many
+    /// lights.
+    Tree,
 }
 
 impl LightSelection {
-    pub const ALL: [LightSelection; 2] = [LightSelection::One, LightSelection::Every];
+    pub const ALL: [LightSelection; 3] = [
+        LightSelection::One,
+        LightSelection::Every,
+        LightSelection::Tree,
+    ];
 
     /// Name on the command line and in image headers (`light_selection`).
     pub fn name(self) -> &'static str {
         match self {
             LightSelection::One => "one",
             LightSelection::Every => "every",
+            LightSelection::Tree => "tree",
         }
     }
 }
@@ -64,7 +74,7 @@ impl std::str::FromStr for LightSelection {
         Self::ALL
             .into_iter()
             .find(|l| l.name() == s)
-            .ok_or_else(|| format!("unknown light selection '{s}' (expected one or every)"))
+            .ok_or_else(|| format!("unknown light selection '{s}' (expected one, every or tree)"))
     }
 }
 

@@ -55,6 +55,7 @@ use crate::bvh::{PacketHits, RayLanes, PACKET};
 use crate::film::Welford;
 use crate::frame::{metadata, pixel_entries, render_in_tiles};
 use crate::hooks::{LightSampling, Ltc, SceneBsdf};
+use crate::light_choice::LightSelection;
 use crate::method::Method;
 use crate::options::{check_options, window, RenderError, RenderOptions};
 use crate::ray_offset::{offset_origin, SHADOW_EPSILON};
@@ -665,7 +666,14 @@ fn packet_kernel(
     // lanes' samples lane by lane, the batch lanes' in the batch kernels, one packet shadow
     // walk per kind of sample.
     for walk in 0..if one { 1 } else { lights.len() } {
-        let light = ctx.light_lanes(walk, one, &number, batch_lanes != 0, scalar_lanes != 0);
+        let light = ctx.light_lanes(
+            walk,
+            one,
+            &number,
+            &shading,
+            batch_lanes != 0,
+            scalar_lanes != 0,
+        );
         if scalar_lanes != 0 {
             dropped += ctx.scalar_light(&shading, scalar_lanes, &light, &mut total);
         }
@@ -1244,15 +1252,17 @@ impl<'a> Context<'a> {
     /// The lights of pass `walk` over the lights and their numbers, `number(d)` being
     /// dimension d of the lanes (only the batch lanes' ξ when `batch`, the scalar lanes' when
     /// `scalar`): light `walk` in every lane, ξ of dimension 2 + `walk` for the batch lanes and
-    /// 2 + `walk` or (2 + 2·`walk`, 3 + 2·`walk`) for the scalar lanes (`every`); or (`one`)
-    /// each lane's light chosen by its ξ_c (dimension 2; the scalar path's `chosen_light` on
-    /// the lanes) with K/p, and its numbers from dimension 3 on.
+    /// 2 + `walk` or (2 + 2·`walk`, 3 + 2·`walk`) for the scalar lanes (`every`); or (`one`,
+    /// `tree`) each lane's light chosen by its ξ_c (dimension 2; the scalar path's
+    /// `choose_light` on the lanes, `tree` from the lane's shading point) with K/p, and its
+    /// numbers from dimension 3 on.
     #[inline(always)]
     fn light_lanes(
         &self,
         walk: usize,
         one: bool,
         number: &impl Fn(usize) -> [f32; PACKET_LANES],
+        shading: &ShadingLanes,
         batch: bool,
         scalar: bool,
     ) -> LightLanes {
@@ -1286,6 +1296,35 @@ impl<'a> Context<'a> {
                 uniform: Some(walk),
                 light: [walk as u32; PACKET_LANES],
                 rows: light_row(segment, *k).map(|v| [v; PACKET_LANES]),
+                xi,
+                scalar_xi,
+            };
+        }
+        if self.opts.lights == LightSelection::Tree {
+            // Each shaded lane's light from its shading point, lane by lane (the scalar path's
+            // `choose_light`); the other lanes sample nothing.
+            let xi_c = number(2);
+            let mut light = [0u32; PACKET_LANES];
+            let mut rows = [[0.0f32; PACKET_LANES]; 9];
+            let mut m = shading.active;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let (j, kp) = rs.choose_light(
+                    LightSelection::Tree,
+                    get3(&shading.p, k),
+                    get3(&shading.n, k),
+                    xi_c[k],
+                );
+                light[k] = j as u32;
+                for (r, v) in light_row(&rs.lights[j].0, kp).into_iter().enumerate() {
+                    rows[r][k] = v;
+                }
+            }
+            return LightLanes {
+                uniform: None,
+                light,
+                rows,
                 xi,
                 scalar_xi,
             };

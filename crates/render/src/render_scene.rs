@@ -6,6 +6,7 @@
 use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::light_choice::{LightChoice, LightSelection};
+use crate::light_tree::{k_over_pmf, LightTree};
 use crate::options::{window, RenderError};
 use crate::scene::{Bsdf, Geometry, Scene};
 use crate::shadow_culling::ShadowCulling;
@@ -31,6 +32,8 @@ pub struct RenderScene {
     pub lights: Vec<(Segment, Vec3)>,
     /// The distribution of the light chosen per light sample under [`LightSelection::One`].
     pub choice: LightChoice,
+    /// The tree that chooses the light per light sample under [`LightSelection::Tree`].
+    pub tree: LightTree,
     /// The lights as the camera sees them (empty when the scene hides emitters).
     pub visible: VisibleLines,
     /// Light contributions dropped because they were not finite (reported by the renderer).
@@ -82,11 +85,31 @@ pub fn diffuse_lobe(bsdf: &Bsdf, ns: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
 }
 
 impl RenderScene {
-    /// Whether light samples choose one light ([`LightSelection::One`] with two or more
-    /// lights); otherwise every light is sampled (with one light the two are the same).
+    /// Whether light samples choose one light ([`LightSelection::One`] or
+    /// [`LightSelection::Tree`] with two or more lights); otherwise every light is sampled (with
+    /// one light they are the same).
     #[inline]
     pub fn chooses_one(&self, selection: LightSelection) -> bool {
-        selection == LightSelection::One && self.lights.len() > 1
+        selection != LightSelection::Every && self.lights.len() > 1
+    }
+
+    /// The light chosen by ξ_c at shading point `x` (unit normal `n`, the reflecting side's)
+    /// when [`Self::chooses_one`]: its index and its K/p (the same operations on both render
+    /// paths).
+    #[inline]
+    pub fn choose_light(
+        &self,
+        selection: LightSelection,
+        x: Vec3,
+        n: Vec3,
+        xi: f32,
+    ) -> (usize, Vec3) {
+        if selection == LightSelection::Tree {
+            let (j, pmf) = self.tree.sample(x, n, xi);
+            (j, k_over_pmf(self.lights[j].1, pmf))
+        } else {
+            chosen_light(&self.lights, &self.choice, xi)
+        }
     }
 
     /// Numbers a camera sample that reaches a reflecting surface draws for its lights, with
@@ -205,7 +228,18 @@ impl RenderScene {
                 .collect();
             VisibleLines::new(&camera, &lights)
         };
+        let lights: Vec<(Segment, Vec3)> = scene
+            .lights
+            .iter()
+            .map(|l| {
+                (
+                    Segment::new(l.begin, l.end),
+                    Vec3::from_array(l.radiance_times_radius),
+                )
+            })
+            .collect();
         Ok(Self {
+            tree: LightTree::new(&lights),
             visible,
             dropped: Default::default(),
             camera,
@@ -232,16 +266,7 @@ impl RenderScene {
                         .map(|rho| rho.as_vec3() * std::f32::consts::FRAC_1_PI)
                 })
                 .collect(),
-            lights: scene
-                .lights
-                .iter()
-                .map(|l| {
-                    (
-                        Segment::new(l.begin, l.end),
-                        Vec3::from_array(l.radiance_times_radius),
-                    )
-                })
-                .collect(),
+            lights,
             choice: LightChoice::new(
                 &scene
                     .lights

@@ -1,0 +1,465 @@
+//! The light chosen per light sample by a tree over the lights' segments
+//! ([`LightSelection::Tree`](crate::light_choice::LightSelection::Tree)), in the spirit of
+//! pbrt-v4's `BVHLightSampler`: each node bounds its segments by a box and holds their power;
+//! from the shading point (x, n) the walk goes down from the root, at each node into child c
+//! with probability I_c/(I_left + I_right), and the pmf of the light reached is the product of
+//! the choices made on its path.
+//!
+//! Importance of a node seen from (x, n): a bound of the projected solid angle per radius of
+//! its segments times their radiance. Interior nodes (box with bounding sphere of centre c and
+//! radius r, power Φ = Σ ‖K‖₁·L of their segments, K = radiance × radius, L the length; the
+//! emitted power of a tube is 2π²·R·(K/R)·L, proportional): I = 2Φ·cos θ′/d², with
+//! d² = max(‖c − x‖², r²), cos θ′ = cos(max(0, θ − θ_b)), θ the angle between n and c − x and
+//! θ_b = asin(r/d) the half-angle of the sphere seen from x (θ_b = π inside the sphere). Leaves
+//! (one segment): I = ‖K‖₁·Ω_R·cos θ′, Ω_R the segment's exact solid angle per radius (its far
+//! limit is the interior nodes' 2L·sin θ/d²). A tube radiates all around its axis, so there is
+//! no emission cone to bound (pbrt's θ_o, θ_e).
+//!
+//! Unbiasedness: every light has p_j > 0 at every shading point. cos θ' is floored at
+//! [`COS_FLOOR`]: a node wholly below the horizon keeps a tiny probability instead of none, so
+//! the walk never stops without a light and every light sample draws the same numbers (the
+//! choice ξ_c, then the light's) whatever the shading point. A light below the horizon
+//! contributes zero through its estimator (max(0, n·ω)), so choosing it rarely only wastes that
+//! sample. The estimator divides light j's K by p_j(x, n) ([`LightTree::sample`]); its
+//! expectation is Σ_j p_j·E_j/p_j = Σ_j E_j, the expectation of `every`.
+//!
+//! ξ_c is one uniform; after each choice it is rescaled to [0, 1) on the chosen side (in f64:
+//! with 24-bit ξ and depth D, the selection frequencies equal the pmf returned to within
+//! D·2⁻⁵² relative rounding per step, and within 2⁻²⁴ of the lattice spacing of ξ).
+//! [`LightTree::pmf`] recomputes the same products in the same order, bit for bit.
+
+use glam::Vec3;
+use linlight_sampling::Segment;
+
+/// Floor of cos θ' in a node's importance (relative to the node's Φ/d²).
+pub const COS_FLOOR: f32 = 1e-4;
+
+/// A node: the box and power of its segments, and either two children or one light (then also
+/// its segment and ‖K‖₁).
+#[derive(Clone, Debug, PartialEq)]
+struct Node {
+    lo: Vec3,
+    hi: Vec3,
+    power: f32,
+    /// Children (left, right) for interior nodes; for a leaf `(light, u32::MAX)`.
+    children: (u32, u32),
+    /// A leaf's segment and ‖K‖₁ (unused in interior nodes).
+    segment: Segment,
+    k: f32,
+}
+
+impl Node {
+    fn is_leaf(&self) -> bool {
+        self.children.1 == u32::MAX
+    }
+
+    /// The node's importance at shading point `x` with unit normal `n` (module documentation):
+    /// cos θ′ (floored at [`COS_FLOOR`]) times 2Φ/d² for an interior node, times ‖K‖₁·Ω_R for a
+    /// leaf; positive and finite.
+    #[inline]
+    fn importance(&self, x: Vec3, n: Vec3) -> f32 {
+        let c = 0.5 * (self.lo + self.hi);
+        let r2 = 0.25 * (self.hi - self.lo).length_squared();
+        let to = c - x;
+        let dist2 = to.length_squared();
+        let cos_bound = if dist2 <= r2 {
+            1.0 // x inside the bounding sphere: every direction may reach it
+        } else {
+            let cos_t = (n.dot(to) / dist2.sqrt()).clamp(-1.0, 1.0);
+            let sin2_b = r2 / dist2;
+            let cos_b = (1.0 - sin2_b).max(0.0).sqrt();
+            if cos_t >= cos_b {
+                1.0 // n inside the cone of the sphere
+            } else {
+                // cos(θ − θ_b) = cos θ cos θ_b + sin θ sin θ_b, for θ > θ_b.
+                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+                cos_t * cos_b + sin_t * sin2_b.sqrt()
+            }
+        };
+        let reach = if self.is_leaf() {
+            self.k * solid_angle_per_radius(&self.segment, x)
+        } else {
+            2.0 * self.power / dist2.max(r2).max(f32::MIN_POSITIVE)
+        };
+        let i = reach * cos_bound.max(COS_FLOOR);
+        if i.is_finite() {
+            i.max(f32::MIN_POSITIVE)
+        } else {
+            f32::MAX
+        }
+    }
+}
+
+/// Ω_R of segment `s` seen from `x`: the solid angle per radius of the thin tube around it,
+/// ∫ 2 sin θ/r² dl = (2/h)·(l₂/√(h² + l₂²) − l₁/√(h² + l₁²)), h the distance from `x` to the
+/// line and l₁ < l₂ the positions of the ends along it from the foot of the perpendicular.
+/// (Far away it is 2L·sin θ/d², the interior nodes' 2Φ/d² with sin θ ≤ 1.)
+#[inline]
+fn solid_angle_per_radius(s: &Segment, x: Vec3) -> f32 {
+    let axis = s.end - s.begin;
+    let length = axis.length();
+    let a = s.begin - x;
+    let l1 = a.dot(axis) / length;
+    let l2 = l1 + length;
+    let h2 = (a.length_squared() - l1 * l1).max(1e-12 * length * length);
+    let h = h2.sqrt();
+    2.0 / h * (l2 / (h2 + l2 * l2).sqrt() - l1 / (h2 + l1 * l1).sqrt())
+}
+
+/// A binary tree over a scene's light segments (see the module documentation). Empty for no
+/// lights.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LightTree {
+    nodes: Vec<Node>,
+    /// Per light: the choices from the root to its leaf, bit i set = right at depth i, and
+    /// the depth.
+    trail: Vec<(u64, u32)>,
+}
+
+impl LightTree {
+    /// The tree over `lights` (segment, K). A light's power is ‖K‖₁·length (positive lengths
+    /// and K assumed; a zero power is raised to the smallest positive f32 so every light can be
+    /// chosen).
+    pub fn new(lights: &[(Segment, Vec3)]) -> Self {
+        let mut tree = Self {
+            nodes: Vec::with_capacity(2 * lights.len()),
+            trail: vec![(0, 0); lights.len()],
+        };
+        if lights.is_empty() {
+            return tree;
+        }
+        let mut order: Vec<u32> = (0..lights.len() as u32).collect();
+        tree.build(lights, &mut order, 0, 0);
+        tree
+    }
+
+    /// Builds the subtree of `lights[order]` at depth `depth` with trail `bits`; returns its
+    /// node index. Splits at the median of the segments' midpoints along the axis where they
+    /// spread most.
+    fn build(
+        &mut self,
+        lights: &[(Segment, Vec3)],
+        order: &mut [u32],
+        depth: u32,
+        bits: u64,
+    ) -> u32 {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        let (mut clo, mut chi) = (lo, hi);
+        let mut power = 0.0f32;
+        for &j in order.iter() {
+            let (s, k) = &lights[j as usize];
+            lo = lo.min(s.begin).min(s.end);
+            hi = hi.max(s.begin).max(s.end);
+            let mid = 0.5 * (s.begin + s.end);
+            clo = clo.min(mid);
+            chi = chi.max(mid);
+            power += light_power(s, *k);
+        }
+        let index = self.nodes.len() as u32;
+        let (segment, k) = lights[order[0] as usize];
+        self.nodes.push(Node {
+            lo,
+            hi,
+            power: power.max(f32::MIN_POSITIVE),
+            children: (0, u32::MAX),
+            segment,
+            k: k.abs().element_sum(),
+        });
+        // Median splits: depth ≤ ⌈log₂ N⌉ < 64, the bits of a trail.
+        debug_assert!(depth < 64);
+        if order.len() == 1 {
+            let j = order[0];
+            self.nodes[index as usize].children = (j, u32::MAX);
+            self.trail[j as usize] = (bits, depth);
+            return index;
+        }
+        let axis = (chi - clo).max_position();
+        let key = |j: &u32| {
+            let s = &lights[*j as usize].0;
+            (0.5 * (s.begin + s.end))[axis]
+        };
+        order.sort_by(|a, b| key(a).total_cmp(&key(b)).then(a.cmp(b)));
+        let half = order.len() / 2;
+        let (left, right) = order.split_at_mut(half);
+        let l = self.build(lights, left, depth + 1, bits);
+        let r = self.build(lights, right, depth + 1, bits | (1 << depth));
+        self.nodes[index as usize].children = (l, r);
+        index
+    }
+
+    /// Number of lights.
+    pub fn len(&self) -> usize {
+        self.trail.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.trail.is_empty()
+    }
+
+    /// The probability of going left at interior node `node` from (x, n).
+    #[inline]
+    fn p_left(&self, node: &Node, x: Vec3, n: Vec3) -> f64 {
+        let (l, r) = node.children;
+        let il = self.nodes[l as usize].importance(x, n) as f64;
+        let ir = self.nodes[r as usize].importance(x, n) as f64;
+        il / (il + ir)
+    }
+
+    /// The light chosen by ξ_c ∈ [0, 1) at shading point `x` with unit normal `n`, and its
+    /// probability p_j(x, n) > 0 (equal to [`Self::pmf`]).
+    #[inline]
+    pub fn sample(&self, x: Vec3, n: Vec3, xi: f32) -> (usize, f64) {
+        debug_assert!(!self.nodes.is_empty(), "no light to choose");
+        let mut u = (xi as f64).clamp(0.0, 1.0);
+        let mut pmf = 1.0f64;
+        let mut node = &self.nodes[0];
+        while !node.is_leaf() {
+            let p = self.p_left(node, x, n);
+            let (l, r) = node.children;
+            if u < p {
+                u = (u / p).min(1.0);
+                pmf *= p;
+                node = &self.nodes[l as usize];
+            } else {
+                u = ((u - p) / (1.0 - p)).clamp(0.0, 1.0);
+                pmf *= 1.0 - p;
+                node = &self.nodes[r as usize];
+            }
+        }
+        (node.children.0 as usize, pmf)
+    }
+
+    /// p_j(x, n): the probability that [`Self::sample`] chooses light `j` at (x, n).
+    pub fn pmf(&self, x: Vec3, n: Vec3, j: usize) -> f64 {
+        let (bits, depth) = self.trail[j];
+        let mut pmf = 1.0f64;
+        let mut node = &self.nodes[0];
+        for d in 0..depth {
+            let p = self.p_left(node, x, n);
+            let (l, r) = node.children;
+            if bits >> d & 1 == 0 {
+                pmf *= p;
+                node = &self.nodes[l as usize];
+            } else {
+                pmf *= 1.0 - p;
+                node = &self.nodes[r as usize];
+            }
+        }
+        debug_assert!(node.is_leaf() && node.children.0 as usize == j);
+        pmf
+    }
+}
+
+/// Φ of one light: ‖K‖₁ × its length (proportional to the tube's emitted power).
+fn light_power(s: &Segment, k: Vec3) -> f32 {
+    let p = k.abs().element_sum() * (s.end - s.begin).length();
+    if p.is_finite() {
+        p
+    } else {
+        f32::MAX
+    }
+}
+
+/// K/p_j as both render paths compute it: K times 1/p rounded to f32 once.
+#[inline(always)]
+pub fn k_over_pmf(k: Vec3, pmf: f64) -> Vec3 {
+    k * (1.0 / pmf) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use linlight_verify::chi2::pooled_chi_square;
+
+    /// A fixed 64-bit generator (SplitMix64) for the tests' ξ and scenes.
+    struct Mix(u64);
+    impl Mix {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        }
+        /// A lattice uniform k·2⁻²⁴, as the renderer's.
+        fn xi(&mut self) -> f32 {
+            (self.next() >> 40) as f32 * (1.0 / 16_777_216.0)
+        }
+        fn unit(&mut self) -> f32 {
+            self.xi()
+        }
+    }
+
+    /// The many-tubes ceiling: 8 × 8 tubes along x at height 3.9, K of a few sizes.
+    fn ceiling() -> Vec<(Segment, Vec3)> {
+        (0..64)
+            .map(|i| {
+                let (a, b) = ((i % 8) as f32, (i / 8) as f32);
+                let (x, y) = (-7.0 + 2.0 * a, -5.0 + 1.4 * b);
+                let k = Vec3::splat(1.0 + (i % 3) as f32);
+                (
+                    Segment::new(Vec3::new(x - 0.6, y, 3.9), Vec3::new(x + 0.6, y, 3.9)),
+                    k,
+                )
+            })
+            .collect()
+    }
+
+    /// Random segments in a box (some crossing, some long), random K.
+    fn random_lights(rng: &mut Mix, n: usize) -> Vec<(Segment, Vec3)> {
+        (0..n)
+            .map(|_| {
+                let p = |rng: &mut Mix| {
+                    Vec3::new(rng.unit(), rng.unit(), rng.unit()) * 10.0 - Vec3::splat(5.0)
+                };
+                let a = p(rng);
+                let b = a + (p(rng) * 0.3);
+                (Segment::new(a, b), Vec3::splat(0.1 + rng.unit()))
+            })
+            .collect()
+    }
+
+    /// Shading points: floor and desk points facing up, a wall point, points on the ceiling
+    /// facing down (every light on its horizon), random points and normals.
+    fn shading_points(rng: &mut Mix) -> Vec<(Vec3, Vec3)> {
+        let mut v = vec![
+            (Vec3::new(0.0, 0.0, 0.0), Vec3::Z),
+            (Vec3::new(-6.5, -4.0, 0.75), Vec3::Z),
+            (Vec3::new(8.0, 0.0, 2.0), -Vec3::X),
+            (Vec3::new(0.3, 0.2, 4.0), -Vec3::Z),
+            (Vec3::new(0.0, 0.0, 3.9), Vec3::Z), // on the lights' plane, facing away below
+        ];
+        for _ in 0..5 {
+            let x = Vec3::new(rng.unit(), rng.unit(), rng.unit()) * 12.0 - Vec3::splat(6.0);
+            let n = (Vec3::new(rng.unit(), rng.unit(), rng.unit()) - Vec3::splat(0.5))
+                .try_normalize()
+                .unwrap_or(Vec3::Z);
+            v.push((x, n));
+        }
+        v
+    }
+
+    /// Pearson's χ² of `counts` against `n`·`pmf` (the verify crate's pooling: cells below 5
+    /// expected pooled); its p-value.
+    fn chi2_p(counts: &[u64], pmf: &[f64], n: u64) -> f64 {
+        let expected: Vec<f64> = pmf.iter().map(|p| p * n as f64).collect();
+        pooled_chi_square(counts, &expected).p_value
+    }
+
+    /// Counts of the lights chosen by `samples` lattice ξ at (x, n).
+    fn frequencies(tree: &LightTree, x: Vec3, n: Vec3, rng: &mut Mix, samples: u64) -> Vec<u64> {
+        let mut counts = vec![0u64; tree.len()];
+        for _ in 0..samples {
+            let (j, p) = tree.sample(x, n, rng.xi());
+            assert_eq!(p, tree.pmf(x, n, j), "sample and pmf disagree");
+            counts[j] += 1;
+        }
+        counts
+    }
+
+    /// Scenes × shading points of the selection tests: (tree, x, n).
+    fn cases() -> Vec<(LightTree, Vec3, Vec3)> {
+        let mut rng = Mix(0x5eed_0022);
+        let mut scenes = vec![
+            ceiling(),
+            random_lights(&mut rng, 37),
+            random_lights(&mut rng, 2),
+        ];
+        scenes.push(random_lights(&mut rng, 1));
+        let mut out = Vec::new();
+        for lights in scenes {
+            let tree = LightTree::new(&lights);
+            for (x, n) in shading_points(&mut rng) {
+                out.push((tree.clone(), x, n));
+            }
+        }
+        out
+    }
+
+    /// Significance level of the whole family of χ² tests below; each case is tested at
+    /// ALPHA / cases (Bonferroni).
+    const ALPHA: f64 = 0.01;
+    /// Choices drawn per case.
+    const SAMPLES: u64 = 200_000;
+
+    /// The probabilities of every light sum to 1 (to f64 rounding) and are positive at every
+    /// shading point, and the frequencies of the lights chosen by SAMPLES lattice ξ match them:
+    /// Pearson's χ² per case (cells below 5 expected pooled) at α = 0.01 over the family
+    /// (Bonferroni over the cases); `sample` returns the `pmf` of its light bit for bit.
+    #[test]
+    fn selection_frequencies_match_the_pmf() {
+        let cases = cases();
+        let level = ALPHA / cases.len() as f64;
+        let mut rng = Mix(7);
+        for (c, (tree, x, n)) in cases.iter().enumerate() {
+            let pmf: Vec<f64> = (0..tree.len()).map(|j| tree.pmf(*x, *n, j)).collect();
+            assert!(pmf.iter().all(|&p| p > 0.0 && p.is_finite()), "case {c}");
+            let sum: f64 = pmf.iter().sum();
+            assert!((sum - 1.0).abs() < 1e-12, "case {c}: Σ pmf = {sum}");
+            if tree.len() < 2 {
+                assert_eq!(tree.sample(*x, *n, 0.3), (0, 1.0));
+                continue;
+            }
+            let counts = frequencies(tree, *x, *n, &mut rng, SAMPLES);
+            let p = chi2_p(&counts, &pmf, SAMPLES);
+            assert!(
+                p > level,
+                "case {c} ({x}, {n}): χ² p = {p:.3e} ≤ {level:.1e}"
+            );
+        }
+    }
+
+    /// Negative control: the same frequencies tested against a pmf off by a factor 1.1 on its
+    /// most probable light (the others rescaled to sum to 1) are rejected at the same level in
+    /// every case with a light of probability ≥ 0.1.
+    #[test]
+    fn a_pmf_off_by_a_factor_is_rejected() {
+        let cases = cases();
+        let level = ALPHA / cases.len() as f64;
+        let mut rng = Mix(7);
+        let mut rejected = 0;
+        for (tree, x, n) in cases.iter().filter(|(t, _, _)| t.len() >= 2) {
+            let mut pmf: Vec<f64> = (0..tree.len()).map(|j| tree.pmf(*x, *n, j)).collect();
+            let top = (0..pmf.len())
+                .max_by(|&a, &b| pmf[a].total_cmp(&pmf[b]))
+                .unwrap();
+            if pmf[top] < 0.1 {
+                continue;
+            }
+            let rest = 1.0 - pmf[top];
+            let wrong = (pmf[top] * 1.1).min(0.999);
+            for (j, p) in pmf.iter_mut().enumerate() {
+                *p = if j == top {
+                    wrong
+                } else {
+                    *p * (1.0 - wrong) / rest
+                };
+            }
+            let counts = frequencies(tree, *x, *n, &mut rng, SAMPLES);
+            let p = chi2_p(&counts, &pmf, SAMPLES);
+            assert!(
+                p <= level,
+                "({x}, {n}): wrong pmf not rejected, p = {p:.3e}"
+            );
+            rejected += 1;
+        }
+        assert!(rejected >= 10, "only {rejected} cases tested");
+    }
+
+    /// Near lights are preferred: on the floor under one of 64 equal tubes, that tube is the
+    /// likeliest; above the ceiling facing up (every tube below the horizon), the floor keeps
+    /// every light possible.
+    #[test]
+    fn importance_prefers_near_lights_above_the_horizon() {
+        let lights: Vec<_> = ceiling().into_iter().map(|(s, _)| (s, Vec3::ONE)).collect();
+        let tree = LightTree::new(&lights);
+        let x = Vec3::new(-7.0, -5.0, 0.0);
+        let pmf: Vec<f64> = (0..64).map(|j| tree.pmf(x, Vec3::Z, j)).collect();
+        let best = (0..64).max_by(|&a, &b| pmf[a].total_cmp(&pmf[b])).unwrap();
+        assert_eq!(best, 0, "{pmf:?}");
+        let up = Vec3::new(0.0, 0.0, 4.5);
+        assert!((0..64).all(|j| tree.pmf(up, Vec3::Z, j) > 0.0));
+        // Every leaf's trail leads to it, and the depth is ⌈log₂ 64⌉.
+        assert!(tree.trail.iter().all(|&(_, d)| d == 6));
+    }
+}
