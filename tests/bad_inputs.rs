@@ -413,6 +413,18 @@ fn cases() -> Vec<Case> {
             "does not exist",
         ),
         case(
+            "certify --scenes-dir that does not exist",
+            &[
+                "certify",
+                "--scenes-dir",
+                "{dir}/no_scenes",
+                "--report-dir",
+                "{dir}/report",
+            ],
+            2,
+            "cannot read the scene directory",
+        ),
+        case(
             "certify --report-dir under a file",
             &["certify", "--report-dir", "{dir}/good.xml/report"],
             2,
