@@ -69,6 +69,19 @@ fn setup(dir: &Path) {
         r#"<float name="radius" value="0.0001"/><transform name="to_world"><scale x="2"/></transform>"#,
     );
     variant(dir, "huge.xml", r#"value="16""#, r#"value="100000""#);
+    // Zero-area lights (issue 22): a tube of length 0, a tube of radius 0.
+    variant(
+        dir,
+        "zero_length_tube.xml",
+        r#"<point name="p1" value="0.7, 0.4, 1.2"/>"#,
+        r#"<point name="p1" value="-0.5, -0.3, 0.3"/>"#,
+    );
+    variant(
+        dir,
+        "zero_radius_tube.xml",
+        r#"<float name="radius" value="0.0001"/>"#,
+        r#"<float name="radius" value="0"/>"#,
+    );
     write(
         dir,
         "deep.xml",
@@ -178,6 +191,18 @@ fn cases() -> Vec<Case> {
             "malformed XML",
         ),
         case("empty film", &["render", "{dir}/zero.xml"], 2, "is empty"),
+        case(
+            "tube of length 0",
+            &["render", "{dir}/zero_length_tube.xml"],
+            2,
+            "cylinder p0 and p1 coincide",
+        ),
+        case(
+            "tube of radius 0",
+            &["render", "{dir}/zero_radius_tube.xml"],
+            2,
+            "cylinder radius must be positive (got 0)",
+        ),
         case(
             "unsupported shape",
             &["render", "{dir}/torus.xml"],
@@ -388,6 +413,18 @@ fn cases() -> Vec<Case> {
             "does not exist",
         ),
         case(
+            "certify --scenes-dir that does not exist",
+            &[
+                "certify",
+                "--scenes-dir",
+                "{dir}/no_scenes",
+                "--report-dir",
+                "{dir}/report",
+            ],
+            2,
+            "cannot read the scene directory",
+        ),
+        case(
             "certify --report-dir under a file",
             &["certify", "--report-dir", "{dir}/good.xml/report"],
             2,
@@ -583,5 +620,125 @@ fn accepted_like_mitsuba() {
     let img = Image::read(&out).unwrap();
     assert!(img.mean.iter().any(|m| m[0] > 0.0));
     assert_eq!(img.meta.extra["technique"], "mis");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Zero-area surfaces (issue 22) are handled as Mitsuba does: a rectangle scaled by 0 and a mesh
+/// of only degenerate triangles are never hit; the render succeeds, its image is finite, the
+/// degenerate mesh gets a warning naming its file and line, and neither changes the image.
+#[test]
+fn zero_area_surfaces_render_and_change_nothing() {
+    let dir = scratch("zero-area");
+    write(
+        &dir,
+        "degenerate.obj",
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n",
+    );
+    let sphere = r#"<shape type="sphere">"#;
+    assert!(FLOOR_SCENE.contains(sphere));
+    let zero_area = FLOOR_SCENE.replacen(
+        sphere,
+        r#"<shape type="rectangle"><transform name="to_world"><scale value="0"/></transform><bsdf type="diffuse"/></shape>
+  <shape type="obj"><string name="filename" value="degenerate.obj"/></shape>
+  <shape type="sphere">"#,
+        1,
+    );
+    let plain = write(&dir, "plain.xml", FLOOR_SCENE);
+    let zero = write(&dir, "zero_area.xml", zero_area);
+    let mut images = Vec::new();
+    for (scene, name) in [(&plain, "plain.exr"), (&zero, "zero_area.exr")] {
+        let out = dir.join(name);
+        let r = linlight(&["render", scene.as_str(), "-o", out.to_str().unwrap(), "-q"]);
+        assert_eq!(r.code, 0, "{scene}: {}", r.stderr);
+        images.push((Image::read(&out).unwrap(), r.stderr));
+    }
+    let (plain_img, _) = &images[0];
+    let (zero_img, warnings) = &images[1];
+    assert!(
+        warnings.contains("zero_area.xml:") && warnings.contains("degenerate triangles"),
+        "{warnings}"
+    );
+    assert!(zero_img
+        .mean
+        .iter()
+        .flatten()
+        .all(|v| v.is_finite() && *v >= 0.0));
+    assert!(zero_img.mean.iter().flatten().any(|v| *v > 0.0));
+    // Same seed, same light, no surface hit differently: the same pixels.
+    assert_eq!(plain_img.mean, zero_img.mean);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The floor scene with `n` tubes (a row of short lights above the floor) instead of one.
+fn many_lights_scene(n: usize) -> String {
+    let tube = r#"<shape type="cylinder">
+    <point name="p0" value="-0.5, -0.3, 0.3"/>
+    <point name="p1" value="0.7, 0.4, 1.2"/>
+    <float name="radius" value="0.0001"/>
+    <emitter type="area"><rgb name="radiance" value="20000, 10000, 5000"/></emitter>
+  </shape>"#;
+    assert!(FLOOR_SCENE.contains(tube));
+    let lights: String = (0..n)
+        .map(|i| {
+            let x = -1.0 + 2.0 * (i % 100) as f64 / 100.0;
+            let y = -1.0 + 2.0 * (i / 100) as f64 / (n / 100).max(1) as f64;
+            format!(
+                "<shape type=\"cylinder\"><point name=\"p0\" value=\"{x}, {y}, 1\"/>\
+                 <point name=\"p1\" value=\"{}, {y}, 1\"/><float name=\"radius\" value=\"0.0001\"/>\
+                 <emitter type=\"area\"><rgb name=\"radiance\" value=\"10, 10, 10\"/></emitter></shape>\n",
+                x + 0.01
+            )
+        })
+        .collect();
+    FLOOR_SCENE.replacen(tube, &lights, 1)
+}
+
+/// 10⁴ lights (issue 22) load and render without quadratic time: at 1 spp with one light chosen
+/// per sample, 4× the lights may cost at most 10× the wall time (linear: 4×, quadratic: 16×;
+/// the fixed cost of a run only lowers the ratio), best of two runs each to ride out a busy
+/// machine; and the image is finite.
+#[test]
+fn ten_thousand_lights_scale_linearly() {
+    let dir = scratch("many-lights");
+    let mut best = Vec::new();
+    for n in [2_500, 10_000] {
+        let scene = write(&dir, &format!("lights{n}.xml"), many_lights_scene(n));
+        let out = dir.join(format!("lights{n}.exr"));
+        let args = [
+            "render",
+            scene.as_str(),
+            "-D",
+            "spp=1",
+            "-D",
+            "res=8",
+            "-t",
+            "1",
+            "--lights",
+            "one",
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ];
+        let mut t = f64::INFINITY;
+        for _ in 0..2 {
+            let start = std::time::Instant::now();
+            let r = linlight(&args);
+            t = t.min(start.elapsed().as_secs_f64());
+            assert_eq!(r.code, 0, "{n} lights: {}", r.stderr);
+        }
+        let img = Image::read(&out).unwrap();
+        assert!(img
+            .mean
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite() && *v >= 0.0));
+        best.push(t);
+    }
+    assert!(
+        best[1] <= 10.0 * best[0],
+        "10 000 lights took {:.2} s, 2 500 took {:.2} s: worse than linear",
+        best[1],
+        best[0]
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -24,6 +24,9 @@ Examples:
   linlight certify --shard 1/4 --report-dir shard-1   one part of a CI matrix (1/4 … 4/4)
   linlight certify --merge shard-*/report.json        one verdict from all parts
   linlight certify --quiet --json summary.json
+  linlight certify --scenes-dir references/generated --scenes many-meshes --no-sampler-suite
+                                            a large generated scene (scripts/make-scenes first;
+                                            docs/generated-scenes.md)
 
 Budgets: docs/budget.md. Sharding and a CI matrix: docs/ci.md. Exit codes: docs/exit-codes.md.";
 
@@ -81,6 +84,11 @@ pub struct Args {
     /// Project root holding references/ and scripts/ [default: the current directory].
     #[arg(long, value_name = "DIR", default_value = ".")]
     root: PathBuf,
+    /// Directory of the scenes (`*.xml`), relative to --root; each needs its reference
+    /// references/mitsuba/<scene>.exr. references/generated holds the large generated scenes,
+    /// certified as their own family (scripts/make-scenes first; docs/generated-scenes.md).
+    #[arg(long, value_name = "DIR", default_value = "references/scenes")]
+    scenes_dir: PathBuf,
 }
 
 fn unusable(msg: impl std::fmt::Display) -> ExitCode {
@@ -107,6 +115,7 @@ pub fn run(args: Args) -> ExitCode {
     // No --techniques: each scene's default subjects (certify::matrix).
     let subjects: Vec<&dyn Subject> = methods.iter().map(|m| m as &dyn Subject).collect();
     let mut opts = Options::new(&args.root);
+    opts.scenes_dir = args.root.join(&args.scenes_dir);
     opts.scenes = args.scenes.clone();
     // The blue-noise and light-selection renders of the selected techniques (all by default).
     if !methods.is_empty() {
