@@ -54,6 +54,20 @@ def build_parser() -> argparse.ArgumentParser:
         help="the linearlight plugin's technique (with --emitter linearlight)",
     )
     r.add_argument("--quiet", action="store_true")
+    r.add_argument(
+        "--ray",
+        metavar="ADDRESS",
+        help="run the passes as tasks on a Ray cluster (auto, HOST:PORT, ray://HOST:PORT) or on a "
+        "local instance of N CPUs (local:N); the result is bit-identical to a local render "
+        "(needs scripts/setup-oracle --with-ray)",
+    )
+    r.add_argument(
+        "--ray-retries",
+        type=int,
+        default=3,
+        metavar="N",
+        help="with --ray: re-run a pass whose worker was lost up to N times (default 3)",
+    )
 
     s = sub.add_parser("radius-sweep", help="image mean vs. radius against the R -> 0 limit")
     s.add_argument("scene", type=Path)
@@ -108,7 +122,8 @@ def cmd_render(a: argparse.Namespace) -> int:
     if a.emitter != "linearlight" and a.sampling != "psa":
         print("harness: --sampling needs --emitter linearlight", file=sys.stderr)
         return 2
-    loaded = oracle.load_scene(a.scene, defines, a.radius, a.sampling if a.emitter == "linearlight" else None)
+    linearlight = a.sampling if a.emitter == "linearlight" else None
+    loaded = oracle.load_scene(a.scene, defines, a.radius, linearlight)
     print(
         f"harness: render {a.scene} variant={variant} passes={a.passes} spp/pass={a.spp} "
         f"radius={'file' if a.radius is None else a.radius} lights={[l.id for l in loaded.lights]} "
@@ -121,7 +136,28 @@ def cmd_render(a: argparse.Namespace) -> int:
             f"adds each of its {loaded.k_divisor} delta emitter samples with weight 1",
             file=sys.stderr,
         )
-    result = render.render_passes(loaded, variant, a.passes, a.spp, defines, quiet=a.quiet, seed_offset=a.seed_offset)
+    if a.ray is None:
+        result = render.render_passes(
+            loaded, variant, a.passes, a.spp, defines, quiet=a.quiet, seed_offset=a.seed_offset
+        )
+    else:
+        from harness import ray_passes
+
+        if a.ray_retries < 0:
+            print("harness: --ray-retries must be >= 0", file=sys.stderr)
+            return 2
+        try:
+            ray = ray_passes.connect(a.ray)
+        except ray_passes.RayUnavailable as e:
+            print(f"harness: {e}", file=sys.stderr)
+            return 2
+        try:
+            job = ray_passes.scene_job(a.scene, defines, a.radius, variant, a.spp, linearlight)
+            result = ray_passes.render_passes_ray(
+                ray, job, loaded, a.passes, defines, quiet=a.quiet, seed_offset=a.seed_offset, retries=a.ray_retries
+            )
+        finally:
+            ray.shutdown()
     render.write_result(result, a.out)
     m = result.mean.mean(axis=(0, 1))
     print(f"harness: wrote {a.out} ({result.meta['wall_time_s']} s), image mean {m[0]:.6g} {m[1]:.6g} {m[2]:.6g}")

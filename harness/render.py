@@ -60,6 +60,9 @@ class RenderResult:
     tail: np.ndarray  # (H, W, 3) float64, heavy-tail share over the passes
     meta: dict[str, str]
     pass_means: np.ndarray  # (P, 3) image mean of each pass
+    # Every pass: {"pass": p, "seed": mi.render seed, "attempts": renders it took, "lost": the
+    # errors of lost workers (--ray)}; written to the sidecar JSON as "passes".
+    pass_records: list[dict[str, object]] | None = None
 
     def image_mean_stderr(self) -> tuple[np.ndarray, np.ndarray]:
         """Image mean per channel and its standard error from the spread of the pass means."""
@@ -105,6 +108,24 @@ def render_passes(
             )
     wall = time.perf_counter() - t0
     assert stats.mean is not None
+    meta = pass_metadata(loaded, variant, passes, spp, overrides, seed_offset, wall)
+    records: list[dict[str, object]] = [
+        {"pass": p, "seed": seed_offset + p, "attempts": 1, "lost": []} for p in range(passes)
+    ]
+    return RenderResult(stats.mean, stats.var_of_mean(), stats.tail_share(), meta, np.array(pass_means), records)
+
+
+def pass_metadata(
+    loaded: oracle.LoadedScene,
+    variant: str,
+    passes: int,
+    spp: int,
+    overrides: Mapping[str, str],
+    seed_offset: int,
+    wall: float,
+) -> dict[str, str]:
+    """The header of a render of `passes` passes of `spp` samples, pass p with seed
+    seed_offset + p (local or --ray)."""
     meta = {
         "dof": str(passes - 1),
         "spp": str(spp * passes),
@@ -126,7 +147,7 @@ def render_passes(
         # the lights' K above is the tubes'; the emitters hold K / k_divisor (docs/mitsuba-plugin.md)
         meta["emitter"] = loaded.emitter
         meta["emitter_k_divisor"] = str(loaded.k_divisor)
-    return RenderResult(stats.mean, stats.var_of_mean(), stats.tail_share(), meta, np.array(pass_means))
+    return meta
 
 
 def write_result(result: RenderResult, out: Path) -> None:
@@ -146,5 +167,6 @@ def write_result(result: RenderResult, out: Path) -> None:
             "image_mean_stderr": [float(v) for v in se],
             # from the spread of the P pass means (exact for the image mean, noisier estimate)
             "image_mean_stderr_from_passes": [float(v) for v in result.image_mean_stderr()[1]],
+            **({"passes": result.pass_records} if result.pass_records is not None else {}),
         },
     )

@@ -6,6 +6,7 @@
 
 pub mod calibrate;
 pub mod certify;
+pub mod compare_report;
 pub mod external;
 pub mod figures;
 pub mod ground_truth;

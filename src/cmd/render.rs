@@ -8,6 +8,7 @@
 
 use indicatif::{ProgressBar, ProgressStyle};
 use linlight::certify::budget::BudgetRule;
+pub use linlight::compare_report::duration;
 use linlight::merge::merge;
 use linlight::outputs::{self, ImageFormat};
 use linlight_imagefile::Image;
@@ -491,17 +492,6 @@ fn match_variance(
         duration(eta)
     ));
     Ok((spp, note))
-}
-
-/// "12.3 s", "4.5 min" or "2.1 h".
-pub fn duration(seconds: f64) -> String {
-    if seconds < 120.0 {
-        format!("{seconds:.1} s")
-    } else if seconds < 7200.0 {
-        format!("{:.1} min", seconds / 60.0)
-    } else {
-        format!("{:.1} h", seconds / 3600.0)
-    }
 }
 
 /// --time: passes of `opts` with batch seeds until `limit` seconds have passed (at least one),

@@ -1,0 +1,247 @@
+"""The `linlight` Python package (crates/python, installed by scripts/setup-oracle) against the
+`linlight` program (target/release/linlight) on the same inputs and seeds.
+
+- Samplers: the package's samplers, answering `linlight samplers --external` through
+  harness/examples/linlight_package_client.py, give the suite's report of the program's own
+  technique statistic for statistic where both draw the same primary samples (the first subject
+  of a run, `area`, on stream 0), and pass the suite for every other technique at the same seed.
+- compare(): the same report as `linlight compare --json` (every key, every number) and the
+  z map of `--z-exr`, on a render against the committed reference and on committed references of
+  different scenes (a DIFFERENT verdict).
+- render(): the same image, bit for bit, as `linlight render` with the same options.
+- Image I/O round trip, and the program's messages as LinlightError on bad input.
+- The example of docs/python.md runs.
+
+LINLIGHT_NO_PACKAGE=1 (scripts/setup-oracle did not build the package) skips the module.
+"""
+
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import unittest
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = ROOT / "target" / "release" / "linlight"
+REFS = ROOT / "references" / "mitsuba"
+SCENES = ROOT / "references" / "scenes"
+CLIENT = ROOT / "harness" / "examples" / "linlight_package_client.py"
+
+if os.environ.get("LINLIGHT_NO_PACKAGE") == "1":
+    raise unittest.SkipTest("LINLIGHT_NO_PACKAGE=1: the linlight package is not installed")
+import linlight  # noqa: E402  (scripts/setup-oracle installs it; an ImportError here is a failure)
+
+# The suite's run: small enough for seconds per technique, the same for the program and the
+# package (the seed fixes the configurations and every primary sample).
+SUITE = ["--samples", "20000", "--random-configs", "3", "--seed", "7"]
+# Every technique of the external protocol that the package implements (not `ltc`, and not the
+# biased `baseline`, which the suite does not certify).
+CERTIFIED = ["area", "solid-angle", "clipped-solid-angle", "hart-linear", "hart-quadratic", "li2018",
+             "projected-solid-angle"]
+
+
+def run(args, **kw):
+    return subprocess.run([str(BIN), *args], capture_output=True, text=True, **kw)
+
+
+def setUpModule():
+    if not BIN.is_file():
+        raise RuntimeError(f"{BIN} is missing: build it with `cargo build --release`")
+
+
+class Samplers(unittest.TestCase):
+    def test_first_subject_equals_the_program_statistic_for_statistic(self):
+        with tempfile.TemporaryDirectory() as d:
+            own, ext = Path(d) / "own.json", Path(d) / "ext.json"
+            run(["samplers", *SUITE, "--json", str(own)])  # exit 1: area fails at 20000 samples
+            r = run(["samplers", *SUITE, "--external", f"{sys.executable} {CLIENT} area", "--json", str(ext)])
+            self.assertIn(r.returncode, (0, 1), r.stderr)
+            a = {t["name"]: t for t in json.loads(own.read_text())["techniques"]}["area"]
+            b = json.loads(ext.read_text())["techniques"][0]
+        self.assertEqual(a["verdict"], b["verdict"])
+        ca = {c["config"]: c for c in a["configs"]}
+        cb = {c["config"]: c for c in b["configs"]}
+        self.assertEqual(sorted(ca), sorted(cb))
+        self.assertGreater(len(ca), 30)
+        tested = 0
+        for name, c in ca.items():
+            with self.subTest(config=name):
+                d = cb[name]
+                for key in ("outcome", "chi2", "chi2_coarse", "normalisation_error", "round_trip"):
+                    self.assertEqual(c.get(key), d.get(key), key)
+                # The integral's tolerance has a floor for external answers (f32 I/O); the
+                # estimate and its standard error are those of the same samples.
+                if "integral" in c:
+                    for key in ("estimate", "reference", "std_error"):
+                        self.assertEqual(c["integral"][key], d["integral"][key], key)
+                tested += c["outcome"] == "tested"
+        self.assertGreater(tested, 20)
+
+    def test_every_technique_passes_the_suite(self):
+        for t in CERTIFIED[1:]:
+            with self.subTest(technique=t):
+                r = run(["samplers", *SUITE, "--external", f"{sys.executable} {CLIENT} {t}"])
+                self.assertEqual(r.returncode, 0, r.stdout[-2000:] + r.stderr)
+                self.assertIn("PASS", r.stdout)
+
+    def test_broadcasting_and_zero_rows(self):
+        # Five shading points under one light; the last one faces away from it.
+        x = np.zeros((5, 3), np.float32)
+        x[:, 0] = np.linspace(-1, 1, 5)
+        n = np.tile(np.float32([0, 0, 1]), (5, 1))
+        n[4] = [0, 0, -1]
+        p = linlight.prepare("projected-solid-angle", [-1, 0, 1], [1, 0, 1], x, n)
+        self.assertEqual(p.shape, (5,))
+        self.assertEqual(p.valid.tolist(), [True, True, True, True, False])
+        xi = np.linspace(0.01, 0.99, 7, dtype=np.float32)
+        d, pdf = p.sample(xi)
+        self.assertEqual(d.shape, (5, 7, 3))
+        self.assertEqual(pdf.shape, (5, 7))
+        self.assertTrue((pdf[:4] > 0).all() and (pdf[4] == 0).all() and (d[4] == 0).all())
+        np.testing.assert_allclose(np.linalg.norm(d[:4], axis=-1), 1, rtol=1e-6)
+        np.testing.assert_allclose(p.pdf(d)[:4], pdf[:4], rtol=2e-4)
+        np.testing.assert_allclose(p.inverse(d)[:4], np.broadcast_to(xi, (4, 7)), atol=1e-4)
+        # One ξ per pair, and module-level sample(): the same numbers as prepare().sample().
+        d1, p1 = linlight.sample("projected-solid-angle", [-1, 0, 1], [1, 0, 1], x, n, xi[:5])
+        self.assertEqual(d1.shape, (5, 3))
+        np.testing.assert_array_equal(p1[:4], np.diagonal(p.sample(np.tile(xi[:5], (5, 1)))[1])[:4])
+
+    def test_bad_input_raises_the_programs_messages(self):
+        with self.assertRaisesRegex(linlight.LinlightError, r"unknown technique 'psa' \(expected one of: baseline"):
+            linlight.prepare("psa", [0, 0, 1], [1, 0, 1], [0, 0, 0], [0, 0, 1])
+        with self.assertRaisesRegex(linlight.LinlightError, r"x\[0\] = .* is not finite"):
+            linlight.prepare("area", [0, 0, 1], [1, 0, 1], [np.nan, 0, 0], [0, 0, 1])
+        with self.assertRaisesRegex(linlight.LinlightError, "the same point"):
+            linlight.prepare("area", [0, 0, 1], [0, 0, 1], [0, 0, 0], [0, 0, 1])
+        p = linlight.prepare("area", [0, 0, 1], [1, 0, 1], [0, 0, 0], [0, 0, 1])
+        with self.assertRaisesRegex(linlight.LinlightError, r"is not in \[0, 1\)"):
+            p.sample([1.0])
+        with self.assertRaisesRegex(linlight.LinlightError, "do not broadcast"):
+            linlight.prepare("area", [[0, 0, 1]] * 2, [[1, 0, 1]] * 3, [0, 0, 0], [0, 0, 1])
+
+
+class Images(unittest.TestCase):
+    def test_round_trip_and_header(self):
+        rng = np.random.default_rng(3)
+        mean = rng.random((4, 5, 3), dtype=np.float32)
+        var = rng.random((4, 5, 3), dtype=np.float32) * 1e-3
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "x.exr"
+            linlight.write_image(path, mean, var, {"dof": 7, "spp": 64, "passes": 8, "renderer": "test"})
+            img = linlight.read_image(path)
+            info = run(["info", str(path)])
+        np.testing.assert_array_equal(img.mean, mean)
+        np.testing.assert_array_equal(img.var, var)
+        self.assertEqual((img.header["dof"], img.header["spp"], img.header["passes"]), (7.0, 64, 8))
+        self.assertEqual(img.header["renderer"], "test")
+        self.assertEqual(info.returncode, 0, info.stdout + info.stderr)
+
+    def test_refuses_what_the_format_refuses(self):
+        bad = np.zeros((2, 2, 3), np.float32)
+        bad[1, 1, 2] = np.inf
+        with tempfile.TemporaryDirectory() as d:
+            with self.assertRaisesRegex(linlight.LinlightError, "not finite|non-finite|finite"):
+                linlight.write_image(Path(d) / "x.exr", bad, np.zeros_like(bad), {"dof": 1})
+            with self.assertRaisesRegex(linlight.LinlightError, "is not a number"):
+                linlight.write_image(Path(d) / "x.exr", np.zeros_like(bad), np.zeros_like(bad), {"dof": "many"})
+            with self.assertRaises(linlight.LinlightError):
+                linlight.read_image(Path(d) / "missing.exr")
+
+
+class Compare(unittest.TestCase):
+    def cli_report(self, a, b, *extra):
+        with tempfile.TemporaryDirectory() as d:
+            js, zx = Path(d) / "r.json", Path(d) / "z.exr"
+            r = run(["compare", str(a), str(b), "--json", str(js), "--z-exr", str(zx), *extra])
+            self.assertIn(r.returncode, (0, 1, 3), r.stdout + r.stderr)
+            import mitsuba as mi  # the z map is a plain RGB EXR, not of the project's format
+
+            mi.set_variant("scalar_rgb")
+            bmp = mi.Bitmap(str(zx))
+            z = np.array(bmp, copy=True).reshape(bmp.height(), bmp.width(), -1)[:, :, :3]
+            return json.loads(js.read_text()), z, r.returncode
+
+    def check_same(self, a, b, **kw):
+        extra = ["--allow-different-scenes"] if kw.get("allow_different_scenes") else []
+        want, z, rc = self.cli_report(a, b, *extra)
+        got = linlight.compare(a, b, **kw)
+        zp = got.pop("z")
+        self.assertEqual(got, want)
+        np.testing.assert_array_equal(zp, z)
+        self.assertEqual({"Consistent": 0, "Different": 1, "Inconclusive": 3}[got["verdict"]], rc)
+        return got
+
+    def test_render_against_the_committed_reference(self):
+        with tempfile.TemporaryDirectory() as d:
+            out = Path(d) / "floor-tube.exr"
+            r = run(["render", str(SCENES / "floor-tube.xml"), "-D", "res=64", "--spp", "64", "--passes", "8",
+                     "-q", "-o", str(out)])
+            self.assertEqual(r.returncode, 0, r.stderr)
+            got = self.check_same(out, REFS / "floor-tube.exr")
+        self.assertEqual(got["verdict"], "Consistent")
+
+    def test_committed_references_of_different_scenes(self):
+        got = self.check_same(REFS / "floor-tube.exr", REFS / "floor-crossing.exr", allow_different_scenes=True)
+        self.assertEqual(got["verdict"], "Different")
+        with self.assertRaisesRegex(linlight.LinlightError, "scene"):
+            linlight.compare(REFS / "floor-tube.exr", REFS / "floor-crossing.exr")
+
+
+class Render(unittest.TestCase):
+    def test_same_image_as_the_program(self):
+        args = dict(spp=8, passes=3, seed=11, technique="projected-solid-angle", defines={"res": 24})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the finite-radius note of the scene's thin tubes
+            img = linlight.render(SCENES / "two-tubes.xml", **args)
+        with tempfile.TemporaryDirectory() as d:
+            out = Path(d) / "t.exr"
+            r = run(["render", str(SCENES / "two-tubes.xml"), "--spp", "8", "--passes", "3", "--seed", "11",
+                     "--technique", "projected-solid-angle", "-D", "res=24", "-q", "-o", str(out)])
+            self.assertEqual(r.returncode, 0, r.stderr)
+            cli = linlight.read_image(out)
+        self.assertEqual(img.mean.shape, (24, 24, 3))
+        np.testing.assert_array_equal(img.mean, cli.mean)
+        np.testing.assert_array_equal(img.var, cli.var)
+        for k, v in img.header.items():
+            self.assertEqual(cli.header.get(k), v, k)
+
+    def test_bad_options_raise_the_programs_messages(self):
+        with self.assertRaisesRegex(linlight.LinlightError, "^cannot read scene file .*nope.xml$"):
+            linlight.render(SCENES / "nope.xml")
+        with self.assertRaisesRegex(linlight.LinlightError, "^--spp and --passes must be at least 1$"):
+            linlight.render(SCENES / "floor-tube.xml", spp=0)
+        with self.assertRaisesRegex(linlight.LinlightError, "unknown technique 'fast'"):
+            linlight.render(SCENES / "floor-tube.xml", technique="fast")
+        with tempfile.TemporaryDirectory() as d:
+            r = run(["render", str(SCENES / "floor-tube.xml"), "-D", "nosuch=1", "-q", "-o", str(Path(d) / "x.exr")])
+        with self.assertRaises(linlight.LinlightError) as e:
+            linlight.render(SCENES / "floor-tube.xml", defines={"nosuch": 1})
+        self.assertIn(str(e.exception), r.stderr)
+        self.assertIn("nosuch", str(e.exception))
+        self.assertEqual(r.returncode, 2)
+
+    def test_warnings_are_python_warnings(self):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            linlight.render(SCENES / "floor-tube.xml", spp=1, passes=1, defines={"res": 4})
+        self.assertTrue(any("no variance estimate" in str(x.message) for x in w), [str(x.message) for x in w])
+
+
+class DocsExample(unittest.TestCase):
+    def test_docs_python_md_example_runs(self):
+        text = (ROOT / "docs" / "python.md").read_text()
+        blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+        self.assertTrue(blocks, "docs/python.md has no ```python block")
+        script = "\n".join(blocks)
+        r = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=300)
+        self.assertEqual(r.returncode, 0, r.stdout[-3000:] + r.stderr[-3000:])
+
+
+if __name__ == "__main__":
+    unittest.main()
