@@ -1,7 +1,7 @@
-//! The external sampler protocol, versions 1 and 2 (docs/external-protocol.md): a program started with
-//! `sh -c COMMAND` answers the sampler suite's batches on its stdin/stdout, so that any
-//! implementation of a line-sampling technique, in any language, is certified by the same checks
-//! as the Rust samplers (`linlight samplers --external`).
+//! The external sampler protocol, versions 1 and 2 (docs/external-protocol.md): a program
+//! started with `sh -c COMMAND` answers the sampler suite's batches on its stdin/stdout, so that
+//! any implementation of a line-sampling technique, in any language, is certified by the same
+//! checks as the Rust samplers (`linlight samplers --external`).
 //!
 //! Every message is one line of JSON, then (for batches) little-endian f32 arrays whose length
 //! the line states. The program speaks first (its hello), then answers each request in order.

@@ -4,7 +4,7 @@
 //! projected-solid-angle inversion, the LTC table lookup and MIS weights, the mutated kernels as
 //! negative controls, and the sampler suite on the kernels' answers.
 //!
-//! Without the `gpu` feature, or without an adapter, the result says so ([`GpuSummary::skipped`]):
+//! Without the `gpu` feature, or without an adapter, the result says so (its field `skipped`):
 //! a certification never leaves the kernels out silently.
 
 use serde::{Deserialize, Serialize};
@@ -28,7 +28,8 @@ pub struct GpuCheck {
 /// The kernels' certification as `certify` reports it (summary, report.md, report.html, JSON).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GpuSummary {
-    /// Why the kernels did not run ([`NOT_BUILT`], [`NO_ADAPTER`]); `None`: they ran.
+    /// Why the kernels did not run ([`NOT_BUILT`], [`NO_ADAPTER`], [`NOT_REQUESTED`]); `None`:
+    /// they ran.
     pub skipped: Option<String>,
     /// The backend's own message about the skip or the failure (e.g. wgpu's "no adapter" error).
     pub note: Option<String>,
