@@ -37,7 +37,7 @@ pub struct Args {
     #[arg(long)]
     tilt_power: bool,
     /// Certify an external implementation instead of linlight's samplers: run `sh -c COMMAND`
-    /// and send it the suite's batches on its stdin (protocol version 1,
+    /// and send it the suite's batches on its stdin (protocol versions 1 and 2,
     /// docs/external-protocol.md: one JSON line per message, then little-endian f32 arrays).
     /// Its hello line names the technique it implements; its answers are judged against that
     /// technique's certified density: χ², pdf consistency, backward error, its own inverse if it
