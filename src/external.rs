@@ -1,17 +1,22 @@
-//! The external sampler protocol, version 1 (docs/external-protocol.md): a program started with
-//! `sh -c COMMAND` answers the sampler suite's batches on its stdin/stdout, so that any
-//! implementation of a line-sampling technique, in any language, is certified by the same checks
-//! as the Rust samplers (`linlight samplers --external`).
+//! The external sampler protocol, versions 1 and 2 (docs/external-protocol.md): a program
+//! started with `sh -c COMMAND` answers the sampler suite's batches on its stdin/stdout, so that
+//! any implementation of a line-sampling technique, in any language, is certified by the same
+//! checks as the Rust samplers (`linlight samplers --external`).
 //!
 //! Every message is one line of JSON, then (for batches) little-endian f32 arrays whose length
 //! the line states. The program speaks first (its hello), then answers each request in order.
+//! Version 2 adds, for technique `ltc`, the configurations of the fitted GGX table's grid, whose
+//! configuration carries the (α, cos θ_o) its matrix A was looked up at (key `ggx`); a version-1
+//! program never sees them, nor the key.
+//!
 //! Everything that is not the protocol, and every request not answered within the timeout,
 //! ends the program (killed if still running) and becomes a one-line [`SourceError`].
 
 use glam::Vec3;
 use linlight_verify::answers::{AnswerSource, SampleAnswers, SourceError};
-use linlight_verify::configs::Config;
+use linlight_verify::configs::{ltc_table_grid, Config, GgxPoint};
 use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::os::unix::process::CommandExt;
 use std::process::{Child, ChildStdin, Command, Stdio};
@@ -23,8 +28,8 @@ use std::time::Duration;
 /// The protocol's name in the hello line.
 pub const PROTOCOL: &str = "linlight-external";
 
-/// The protocol version this linlight speaks.
-pub const VERSION: u32 = 1;
+/// The newest protocol version this linlight speaks; it speaks every version from 1 on.
+pub const VERSION: u32 = 2;
 
 /// Longest JSON line accepted from the program (a longer one is not the protocol).
 const MAX_LINE: usize = 64 * 1024;
@@ -70,10 +75,19 @@ struct WireConfig<'a> {
     frame: [[f32; 3]; 3],
     /// LTC matrix A (shading → cosine space) in shading-frame coordinates, row-major.
     ltc_a: [[f32; 3]; 3],
+    /// Version 2, configurations of the fitted table's grid: where A was looked up.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ggx: Option<WireGgx>,
+}
+
+#[derive(Serialize)]
+struct WireGgx {
+    alpha: f32,
+    cos_theta_o: f32,
 }
 
 impl<'a> WireConfig<'a> {
-    fn of(c: &'a Config) -> Self {
+    fn of(c: &'a Config, ggx: Option<GgxPoint>) -> Self {
         let f = c.shading_frame();
         Self {
             name: &c.name,
@@ -84,6 +98,10 @@ impl<'a> WireConfig<'a> {
             view: c.view,
             frame: [f.x_axis.into(), f.y_axis.into(), f.z_axis.into()],
             ltc_a: c.a_rows,
+            ggx: ggx.map(|g| WireGgx {
+                alpha: g.alpha,
+                cos_theta_o: g.cos_theta_o,
+            }),
         }
     }
 }
@@ -132,6 +150,8 @@ pub struct ExternalSampler {
     threads: Vec<JoinHandle<()>>,
     next_id: u64,
     traffic: Arc<Mutex<Traffic>>,
+    /// Version ≥ 2: the (α, cos θ_o) of each fitted-table configuration, by name.
+    ggx: HashMap<String, GgxPoint>,
 }
 
 impl ExternalSampler {
@@ -188,6 +208,7 @@ impl ExternalSampler {
             threads,
             next_id: 0,
             traffic: Arc::default(),
+            ggx: HashMap::new(),
         };
         let line = match hello_rx.recv_timeout(timeout) {
             Ok(Ok(line)) => line,
@@ -205,12 +226,18 @@ impl ExternalSampler {
                 shorten(&line)
             ))
         })?;
-        if hello.protocol != PROTOCOL || hello.version != VERSION {
+        if hello.protocol != PROTOCOL || !(1..=VERSION).contains(&hello.version) {
             return Err(me.fail(&format!(
                 "it speaks protocol \"{}\" version {}; this linlight speaks \"{PROTOCOL}\" \
-                 version {VERSION}",
+                 versions 1 to {VERSION}",
                 hello.protocol, hello.version
             )));
+        }
+        if hello.version >= 2 {
+            me.ggx = ltc_table_grid()
+                .into_iter()
+                .map(|(g, c)| (c.name, g))
+                .collect();
         }
         me.hello = hello;
         Ok(me)
@@ -299,7 +326,7 @@ impl ExternalSampler {
             op,
             id,
             count,
-            config: WireConfig::of(config),
+            config: WireConfig::of(config, self.ggx.get(&config.name).copied()),
         })
         .expect("a request serialises");
         let mut bytes = Vec::with_capacity(header.len() + 1 + 4 * payload.len());

@@ -155,6 +155,47 @@ fn image_certification_of_one_scene_passes() {
     );
 }
 
+/// In a build without the `gpu` feature, certify says so for the shader kernels — in its
+/// summary, report.json, report.md and report.html — and says `--no-gpu-kernels` where that is
+/// the reason; the kernels' skip does not fail the run. (With the feature: tests/gpu_cli.rs.)
+#[cfg(not(feature = "gpu"))]
+#[test]
+fn certify_says_why_the_gpu_kernels_were_skipped() {
+    for (extra, reason) in [
+        (None, "not built with --features gpu"),
+        (Some("--no-gpu-kernels"), "--no-gpu-kernels"),
+    ] {
+        let dir = scratch(&format!("gpu-skipped-{}", extra.is_some()));
+        let mut args = vec![
+            "certify",
+            "--quiet",
+            "--no-sampler-suite",
+            "--scenes",
+            "floor-tube",
+            "--techniques",
+            "projected-solid-angle",
+            "--report-dir",
+            dir.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = linlight(&args);
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert_eq!(o.status.code(), Some(0), "{out}{}", stderr(&o));
+        let line = format!("GPU kernels: skipped ({reason})");
+        assert!(out.contains(&line), "{out}");
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap())
+                .unwrap();
+        assert_eq!(report["gpu_kernels"]["skipped"], reason);
+        assert_eq!(report["gpu_kernels"]["passed"], false);
+        assert_eq!(report["passed"], true);
+        for page in ["report.md", "report.html"] {
+            let text = std::fs::read_to_string(dir.join(page)).unwrap();
+            assert!(text.contains(&line), "{page}");
+        }
+    }
+}
+
 #[test]
 fn a_changed_scene_makes_its_reference_stale() {
     let d = mini_project("stale");

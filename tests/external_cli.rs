@@ -121,7 +121,7 @@ fn a_hang_ends_at_the_timeout() {
 #[test]
 fn output_that_is_not_the_protocol_is_refused() {
     assert_refused("garbage-hello", "hello line is not the protocol's");
-    assert_refused("version-2", "version 2");
+    assert_refused("version-3", "version 3");
     assert_refused("unknown-technique", "\"my-own-sampler\"");
     assert_refused("garbage-header", "answer header that is not the protocol's");
 }
@@ -144,6 +144,41 @@ fn wrong_numbers_fail_their_checks() {
     assert_failed_by("negative", "answer");
     assert_failed_by("off-sphere", "direction");
     assert_failed_by("wrong-pdf", "cross-density");
+}
+
+/// Names of the configurations an `ltc` probe was asked on (it answers wrongly: exit 1).
+fn ltc_probe_configs(mode: &str) -> Vec<String> {
+    let dir = common::scratch(mode);
+    let json = dir.join("report.json");
+    let (r, _) = run(mode, &["--json", json.to_str().unwrap()]);
+    assert_eq!(r.code, 1, "{mode}: {}\n{}", r.stdout, r.stderr);
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&json).expect("JSON written")).unwrap();
+    report["techniques"][0]["configs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["outcome"] == "tested")
+        .map(|c| c["config"].as_str().unwrap().to_string())
+        .collect()
+}
+
+/// Protocol version 2: an `ltc` program is also asked on the fitted GGX table's grid, and
+/// exactly those configurations carry `ggx` (α, cos θ_o); a version-1 program is asked as
+/// before, without the key (the probe exits 3 otherwise: exit 2 here).
+#[test]
+fn version_2_adds_the_fitted_table_grid_for_ltc() {
+    let grid = linlight_verify::configs::ltc_table_configs();
+    let v2 = ltc_probe_configs("ltc-v2-probe");
+    let asked_on_grid = grid.iter().filter(|c| v2.contains(&c.name)).count();
+    assert!(
+        asked_on_grid >= grid.len() / 2,
+        "{asked_on_grid} of {}: {v2:?}",
+        grid.len()
+    );
+    let v1 = ltc_probe_configs("ltc-v1-probe");
+    assert!(v1.iter().all(|n| !n.starts_with("ggx-")), "{v1:?}");
+    assert_eq!(v2.len(), v1.len() + asked_on_grid);
 }
 
 #[test]

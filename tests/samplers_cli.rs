@@ -159,6 +159,47 @@ fn samplers_bad_usage_exits_2() {
     assert_eq!(out.status.code(), Some(2));
 }
 
+/// Options that a mode would ignore are refused (exit 2, naming the option), never dropped
+/// silently: `--timeout` without `--external`; `--json`, `--seed`, `--random-configs` with
+/// `--backend gpu` (refused before any adapter is looked for, so in every build).
+#[test]
+fn samplers_refuses_options_its_mode_ignores() {
+    for (args, named) in [
+        (&["--timeout", "5"][..], "--timeout"),
+        (&["--timeout", "5", "--tilt-power"][..], "--timeout"),
+        (&["--timeout", "5", "--backend", "gpu"][..], "--timeout"),
+        (&["--backend", "gpu", "--json", "x.json"][..], "--json"),
+        (&["--backend", "gpu", "--seed", "3"][..], "--seed"),
+        (
+            &["--backend", "gpu", "--random-configs", "3"][..],
+            "--random-configs",
+        ),
+    ] {
+        let out = linlight().arg("samplers").args(args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(named), "{args:?}: {stderr}");
+        assert!(
+            out.stdout.is_empty(),
+            "{args:?} ran: {}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+    }
+    // The defaults the help states are the suite's.
+    let out = linlight().args(["samplers", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    let d = linlight_verify::Settings::default();
+    assert!(
+        help.contains(&format!("[default: {}, the", d.seed)),
+        "{help}"
+    );
+    assert!(
+        help.contains(&format!("[default: {}]", d.random_configs)),
+        "{help}"
+    );
+    assert!(help.contains("[default: 120]"), "{help}");
+}
+
 /// `--tilt-power` prints the power table (share of configurations whose χ² rejects samples tilted
 /// by 1 + ε(2F − 1)) for every ε and writes its report; it is a measurement, exit 0. At a small
 /// N a 5 % tilt is already rejected somewhere, a 0.5 % tilt almost nowhere.

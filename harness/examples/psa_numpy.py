@@ -63,6 +63,12 @@ class Line:
 
     def sample(self, xi, steps=HALLEY_STEPS):
         """Directions, densities and the inverse for primary samples xi (float64 arrays)."""
+        dirs = self.direction(self.solve(xi, steps, GUARD)).astype(np.float32)
+        return dirs, self.pdf(dirs), self.inverse(dirs)
+
+    def solve(self, xi, steps, guard_width):
+        """φ of C(φ) = C(φ_begin) + ξ (C(φ_end) − C(φ_begin)) after `steps` Halley steps from
+        the solid-angle sample (kept for ξ within guard_width of 0 or 1)."""
         target = self.c_b + xi * self.c_total
         s_b, s_e = np.sin(self.phi_b), np.sin(self.phi_e)
         phi = np.arcsin(np.clip(s_b + xi * (s_e - s_b), -1.0, 1.0))
@@ -77,10 +83,8 @@ class Line:
             den = g1 + np.sqrt(np.maximum(0.0, g1 * g1 - 2.0 * g * g2))
             h = np.where(den > 0.0, -2.0 * g / np.where(den > 0.0, den, 1.0), 0.0)
             phi = np.clip(phi + h, -np.pi / 2, np.pi / 2)
-        guard = (xi < GUARD) | (xi > 1.0 - GUARD)
-        phi = np.where(guard, start, phi)
-        dirs = self.direction(phi).astype(np.float32)
-        return dirs, self.pdf(dirs), self.inverse(dirs)
+        guard = (xi < guard_width) | (xi > 1.0 - guard_width)
+        return np.where(guard, start, phi)
 
     def pdf(self, dirs):
         """Density per radius of directions toward the line: (n·ω)/Ω⊥_R on the clipped part."""

@@ -1,6 +1,9 @@
 //! `linlight certify`: the whole certification in one run (docs/statistics.md §1 and §2).
 //!
-//! 1. The sampler chi-square suite (`linlight samplers`), alongside step 2 on the same threads.
+//! 1. The sampler chi-square suite (`linlight samplers`), alongside step 2 on the same threads,
+//!    then the shader kernels' certification ([`gpu`], `linlight samplers --backend gpu`): run
+//!    in a build with the `gpu` feature where wgpu finds an adapter, otherwise reported as
+//!    skipped with the reason.
 //! 2. For every selected scene: its committed Mitsuba reference (or a live Mitsuba render), and
 //!    for every subject (by default [`matrix::default_subjects`]: every unbiased technique, and
 //!    on glossy scenes also the glossy-only configurations) a Rust render at a budget from
@@ -24,6 +27,7 @@
 
 pub mod budget;
 pub mod closed_form;
+pub mod gpu;
 pub mod matrix;
 pub mod oracle;
 pub mod planned;
@@ -45,6 +49,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use budget::{Budget, BudgetRule, Precision};
+use gpu::GpuSummary;
 use sampler_suite::SuiteSummary;
 use scenes::ReferencedScene;
 
@@ -215,12 +220,20 @@ impl Subject for Technique {
     }
 }
 
-/// The verdict of a whole certification: DIFFERENT if the sampler suite failed or any comparison
+/// The verdict of a whole certification: DIFFERENT if the sampler suite or the shader kernels
+/// (where they ran) failed or any comparison
 /// is DIFFERENT, else INCONCLUSIVE if any is, else CONSISTENT (a run without the suite is judged
 /// on its comparisons alone). Shared by a run and by `--merge` of its shards.
-pub(crate) fn overall_verdict(suite: Option<&SuiteSummary>, scenes: &[SceneReport]) -> Verdict {
+pub(crate) fn overall_verdict(
+    suite: Option<&SuiteSummary>,
+    kernels: Option<&GpuSummary>,
+    scenes: &[SceneReport],
+) -> Verdict {
     let rows = || scenes.iter().flat_map(|s| &s.rows);
-    if !suite.is_none_or(|s| s.passed) || rows().any(|r| r.verdict == Verdict::Different) {
+    if !suite.is_none_or(|s| s.passed)
+        || kernels.is_some_and(GpuSummary::failed)
+        || rows().any(|r| r.verdict == Verdict::Different)
+    {
         Verdict::Different
     } else if rows().any(|r| r.verdict == Verdict::Inconclusive) {
         Verdict::Inconclusive
@@ -266,6 +279,9 @@ pub struct Options {
     pub report_dir: Option<PathBuf>,
     /// Run the sampler chi-square suite first.
     pub sampler_suite: bool,
+    /// Run the shader kernels' certification ([`gpu`]; reported as skipped, with the reason,
+    /// where the build has no backend or the machine no adapter).
+    pub gpu_kernels: bool,
     /// Family-wise α of all image comparisons.
     pub alpha: f64,
     /// Equivalence margin δ on the relative global difference.
@@ -297,6 +313,7 @@ impl Options {
             oracle: Oracle::Committed,
             report_dir: None,
             sampler_suite: true,
+            gpu_kernels: true,
             alpha: 0.01,
             tolerance: 0.005,
             budget: BudgetRule::default(),
@@ -409,6 +426,10 @@ pub struct Report {
     pub seed: u64,
     pub threads: usize,
     pub sampler_suite: Option<SuiteSummary>,
+    /// The shader kernels' certification, or why it was skipped; in the report of a run (or
+    /// shard 1 of a sharded one), absent only from reports of versions without it.
+    #[serde(default)]
+    pub gpu_kernels: Option<GpuSummary>,
     pub scenes: Vec<SceneReport>,
     pub elapsed_seconds: f64,
     /// The committed calibration of the comparison (docs/calibration.json), quoted by report.md.
@@ -598,7 +619,8 @@ fn run_plan(
     let plan = shard::plan(&chosen, &scene_subjects);
     // This shard's subjects of each scene (all of them without --shard).
     let mine = shard_subjects(opts, &scene_subjects);
-    let run_suite = opts.sampler_suite && opts.shard.is_none_or(|s| s.runs_suite());
+    let first_shard = opts.shard.is_none_or(|s| s.runs_suite());
+    let run_suite = opts.sampler_suite && first_shard;
     let live_renders = usize::from(opts.oracle == Oracle::Live)
         * mine.iter().filter(|subjects| !subjects.is_empty()).count();
     events(Event::Plan {
@@ -608,12 +630,22 @@ fn run_plan(
     // The sampler suite runs alongside the renders (both are data-parallel on the same pool:
     // each fills the other's serial stretches — a suite subject's first configuration, a
     // render's last tiles, the comparisons).
+    // The shader kernels' certification follows the suite on the same thread (the first
+    // shard's).
     let suite = || {
-        run_suite.then(|| {
+        let suite = run_suite.then(|| {
             let s = sampler_suite::run();
             events(Event::SuiteDone(&s));
             s
-        })
+        });
+        let kernels = first_shard.then(|| {
+            if opts.gpu_kernels {
+                gpu::run(gpu::AGREEMENT_SAMPLES, gpu::SUITE_SAMPLES, &mut |_| {}).summary
+            } else {
+                GpuSummary::skipped(gpu::NOT_REQUESTED, None)
+            }
+        });
+        (suite, kernels)
     };
     let run = SceneRun {
         opts,
@@ -628,10 +660,10 @@ fn run_plan(
             .map(|(s, subjects)| run.scene(s, subjects))
             .collect()
     };
-    let (sampler_suite, scene_reports) = rayon::join(suite, render_all);
+    let ((sampler_suite, gpu_kernels), scene_reports) = rayon::join(suite, render_all);
     let scene_reports = scene_reports?;
 
-    let verdict = overall_verdict(sampler_suite.as_ref(), &scene_reports);
+    let verdict = overall_verdict(sampler_suite.as_ref(), gpu_kernels.as_ref(), &scene_reports);
     let report = Report {
         passed: verdict == Verdict::Consistent,
         verdict,
@@ -645,6 +677,7 @@ fn run_plan(
         seed: opts.seed,
         threads: rayon::current_num_threads(),
         sampler_suite,
+        gpu_kernels,
         scenes: scene_reports,
         elapsed_seconds: started.elapsed().as_secs_f64(),
         calibration: std::fs::read_to_string(opts.root.join("docs/calibration.json"))

@@ -152,6 +152,9 @@ pub fn summary(report: &Report) -> String {
             }
         );
     }
+    if let Some(g) = &report.gpu_kernels {
+        let _ = writeln!(s, "{}", g.line());
+    }
     let _ = writeln!(
         s,
         "image comparisons: α = {} split over m = {} comparisons (α_c = {:.2e} each), δ = ±{}%",
@@ -196,6 +199,43 @@ pub fn summary(report: &Report) -> String {
     s
 }
 
+/// The shader kernels' section of `report.md`: why they were skipped, or one row per check.
+fn gpu_markdown(g: &super::gpu::GpuSummary) -> String {
+    let mut s = String::new();
+    let Some(adapter) = &g.adapter else {
+        let _ = writeln!(s, "## {}\n", g.line());
+        if let Some(note) = &g.note {
+            let _ = writeln!(s, "{note}\n");
+        }
+        return s;
+    };
+    let _ = writeln!(
+        s,
+        "## GPU kernels: {}\n\nOn {adapter}: {} ξ per configuration for the agreement, {} samples \
+         per configuration for the sampler suite on the kernels' answers, {:.1} s \
+         (docs/kernels.md).\n",
+        if g.passed { "PASS" } else { "FAIL" },
+        g.agreement_samples,
+        g.suite_samples,
+        g.elapsed_seconds
+    );
+    if let Some(e) = &g.error {
+        let _ = writeln!(s, "Backend error (the checks after it did not run): {e}\n");
+    }
+    let _ = writeln!(s, "| check | verdict | detail |\n|---|---|---|");
+    for c in &g.checks {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} |",
+            c.name,
+            if c.passed { "pass" } else { "FAIL" },
+            c.detail.replace('|', "\\|")
+        );
+    }
+    s.push('\n');
+    s
+}
+
 /// `report.md`.
 pub fn markdown(report: &Report) -> String {
     let mut s = String::new();
@@ -225,6 +265,9 @@ pub fn markdown(report: &Report) -> String {
     s += &calibration_section(report.calibration.as_ref());
     if let Some(suite) = &report.sampler_suite {
         s += &suite_section(suite);
+    }
+    if let Some(g) = &report.gpu_kernels {
+        s += &gpu_markdown(g);
     }
     for sc in &report.scenes {
         s += &scene_section(sc);

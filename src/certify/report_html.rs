@@ -337,6 +337,9 @@ pub fn html(dir: &Path, report: &Report) -> String {
     if let Some(suite) = &report.sampler_suite {
         s += &suite_section(suite);
     }
+    if let Some(g) = &report.gpu_kernels {
+        s += &gpu_section(g);
+    }
     if report.rows().next().is_some() {
         let _ = write!(
             s,
@@ -394,6 +397,47 @@ fn suite_section(suite: &SuiteSummary) -> String {
                 r.seconds
             );
         }
+    }
+    s += "</table>";
+    s
+}
+
+/// The shader kernels: why they were skipped, or their verdict and one row per check.
+fn gpu_section(g: &super::gpu::GpuSummary) -> String {
+    let mut s = String::new();
+    let Some(adapter) = &g.adapter else {
+        let _ = write!(s, "<h2>{}</h2>", esc(&g.line()));
+        if let Some(note) = &g.note {
+            let _ = write!(s, "<p>{}</p>", esc(note));
+        }
+        return s;
+    };
+    let _ = write!(
+        s,
+        "<h2>GPU kernels: {}</h2><p>On {}: {} ξ per configuration for the agreement, {} samples per \
+         configuration for the sampler suite on the kernels' answers, {:.1} s.</p>",
+        verdict(g.passed),
+        esc(adapter),
+        g.agreement_samples,
+        g.suite_samples,
+        g.elapsed_seconds
+    );
+    if let Some(e) = &g.error {
+        let _ = write!(
+            s,
+            "<p class=\"note\">Backend error (the checks after it did not run): {}</p>",
+            esc(e)
+        );
+    }
+    s += "<table><tr><th>check</th><th>verdict</th><th>detail</th></tr>";
+    for c in &g.checks {
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&c.name),
+            verdict(c.passed),
+            esc(&c.detail)
+        );
     }
     s += "</table>";
     s

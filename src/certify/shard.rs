@@ -25,6 +25,7 @@ use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use super::gpu::GpuSummary;
 use super::sampler_suite::SuiteSummary;
 use super::scenes::ReferencedScene;
 use super::{matrix, Options, Report, Row, SceneReport, Subject, Unusable};
@@ -264,11 +265,13 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
     check_one_row_per_oracle(&plan, &rows_of)?;
     let scenes = scenes_in_plan_order(&plan, rows_of, &scene_info)?;
     let sampler_suite = merged_suite(&shards, require_suite)?;
-    let verdict = super::overall_verdict(sampler_suite.as_ref(), &scenes);
+    let gpu_kernels = merged_kernels(&shards)?;
+    let verdict = super::overall_verdict(sampler_suite.as_ref(), gpu_kernels.as_ref(), &scenes);
     Ok(Report {
         passed: verdict == Verdict::Consistent,
         verdict,
         sampler_suite,
+        gpu_kernels,
         scenes,
         shard: None,
         content_sha256: None,
@@ -534,6 +537,31 @@ fn scenes_in_plan_order(
         last.rows.extend(rows_of.remove(&j).unwrap_or_default());
     }
     Ok(scenes)
+}
+
+/// The GPU kernels' summary of the one shard that carries it (shard 1), checked against its
+/// rows; `None` if no shard carries it (reports of versions without it).
+fn merged_kernels(shards: &[(PathBuf, Report)]) -> Result<Option<GpuSummary>, Unusable> {
+    let kernels: Vec<&(PathBuf, Report)> = shards
+        .iter()
+        .filter(|(_, r)| r.gpu_kernels.is_some())
+        .collect();
+    if kernels.len() > 1 {
+        return Err(refuse(format!(
+            "{} shards carry the GPU kernels' certification ({}); only shard 1 runs it",
+            kernels.len(),
+            kernels
+                .iter()
+                .map(|(p, _)| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
+    let gpu_kernels = kernels.first().and_then(|(_, r)| r.gpu_kernels.clone());
+    if let Some(g) = &gpu_kernels {
+        g.check_consistency().map_err(refuse)?;
+    }
+    Ok(gpu_kernels)
 }
 
 /// The sampler suite of the one shard that carries it (shard 1), rechecked; `None` only if

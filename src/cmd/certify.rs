@@ -78,6 +78,11 @@ pub struct Args {
     /// Skip the sampler chi-square suite (image comparisons only).
     #[arg(long)]
     no_sampler_suite: bool,
+    /// Skip the shader kernels' certification (`linlight samplers --backend gpu`), which runs
+    /// in a build with `--features gpu` where wgpu finds an adapter; the report says it was
+    /// skipped, and why, in every case.
+    #[arg(long)]
+    no_gpu_kernels: bool,
     /// No progress bar and no per-comparison lines (the summary is still printed).
     #[arg(short = 'q', long)]
     quiet: bool,
@@ -128,6 +133,7 @@ pub fn run(args: Args) -> ExitCode {
     };
     opts.report_dir = Some(args.report_dir.clone());
     opts.sampler_suite = !args.no_sampler_suite;
+    opts.gpu_kernels = !args.no_gpu_kernels;
     if args.full {
         opts.budget = BudgetRule::parity();
     }

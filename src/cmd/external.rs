@@ -5,6 +5,7 @@
 use super::suite_tables::{print_failures, print_techniques, write_json};
 use linlight::external::ExternalSampler;
 use linlight_sampling::Technique;
+use linlight_verify::configs::ltc_table_configs;
 use linlight_verify::subjects::{ltc, technique, SamplerUnderTest};
 use linlight_verify::suite::Outcome;
 use linlight_verify::{run_suite, Settings};
@@ -12,10 +13,15 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Duration;
 
-/// The reference technique an external program may claim, by the name in its hello.
-fn reference(name: &str) -> Option<SamplerUnderTest> {
+/// The reference technique an external program may claim, by the name in its hello; from
+/// protocol version 2 on, `ltc` also on the fitted GGX table's grid.
+fn reference(name: &str, version: u32) -> Option<SamplerUnderTest> {
     if name == "ltc" {
-        return Some(ltc());
+        return Some(if version >= 2 {
+            ltc().plus_configs(ltc_table_configs())
+        } else {
+            ltc()
+        });
     }
     let t = Technique::from_name(name).filter(|t| Technique::UNBIASED.contains(t))?;
     Some(technique(t))
@@ -38,7 +44,7 @@ pub fn run(command: &str, timeout: Duration, settings: &Settings, json: Option<&
         Err(e) => return fail(&e),
     };
     let hello = sampler.hello().clone();
-    let Some(reference) = reference(&hello.technique) else {
+    let Some(reference) = reference(&hello.technique, hello.version) else {
         return fail(&format!(
             "external sampler `{command}`: its hello names technique \"{}\"; known: {}",
             hello.technique,

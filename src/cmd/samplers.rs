@@ -15,18 +15,21 @@ use std::process::ExitCode;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Write the full structured report (every configuration of every technique) as JSON.
+    /// Write the full structured report (every configuration of every technique) as JSON. Not
+    /// with --backend gpu (`linlight certify --json` holds the kernels' summary).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
     /// Samples per configuration.
     #[arg(long, default_value_t = Settings::default().samples)]
     samples: usize,
-    /// Number of seeded random configurations (the named edge cases are always added).
-    #[arg(long, default_value_t = Settings::default().random_configs)]
-    random_configs: usize,
-    /// Seed of the configurations and of the sample streams.
-    #[arg(long, default_value_t = Settings::default().seed)]
-    seed: u64,
+    /// Number of seeded random configurations (the named edge cases are always added)
+    /// [default: 40]. Not with --backend gpu (its configurations are fixed).
+    #[arg(long)]
+    random_configs: Option<usize>,
+    /// Seed of the configurations and of the sample streams [default: 5497010909736290388, the
+    /// bytes of "LINLIGHT"]. Not with --backend gpu (its configurations and ξ are fixed).
+    #[arg(long)]
+    seed: Option<u64>,
     /// Instead of the suite: measure the χ² tests' power against smooth density errors — every
     /// configuration with samples tilted by 1 + ε(2F − 1) (self-consistent inverse, pdf
     /// unchanged), ε = 0.5, 1, 2, 5 %, judged at the suite's α_c. Prints the share of
@@ -34,7 +37,7 @@ pub struct Args {
     #[arg(long)]
     tilt_power: bool,
     /// Certify an external implementation instead of linlight's samplers: run `sh -c COMMAND`
-    /// and send it the suite's batches on its stdin (protocol version 1,
+    /// and send it the suite's batches on its stdin (protocol versions 1 and 2,
     /// docs/external-protocol.md: one JSON line per message, then little-endian f32 arrays).
     /// Its hello line names the technique it implements; its answers are judged against that
     /// technique's certified density: χ², pdf consistency, backward error, its own inverse if it
@@ -43,11 +46,11 @@ pub struct Args {
     /// Example: --external 'python3 harness/examples/psa_numpy.py'
     #[arg(long, value_name = "COMMAND", conflicts_with = "tilt_power")]
     external: Option<String>,
-    /// With --external: seconds to wait for its hello, for each answer (up to N = --samples
-    /// samples), and for its exit after the last request; then it is killed and linlight
-    /// exits 2.
-    #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
-    timeout: f64,
+    /// With --external (refused without it): seconds to wait for its hello, for each answer
+    /// (up to N = --samples samples), and for its exit after the last request; then it is
+    /// killed and linlight exits 2 [default: 120].
+    #[arg(long, value_name = "SECONDS")]
+    timeout: Option<f64>,
     /// `rust` (the Rust samplers) or `gpu`: the shader kernels on the adapter wgpu finds
     /// (lavapipe without a GPU; needs a build with `--features gpu`): agreement with the Rust
     /// f32 samplers (--samples ξ per configuration, at most 1024), the backward-error sweep,
@@ -58,6 +61,9 @@ pub struct Args {
           conflicts_with_all = ["external", "tilt_power"])]
     backend: String,
 }
+
+/// Seconds an external sampler may take per answer ([`Args::timeout`]).
+const DEFAULT_TIMEOUT: f64 = 120.0;
 
 /// The tilt power table: per control, the share of tested configurations rejected by the fine
 /// χ², the coarse χ², either, and any check.
@@ -89,7 +95,28 @@ fn print_tilt_power(rows: &[SubjectReport]) {
 }
 
 pub fn run(args: Args) -> ExitCode {
+    if args.timeout.is_some() && args.external.is_none() {
+        eprintln!("error: --timeout applies to --external only (the seconds an external sampler may take)");
+        return ExitCode::from(2);
+    }
     if args.backend == "gpu" {
+        // Options the kernels' run would ignore are refused, not dropped.
+        let ignored: Vec<&str> = [
+            ("--json", args.json.is_some()),
+            ("--seed", args.seed.is_some()),
+            ("--random-configs", args.random_configs.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(name, given)| given.then_some(name))
+        .collect();
+        if !ignored.is_empty() {
+            eprintln!(
+                "error: {} cannot be used with --backend gpu (its configurations and ξ are fixed; \
+                 see docs/kernels.md)",
+                ignored.join(", ")
+            );
+            return ExitCode::from(2);
+        }
         return crate::cmd::gpu_kernels::run(args.samples.min(1024), args.samples.min(100_000));
     }
     // An unusable --json is reported before the suite runs, not after it.
@@ -108,19 +135,19 @@ pub fn run(args: Args) -> ExitCode {
     }
     let settings = Settings {
         samples: args.samples,
-        random_configs: args.random_configs,
-        seed: args.seed,
+        random_configs: args
+            .random_configs
+            .unwrap_or(Settings::default().random_configs),
+        seed: args.seed.unwrap_or(Settings::default().seed),
         ..Settings::default()
     };
     if let Some(command) = &args.external {
-        if !(args.timeout > 0.0 && args.timeout <= 1e6) {
-            eprintln!(
-                "error: --timeout must be a number of seconds in (0, 1e6] (got {})",
-                args.timeout
-            );
+        let timeout = args.timeout.unwrap_or(DEFAULT_TIMEOUT);
+        if !(timeout > 0.0 && timeout <= 1e6) {
+            eprintln!("error: --timeout must be a number of seconds in (0, 1e6] (got {timeout})");
             return ExitCode::from(2);
         }
-        let timeout = std::time::Duration::from_secs_f64(args.timeout);
+        let timeout = std::time::Duration::from_secs_f64(timeout);
         return crate::cmd::external::run(command, timeout, &settings, args.json.as_deref());
     }
     // Panics of a technique (e.g. an unimplemented one) are caught and reported per row,

@@ -18,7 +18,10 @@ MODES = {
     "hang": "never answers the first request",
     "silent": "never writes its hello",
     "garbage-hello": "a hello that is not JSON",
-    "version-2": "a hello of protocol version 2",
+    "version-3": "a hello of protocol version 3",
+    "ltc-v1-probe": "claims ltc in protocol version 1; exits 3 if a configuration carries `ggx`",
+    "ltc-v2-probe": "claims ltc in protocol version 2; exits 3 unless exactly the fitted-table "
+    "configurations carry a `ggx` of their view",
     "unknown-technique": "a hello naming a technique linlight does not know",
     "garbage-header": "an answer header that is not JSON",
     "short": "half an answer's payload, then exit",
@@ -71,6 +74,20 @@ def write(out, header, floats):
     out.flush()
 
 
+def check_ggx(c, v2):
+    """The `ggx` key of protocol version 2: on the fitted-table configurations (named ggx-…)
+    only, with a roughness of the grid and the cosine of the view angle (normal +z there)."""
+    grid = c["name"].startswith("ggx-")
+    g = c.get("ggx")
+    ok = (g is not None) == (grid and v2)
+    if ok and g is not None:
+        ok = (f"ggx-a{g['alpha']:.2f}-" in c["name"]
+              and abs(g["cos_theta_o"] - c["view"][2]) < 1e-6 and c["n"] == [0.0, 0.0, 1.0])
+    if not ok:
+        sys.stderr.write(f"client.py: configuration {c['name']} with ggx {g}\n")
+        sys.exit(3)
+
+
 def main():
     mode = sys.argv[1]
     assert mode in MODES, mode
@@ -83,8 +100,13 @@ def main():
         out.write(b"hello, linlight\n")
         out.flush()
         time.sleep(3600)
-    if mode == "version-2":
-        hello["version"] = 2
+    if mode == "version-3":
+        hello["version"] = 3
+    if mode in ("ltc-v1-probe", "ltc-v2-probe"):
+        # Answers of the solid-angle sampler: wrong for ltc (checks fail, exit 1), but they
+        # let the suite run every configuration through the protocol.
+        hello["technique"] = "ltc"
+        hello["version"] = 2 if mode == "ltc-v2-probe" else 1
     if mode == "unknown-technique":
         hello["technique"] = "my-own-sampler"
     out.write((json.dumps(hello) + "\n").encode())
@@ -99,6 +121,8 @@ def main():
         if mode == "hang":
             time.sleep(3600)
         n = request["count"]
+        if mode in ("ltc-v1-probe", "ltc-v2-probe"):
+            check_ggx(request["config"], mode == "ltc-v2-probe")
         line_ = Line(request["config"])
         if request["op"] == "sample":
             xi = struct.unpack("<%df" % n, inp.read(4 * n))

@@ -21,6 +21,7 @@ pub fn options(scenes: &str) -> Options {
     o.scenes = scenes.into();
     o.oracle = Oracle::Committed;
     o.sampler_suite = false;
+    o.gpu_kernels = false;
     o.variant_renders.clear();
     o
 }

@@ -314,6 +314,19 @@ pub const LTC_TABLE_THETAS: [f32; 4] = [0.0, 30.0, 60.0, 80.0];
 /// horizon, behind the viewer, over the normal to the mirror side (clipped at the horizon and,
 /// for the sheared lobes of grazing views, at the cosine-space horizon).
 pub fn ltc_table_configs() -> Vec<Config> {
+    ltc_table_grid().into_iter().map(|(_, c)| c).collect()
+}
+
+/// A point of the fitted-table grid: the GGX roughness α and cos θ_o its A was looked up at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GgxPoint {
+    pub alpha: f32,
+    pub cos_theta_o: f32,
+}
+
+/// [`ltc_table_configs`] with the (α, cos θ_o) of each (for implementations that look A up
+/// in their own copy of the table: the external protocol's version 2).
+pub fn ltc_table_grid() -> Vec<(GgxPoint, Config)> {
     let table = linlight_brdf::ltc::GgxLtcTable::ggx();
     let mut out = Vec::new();
     for alpha in LTC_TABLE_ALPHAS {
@@ -332,16 +345,23 @@ pub fn ltc_table_configs() -> Vec<Config> {
                 ),
             ];
             for (line, begin, end) in lines {
-                out.push(Config {
-                    name: format!("ggx-a{alpha:.2}-t{theta_deg:02.0}-{line}"),
-                    class: ConfigClass::LtcTable,
-                    begin: v3(begin),
-                    end: v3(end),
-                    x: [0.0; 3],
-                    n: Z,
-                    view: v3(view),
-                    a_rows,
-                });
+                let point = GgxPoint {
+                    alpha,
+                    cos_theta_o: view.z,
+                };
+                out.push((
+                    point,
+                    Config {
+                        name: format!("ggx-a{alpha:.2}-t{theta_deg:02.0}-{line}"),
+                        class: ConfigClass::LtcTable,
+                        begin: v3(begin),
+                        end: v3(end),
+                        x: [0.0; 3],
+                        n: Z,
+                        view: v3(view),
+                        a_rows,
+                    },
+                ));
             }
         }
     }
