@@ -137,3 +137,87 @@ fn cylinder_rows(r: &CylinderReport) -> (Vec<SuiteRow>, Vec<SuiteRow>) {
         .collect();
     (techniques, controls)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use linlight_verify::cylinder_suite::{ControlRow, CrossRow, TechniqueRow};
+
+    fn technique(config: &str, technique: &str, passed: bool) -> TechniqueRow {
+        TechniqueRow {
+            config: config.to_string(),
+            technique: technique.to_string(),
+            p_value: if passed { 0.5 } else { 1e-9 },
+            outside: 0,
+            normalisation_error: 0.0,
+            irradiance_z: 0.0,
+            jacobian_error: None,
+            relative_sd: 1.0,
+            passed,
+        }
+    }
+
+    fn control(config: &str, rejected: bool, required: bool) -> ControlRow {
+        ControlRow {
+            config: config.to_string(),
+            control: "pdf x 1.01".to_string(),
+            p_value: 0.0,
+            normalisation_error: 0.01,
+            irradiance_z: 10.0,
+            rejected,
+            required,
+        }
+    }
+
+    /// One row per cylinder technique and per control kind; a technique fails with any failing
+    /// configuration (Gamito also with a failing cross-density), a control with any required
+    /// configuration where it was not rejected.
+    #[test]
+    fn cylinder_rows_summarise_per_technique_and_control() {
+        let mut techniques = Vec::new();
+        for config in ["a", "b"] {
+            for name in cylinder_suite::TECHNIQUES {
+                techniques.push(technique(config, name, !(config == "b" && name == "area")));
+            }
+        }
+        let report = CylinderReport {
+            samples: 400_000,
+            alpha: 0.01,
+            statistical_tests: 8,
+            alpha_per_test: 1e-3,
+            z_threshold: 3.3,
+            techniques,
+            cross_density: vec![CrossRow {
+                config: "a".to_string(),
+                max_relative_difference: 1.0,
+                passed: false,
+            }],
+            negative_controls: vec![control("a", true, true), control("b", false, false)],
+            passed: false,
+            elapsed_seconds: 8.0,
+        };
+        let (t, c) = cylinder_rows(&report);
+        let names: Vec<&str> = t.iter().map(|r| r.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "cylinder-area",
+                "cylinder-solid-angle",
+                "cylinder-ours",
+                "cylinder-gamito"
+            ]
+        );
+        let passed: Vec<bool> = t.iter().map(|r| r.passed).collect();
+        assert_eq!(passed, [false, true, true, false]);
+        assert_eq!(t[0].failing_configs, 1);
+        assert_eq!(t[0].worst_p_value, Some(1e-9));
+        assert_eq!(c.len(), 1);
+        assert!(c[0].passed, "not required where it was not rejected");
+        assert_eq!(c[0].failing_configs, 1);
+        let missed = CylinderReport {
+            negative_controls: vec![control("a", false, true)],
+            ..report
+        };
+        assert!(!cylinder_rows(&missed).1[0].passed);
+    }
+}

@@ -27,7 +27,7 @@
 //! for a rectangle symmetric about the foot of x.) The acceptance rate is Ω/Ω_rect.
 //!
 //! Ω itself, the normalisation, is the same quadrature as [`super::CylinderSolidAngle`]'s
-//! (relative error ≤ 1e-9); Gamito evaluates it from closed-form pieces instead. Rejection: the
+//! (relative error ≤ 1e-9), not the paper's own evaluation of it. Rejection: the
 //! first candidate uses ξ, later ones a PCG32 stream keyed by the bits of ξ (a deterministic
 //! function of ξ). No inverse.
 
