@@ -22,7 +22,8 @@ enum Command {
     /// failed, 2 unusable input, 3 inconclusive).
     #[command(after_help = cmd::certify::AFTER_HELP)]
     Certify(cmd::certify::Args),
-    /// Chi-square certification of every line-sampling technique (exit 0 only if all pass).
+    /// Chi-square certification of every line-sampling and finite-cylinder technique (exit 0
+    /// only if all pass).
     Samplers(cmd::samplers::Args),
     /// Worst backward error of the projected-solid-angle inversion, per iteration count.
     BackwardError(cmd::backward_error::Args),

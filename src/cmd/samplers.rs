@@ -1,12 +1,14 @@
 //! `linlight samplers`: the chi-square certification suite of every line-sampling technique
-//! (docs/sampler-suite.md), negative controls included. Exit 0 iff every technique passes every
-//! configuration and every negative control is rejected; 1 otherwise; 2 on bad usage.
+//! (docs/sampler-suite.md), then that of the finite-cylinder techniques (docs/cylinders.md),
+//! negative controls included. Exit 0 iff every technique passes every configuration and every
+//! negative control is rejected; 1 otherwise; 2 on bad usage.
 //!
 //! With `--external COMMAND`: the same checks on the answers of an external program
 //! (docs/external-protocol.md) instead; exit 0 iff it passes every configuration, 1 if it fails
 //! one, 2 if it could not be certified (did not speak the protocol, crashed, hung).
 
 use super::suite_tables::{print_controls, print_failures, print_techniques, write_json};
+use linlight_verify::cylinder_suite;
 use linlight_verify::subjects::{certified, negative_controls, tilt_power_controls};
 use linlight_verify::suite::{run_suite_at, Check, SubjectReport, SuiteReport};
 use linlight_verify::{run_suite, Settings};
@@ -19,7 +21,8 @@ pub struct Args {
     /// with --backend gpu (`linlight certify --json` holds the kernels' summary).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
-    /// Samples per configuration.
+    /// Samples per configuration of the line techniques (the finite-cylinder techniques are
+    /// certified at their own fixed N = 400 000).
     #[arg(long, default_value_t = Settings::default().samples)]
     samples: usize,
     /// Number of seeded random configurations (the named edge cases are always added)
@@ -192,33 +195,73 @@ pub fn run(args: Args) -> ExitCode {
     println!();
     print_controls(&report.negative_controls);
     print_failures(&report.techniques);
-    let controls_not_rejected: Vec<&str> = report
+    println!();
+    let cylinders = cylinder_suite::run();
+    cylinder_suite::print(&cylinders);
+    let mut controls_not_rejected: Vec<String> = report
         .negative_controls
         .iter()
         .filter(|c| !c.passed)
-        .map(|c| c.name.as_str())
+        .map(|c| c.name.clone())
         .collect();
-    let techniques_failed: Vec<&str> = report
+    controls_not_rejected.extend(
+        cylinders
+            .negative_controls
+            .iter()
+            .filter(|c| c.required && !c.rejected)
+            .map(|c| format!("cylinder {} ({})", c.control, c.config)),
+    );
+    let mut techniques_failed: Vec<String> = report
         .techniques
         .iter()
         .filter(|t| !t.passed)
-        .map(|t| t.name.as_str())
+        .map(|t| t.name.clone())
         .collect();
+    techniques_failed.extend(
+        cylinders
+            .techniques
+            .iter()
+            .filter(|t| !t.passed)
+            .map(|t| format!("cylinder-{} ({})", t.technique, t.config)),
+    );
+    techniques_failed.extend(
+        cylinders
+            .cross_density
+            .iter()
+            .filter(|x| !x.passed)
+            .map(|x| format!("cylinder-gamito cross-density ({})", x.config)),
+    );
+    let passed = report.passed && cylinders.passed;
     println!();
     println!(
         "{} in {:.1} s: techniques failing: [{}]; negative controls not rejected: [{}]",
-        if report.passed { "PASS" } else { "FAIL" },
-        report.elapsed_seconds,
+        if passed { "PASS" } else { "FAIL" },
+        report.elapsed_seconds + cylinders.elapsed_seconds,
         techniques_failed.join(", "),
         controls_not_rejected.join(", ")
     );
 
     if let Some(path) = &args.json {
-        if write_json(path, &report) != ExitCode::SUCCESS {
+        // The line suite's report with the cylinder suite's under "cylinders"; "passed" is both.
+        let mut value = match serde_json::to_value(&report) {
+            Ok(v) => v,
+            Err(e) => {
+                eprintln!("error: cannot write {}: {e}", path.display());
+                return ExitCode::from(2);
+            }
+        };
+        if let Some(object) = value.as_object_mut() {
+            object.insert(
+                "cylinders".to_string(),
+                serde_json::to_value(&cylinders).unwrap_or(serde_json::Value::Null),
+            );
+            object.insert("passed".to_string(), serde_json::Value::Bool(passed));
+        }
+        if write_json(path, &value) != ExitCode::SUCCESS {
             return ExitCode::from(2);
         }
     }
-    if report.passed {
+    if passed {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)

@@ -1,7 +1,7 @@
 //! The sampler suite's report as tables on stdout and as a JSON file, shared by `linlight
 //! samplers`, `samplers --external` and `samplers --backend gpu`.
 
-use linlight_verify::suite::{SubjectReport, SuiteReport};
+use linlight_verify::suite::SubjectReport;
 use std::process::ExitCode;
 
 fn fmt_opt(v: Option<f64>) -> String {
@@ -107,7 +107,7 @@ pub fn print_failures(rows: &[SubjectReport]) {
 }
 
 /// Writes `report` as JSON to `path` (atomically); exit code 2 with the error on stderr.
-pub fn write_json(path: &std::path::Path, report: &SuiteReport) -> ExitCode {
+pub fn write_json(path: &std::path::Path, report: &impl serde::Serialize) -> ExitCode {
     // Serialised first, then written atomically: a write error is not lost in a dropped buffer.
     let written = serde_json::to_string_pretty(report)
         .map_err(|e| format!("cannot write {}: {e}", path.display()))

@@ -136,8 +136,9 @@ fn main() {
     let ratio = |a: usize, b: usize| (stats[a].0 / stats[b].0, stats[a].1 / stats[b].1);
     for (label, a, b) in [
         ("cylinder-projected / cylinder-solid-angle", 2, 1),
+        ("cylinder-projected / cylinder-gamito", 2, 3),
         ("cylinder-projected / cylinder-area", 2, 0),
-        ("cylinder-projected / line projected-solid-angle", 2, 3),
+        ("cylinder-projected / line projected-solid-angle", 2, 4),
     ] {
         let (med, min) = ratio(a, b);
         println!("  ratio {label}: {med:.3} (median)  {min:.3} (minimum)");

@@ -5,6 +5,7 @@ pub mod answers;
 pub mod check;
 pub mod chi2;
 pub mod configs;
+pub mod cylinder_suite;
 pub mod heatmap;
 pub mod image_stats;
 pub mod quiet_panic;

@@ -26,10 +26,12 @@
 //! or beyond an end looking into it): nothing to sample.
 
 pub mod area;
+pub mod gamito;
 pub mod projected;
 pub mod solid_angle;
 
 pub use area::CylinderArea;
+pub use gamito::CylinderGamito;
 pub use projected::CylinderProjected;
 pub use solid_angle::CylinderSolidAngle;
 
@@ -263,15 +265,20 @@ pub enum CylinderTechnique {
     Area,
     /// Uniform in solid angle over the visible side.
     SolidAngle,
-    /// Azimuth uniform, elevation by the paper's projected-solid-angle line sampler.
+    /// The azimuth across the section, the elevation by the paper's projected-solid-angle
+    /// line sampler.
     Projected,
+    /// Uniform in solid angle by Gamito's construction: a bounding spherical rectangle and
+    /// rejection.
+    Gamito,
 }
 
 impl CylinderTechnique {
-    pub const ALL: [CylinderTechnique; 3] = [
+    pub const ALL: [CylinderTechnique; 4] = [
         CylinderTechnique::Area,
         CylinderTechnique::SolidAngle,
         CylinderTechnique::Projected,
+        CylinderTechnique::Gamito,
     ];
 
     pub fn name(self) -> &'static str {
@@ -279,6 +286,7 @@ impl CylinderTechnique {
             CylinderTechnique::Area => "cylinder-area",
             CylinderTechnique::SolidAngle => "cylinder-solid-angle",
             CylinderTechnique::Projected => "cylinder-projected",
+            CylinderTechnique::Gamito => "cylinder-gamito",
         }
     }
 
@@ -291,6 +299,7 @@ impl CylinderTechnique {
             CylinderTechnique::Projected => {
                 PreparedCylinder::Projected(CylinderProjected::new(view)?)
             }
+            CylinderTechnique::Gamito => PreparedCylinder::Gamito(CylinderGamito::new(view)?),
         })
     }
 }
@@ -302,6 +311,7 @@ pub enum PreparedCylinder {
     /// Boxed: its envelope and quadrature tables make it ~500 bytes.
     SolidAngle(Box<CylinderSolidAngle>),
     Projected(CylinderProjected),
+    Gamito(CylinderGamito),
 }
 
 macro_rules! dispatch {
@@ -310,6 +320,7 @@ macro_rules! dispatch {
             PreparedCylinder::Area($s) => $e,
             PreparedCylinder::SolidAngle($s) => $e,
             PreparedCylinder::Projected($s) => $e,
+            PreparedCylinder::Gamito($s) => $e,
         }
     };
 }

@@ -59,6 +59,37 @@ fn s_of(e: f64, h: f64) -> f64 {
     e / e.hypot(h)
 }
 
+/// Ω of the visible side: ∫ (s_b − s_a) dα, integrated in θ (relative error ≤ 1e-9; see the
+/// module documentation).
+pub(crate) fn solid_angle_of(v: &CylinderView) -> f64 {
+    let mut omega_half = 0.0;
+    // Ω in θ directly (no α): h² = (ρ − R)² + 4ρR sin²(θ/2), dα/dθ = R(ρ cos θ − R)/h²,
+    // after θ = θ_s sinh t with θ_s = (ρ − R)/√(ρR), the angular scale on which h grows
+    // from its least value ρ − R (near the tube the integrand is concentrated there).
+    // [`PANELS`] panels of t, the 8-point Gauss–Legendre rule on each.
+    let (gap, rr) = (v.rho - v.radius, v.rho * v.radius);
+    let theta_s = gap / rr.sqrt();
+    let t_max = (v.theta_max / theta_s).asinh();
+    let panel = t_max / PANELS as f64;
+    for k in 0..PANELS {
+        let mid = (k as f64 + 0.5) * panel;
+        for &(x, wt) in &GL8 {
+            for t in [mid - 0.5 * panel * x, mid + 0.5 * panel * x] {
+                let theta = theta_s * t.sinh();
+                let dtheta = theta_s * t.cosh();
+                let (sh, ch) = (0.5 * theta).sin_cos();
+                let h2 = gap * gap + 4.0 * rr * sh * sh;
+                let cos_theta = ch * ch - sh * sh;
+                let jac = v.radius * (v.rho * cos_theta - v.radius) / h2;
+                let s_b = v.b / (h2 + v.b * v.b).sqrt();
+                let s_a = v.a / (h2 + v.a * v.a).sqrt();
+                omega_half += 0.5 * panel * wt * dtheta * jac * (s_b - s_a);
+            }
+        }
+    }
+    2.0 * omega_half
+}
+
 impl CylinderSolidAngle {
     pub fn new(view: &CylinderView) -> Option<Self> {
         let v = view;
@@ -68,7 +99,6 @@ impl CylinderSolidAngle {
         let mut s_hi = [0.0; BANDS];
         let mut cumulative = [0.0; BANDS];
         let step = v.theta_max / BANDS as f64;
-        let mut omega_half = 0.0;
         let mut area = 0.0;
         let end = |theta: f64| {
             let (a, _) = v.alpha_of_theta(theta);
@@ -87,31 +117,7 @@ impl CylinderSolidAngle {
             cumulative[k] = area;
             inner = outer;
         }
-        // Ω in θ directly (no α): h² = (ρ − R)² + 4ρR sin²(θ/2), dα/dθ = R(ρ cos θ − R)/h²,
-        // after θ = θ_s sinh t with θ_s = (ρ − R)/√(ρR), the angular scale on which h grows
-        // from its least value ρ − R (near the tube the integrand is concentrated there).
-        // [`PANELS`] panels of t, the 8-point Gauss–Legendre rule on each.
-        let (gap, rr) = (v.rho - v.radius, v.rho * v.radius);
-        let theta_s = gap / rr.sqrt();
-        let t_max = (v.theta_max / theta_s).asinh();
-        let panel = t_max / PANELS as f64;
-        for k in 0..PANELS {
-            let mid = (k as f64 + 0.5) * panel;
-            for &(x, wt) in &GL8 {
-                for t in [mid - 0.5 * panel * x, mid + 0.5 * panel * x] {
-                    let theta = theta_s * t.sinh();
-                    let dtheta = theta_s * t.cosh();
-                    let (sh, ch) = (0.5 * theta).sin_cos();
-                    let h2 = gap * gap + 4.0 * rr * sh * sh;
-                    let cos_theta = ch * ch - sh * sh;
-                    let jac = v.radius * (v.rho * cos_theta - v.radius) / h2;
-                    let s_b = v.b / (h2 + v.b * v.b).sqrt();
-                    let s_a = v.a / (h2 + v.a * v.a).sqrt();
-                    omega_half += 0.5 * panel * wt * dtheta * jac * (s_b - s_a);
-                }
-            }
-        }
-        let inv_omega = 0.5 / omega_half;
+        let inv_omega = 1.0 / solid_angle_of(v);
         (inv_omega.is_finite() && inv_omega > 0.0 && area > 0.0).then_some(Self {
             view: *view,
             inv_omega,
