@@ -44,7 +44,7 @@ fn main() {
         "scene", "technique", "rel sd", "ns/sample", "var ratio", "time ratio"
     );
     for name in SCENES {
-        let path = root.join(format!("references/scenes/{name}.xml"));
+        let path = root.join(format!("references/finite-tubes/{name}.xml"));
         let overrides = [("res".to_string(), "64".to_string())];
         let scene = load_scene(&path, &overrides).unwrap_or_else(|e| panic!("{name}: {e}"));
         let camera = Camera::new(&scene.sensor).expect("camera");
