@@ -1544,7 +1544,7 @@ mod tests {
         let mut rng = Pcg32::new(4, 9);
         let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
         assert!(bvh.tiny.is_empty());
-        let variants = walk_variants(&bvh);
+        let variants = walk_variants(bvh);
         let (mut occluded, mut total) = (0, 0);
         for k in 0..900 {
             let size = 1 + k % PACKET;
