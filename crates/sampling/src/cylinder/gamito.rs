@@ -32,8 +32,7 @@
 //! function of ξ). No inverse.
 
 use super::solid_angle::solid_angle_of;
-use super::{clamp_xi, CylinderSampler, CylinderView};
-use crate::rng::Pcg32;
+use super::{reject_until_accepted, CylinderSampler, CylinderView};
 use glam::DVec3;
 
 /// Most candidates per sample; the acceptance rate Ω/Ω_rect is ≥ 0.39 on the tests'
@@ -130,19 +129,14 @@ impl CylinderGamito {
 
 impl CylinderSampler for CylinderGamito {
     fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
-        let (alpha, s) = self.candidate(clamp_xi(xi[0]), clamp_xi(xi[1]));
-        if let Some(dir) = self.accept(alpha, s) {
-            return Some((dir, self.inv_omega));
-        }
-        let seed = ((xi[0].to_bits() as u64) << 32) | xi[1].to_bits() as u64;
-        let mut rng = Pcg32::new(seed, 0x6a);
-        for _ in 1..MAX_CANDIDATES {
-            let (alpha, s) = self.candidate(rng.next_f64(), rng.next_f64());
-            if let Some(dir) = self.accept(alpha, s) {
-                return Some((dir, self.inv_omega));
-            }
-        }
-        None
+        let dir = reject_until_accepted(
+            xi,
+            0x6a,
+            MAX_CANDIDATES,
+            |x0, x1| self.candidate(x0, x1),
+            |alpha, s| self.accept(alpha, s),
+        )?;
+        Some((dir, self.inv_omega))
     }
 
     fn pdf(&self, dir: DVec3) -> f64 {

@@ -346,6 +346,28 @@ pub(crate) fn clamp_xi(xi: f32) -> f64 {
     crate::sampler::clamp_xi(xi) as f64
 }
 
+/// Rejection sampling as a deterministic function of ξ: the first candidate is drawn from ξ,
+/// later ones from a PCG32 stream (`stream`) keyed by ξ's bits, at most `max_candidates` in all.
+/// `candidate` maps two uniforms to a candidate (α, s); `accept` returns its direction or `None`.
+pub(crate) fn reject_until_accepted(
+    xi: [f32; 2],
+    stream: u64,
+    max_candidates: usize,
+    candidate: impl Fn(f64, f64) -> (f64, f64),
+    accept: impl Fn(f64, f64) -> Option<DVec3>,
+) -> Option<DVec3> {
+    let (alpha, s) = candidate(clamp_xi(xi[0]), clamp_xi(xi[1]));
+    if let Some(dir) = accept(alpha, s) {
+        return Some(dir);
+    }
+    let seed = ((xi[0].to_bits() as u64) << 32) | xi[1].to_bits() as u64;
+    let mut rng = crate::rng::Pcg32::new(seed, stream);
+    (1..max_candidates).find_map(|_| {
+        let (alpha, s) = candidate(rng.next_f64(), rng.next_f64());
+        accept(alpha, s)
+    })
+}
+
 #[cfg(test)]
 pub(crate) mod test_support {
     use super::*;

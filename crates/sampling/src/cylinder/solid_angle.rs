@@ -20,8 +20,7 @@
 //!   keyed by the bits of ξ (a deterministic function of ξ, independent of the first
 //!   candidate's acceptance). No inverse exists (rejection).
 
-use super::{clamp_xi, CylinderSampler, CylinderView};
-use crate::rng::Pcg32;
+use super::{reject_until_accepted, CylinderSampler, CylinderView};
 use glam::DVec3;
 
 /// Bands of the surface angle per side of the visible arc: the envelope's boxes and Ω's panels.
@@ -178,20 +177,14 @@ impl CylinderSolidAngle {
 
 impl CylinderSampler for CylinderSolidAngle {
     fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
-        let (x0, x1) = (clamp_xi(xi[0]), clamp_xi(xi[1]));
-        let (alpha, s) = self.candidate(x0, x1);
-        if let Some(dir) = self.accept(alpha, s) {
-            return Some((dir, self.inv_omega));
-        }
-        let seed = ((xi[0].to_bits() as u64) << 32) | xi[1].to_bits() as u64;
-        let mut rng = Pcg32::new(seed, 0x5a);
-        for _ in 1..MAX_CANDIDATES {
-            let (alpha, s) = self.candidate(rng.next_f64(), rng.next_f64());
-            if let Some(dir) = self.accept(alpha, s) {
-                return Some((dir, self.inv_omega));
-            }
-        }
-        None
+        let dir = reject_until_accepted(
+            xi,
+            0x5a,
+            MAX_CANDIDATES,
+            |x0, x1| self.candidate(x0, x1),
+            |alpha, s| self.accept(alpha, s),
+        )?;
+        Some((dir, self.inv_omega))
     }
 
     fn pdf(&self, dir: DVec3) -> f64 {
