@@ -109,22 +109,6 @@ impl CylinderGamito {
         let (s0, s1) = self.s_range(alpha);
         (alpha, s0 + x1 * (s1 - s0))
     }
-
-    /// Whether (α, s) hits the front side; the direction if so.
-    #[inline]
-    fn accept(&self, alpha: f64, s: f64) -> Option<DVec3> {
-        let v = &self.view;
-        if alpha.is_nan() || alpha.abs() > v.alpha_max {
-            return None;
-        }
-        let h = v.h(alpha);
-        let (sa, sb) = (v.a / v.a.hypot(h), v.b / v.b.hypot(h));
-        if !(s >= sa && s <= sb) {
-            return None;
-        }
-        let t = ((1.0 - s) * (1.0 + s)).max(0.0).sqrt();
-        Some(t * v.c_alpha(alpha) + s * v.u)
-    }
 }
 
 impl CylinderSampler for CylinderGamito {
@@ -134,7 +118,7 @@ impl CylinderSampler for CylinderGamito {
             0x6a,
             MAX_CANDIDATES,
             |x0, x1| self.candidate(x0, x1),
-            |alpha, s| self.accept(alpha, s),
+            |alpha, s| self.view.front_direction(alpha, s),
         )?;
         Some((dir, self.inv_omega))
     }
@@ -199,7 +183,7 @@ mod tests {
                 for j in 0..k {
                     let (a, sv) =
                         s.candidate((i as f64 + 0.5) / k as f64, (j as f64 + 0.5) / k as f64);
-                    accepted += s.accept(a, sv).is_some() as usize;
+                    accepted += s.view.front_direction(a, sv).is_some() as usize;
                 }
             }
             let rate = accepted as f64 / (k * k) as f64;

@@ -156,6 +156,22 @@ impl CylinderView {
         (rho - r) * (rho + r) / (rho * alpha.cos() + k)
     }
 
+    /// The direction with azimuth α and axial sine s if it hits the visible side, else `None`
+    /// (α beyond ±α_max, NaN, or s outside the side's [s_a, s_b] at α).
+    #[inline]
+    pub fn front_direction(&self, alpha: f64, s: f64) -> Option<DVec3> {
+        if alpha.is_nan() || alpha.abs() > self.alpha_max {
+            return None;
+        }
+        let h = self.h(alpha);
+        let (sa, sb) = (self.a / self.a.hypot(h), self.b / self.b.hypot(h));
+        if !(s >= sa && s <= sb) {
+            return None;
+        }
+        let t = ((1.0 - s) * (1.0 + s)).max(0.0).sqrt();
+        Some(t * self.c_alpha(alpha) + s * self.u)
+    }
+
     /// ĉ_α = cos α ĉ + sin α w.
     #[inline]
     pub fn c_alpha(&self, alpha: f64) -> DVec3 {

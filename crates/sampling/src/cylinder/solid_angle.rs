@@ -158,21 +158,6 @@ impl CylinderSolidAngle {
         let s = self.s_lo[k] + x1 * (self.s_hi[k] - self.s_lo[k]);
         (alpha, s)
     }
-
-    /// Whether (α, s) hits the front side; the direction if so.
-    #[inline]
-    fn accept(&self, alpha: f64, s: f64) -> Option<DVec3> {
-        let v = &self.view;
-        if alpha.is_nan() || alpha.abs() > v.alpha_max {
-            return None;
-        }
-        let h = v.h(alpha);
-        if !(s >= s_of(v.a, h) && s <= s_of(v.b, h)) {
-            return None;
-        }
-        let t = ((1.0 - s) * (1.0 + s)).max(0.0).sqrt();
-        Some(t * v.c_alpha(alpha) + s * v.u)
-    }
 }
 
 impl CylinderSampler for CylinderSolidAngle {
@@ -182,7 +167,7 @@ impl CylinderSampler for CylinderSolidAngle {
             0x5a,
             MAX_CANDIDATES,
             |x0, x1| self.candidate(x0, x1),
-            |alpha, s| self.accept(alpha, s),
+            |alpha, s| self.view.front_direction(alpha, s),
         )?;
         Some((dir, self.inv_omega))
     }
@@ -242,7 +227,7 @@ mod tests {
                 .filter(|i| {
                     let (a, sv) =
                         s.candidate((*i as f64 + 0.5) / 1e4, ((i * 7919) % 10_000) as f64 / 1e4);
-                    s.accept(a, sv).is_some()
+                    s.view.front_direction(a, sv).is_some()
                 })
                 .count();
             assert!(
