@@ -141,6 +141,68 @@ pub fn check_dir_writable(dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// What a caller of a render asked for; `None` takes the scene's value.
+#[derive(Clone, Copy, Debug)]
+pub struct RenderChoices {
+    pub spp: Option<u32>,
+    pub passes: u32,
+    pub seed: Option<u64>,
+    pub method: linlight_render::Method,
+    pub light_samples: Option<u32>,
+    pub lights: linlight_render::LightSelection,
+    pub noise: linlight_sampling::noise::Noise,
+}
+
+/// The options a render of `scene` runs with, and the warnings `linlight render` gives about
+/// them (the scene's own first). `flag` spells an option for the messages ("light-samples" →
+/// "--light-samples" on the command line, "light_samples" in Python); `one_sample_warning`
+/// is false where one sample in one pass is not the final image (`--match-variance`).
+pub fn render_options(
+    scene: &linlight_render::scene::Scene,
+    c: RenderChoices,
+    flag: impl Fn(&str) -> String,
+    one_sample_warning: bool,
+) -> (linlight_render::RenderOptions, Vec<String>) {
+    let mut warnings = scene.warnings.clone();
+    if c.method == linlight_render::Method::Technique(linlight_sampling::Technique::Baseline) {
+        warnings.push(
+            "the baseline technique is biased by design (its density is not exact); its images \
+             are not expected to agree with Mitsuba"
+                .into(),
+        );
+    }
+    let light_samples = match c.light_samples {
+        Some(n) => n,
+        None if scene.integrator.emitter_samples == 0 => {
+            warnings.push(format!(
+                "the scene's integrator has emitter_samples = 0 (BSDF samples only, which never \
+                 hit a linear light); rendering with 1 light sample (set {})",
+                flag("light-samples")
+            ));
+            1
+        }
+        None => scene.integrator.emitter_samples,
+    };
+    let opts = linlight_render::RenderOptions {
+        spp: c.spp.unwrap_or(scene.sensor.sample_count),
+        passes: c.passes,
+        seed: c.seed.unwrap_or(scene.sensor.seed),
+        method: c.method,
+        light_samples,
+        lights: c.lights,
+        noise: c.noise,
+    };
+    if one_sample_warning && opts.spp == 1 && opts.passes == 1 {
+        warnings.push(format!(
+            "one sample per pixel in one pass gives no variance estimate (dof 0): `linlight \
+             compare` refuses such an image; use {} ≥ 2 or {} ≥ 2",
+            flag("spp"),
+            flag("passes")
+        ));
+    }
+    (opts, warnings)
+}
+
 /// Largest radiance × radius K a light may have: a sample's value is K times geometry and BRDF
 /// terms of order 1 (up to ~1e6 near a light), and its square is summed in f32 for the variance;
 /// K² · 1e12 must stay below f32::MAX (3.4e38).

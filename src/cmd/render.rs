@@ -15,7 +15,6 @@ use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::{record_inputs, render, LightSelection, Method, RenderOptions};
 use linlight_sampling::noise::Noise;
-use linlight_sampling::Technique;
 use linlight_verify::image_stats::CompareConfig;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -312,43 +311,21 @@ fn plan(args: &Args, req: &Request, started: Instant) -> Result<Plan, String> {
     let load_seconds = started.elapsed().as_secs_f64();
     // Warnings are printed once every check has passed (a refusal is one line), and never
     // silenced: --quiet only drops progress and the summary.
-    let mut warnings = scene.warnings.clone();
-    if req.method == Method::Technique(Technique::Baseline) {
-        warnings.push(
-            "the baseline technique is biased by design (its density is not exact); its images \
-             are not expected to agree with Mitsuba"
-                .into(),
-        );
-    }
-    let light_samples = match args.light_samples {
-        Some(n) => n,
-        None if scene.integrator.emitter_samples == 0 => {
-            warnings.push(
-                "the scene's integrator has emitter_samples = 0 (BSDF samples only, which never \
-                 hit a linear light); rendering with 1 light sample (set --light-samples)"
-                    .into(),
-            );
-            1
-        }
-        None => scene.integrator.emitter_samples,
-    };
-    let opts = RenderOptions {
-        spp: args.spp.unwrap_or(scene.sensor.sample_count),
-        passes: args.passes,
-        seed: args.seed.unwrap_or(scene.sensor.seed),
-        method: req.method,
-        light_samples,
-        lights: req.lights,
-        noise: req.noise,
-    };
-    if opts.spp == 1 && opts.passes == 1 && args.match_variance.is_none() {
+    let (opts, warnings) = outputs::render_options(
+        &scene,
+        outputs::RenderChoices {
+            spp: args.spp,
+            passes: args.passes,
+            seed: args.seed,
+            method: req.method,
+            light_samples: args.light_samples,
+            lights: req.lights,
+            noise: req.noise,
+        },
+        |name| format!("--{name}"),
         // Shown even with --quiet: the output cannot be compared.
-        warnings.push(
-            "one sample per pixel in one pass gives no variance estimate (dof 0): `linlight \
-             compare` refuses such an image; use --spp ≥ 2 or --passes ≥ 2"
-                .into(),
-        );
-    }
+        args.match_variance.is_none(),
+    );
     let (limit, why) = args.memory.bytes()?;
     check_memory(&scene, limit, why)?;
     outputs::check_radiance(&scene)?;

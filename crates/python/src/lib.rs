@@ -15,8 +15,8 @@ use std::path::PathBuf;
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
 use linlight_render::scene::Scene;
+use linlight_render::xml;
 use linlight_render::{record_inputs, render as render_scene, LightSelection, Method};
-use linlight_render::{xml, RenderOptions};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::{LineSampler, Prepared as PreparedTechnique, Segment, Technique};
 use linlight_verify::image_stats::{compare as compare_images, CompareConfig};
@@ -552,42 +552,20 @@ impl RenderRequest {
 /// warnings the command prints.
 fn render_image(req: &RenderRequest) -> Result<(Image, Vec<String>), String> {
     let scene: Scene = xml::load_scene(&req.scene, &req.overrides).map_err(|e| e.to_string())?;
-    let mut warnings = scene.warnings.clone();
-    if req.method == Method::Technique(Technique::Baseline) {
-        warnings.push(
-            "the baseline technique is biased by design (its density is not exact); its images \
-             are not expected to agree with Mitsuba"
-                .into(),
-        );
-    }
-    let light_samples = match req.light_samples {
-        Some(n) => n,
-        None if scene.integrator.emitter_samples == 0 => {
-            warnings.push(
-                "the scene's integrator has emitter_samples = 0 (BSDF samples only, which never \
-                 hit a linear light); rendering with 1 light sample (set light_samples)"
-                    .into(),
-            );
-            1
-        }
-        None => scene.integrator.emitter_samples,
-    };
-    let opts = RenderOptions {
-        spp: req.spp.unwrap_or(scene.sensor.sample_count),
-        passes: req.passes,
-        seed: req.seed.unwrap_or(scene.sensor.seed),
-        method: req.method,
-        light_samples,
-        lights: req.lights,
-        noise: req.noise,
-    };
-    if opts.spp == 1 && opts.passes == 1 {
-        warnings.push(
-            "one sample per pixel in one pass gives no variance estimate (dof 0): `linlight \
-             compare` refuses such an image; use spp ≥ 2 or passes ≥ 2"
-                .into(),
-        );
-    }
+    let (opts, warnings) = linlight::outputs::render_options(
+        &scene,
+        linlight::outputs::RenderChoices {
+            spp: req.spp,
+            passes: req.passes,
+            seed: req.seed,
+            method: req.method,
+            light_samples: req.light_samples,
+            lights: req.lights,
+            noise: req.noise,
+        },
+        |name| name.replace('-', "_"),
+        true,
+    );
     linlight::outputs::check_radiance(&scene)?;
     let pool = linlight::outputs::thread_pool(req.threads)?;
     let mut image = pool
