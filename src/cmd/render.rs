@@ -66,7 +66,7 @@ render the same image under every selection.
 Cylinders (--cylinders): `exact` (default) renders a cylinder with an area emitter as the
 cylinder it is (radius R, open ends as in Mitsuba, radiance L on the outer side), sampled by
 --cylinder-technique (projected: the line sampler along the axis composed across the section;
-solid-angle; area) combined with a cosine-weighted BSDF-side sample by the balance heuristic
+solid-angle; gamito: Gamito's uniform solid angle; area) combined with a cosine-weighted BSDF-side sample by the balance heuristic
 (--cylinder-mis balance, or off). `line` renders the R → 0 limit with K = radiance × radius
 (the behaviour before finite cylinders; --technique and --mis apply to it). docs/cylinders.md.
 

@@ -209,57 +209,63 @@ fn tube_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     };
     let light_samples = opts.light_samples;
     let one = scene.chooses_one(opts.lights);
-    let total = sum_over_light_samples(scene, opts, rng, |j, segment, k, samples, rng| {
-        let Some(tube) = tubes.get(j) else {
-            // A line light among tubes (a light of zero radius).
-            let mut sum = match lambert {
-                Some(f) => single_technique(
-                    pieces.technique.prepare(segment, sp.p, n).as_ref(),
-                    n,
-                    samples,
-                    rng,
-                    &mut visible(j),
-                    |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
-                    &mut dropped,
-                ),
-                None => {
-                    estimate_resolved(
-                        pieces,
-                        opts.method,
-                        &point,
-                        segment,
-                        k,
+    let total = sum_over_light_samples(
+        scene,
+        opts,
+        (sp.p, n),
+        rng,
+        |j, segment, k, samples, rng| {
+            let Some(tube) = tubes.get(j) else {
+                // A line light among tubes (a light of zero radius).
+                let mut sum = match lambert {
+                    Some(f) => single_technique(
+                        pieces.technique.prepare(segment, sp.p, n).as_ref(),
+                        n,
                         samples,
                         rng,
                         &mut visible(j),
+                        |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
                         &mut dropped,
-                    ) * samples as f32
+                    ),
+                    None => {
+                        estimate_resolved(
+                            pieces,
+                            opts.method,
+                            &point,
+                            segment,
+                            k,
+                            samples,
+                            rng,
+                            &mut visible(j),
+                            &mut dropped,
+                        ) * samples as f32
+                    }
+                };
+                if samples > 1 {
+                    sum /= samples as f32;
                 }
+                return sum;
             };
+            // k is K (or K/p_j): L = k/R.
+            let sum = crate::tube::estimate(
+                tube,
+                tubes.sampling,
+                sp,
+                n,
+                k / tube.radius,
+                samples,
+                rng,
+                &eval,
+                &mut visible(j),
+                &mut dropped,
+            );
             if samples > 1 {
-                sum /= samples as f32;
+                sum / samples as f32
+            } else {
+                sum
             }
-            return sum;
-        };
-        // k is K (or K/p_j): L = k/R.
-        let sum = crate::tube::estimate(
-            tube,
-            tubes.sampling,
-            sp,
-            n,
-            k / tube.radius,
-            samples,
-            rng,
-            &eval,
-            &mut visible(j),
-            &mut dropped,
-        );
-        if samples > 1 {
-            sum / samples as f32
-        } else {
-            sum
-        }
-    });
+        },
+    );
     if dropped > 0 {
         scene.dropped.add_many(dropped as u64);
     }

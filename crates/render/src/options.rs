@@ -90,7 +90,7 @@ impl Cylinders {
     }
 }
 
-/// The cylinder technique of a `--cylinder-technique` name: `area`, `solid-angle`,
+/// The cylinder technique of a `--cylinder-technique` name: `area`, `solid-angle`, `gamito`,
 /// `projected` (with or without the `cylinder-` prefix).
 pub fn cylinder_technique(name: &str) -> Result<CylinderTechnique, String> {
     let bare = name.strip_prefix("cylinder-").unwrap_or(name);
@@ -98,7 +98,10 @@ pub fn cylinder_technique(name: &str) -> Result<CylinderTechnique, String> {
         .into_iter()
         .find(|t| t.name().strip_prefix("cylinder-") == Some(bare))
         .ok_or_else(|| {
-            format!("unknown cylinder technique '{name}' (expected area, solid-angle or projected)")
+            format!(
+                "unknown cylinder technique '{name}' (expected projected, solid-angle, gamito \
+                 or area)"
+            )
         })
 }
 

@@ -393,7 +393,8 @@ mod tests {
     /// Unbiased against the quadrature of L·(ρ/π)·Ω⊥ for every technique with and without MIS
     /// (so MIS and no MIS agree), at R = 0.3 × and 1e-4 × the distance, beside the tube and
     /// with the tube crossing the tangent plane: |z| of 40 000 estimates within the two-sided
-    /// normal quantile at α = 0.01, Šidák over the 24 tests (|z| ≤ 3.53). A pdf 1 % too large
+    /// normal quantile at α = 0.01, Šidák over the 32 tests (4 techniques × MIS on/off × 4
+    /// configurations: |z| ≤ 3.61). A pdf 1 % too large
     /// in the estimate (the negative control, the thin tube, where the variance is smallest)
     /// is rejected.
     #[test]
@@ -401,7 +402,7 @@ mod tests {
         let cases = configs();
         let tests = cases.len() * samplings().len();
         let z_max = normal_two_sided_quantile(sidak(0.01, tests));
-        assert!((z_max - 3.53).abs() < 0.01, "{z_max}");
+        assert!((z_max - 3.61).abs() < 0.01, "{z_max}");
         for (k, (t, x, n)) in cases.iter().enumerate() {
             let truth = t.radiance.x as f64
                 * 0.5
