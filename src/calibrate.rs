@@ -243,6 +243,8 @@ fn options(method: Method, spp: u32, passes: u32, seed: u64) -> RenderOptions {
         // the same image).
         lights: LightSelection::Every,
         noise: Default::default(),
+        // The calibration's references are of the line limit.
+        cylinders: linlight_render::Cylinders::Line,
     }
 }
 

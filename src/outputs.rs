@@ -151,6 +151,39 @@ pub struct RenderChoices {
     pub light_samples: Option<u32>,
     pub lights: linlight_render::LightSelection,
     pub noise: linlight_sampling::noise::Noise,
+    pub cylinders: linlight_render::Cylinders,
+}
+
+/// The cylinder mode of `--cylinders`, `--cylinder-technique` and `--cylinder-mis` (spelled by
+/// `flag` in the messages, as in [`render_options`]).
+pub fn cylinders(
+    mode: &str,
+    technique: &str,
+    mis: &str,
+    flag: impl Fn(&str) -> String,
+) -> Result<linlight_render::Cylinders, String> {
+    let technique = linlight_render::options::cylinder_technique(technique)
+        .map_err(|e| format!("{}: {e}", flag("cylinder-technique")))?;
+    let mis = match mis {
+        "balance" => true,
+        "off" => false,
+        m => {
+            return Err(format!(
+                "{}: unknown '{m}' (expected balance or off)",
+                flag("cylinder-mis")
+            ))
+        }
+    };
+    match mode {
+        "exact" => Ok(linlight_render::Cylinders::Exact(
+            linlight_render::TubeSampling { technique, mis },
+        )),
+        "line" => Ok(linlight_render::Cylinders::Line),
+        c => Err(format!(
+            "{}: unknown '{c}' (expected exact or line)",
+            flag("cylinders")
+        )),
+    }
 }
 
 /// The options a render of `scene` runs with, and the warnings `linlight render` gives about
@@ -164,6 +197,9 @@ pub fn render_options(
     one_sample_warning: bool,
 ) -> (linlight_render::RenderOptions, Vec<String>) {
     let mut warnings = scene.warnings.clone();
+    if c.cylinders == linlight_render::Cylinders::Line {
+        warnings.extend(linlight_render::xml::radius::line_limit_warnings(scene));
+    }
     if c.method == linlight_render::Method::Technique(linlight_sampling::Technique::Baseline) {
         warnings.push(
             "the baseline technique is biased by design (its density is not exact); its images \
@@ -191,6 +227,7 @@ pub fn render_options(
         light_samples,
         lights: c.lights,
         noise: c.noise,
+        cylinders: c.cylinders,
     };
     if one_sample_warning && opts.spp == 1 && opts.passes == 1 {
         warnings.push(format!(

@@ -201,7 +201,7 @@ fn cases() -> Vec<Case> {
             "tube of radius 0",
             &["render", "{dir}/zero_radius_tube.xml"],
             2,
-            "cylinder radius must be positive (got 0)",
+            "cylinder radius must be positive and finite (got 0)",
         ),
         case(
             "unsupported shape",

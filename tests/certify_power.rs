@@ -210,6 +210,7 @@ fn rejects_a_five_percent_tile_bias_in_every_scene() {
                 light_samples: 1,
                 lights: LightSelection::Every,
                 noise: Default::default(),
+                cylinders: linlight_render::Cylinders::Line,
             },
             &|_, _| {},
         )
@@ -256,6 +257,7 @@ fn renders_differing_only_in_seed_pass_compare() {
             light_samples: 1,
             lights: LightSelection::Every,
             noise: Default::default(),
+            cylinders: linlight_render::Cylinders::Line,
         };
         let a = linlight_render::render(&s.scene, &opts(11), &|_, _| {}).unwrap();
         let b = linlight_render::render(&s.scene, &opts(12), &|_, _| {}).unwrap();

@@ -39,6 +39,7 @@ fn render_with_seed(sc: &Scene, seed: u64) -> Image {
         light_samples: 1,
         lights: Default::default(),
         noise: Default::default(),
+        cylinders: linlight_render::Cylinders::Line,
     };
     render(sc, &opts, &|_, _| {}).unwrap()
 }

@@ -261,8 +261,8 @@ fn render_reports_its_steps() {
     assert!(pilot < eta && eta < wrote, "{}", r.stderr);
 }
 
-/// A tube of visible radius: a warning with the estimated per-pixel effect, recorded in the
-/// header for compare.
+/// A tube of visible radius rendered as a line: a warning with the estimated per-pixel effect,
+/// recorded in the header for compare. Rendered exact (the default), neither.
 #[test]
 fn a_thick_tube_is_warned_about_and_recorded() {
     let d = scratch("thick");
@@ -271,7 +271,15 @@ fn a_thick_tube_is_warned_about_and_recorded() {
         .replace("20000, 10000, 5000", "200, 100, 50");
     let scene = write(&d, "thick.xml", thick);
     let out = d.join("thick.exr");
-    let r = linlight(&["render", &scene, "-o", out.to_str().unwrap(), "-q"]);
+    let r = linlight(&[
+        "render",
+        &scene,
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--cylinders",
+        "line",
+    ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stderr.contains("(R = 0.01): up to"), "{}", r.stderr);
     assert!(
@@ -281,6 +289,13 @@ fn a_thick_tube_is_warned_about_and_recorded() {
     );
     let img = Image::read(&out).unwrap();
     assert!(img.meta.extra["finite_radius_effect"].contains("R = 0.01"));
+    assert_eq!(img.meta.extra["cylinders"], "line");
+    let r = linlight(&["render", &scene, "-o", out.to_str().unwrap(), "-q"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(!r.stderr.contains("per pixel"), "{}", r.stderr);
+    let img = Image::read(&out).unwrap();
+    assert!(!img.meta.extra.contains_key("finite_radius_effect"));
+    assert_eq!(img.meta.extra["cylinders"], "exact");
 }
 
 /// The walkthrough's scene: a Cornell box as the Mitsuba tutorials write it is refused with

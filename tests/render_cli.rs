@@ -185,7 +185,8 @@ fn time_limit_and_match_variance() {
     );
 
     // A reference rendered with 4096 spp: matching its variance needs about 4096 spp again
-    // (the budget rule is a 99 % quantile over pixels of a noisy pilot, in steps of 64).
+    // (the budget rule is a 99 % quantile over pixels of a noisy pilot, in steps of 64). The
+    // line limit, whose per-sample variance the range below was set from.
     let reference = dir.join("ref.exr");
     let r = linlight(&[
         "render",
@@ -197,6 +198,8 @@ fn time_limit_and_match_variance() {
         "-o",
         reference.to_str().unwrap(),
         "-q",
+        "--cylinders",
+        "line",
     ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let matched = dir.join("matched.exr");
@@ -207,6 +210,8 @@ fn time_limit_and_match_variance() {
         reference.to_str().unwrap(),
         "-o",
         matched.to_str().unwrap(),
+        "--cylinders",
+        "line",
     ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stderr.contains("--match-variance: "), "{}", r.stderr);

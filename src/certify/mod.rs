@@ -895,6 +895,8 @@ impl SceneRun<'_> {
             // certified by the renders of `LIGHT_SELECTION_RENDERS`.
             lights: LightSelection::Every,
             noise: Default::default(),
+            // The committed scenes' thin tubes as lines (their allowances assume the limit).
+            cylinders: linlight_render::Cylinders::Line,
         };
         let Planned {
             budget,

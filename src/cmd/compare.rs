@@ -39,6 +39,10 @@ pub struct Args {
     /// Compare images rendered from different scene files (their scene_sha256 differ).
     #[arg(long)]
     pub allow_different_scenes: bool,
+    /// Compare images whose cylinders were rendered differently (header `cylinders`: exact
+    /// tubes against the R → 0 line limit).
+    #[arg(long)]
+    pub allow_different_cylinders: bool,
     /// Write the full report as JSON.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -99,6 +103,9 @@ pub fn run(args: Args) -> ExitCode {
             eprintln!("{note}");
         }
     }
+    if let Err(e) = check_cylinders(&a, &b, args.allow_different_cylinders) {
+        return unusable(e);
+    }
     let cfg = CompareConfig {
         alpha: args.alpha,
         tolerance: args.tolerance,
@@ -123,6 +130,19 @@ pub fn run(args: Args) -> ExitCode {
         return unusable(e);
     }
     ExitCode::from(cmp.verdict.exit_code())
+}
+
+/// Refuses two images whose headers both record `cylinders` with different values, unless
+/// `allow`. Images without the entry (other renderers, Mitsuba) pass.
+pub fn check_cylinders(a: &Image, b: &Image, allow: bool) -> Result<(), String> {
+    match (a.meta.extra.get("cylinders"), b.meta.extra.get("cylinders")) {
+        (Some(x), Some(y)) if x != y && !allow => Err(format!(
+            "A was rendered with --cylinders {x}, B with --cylinders {y}: they differ by the \
+             tubes' finite radius by design (pass --allow-different-cylinders to compare them \
+             anyway)"
+        )),
+        _ => Ok(()),
+    }
 }
 
 fn write_outputs(args: &Args, cmp: &Comparison, a: &Image, b: &Image) -> Result<(), String> {
@@ -296,4 +316,29 @@ fn table(cmp: &Comparison, args: &Args, a: &Image, b: &Image) -> String {
     }
     s += &format!("verdict: {}\n", cmp.verdict.label());
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Images of different `--cylinders` are refused, naming the flag; allowed with it, and
+    /// when either header lacks the entry (Mitsuba's references).
+    #[test]
+    fn different_cylinders_are_refused_unless_allowed() {
+        let (mut a, mut b) = (Image::new(1, 1), Image::new(1, 1));
+        assert!(check_cylinders(&a, &b, false).is_ok());
+        a.meta.extra.insert("cylinders".into(), "exact".into());
+        assert!(check_cylinders(&a, &b, false).is_ok());
+        b.meta.extra.insert("cylinders".into(), "line".into());
+        let e = check_cylinders(&a, &b, false).unwrap_err();
+        assert!(e.contains("--allow-different-cylinders"), "{e}");
+        assert!(
+            e.contains("--cylinders exact") && e.contains("--cylinders line"),
+            "{e}"
+        );
+        assert!(check_cylinders(&a, &b, true).is_ok());
+        b.meta.extra.insert("cylinders".into(), "exact".into());
+        assert!(check_cylinders(&a, &b, false).is_ok());
+    }
 }

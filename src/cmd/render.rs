@@ -13,7 +13,7 @@ use linlight::merge::merge;
 use linlight::outputs::{self, ImageFormat};
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{record_inputs, render, LightSelection, Method, RenderOptions};
+use linlight_render::{record_inputs, render, Cylinders, LightSelection, Method, RenderOptions};
 use linlight_sampling::noise::Noise;
 use linlight_verify::image_stats::CompareConfig;
 use std::io::IsTerminal;
@@ -37,6 +37,8 @@ Examples:
   linlight render glossy.xml --technique projected-solid-angle # one technique, full BSDF
   linlight render two-tubes.xml --lights one       # one light per light sample, as Mitsuba
   linlight render many-tubes.xml --lights tree     # one light per light sample, by a light tree
+  linlight render scene.xml --cylinders line       # tubes as the R → 0 line limit
+  linlight render scene.xml --cylinder-technique solid-angle --cylinder-mis off
 
 Methods (--technique): `mis` (default) takes per light and iteration one projected-solid-angle
 (diffuse) and one LTC (specular) sample, both shadow-traced, combined by --mis; `ltc` takes an
@@ -57,8 +59,15 @@ light's power and a bound of its projected solid angle at the shading point x, a
 it: the work of `one`, for scenes with many lights (docs/light-tree.md). Scenes with one light
 render the same image under every selection.
 
-The header of the .exr records technique, mis, mis_v (clamped optimal), light_samples and
-light_selection.
+Cylinders (--cylinders): `exact` (default) renders a cylinder with an area emitter as the
+cylinder it is (radius R, open ends as in Mitsuba, radiance L on the outer side), sampled by
+--cylinder-technique (projected: the line sampler along the axis composed across the section;
+solid-angle; gamito: Gamito's uniform solid angle; area) combined with a cosine-weighted BSDF-side sample by the balance heuristic
+(--cylinder-mis balance, or off). `line` renders the R → 0 limit with K = radiance × radius
+(the behaviour before finite cylinders; --technique and --mis apply to it). docs/cylinders.md.
+
+The header of the .exr records technique, mis, mis_v (clamped optimal), light_samples,
+light_selection, cylinders and (exact) cylinder_technique and cylinder_mis.
 
 The output format follows the extension: .exr holds mean and variance of the mean (for
 compare, merge, info); .png a tone-mapped preview only.";
@@ -93,6 +102,19 @@ pub struct Args {
     /// probability (`one`: Mitsuba's estimator; `tree`: by a light tree; see below).
     #[arg(long, default_value = "every", value_name = "every|one|tree")]
     lights: String,
+    /// Cylinders with an area emitter: exact (the tube of radius R) or line (the R → 0 limit).
+    #[arg(long, default_value = "exact", value_name = "exact|line")]
+    cylinders: String,
+    /// Emitter technique of exact cylinders: projected (ours), solid-angle, gamito or area.
+    #[arg(
+        long,
+        default_value = "projected",
+        value_name = "projected|solid-angle|gamito|area"
+    )]
+    cylinder_technique: String,
+    /// Combination of exact cylinders' emitter sample with a BSDF-side sample: balance or off.
+    #[arg(long, default_value = "balance", value_name = "balance|off")]
+    cylinder_mis: String,
     /// Independent passes; with P > 1 the variance comes from the P pass means (dof = P − 1).
     #[arg(long, default_value_t = 1)]
     passes: u32,
@@ -228,6 +250,7 @@ struct Request {
     method: Method,
     noise: Noise,
     lights: LightSelection,
+    cylinders: Cylinders,
     overrides: Vec<(String, String)>,
     outs: Outputs,
 }
@@ -267,6 +290,12 @@ fn parse(args: &Args) -> Result<Request, String> {
     let method = method(args)?;
     let noise: Noise = args.noise.parse()?;
     let lights: LightSelection = args.lights.parse().map_err(|e| format!("--lights: {e}"))?;
+    let cylinders = outputs::cylinders(
+        &args.cylinders,
+        &args.cylinder_technique,
+        &args.cylinder_mis,
+        |name| format!("--{name}"),
+    )?;
     if args.light_samples == Some(0) {
         return Err("--light-samples must be at least 1".into());
     }
@@ -299,6 +328,7 @@ fn parse(args: &Args) -> Result<Request, String> {
         method,
         noise,
         lights,
+        cylinders,
         overrides,
         outs,
     })
@@ -321,6 +351,7 @@ fn plan(args: &Args, req: &Request, started: Instant) -> Result<Plan, String> {
             light_samples: args.light_samples,
             lights: req.lights,
             noise: req.noise,
+            cylinders: req.cylinders,
         },
         |name| format!("--{name}"),
         // Shown even with --quiet: the output cannot be compared.
@@ -527,11 +558,15 @@ fn write(args: &Args, req: &Request, plan: &Plan, r: Rendered) -> Result<(), Str
     record_inputs(&mut image.meta, &args.scene, &req.overrides);
     // The finite-radius effect where it may be visible, for compare's message on a failure.
     let scene = &plan.scene;
-    let effects: Vec<String> = xml::radius::effects(scene)
-        .iter()
-        .filter(|e| e.per_pixel > xml::radius::WARN_RELATIVE)
-        .map(|e| xml::radius::describe(scene, e))
-        .collect();
+    let effects: Vec<String> = if plan.opts.cylinders == Cylinders::Line {
+        xml::radius::effects(scene)
+            .iter()
+            .filter(|e| e.per_pixel > xml::radius::WARN_RELATIVE)
+            .map(|e| xml::radius::describe(scene, e))
+            .collect()
+    } else {
+        Vec::new()
+    };
     if !effects.is_empty() {
         image
             .meta

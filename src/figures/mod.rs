@@ -246,6 +246,8 @@ impl Ctx<'_> {
             // Every light per light sample (lamps and room have several lights).
             lights: LightSelection::Every,
             noise,
+            // The paper's experiments are of linear lights.
+            cylinders: linlight_render::Cylinders::Line,
         };
         let t = Instant::now();
         let image = render(scene, &opts, &|_, _| {}).map_err(|e| e.to_string())?;

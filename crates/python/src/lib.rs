@@ -16,7 +16,7 @@ use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
 use linlight_render::scene::Scene;
 use linlight_render::xml;
-use linlight_render::{record_inputs, render as render_scene, LightSelection, Method};
+use linlight_render::{record_inputs, render as render_scene, Cylinders, LightSelection, Method};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::{LineSampler, Prepared as PreparedTechnique, Segment, Technique};
 use linlight_verify::image_stats::{compare as compare_images, CompareConfig};
@@ -475,6 +475,7 @@ struct RenderRequest {
     noise: Noise,
     light_samples: Option<u32>,
     lights: LightSelection,
+    cylinders: Cylinders,
     threads: Option<usize>,
 }
 
@@ -490,6 +491,9 @@ struct RenderArgs<'a> {
     mis: Option<&'a str>,
     light_samples: Option<u32>,
     lights: &'a str,
+    cylinders: &'a str,
+    cylinder_technique: &'a str,
+    cylinder_mis: &'a str,
     threads: Option<usize>,
 }
 
@@ -507,6 +511,9 @@ impl RenderRequest {
             mis,
             light_samples,
             lights,
+            cylinders,
+            cylinder_technique,
+            cylinder_mis,
             threads,
         } = a;
         let method = match (mis, Method::from_technique_name(technique)?) {
@@ -521,6 +528,10 @@ impl RenderRequest {
     };
         let noise: Noise = noise.parse()?;
         let lights: LightSelection = lights.parse().map_err(|e| format!("--lights: {e}"))?;
+        let cylinders =
+            linlight::outputs::cylinders(cylinders, cylinder_technique, cylinder_mis, |name| {
+                format!("--{name}")
+            })?;
         if light_samples == Some(0) {
             return Err("--light-samples must be at least 1".into());
         }
@@ -543,6 +554,7 @@ impl RenderRequest {
             noise,
             light_samples,
             lights,
+            cylinders,
             threads,
         })
     }
@@ -562,6 +574,7 @@ fn render_image(req: &RenderRequest) -> Result<(Image, Vec<String>), String> {
             light_samples: req.light_samples,
             lights: req.lights,
             noise: req.noise,
+            cylinders: req.cylinders,
         },
         |name| name.replace('-', "_"),
         true,
@@ -578,7 +591,8 @@ fn render_image(req: &RenderRequest) -> Result<(Image, Vec<String>), String> {
 /// Renders a scene as `linlight render` does: the image and the warnings the command prints.
 #[pyfunction]
 #[pyo3(signature = (scene, defines, spp = None, passes = 1, seed = None, technique = "mis",
-    noise = "white", mis = None, light_samples = None, lights = "every", threads = None))]
+    noise = "white", mis = None, light_samples = None, lights = "every", cylinders = "exact",
+    cylinder_technique = "projected", cylinder_mis = "balance", threads = None))]
 #[allow(clippy::too_many_arguments)]
 fn render(
     py: Python<'_>,
@@ -592,6 +606,9 @@ fn render(
     mis: Option<&str>,
     light_samples: Option<u32>,
     lights: &str,
+    cylinders: &str,
+    cylinder_technique: &str,
+    cylinder_mis: &str,
     threads: Option<usize>,
 ) -> PyResult<(PyImage, Vec<String>)> {
     let req = RenderRequest::parse(RenderArgs {
@@ -605,6 +622,9 @@ fn render(
         mis,
         light_samples,
         lights,
+        cylinders,
+        cylinder_technique,
+        cylinder_mis,
         threads,
     })
     .map_err(err)?;

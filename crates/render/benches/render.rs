@@ -40,6 +40,7 @@ fn main() {
             light_samples: 1,
             lights: Default::default(),
             noise: Default::default(),
+            cylinders: linlight_render::Cylinders::Line,
         };
         let samples = 256.0 * 256.0 * opts.spp as f64;
         let mut rates = Vec::new();

@@ -66,6 +66,9 @@ pub(crate) fn metadata(
     meta.extra.insert("seed".into(), opts.seed.to_string());
     meta.extra
         .insert("spp_per_pass".into(), opts.spp.to_string());
+    for (key, value) in opts.cylinders.header() {
+        meta.extra.insert(key.into(), value);
+    }
     if opts.noise != Noise::White {
         meta.extra.insert("noise".into(), opts.noise.name().into());
     }

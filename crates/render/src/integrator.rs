@@ -77,7 +77,22 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     ray: &Ray,
     rng: &mut SampleStream,
 ) -> Rgb {
-    let Some(hit) = scene.bvh.intersect(ray) else {
+    let hit = scene.bvh.intersect(ray);
+    if scene.tubes.camera_sees {
+        // A tube in front of the first surface: its radiance seen from outside, black inside.
+        // With `hide_emitters` camera rays pass through tubes, as in Mitsuba's `direct`.
+        let mut front = *ray;
+        if let Some(h) = &hit {
+            front.t_max = h.t;
+        }
+        if let Some((_, j, outside)) = scene.tubes.closest(&front) {
+            return match scene.tubes.get(j) {
+                Some(t) if outside && scene.tubes.camera_sees => t.radiance.to_array(),
+                _ => [0.0; 3],
+            };
+        }
+    }
+    let Some(hit) = hit else {
         return [0.0; 3];
     };
     let prim = scene.bvh.primitive(hit.prim);
@@ -100,6 +115,9 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     };
     let light_samples = opts.light_samples;
     let one = scene.chooses_one(opts.lights);
+    if scene.tubes.any() {
+        return tube_radiance(scene, opts, pieces, bsdf, shape, sp, n, wi, rng).to_array();
+    }
     match scene.lambert[shape] {
         Some(f) => {
             // K·(ρ/π)·cos θ/p(ω), p per radius (dΩ_R).
@@ -158,6 +176,106 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     total.to_array()
 }
 
+/// The light reflected at `sp` (reflecting normal `n`, toward `wi`) when some lights are exact
+/// tubes ([`crate::tube`]): tube lights by the tube estimator, line lights as in [`radiance`]
+/// (their shadow rays also stopped by tubes). The same numbers as [`radiance`] per line light;
+/// per tube light those of [`crate::tube::estimate`].
+#[allow(clippy::too_many_arguments)]
+fn tube_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &RenderScene,
+    opts: &RenderOptions,
+    pieces: Resolved<T, S, B>,
+    bsdf: &crate::scene::Bsdf,
+    shape: usize,
+    sp: &crate::shapes::SurfacePoint,
+    n: Vec3,
+    wi: Vec3,
+    rng: &mut SampleStream,
+) -> Vec3 {
+    let mut dropped = 0u32;
+    let lambert = scene.lambert[shape];
+    let point = ShadingPoint::for_method(pieces.bsdf, opts.method, bsdf, sp.p, n, wi);
+    let eval = |w: Vec3| match lambert {
+        Some(f) => f * n.dot(w).max(0.0),
+        None => point.eval(pieces.bsdf, w),
+    };
+    let tubes = &scene.tubes;
+    // The scene's full BVH: the shadow culling assumes targets on the light's segment.
+    let visible = |j: usize| {
+        move |w: Vec3, dist: f32| {
+            shadow_ray_to(sp, sp.p + dist * w)
+                .is_some_and(|shadow| !scene.bvh.occluded(&shadow) && !tubes.occluded(&shadow, j))
+        }
+    };
+    let light_samples = opts.light_samples;
+    let one = scene.chooses_one(opts.lights);
+    let total = sum_over_light_samples(
+        scene,
+        opts,
+        (sp.p, n),
+        rng,
+        |j, segment, k, samples, rng| {
+            let Some(tube) = tubes.get(j) else {
+                // A line light among tubes (a light of zero radius).
+                let mut sum = match lambert {
+                    Some(f) => single_technique(
+                        pieces.technique.prepare(segment, sp.p, n).as_ref(),
+                        n,
+                        samples,
+                        rng,
+                        &mut visible(j),
+                        |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
+                        &mut dropped,
+                    ),
+                    None => {
+                        estimate_resolved(
+                            pieces,
+                            opts.method,
+                            &point,
+                            segment,
+                            k,
+                            samples,
+                            rng,
+                            &mut visible(j),
+                            &mut dropped,
+                        ) * samples as f32
+                    }
+                };
+                if samples > 1 {
+                    sum /= samples as f32;
+                }
+                return sum;
+            };
+            // k is K (or K/p_j): L = k/R.
+            let sum = crate::tube::estimate(
+                tube,
+                tubes.sampling,
+                sp,
+                n,
+                k / tube.radius,
+                samples,
+                rng,
+                &eval,
+                &mut visible(j),
+                &mut dropped,
+            );
+            if samples > 1 {
+                sum / samples as f32
+            } else {
+                sum
+            }
+        },
+    );
+    if dropped > 0 {
+        scene.dropped.add_many(dropped as u64);
+    }
+    if one && light_samples > 1 {
+        total / light_samples as f32
+    } else {
+        total
+    }
+}
+
 /// [`render`](crate::render::render) with replaced pieces ([`Hooks`]): the hook through which tests render with
 /// deliberately wrong techniques, specular samplers or BSDF evaluations (power controls, see
 /// `power_controls`, with the `test-support` feature). `opts.method` still chooses the estimator; the header records
@@ -191,7 +309,7 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
     let (x0, y0, w, h) = window(scene)?;
-    let rs = RenderScene::new(scene)?;
+    let rs = RenderScene::with_cylinders(scene, opts.cylinders)?;
     let full_width = scene.sensor.film.width;
     let noise = NoiseSource::new(opts.noise, opts.seed, opts.spp);
     let mut image = render_in_tiles(

@@ -29,6 +29,7 @@ pub mod shadow_culling;
 pub mod shapes;
 #[cfg(test)]
 mod test_scenes;
+pub mod tube;
 pub mod visible_line;
 pub mod xml;
 
@@ -38,6 +39,6 @@ pub use integrator::render_scalar;
 pub use light_choice::LightSelection;
 pub use linlight_sampling::mis::Heuristic;
 pub use method::Method;
-pub use options::{RenderError, RenderOptions};
+pub use options::{Cylinders, RenderError, RenderOptions, TubeSampling};
 pub use render::render;
 pub use render_scene::RenderScene;

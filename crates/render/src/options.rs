@@ -3,6 +3,7 @@
 use crate::light_choice::LightSelection;
 use crate::method::Method;
 use crate::scene::Scene;
+use linlight_sampling::cylinder::CylinderTechnique;
 use linlight_sampling::noise::Noise;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,11 +24,90 @@ pub struct RenderOptions {
     pub lights: LightSelection,
     /// Where the primary samples come from (white by default; see [`linlight_sampling::noise`]).
     pub noise: Noise,
+    /// How cylinders with an area emitter are rendered: the R → 0 line limit or the tube of
+    /// radius R ([`Cylinders`]; the library's default is the line, `linlight render`'s exact).
+    pub cylinders: Cylinders,
+}
+
+/// How a `cylinder` shape with an `area` emitter is rendered (`linlight render --cylinders`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cylinders {
+    /// The R → 0 limit: a linear light with K = radiance × radius, invisible to every ray.
+    Line,
+    /// The cylinder of radius R as Mitsuba has it (open, emitting radiance L outward, opaque),
+    /// sampled by a cylinder technique, optionally combined with BSDF sampling
+    /// ([`crate::tube`]).
+    Exact(TubeSampling),
+}
+
+/// The sampling of an exact tube light at a shading point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TubeSampling {
+    /// The emitter technique (densities per steradian over the visible side).
+    pub technique: CylinderTechnique,
+    /// Whether a cosine-weighted BSDF-side sample joins the emitter sample, both weighted by
+    /// the balance heuristic.
+    pub mis: bool,
+}
+
+impl Default for TubeSampling {
+    /// Ours (the line sampler along the axis, composed across the section) with MIS.
+    fn default() -> Self {
+        Self {
+            technique: CylinderTechnique::Projected,
+            mis: true,
+        }
+    }
+}
+
+impl Cylinders {
+    /// The exact tubes with the default sampling.
+    pub const EXACT: Cylinders = Cylinders::Exact(TubeSampling {
+        technique: CylinderTechnique::Projected,
+        mis: true,
+    });
+
+    /// `line` or `exact` (the `cylinders` header entry).
+    pub fn name(self) -> &'static str {
+        match self {
+            Cylinders::Line => "line",
+            Cylinders::Exact(_) => "exact",
+        }
+    }
+
+    /// The header entries: `cylinders`, and for exact tubes `cylinder_technique` and
+    /// `cylinder_mis` (`balance` or `off`).
+    pub fn header(self) -> Vec<(&'static str, String)> {
+        let mut v = vec![("cylinders", self.name().to_string())];
+        if let Cylinders::Exact(t) = self {
+            v.push(("cylinder_technique", t.technique.name().to_string()));
+            v.push((
+                "cylinder_mis",
+                if t.mis { "balance" } else { "off" }.to_string(),
+            ));
+        }
+        v
+    }
+}
+
+/// The cylinder technique of a `--cylinder-technique` name: `area`, `solid-angle`, `gamito`,
+/// `projected` (with or without the `cylinder-` prefix).
+pub fn cylinder_technique(name: &str) -> Result<CylinderTechnique, String> {
+    let bare = name.strip_prefix("cylinder-").unwrap_or(name);
+    CylinderTechnique::ALL
+        .into_iter()
+        .find(|t| t.name().strip_prefix("cylinder-") == Some(bare))
+        .ok_or_else(|| {
+            format!(
+                "unknown cylinder technique '{name}' (expected projected, solid-angle, gamito \
+                 or area)"
+            )
+        })
 }
 
 impl Default for RenderOptions {
     /// 1 spp, 1 pass, seed 0, the default method (MIS, clamped optimal, v = 0.5), 1 light
-    /// sample of every light, white noise.
+    /// sample of every light, white noise, cylinders as lines.
     fn default() -> Self {
         Self {
             spp: 1,
@@ -37,6 +117,7 @@ impl Default for RenderOptions {
             light_samples: 1,
             lights: LightSelection::Every,
             noise: Noise::White,
+            cylinders: Cylinders::Line,
         }
     }
 }

@@ -1660,6 +1660,7 @@ mod tests {
                         light_samples: 1,
                         lights,
                         noise: Default::default(),
+                        cylinders: crate::options::Cylinders::Line,
                     };
                     let scalar = render_scalar(&scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
                     // Every kernel this CPU runs (the baseline always: CPUs without AVX).
@@ -1727,6 +1728,7 @@ mod tests {
             light_samples: 1,
             lights: LightSelection::One,
             noise: Default::default(),
+            cylinders: crate::options::Cylinders::Line,
         };
         let cornell = scene("cornell-tube", 8);
         let mixed = scene("glossy-cornell", 8);

@@ -23,7 +23,10 @@ pub fn render(
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    if crate::packet::applies(scene, opts) {
+    // Exact tubes are rendered by the scalar path only.
+    let tubes = matches!(opts.cylinders, crate::options::Cylinders::Exact(_))
+        && scene.lights.iter().any(|l| l.radius > 0.0);
+    if !tubes && crate::packet::applies(scene, opts) {
         return crate::packet::render(scene, opts, progress);
     }
     render_scalar(scene, opts, &Hooks::new(), progress)

@@ -7,10 +7,11 @@ use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::light_choice::{LightChoice, LightSelection};
 use crate::light_tree::{k_over_pmf, LightTree};
-use crate::options::{window, RenderError};
+use crate::options::{window, Cylinders, RenderError};
 use crate::scene::{Bsdf, Geometry, Scene};
 use crate::shadow_culling::ShadowCulling;
 use crate::shapes::{transformed_normal, Primitive};
+use crate::tube::Tubes;
 use crate::visible_line::VisibleLines;
 use glam::Vec3;
 use linlight_sampling::Segment;
@@ -38,6 +39,8 @@ pub struct RenderScene {
     pub visible: VisibleLines,
     /// Light contributions dropped because they were not finite (reported by the renderer).
     pub dropped: DroppedSamples,
+    /// The lights rendered as exact tubes (none under `--cylinders line`; [`crate::tube`]).
+    pub tubes: Tubes,
 }
 
 /// A count shared by the threads of a render (relaxed: only the total is read, at the end).
@@ -143,8 +146,14 @@ pub fn k_over_probability(lights: &[(Segment, Vec3)], choice: &LightChoice, j: u
 }
 
 impl RenderScene {
-    /// Acceleration structure, camera and lights of a scene.
+    /// Acceleration structure, camera and lights of a scene, its cylinders as lines.
     pub fn new(scene: &Scene) -> Result<Self, RenderError> {
+        Self::with_cylinders(scene, Cylinders::Line)
+    }
+
+    /// [`RenderScene::new`] with the lights' cylinders rendered as `cylinders` says.
+    pub fn with_cylinders(scene: &Scene, cylinders: Cylinders) -> Result<Self, RenderError> {
+        let tubes = Tubes::new(scene, cylinders);
         window(scene)?;
         let camera = Camera::new(&scene.sensor).ok_or_else(|| {
             RenderError::Scene(
@@ -221,10 +230,13 @@ impl RenderScene {
         let visible = if scene.integrator.hide_emitters {
             VisibleLines::default()
         } else {
+            // Tubes are seen by the camera's own rays.
             let lights: Vec<(Vec3, Vec3, Vec3)> = scene
                 .lights
                 .iter()
-                .map(|l| (l.begin, l.end, Vec3::from_array(l.radiance_times_radius)))
+                .enumerate()
+                .filter(|(j, _)| tubes.get(*j).is_none())
+                .map(|(_, l)| (l.begin, l.end, Vec3::from_array(l.radiance_times_radius)))
                 .collect();
             VisibleLines::new(&camera, &lights)
         };
@@ -240,6 +252,7 @@ impl RenderScene {
             .collect();
         Ok(Self {
             tree: LightTree::new(&lights),
+            tubes,
             visible,
             dropped: Default::default(),
             camera,

@@ -289,6 +289,7 @@ mod tests {
             light_samples: 1,
             lights: Default::default(),
             noise: Default::default(),
+            cylinders: crate::options::Cylinders::Line,
         };
         let hidden = render(&sc, &opts, &|_, _| {}).unwrap();
         assert!(hidden.mean.iter().all(|m| *m == [0.0; 3]));

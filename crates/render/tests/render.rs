@@ -41,6 +41,7 @@ fn opts(spp: u32, passes: u32, seed: u64, technique: Technique) -> RenderOptions
         light_samples: 1,
         lights: Default::default(),
         noise: Default::default(),
+        cylinders: linlight_render::Cylinders::Line,
     }
 }
 

@@ -249,6 +249,9 @@ def render(
     mis: Optional[str] = None,
     light_samples: Optional[int] = None,
     lights: str = "every",
+    cylinders: str = "exact",
+    cylinder_technique: str = "projected",
+    cylinder_mis: str = "balance",
     threads: Optional[int] = None,
     defines: Optional[Mapping[str, Any]] = None,
 ) -> Image:
@@ -258,7 +261,9 @@ def render(
     options are the command's (``linlight render --help``): ``spp`` per pass (default the
     scene's), ``passes``, ``seed`` (default the scene's), ``technique`` (``mis``, ``ltc`` or a
     technique name), ``noise`` (white, blue, blue-jittered), ``mis`` (heuristic of
-    ``technique="mis"``), ``light_samples``, ``lights`` (every, one), ``threads`` and
+    ``technique="mis"``), ``light_samples``, ``lights`` (every, one, tree), ``cylinders`` (exact,
+    line), ``cylinder_technique`` (projected, solid-angle, gamito, area), ``cylinder_mis``
+    (balance, off), ``threads`` and
     ``defines`` (the scene's ``$name`` defaults, as ``-D``). The scene's warnings are issued as
     Python warnings. The same options give the same image as the command (bit for bit).
 
@@ -271,7 +276,8 @@ def render(
 
     defs = [(str(k), str(v)) for k, v in (defines or {}).items()]
     img, notes = _render(
-        os.fspath(scene), defs, spp, passes, seed, technique, noise, mis, light_samples, lights, threads
+        os.fspath(scene), defs, spp, passes, seed, technique, noise, mis, light_samples, lights,
+        cylinders, cylinder_technique, cylinder_mis, threads,
     )
     for n in notes:
         warnings.warn(n, stacklevel=2)

@@ -62,5 +62,8 @@ def render(
     mis: Optional[str] = ...,
     light_samples: Optional[int] = ...,
     lights: str = ...,
+    cylinders: str = ...,
+    cylinder_technique: str = ...,
+    cylinder_mis: str = ...,
     threads: Optional[int] = ...,
 ) -> Tuple[Image, List[str]]: ...

@@ -263,6 +263,25 @@ pub fn effects(scene: &Scene) -> Vec<RadiusEffect> {
         .collect()
 }
 
+/// The warnings of a render of `scene` under `--cylinders line`: one per light whose estimated
+/// per-pixel effect ([`effects`]) exceeds [`WARN_RELATIVE`], with the expected relative error.
+pub fn line_limit_warnings(scene: &Scene) -> Vec<String> {
+    effects(scene)
+        .iter()
+        .filter(|e| e.per_pixel > WARN_RELATIVE)
+        .map(|e| {
+            format!(
+                "{}: Mitsuba's finite open cylinder differs from the R → 0 limit rendered here \
+                 (--cylinders line) by more than {} % per pixel there, which compare can \
+                 detect; --cylinders exact renders the tube itself, and a smaller radius (same \
+                 K = radiance × radius) shrinks the difference in proportion (docs/oracle.md)",
+                describe(scene, e),
+                100.0 * WARN_RELATIVE
+            )
+        })
+        .collect()
+}
+
 /// "light at FILE:L:C (R = 0.001): up to 3.1 % per pixel (Mitsuba darker) near (1, 0.24,
 /// 1.6)".
 pub fn describe(scene: &Scene, e: &RadiusEffect) -> String {

@@ -458,15 +458,31 @@ fn linear_light() {
         [1.0; 2]
     );
 
-    // A fat cylinder is reported (its axis meets no surface: the estimate off the axis).
+    // A fat cylinder is reported under --cylinders line (its axis meets no surface: the
+    // estimate off the axis), with the expected relative error.
     let s = load(
         "fatlight",
         r#"<shape type="rectangle"/>
 <shape type="cylinder"><float name="radius" value="0.1"/><emitter type="area"/></shape>"#,
     );
     assert_eq!(s.lights[0].radiance_times_radius, [0.1; 3]); // default radiance 1
+    let line = super::radius::line_limit_warnings(&s);
     assert!(
-        s.warnings.iter().any(|w| w.contains("(R = 0.1): up to")),
+        line.iter()
+            .any(|w| w.contains("(R = 0.1): up to") && w.contains("--cylinders line")),
+        "{line:?}"
+    );
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // A radius above a quarter of the length is warned about in any mode.
+    let s = load(
+        "fatterlight",
+        r#"<shape type="rectangle"/>
+<shape type="cylinder"><float name="radius" value="0.3"/><emitter type="area"/></shape>"#,
+    );
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("more than 0.25 × its length")),
         "{:?}",
         s.warnings
     );
@@ -1341,4 +1357,20 @@ fn missing_component_format_warns() {
     );
     let s = load("component_format", "<shape type=\"sphere\"/>");
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}
+
+/// A tube light's radius must be positive and finite: 0, negative, NaN and infinite radii are
+/// refused at the shape's file:line:column.
+#[test]
+fn tube_radius_must_be_positive_and_finite() {
+    for r in ["0", "-0.5", "nan", "inf"] {
+        let xml = wrap(&format!(
+            r#"<shape type="cylinder"><float name="radius" value="{r}"/><emitter type="area"/></shape>"#
+        ));
+        let e = load_err("radius", &xml);
+        assert!(
+            e.contains("scene.xml:4:") && e.contains("radius"),
+            "radius {r}: got '{e}'"
+        );
+    }
 }
