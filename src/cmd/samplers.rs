@@ -12,7 +12,7 @@ use linlight_verify::cylinder_suite;
 use linlight_verify::subjects::{certified, negative_controls, tilt_power_controls};
 use linlight_verify::suite::{run_suite_at, Check, SubjectReport, SuiteReport};
 use linlight_verify::{run_suite, Settings};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(clap::Args)]
@@ -103,46 +103,18 @@ pub fn run(args: Args) -> ExitCode {
         return ExitCode::from(2);
     }
     if args.backend == "gpu" {
-        // Options the kernels' run would ignore are refused, not dropped.
-        let ignored: Vec<&str> = [
-            ("--json", args.json.is_some()),
-            ("--seed", args.seed.is_some()),
-            ("--random-configs", args.random_configs.is_some()),
-        ]
-        .into_iter()
-        .filter_map(|(name, given)| given.then_some(name))
-        .collect();
-        if !ignored.is_empty() {
-            eprintln!(
-                "error: {} cannot be used with --backend gpu (its configurations and ξ are fixed; \
-                 see docs/kernels.md)",
-                ignored.join(", ")
-            );
+        if let Err(e) = refuse_ignored_by_gpu(&args) {
+            eprintln!("error: {e}");
             return ExitCode::from(2);
         }
         return crate::cmd::gpu_kernels::run(args.samples.min(1024), args.samples.min(100_000));
     }
-    // An unusable --json is reported before the suite runs, not after it.
-    if let Some(path) = &args.json {
-        if let Err(e) = linlight::outputs::check_writable(path) {
-            eprintln!("error: --json: {e}");
+    let settings = match settings(&args) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
             return ExitCode::from(2);
         }
-    }
-    if args.samples < 100 {
-        eprintln!(
-            "error: --samples must be at least 100 (got {})",
-            args.samples
-        );
-        return ExitCode::from(2);
-    }
-    let settings = Settings {
-        samples: args.samples,
-        random_configs: args
-            .random_configs
-            .unwrap_or(Settings::default().random_configs),
-        seed: args.seed.unwrap_or(Settings::default().seed),
-        ..Settings::default()
     };
     if let Some(command) = &args.external {
         let timeout = args.timeout.unwrap_or(DEFAULT_TIMEOUT);
@@ -156,24 +128,76 @@ pub fn run(args: Args) -> ExitCode {
     // Panics of a technique (e.g. an unimplemented one) are caught and reported per row,
     // without the default hook's message (`linlight_verify::quiet_panic`).
     if args.tilt_power {
-        let report = run_suite_at(&[], &tilt_power_controls(), &settings, &certified());
-        println!(
-            "χ² power against a smooth tilt: {} configurations, N = {}, {} fine φ-cells + {} \
-             coarse cells of equal probability, α_c = {:.3e} (the suite's), {:.1} s",
-            report.configurations.len(),
-            settings.samples,
-            settings.bins,
-            settings.coarse_cells,
-            report.alpha_per_test,
-            report.elapsed_seconds
-        );
-        print_tilt_power(&report.negative_controls);
-        return match &args.json {
-            Some(path) => write_json(path, &report),
-            None => ExitCode::SUCCESS,
-        };
+        return tilt_power(&settings, args.json.as_deref());
     }
-    let report: SuiteReport = run_suite(&certified(), &negative_controls(), &settings);
+    certification(&settings, args.json.as_deref())
+}
+
+/// Options the kernels' run would ignore are refused, not dropped.
+fn refuse_ignored_by_gpu(args: &Args) -> Result<(), String> {
+    let ignored: Vec<&str> = [
+        ("--json", args.json.is_some()),
+        ("--seed", args.seed.is_some()),
+        ("--random-configs", args.random_configs.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(name, given)| given.then_some(name))
+    .collect();
+    if ignored.is_empty() {
+        return Ok(());
+    }
+    Err(format!(
+        "{} cannot be used with --backend gpu (its configurations and ξ are fixed; see \
+         docs/kernels.md)",
+        ignored.join(", ")
+    ))
+}
+
+/// The suite's settings from the command line; an unusable --json is reported before the suite
+/// runs, not after it.
+fn settings(args: &Args) -> Result<Settings, String> {
+    if let Some(path) = &args.json {
+        linlight::outputs::check_writable(path).map_err(|e| format!("--json: {e}"))?;
+    }
+    if args.samples < 100 {
+        return Err(format!(
+            "--samples must be at least 100 (got {})",
+            args.samples
+        ));
+    }
+    Ok(Settings {
+        samples: args.samples,
+        random_configs: args
+            .random_configs
+            .unwrap_or(Settings::default().random_configs),
+        seed: args.seed.unwrap_or(Settings::default().seed),
+        ..Settings::default()
+    })
+}
+
+/// `--tilt-power`: the χ² power against smooth density tilts.
+fn tilt_power(settings: &Settings, json: Option<&Path>) -> ExitCode {
+    let report = run_suite_at(&[], &tilt_power_controls(), settings, &certified());
+    println!(
+        "χ² power against a smooth tilt: {} configurations, N = {}, {} fine φ-cells + {} \
+         coarse cells of equal probability, α_c = {:.3e} (the suite's), {:.1} s",
+        report.configurations.len(),
+        settings.samples,
+        settings.bins,
+        settings.coarse_cells,
+        report.alpha_per_test,
+        report.elapsed_seconds
+    );
+    print_tilt_power(&report.negative_controls);
+    match json {
+        Some(path) => write_json(path, &report),
+        None => ExitCode::SUCCESS,
+    }
+}
+
+/// The certification: the line samplers' suite, then the cylinder suite; exit 0 when both pass.
+fn certification(settings: &Settings, json: Option<&Path>) -> ExitCode {
+    let report: SuiteReport = run_suite(&certified(), &negative_controls(), settings);
 
     println!(
         "sampler suite: {} configurations ({} random + edge cases) + {} of the fitted LTC table, \
@@ -241,7 +265,7 @@ pub fn run(args: Args) -> ExitCode {
         controls_not_rejected.join(", ")
     );
 
-    if let Some(path) = &args.json {
+    if let Some(path) = json {
         // The line suite's report with the cylinder suite's under "cylinders"; "passed" is both.
         let mut value = match serde_json::to_value(&report) {
             Ok(v) => v,
