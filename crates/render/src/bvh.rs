@@ -4,12 +4,12 @@
 //! test is conservative, so the closest hit is the one a brute-force loop over all primitives
 //! finds (tests check this).
 //!
-//! Kept rather than the `obvhs` crate (compressed 8-wide BVH, PLOC build), measured on the
-//! camera and shadow rays of cornell-tube, mesh-occluder and two-tubes at 256²: this tree was
-//! faster per ray in every case (closest hit 26–41 vs 48–96 ns, any hit 17–69 vs 23–96 ns,
-//! minimum of 15 interleaved passes) for about the same instruction count, obvhs reported 6 of
-//! 62 066 cornell-tube shadow rays differently (its box test is not made conservative), and it
-//! needs glam 0.33–0.34 besides the workspace's 0.30.
+//! Kept rather than the `obvhs` crate (compressed 8-wide BVH, PLOC build): on the camera and
+//! shadow rays of cornell-tube, mesh-occluder and two-tubes at 256² this tree is faster per
+//! ray in every case (closest hit 26–41 vs 48–96 ns, any hit 17–69 vs 23–96 ns, minimum of 15
+//! interleaved passes) for about the same instruction count; obvhs reports 6 of 62 066
+//! cornell-tube shadow rays differently (its box test is not made conservative), and it needs
+//! glam 0.33–0.34 besides the workspace's 0.30.
 
 use crate::shapes::{intersect_triangle_edges, Aabb, Hit, Primitive, Ray};
 use kernels::Kernel;
@@ -57,7 +57,7 @@ const WIDTH: usize = 4;
 /// Most primitives (all triangles) for which the packet walks skip the tree and test every
 /// triangle against every ray of the packet. Measured (docs/performance.md): a triangle costs
 /// such a walk ~13 instructions per ray (AVX2), the tree walk of cornell-tube's 34 triangles
-/// ~170–190, so the crossover is at 12–13 triangles (and 34 were slower also with AVX-512).
+/// ~170–190, so the crossover is at 12–13 triangles (with AVX-512 too, 34 are slower).
 const TINY: usize = 12;
 
 impl Node {
@@ -122,8 +122,8 @@ enum Isect {
         e1: Vec3,
         e2: Vec3,
     },
-    /// The radius as f32 (an f64 r² would make every entry 8 bytes larger: the triangle
-    /// walks of cornell-tube took ~5 more instructions per sample).
+    /// The radius as f32: an f64 r² would make every entry 8 bytes larger, which costs the
+    /// triangle walks of cornell-tube ~5 instructions per sample.
     Sphere {
         center: Vec3,
         radius: f32,
@@ -146,7 +146,7 @@ pub struct Bvh {
     /// order, which the packet walks test against every ray without traversal (see
     /// [`Bvh::intersect_lanes`]); empty otherwise.
     tiny: Vec<[Vec3; 3]>,
-    /// The packet walks' kernel, detected once at build (detection per walk cost ~70
+    /// The packet walks' kernel, detected once at build (detection per walk costs ~70
     /// instructions per packet): AVX-512 (with BW), AVX2 + FMA, or the target's baseline.
     walk_isa: linlight_simd::Isa,
 }
@@ -556,8 +556,8 @@ fn active_t_max(lanes: &RayLanes, active: u32) -> [f32; PACKET] {
 /// A pending subtree of a packet walk: parent node, slot, rays, entry distance.
 type PacketEntry = (u32, u32, u32, f32);
 
-/// A fixed stack of `S` entries on the call stack, not initialised: zeroing it was a per-walk
-/// cost (a `memset` of 1 KiB per packet walk); only entries below the stack pointer are read.
+/// A fixed stack of `S` entries on the call stack, not initialised (zeroing it would cost a
+/// 1 KiB `memset` per packet walk); only entries below the stack pointer are read.
 #[inline(always)]
 fn stack<T: Copy, const S: usize>() -> [std::mem::MaybeUninit<T>; S] {
     [const { std::mem::MaybeUninit::uninit() }; S]
@@ -597,8 +597,9 @@ fn pop<T: Copy, const S: usize>(
 }
 /// A pending subtree: (child, count, entry distance) as in [`Node`].
 type Entry = (u32, u32, f32);
-/// Entries of the traversal stack held on the call stack (small, to stay in the L1 cache); more pending subtrees spill into a Vec, which stays exact, only slower. A 4-wide
-/// level adds at most 3 entries net, so spilling needs a deep tree and an unlucky ray.
+/// Entries of the traversal stack held on the call stack (small, to stay in the L1 cache);
+/// more pending subtrees spill into a Vec, which stays exact, only slower. A 4-wide level adds
+/// at most 3 entries net, so spilling needs a deep tree and an unlucky ray.
 const STACK: usize = 16;
 
 impl Bvh {
@@ -885,8 +886,8 @@ impl Bvh {
     /// spheres are tested against all its rays at once (vectorised), other primitives ray by
     /// ray. A tree of
     /// at most `TINY` (12) triangles is not walked: each triangle is tested against all rays.
-    // `inline`: the 320-byte result is then built where the caller keeps it (1–2 instructions
-    // per sample fewer on every scene; an out parameter instead cost ~3 more).
+    // `inline`: the 320-byte result is built where the caller keeps it (1–2 instructions per
+    // sample fewer on every scene than a copy, ~4 fewer than an out parameter).
     #[inline]
     pub fn intersect_lanes(&self, lanes: &RayLanes, active: u32) -> PacketHits {
         let active = active & ((1u64 << PACKET) - 1) as u32;

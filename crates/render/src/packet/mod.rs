@@ -1,0 +1,555 @@
+//! The packet renderer: the camera samples of a tile are rendered [`PACKET_LANES`] at a time, as
+//! Mitsuba's LLVM variants do with their wavefronts — random numbers and camera rays of all
+//! lanes, one packet walk of the BVH for their closest hits, the light samples of all lanes in
+//! the batch kernels of `linlight_sampling::batch` (the packet's sixteen lanes at once), one
+//! packet walk for their shadow rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes'
+//! arrays, lanes on other surfaces (rough conductor, principled, blends) with the scalar path's
+//! shading frame ([`shading_frame`]) for all lanes at once and its BSDF evaluation on all
+//! sixteen lanes at once per BSDF ([`Bsdf::eval_lanes`], f32 SIMD lanes: the scalar path's
+//! `Bsdf::eval_f32` is its one-lane case) and [`single_contribution`]'s arithmetic; a packet
+//! may mix both.
+//!
+//! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle, Hart),
+//! LTC and MIS on non-Lambertian surfaces — take their samples lane by lane with the scalar
+//! code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and trace them in packet walks
+//! (LTC and MIS: one for the diffuse, one for the specular samples).
+//!
+//! The lights: with `--lights every` one pass per light, every lane sampling that light; with
+//! `--lights one` ([`crate::light_choice`], two or more lights) a single pass in which each
+//! lane samples the light its ξ_c chose, with K/p — per-lane segments in the batch kernels for
+//! the batch lanes, each lane's own light for the lanes sampled with the scalar code — so one
+//! packet shadow walk per kind of sample and light sample (per culled shadow BVH of
+//! [`crate::shadow_culling`] the lanes' lights use, and one of the full BVH for the lanes near
+//! a culled plane).
+//!
+//! [`render_isa`] renders every scene and method with one light sample and white noise;
+//! [`crate::render::render`] uses it where it pays ([`applies`]): the batch techniques on every
+//! scene, the other methods on scenes with Lambertian surfaces. Everything else (several
+//! light samples, blue noise, the methods without a batch kernel on all-glossy scenes) takes
+//! the scalar path. Visible lines (`hide_emitters=false`) are added lane by lane with the
+//! scalar code.
+//!
+//! Same estimator, same numbers, same image: lane k is camera sample (pixel, sample) of the
+//! tile in the scalar path's order, draws the numbers of its own Philox stream in the scalar
+//! order (film position, then one per light — two on non-Lambertian surfaces under LTC and
+//! MIS — or, choosing one light per light sample, the choice ξ_c and the chosen light's one or
+//! two; then the visible lines'), and every step is the scalar step's arithmetic (the batch
+//! kernels and packet walks equal their scalar forms bit for bit, ties of the closest hit
+//! included; a light's samples are summed per lane as the scalar estimator sums them), so an
+//! image equals the one of the scalar reference path ([`crate::integrator::render_scalar`] with the
+//! same method and light selection) bit for bit — tests below check it on every committed
+//! scene, method and light selection. Pixels accumulate their samples in the same order
+//! (Welford in f64).
+//!
+//! Two packets of a tile pass are in flight: while packet i is shaded, the numbers and camera
+//! rays of packet i + 1 (`Primary`) are computed, so that their serial chains (Philox's
+//! rounds, the rays' divisions and square roots) overlap packet i's work.
+//!
+//! Cost: `scripts/bench-render` (M samples/s against Mitsuba 3 on every committed scene);
+//! instruction counts per sample with `valgrind --tool=callgrind` (see docs/performance.md).
+//!
+//! Memory: each tile writes its pixels into the image when it is done; no second full-size
+//! buffer of tile results is held.
+
+use crate::bvh::PACKET;
+use crate::film::Welford;
+use crate::frame::{metadata, pixel_entries, render_in_tiles};
+use crate::method::Method;
+use crate::options::{check_options, window, RenderError, RenderOptions};
+use crate::render_scene::RenderScene;
+use crate::scene::Scene;
+use crate::shading::{lambert_technique, Combination};
+use crate::visible_line::PixelLine;
+use linlight_imagefile::Image;
+use linlight_sampling::philox::{unit_f32, CounterRng};
+use linlight_sampling::Technique;
+use linlight_simd::{dispatch, get3, set3, Aligned, Isa, Kernel, PACKET_LANES};
+
+use contributions::{glossy_contributions, lambert_contributions};
+use lights::{light_rows, LightRow};
+use primary::{primary_kernel, Packet, Primary};
+use shading::{shading_points, ShadingLanes};
+use shadow::shadow_rays;
+
+const _: () = assert!(
+    PACKET_LANES == PACKET,
+    "a packet's camera samples are one BVH ray packet"
+);
+
+/// Whether [`crate::render::render`] renders `scene` with `opts` by the packet renderer: one
+/// light sample per camera sample, white noise, and either a technique with a batch kernel
+/// (projected solid angle, Li et al., clipped solid angle) or a scene with Lambertian surfaces.
+/// The other methods sample lane by lane with the scalar code, which pays in packets only
+/// where Lambertian lanes share them (15–28 % less CPU time on cornell-tube and mesh-occluder,
+/// half on glossy-cornell for MIS, but 5–20 % more on the scenes without a Lambertian surface;
+/// see docs/performance.md). Every light selection takes the same decision.
+/// [`render_isa`] renders any scene, method and light selection with one light sample and
+/// white noise.
+pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
+    let batch_kernel = matches!(opts.method, Method::Technique(t) if has_batch_kernel(t));
+    renders(opts) && (batch_kernel || scene.shapes.iter().any(|s| s.bsdf.lambertian().is_some()))
+}
+
+/// The techniques with a batch kernel in `linlight_sampling::batch`.
+fn has_batch_kernel(technique: Technique) -> bool {
+    matches!(
+        technique,
+        Technique::ProjectedSolidAngle | Technique::Li2018 | Technique::ClippedSolidAngle
+    )
+}
+
+/// Whether the packet renderer can render with `opts` at all: one light sample per camera
+/// sample and white noise (every scene and method).
+fn renders(opts: &RenderOptions) -> bool {
+    opts.light_samples == 1
+        // Its lanes draw the white stream directly; blue noise takes the scalar path.
+        && opts.noise == linlight_sampling::noise::Noise::White
+}
+
+/// Render `scene` with the packet renderer (see the module documentation); the same
+/// contract as [`crate::render::render`]. An error with several light samples or blue noise.
+pub fn render(
+    scene: &Scene,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    render_isa(scene, opts, Isa::detect(), progress)
+}
+
+/// [`render`] with the kernels of `isa` (the baseline where the CPU does not run it).
+pub fn render_isa(
+    scene: &Scene,
+    opts: &RenderOptions,
+    isa: Isa,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    check_options(opts)?;
+    if !renders(opts) {
+        return Err(RenderError::Options(format!(
+            "the packet renderer needs one light sample and white noise (method {}, {} light \
+             samples, {} noise)",
+            opts.method,
+            opts.light_samples,
+            opts.noise.name()
+        )));
+    }
+    let (x0, y0, w, h) = window(scene)?;
+    let rs = RenderScene::new(scene)?;
+    let technique = lambert_technique(opts.method);
+    let combination = Combination::of(opts.method);
+    let ctx = Context {
+        rs: &rs,
+        opts,
+        isa: if isa.supported() { isa } else { Isa::Baseline },
+        full_width: scene.sensor.film.width,
+        technique,
+        batch: has_batch_kernel(technique),
+        combination,
+        per_light: if combination.is_some() && rs.lambert.iter().any(Option::is_none) {
+            2
+        } else {
+            1
+        },
+        light_rows: light_rows(&rs),
+    };
+    let mut image = render_in_tiles(
+        &rs,
+        opts,
+        (x0, y0, w, h),
+        progress,
+        |pixels, seen, pass, single| ctx.tile_pass(pixels, seen, pass, single),
+    );
+    image.meta = metadata(
+        opts,
+        scene,
+        pixel_entries(scene, &rs, (x0, y0, w, h)),
+        Vec::new(),
+    );
+    Ok(image)
+}
+
+/// What every packet of a render shares.
+struct Context<'a> {
+    rs: &'a RenderScene,
+    opts: &'a RenderOptions,
+    isa: Isa,
+    full_width: u32,
+    /// The single technique, or the projected solid angle of LTC and MIS on Lambertian
+    /// surfaces ([`lambert_technique`]).
+    technique: Technique,
+    /// Whether `technique` has a batch kernel ([`has_batch_kernel`]).
+    batch: bool,
+    /// LTC's and MIS's combination (two samples per light on non-Lambertian lanes); `None`
+    /// for single techniques.
+    combination: Option<Combination>,
+    /// The most numbers a lane draws per light: 2 for LTC and MIS on a scene with
+    /// non-Lambertian surfaces, else 1.
+    per_light: usize,
+    /// Per light j, what a lane that chooses it (`--lights one`) samples: [`LightRow`].
+    light_rows: Vec<LightRow>,
+}
+
+/// A 3-vector in each of the [`PACKET_LANES`] lanes of a packet.
+type Lanes3 = linlight_simd::Lanes3<f32, PACKET_LANES>;
+
+impl<'a> Context<'a> {
+    /// One pass over the pixels of a tile (full-film coordinates): their camera samples in the
+    /// scalar order (pixel by pixel, sample by sample), `PACKET_LANES` at a time, pushed into `acc`.
+    fn tile_pass(
+        &self,
+        pixels: &[(u32, u32)],
+        seen: &[Vec<PixelLine>],
+        pass: u32,
+        acc: &mut [Welford],
+    ) {
+        let spp = self.opts.spp as usize;
+        let total = pixels.len() * spp;
+        // Most tiles see no line: then no lane has visible lines to add.
+        let lines = seen.iter().any(|l| !l.is_empty());
+        if total == 0 {
+            return;
+        }
+        // Two packets in flight: the current one, and the next, filled and its `Primary`
+        // computed by `run_packet` of the current one (see there); they swap after each packet.
+        let (mut packets, mut primaries) = (
+            [Packet::default(), Packet::default()],
+            [Primary::default(), Primary::default()],
+        );
+        let [mut packet, mut next] = packets.each_mut();
+        let [mut primary, mut next_primary] = primaries.each_mut();
+        let fill = |packet: &mut Packet, start: usize| {
+            let len = PACKET_LANES.min(total - start);
+            dispatch(
+                self.isa,
+                FillPacket {
+                    packet,
+                    pixels,
+                    spp_width: (spp, self.full_width),
+                    start_len: (start, len),
+                },
+            );
+        };
+        fill(packet, 0);
+        dispatch(
+            self.isa,
+            PrimaryRays {
+                ctx: self,
+                packet,
+                pass,
+                out: primary,
+            },
+        );
+        let mut start = 0;
+        while start < total {
+            let next_start = start + packet.len;
+            let more = next_start < total;
+            if more {
+                fill(next, next_start);
+            }
+            let current = (&*packet, &*primary);
+            let mut radiance = dispatch(
+                self.isa,
+                ShadePacket {
+                    ctx: self,
+                    current,
+                    next: more.then_some(&*next),
+                    next_primary,
+                    pass,
+                },
+            );
+            if lines {
+                self.visible_lines(packet, seen, pass, &mut radiance);
+            }
+            dispatch(
+                self.isa,
+                Accumulate {
+                    acc,
+                    packet,
+                    total: &radiance.total,
+                },
+            );
+            start = next_start;
+            // The references, not the packets.
+            std::mem::swap(&mut packet, &mut next);
+            std::mem::swap(&mut primary, &mut next_primary);
+        }
+    }
+
+    /// The lines the camera sees in a lane's pixel: drawn after the numbers the lane has used
+    /// (film position, and the lights' when its ray reached a reflecting surface), lane by lane.
+    fn visible_lines(
+        &self,
+        packet: &Packet,
+        seen: &[Vec<PixelLine>],
+        pass: u32,
+        radiance: &mut Radiance,
+    ) {
+        let rs = self.rs;
+        for k in 0..packet.len {
+            let lines = &seen[packet.pixel[k]];
+            if lines.is_empty() {
+                continue;
+            }
+            let mut rng =
+                CounterRng::camera_sample(self.opts.seed, pass, packet.index[k], packet.sample[k]);
+            let used = 2 + if radiance.shaded >> k & 1 == 1 {
+                let per_light = 1 + (radiance.two_per_light >> k & 1) as usize;
+                rs.light_numbers(self.opts.lights, 1, per_light)
+            } else {
+                0
+            };
+            for _ in 0..used {
+                rng.next_u32();
+            }
+            let mut t = get3(&radiance.total, k);
+            rs.visible
+                .add_estimate(lines, &rs.bvh, || rng.next_f64(), &mut t);
+            set3(&mut radiance.total, k, t);
+        }
+    }
+}
+
+/// Radiance of each lane of a packet, the lanes whose camera ray reached a reflecting
+/// surface (they used one number per light), and among them those that used two (LTC and MIS
+/// on non-Lambertian surfaces).
+#[repr(C, align(64))] // `total` on its own cache lines ([`Aligned`])
+struct Radiance {
+    total: Lanes3,
+    shaded: u32,
+    two_per_light: u32,
+}
+
+// The kernels, each compiled once per instruction set by `linlight_simd::dispatch`: a struct
+// holds a kernel's arguments and its `Kernel::run` calls the kernel function.
+
+/// [`packet_kernel`]: the radiance of the current packet.
+struct ShadePacket<'a, 'c> {
+    ctx: &'a Context<'c>,
+    current: (&'a Packet, &'a Primary),
+    next: Option<&'a Packet>,
+    next_primary: &'a mut Primary,
+    pass: u32,
+}
+
+impl Kernel for ShadePacket<'_, '_> {
+    type Output = Radiance;
+    #[inline(always)]
+    fn run(self) -> Radiance {
+        packet_kernel(
+            self.ctx,
+            self.current,
+            self.next,
+            self.next_primary,
+            self.pass,
+        )
+    }
+}
+
+/// [`primary_kernel`]: the primary rays and hits of a packet.
+struct PrimaryRays<'a, 'c> {
+    ctx: &'a Context<'c>,
+    packet: &'a Packet,
+    pass: u32,
+    out: &'a mut Primary,
+}
+
+impl Kernel for PrimaryRays<'_, '_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        primary_kernel(self.ctx, self.packet, self.pass, self.out)
+    }
+}
+
+/// [`accumulate_kernel`]: a packet's radiance into its pixels' accumulators.
+struct Accumulate<'a> {
+    acc: &'a mut [Welford],
+    packet: &'a Packet,
+    total: &'a Lanes3,
+}
+
+impl Kernel for Accumulate<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        accumulate_kernel(self.acc, self.packet, self.total)
+    }
+}
+
+/// [`fill_kernel`]: the camera samples of a packet.
+struct FillPacket<'a> {
+    packet: &'a mut Packet,
+    pixels: &'a [(u32, u32)],
+    spp_width: (usize, u32),
+    start_len: (usize, usize),
+}
+
+impl Kernel for FillPacket<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        fill_kernel(self.packet, self.pixels, self.spp_width, self.start_len)
+    }
+}
+
+/// [`Packet::fill`], inlined into one function per instruction set.
+#[inline(always)]
+fn fill_kernel(
+    packet: &mut Packet,
+    pixels: &[(u32, u32)],
+    (spp, full_width): (usize, u32),
+    (start, len): (usize, usize),
+) {
+    packet.fill(pixels, spp, full_width, start, len);
+}
+
+/// Pushes the lanes' radiance into their pixels' accumulators in lane order (the scalar
+/// path's order, so the same bits). A packet's lanes of one pixel are consecutive: the runs
+/// are found at once (one compare of neighbouring lanes' pixels), each run is pushed into a
+/// copy held in registers and stored once, instead of a load and a store of the accumulator
+/// per sample (a store-to-load round trip in the serial chain of the running mean), and a
+/// push is one 4-wide f64 update ([`Welford::push_quad`]). Inlined into one function per
+/// instruction set.
+#[inline(always)]
+fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
+    // Bit k: lane k starts a run of lanes of one pixel (found for all lanes at once).
+    let mut starts = 1u32;
+    for k in 1..PACKET_LANES {
+        starts |= ((packet.pixel[k] != packet.pixel[k - 1]) as u32) << k;
+    }
+    let len = packet.len.min(PACKET_LANES);
+    starts &= ((1u64 << len) - 1) as u32;
+    while starts != 0 {
+        let k = starts.trailing_zeros() as usize;
+        starts &= starts - 1;
+        let end = if starts != 0 {
+            starts.trailing_zeros() as usize
+        } else {
+            len
+        };
+        let pixel = packet.pixel[k];
+        let mut w = acc[pixel];
+        #[allow(clippy::needless_range_loop)] // lane j of the three channel arrays
+        for j in k..end {
+            // One 4-wide push (B again in the unused lane): the bits of `push` of the three.
+            let b = total[2][j];
+            w.push_quad([total[0][j], total[1][j], b, b].map(|c| c as f64));
+        }
+        acc[pixel] = w;
+    }
+}
+
+/// Radiance of the camera samples of `packet` (see the module documentation) from its
+/// `primary` (numbers and camera rays), every stage over all lanes; and, first, the
+/// [`Primary`] of the `next` packet into `next_primary` (software pipelining: its serial
+/// chains overlap this packet's work). Inlined into one function per instruction set.
+#[inline(always)]
+fn packet_kernel(
+    ctx: &Context,
+    (packet, primary): (&Packet, &Primary),
+    next: Option<&Packet>,
+    next_primary: &mut Primary,
+    pass: u32,
+) -> Radiance {
+    let rs = ctx.rs;
+    let lights = &rs.lights;
+    let active = ((1u64 << packet.len) - 1) as u32;
+    // The next packet's numbers and camera rays, computed once below (before this packet's
+    // first batch of light samples, else at the end).
+    let mut next = next;
+    let one = rs.chooses_one(ctx.opts.lights);
+    let kept = ctx.kept_blocks();
+    let words = &primary.words;
+    let number = |dim: usize| -> [f32; PACKET_LANES] {
+        if dim / 4 < kept {
+            // SAFETY: blocks below `kept` were written (`primary_kernel`).
+            let block = unsafe { words[dim / 4].assume_init_ref() };
+            block[dim % 4].map(unit_f32)
+        } else {
+            // More lights than the blocks kept: this dimension lane by lane.
+            std::array::from_fn(|k| {
+                let id = [packet.sample[k], packet.index[k], pass];
+                unit_f32(CounterRng::at(ctx.opts.seed, id, dim as u64))
+            })
+        }
+    };
+    let rays = &primary.rays;
+    let hits = rs.bvh.intersect_lanes(rays, active);
+    // Shading points for the lanes sampled with the scalar code; the batch kernels' lanes need
+    // only the frames.
+    let points = (ctx.combination.is_some() || !ctx.batch).then_some(ctx.opts.method);
+    let mut shading = ShadingLanes::default();
+    shading_points(rs, points, rays, &hits, &mut shading);
+    // Lanes sampled by a batch kernel, lanes sampled with the scalar code lane by lane (a
+    // technique without a batch kernel; LTC and MIS on non-Lambertian surfaces).
+    let (batch_lanes, scalar_lanes, two_per_light) = match (ctx.combination, ctx.batch) {
+        (Some(_), _) => (
+            shading.active & !shading.glossy_mask,
+            shading.glossy_mask,
+            shading.glossy_mask,
+        ),
+        (None, true) => (shading.active, 0, 0),
+        (None, false) => (0, shading.active, 0),
+    };
+
+    let mut total = Aligned([[0.0f32; PACKET_LANES]; 3]);
+    let mut dropped = 0u64;
+    // One pass per light (`every`), or one with each lane's chosen light (`one`): the scalar
+    // lanes' samples lane by lane, the batch lanes' in the batch kernels, one packet shadow
+    // walk per kind of sample.
+    for walk in 0..if one { 1 } else { lights.len() } {
+        let light = ctx.light_lanes(
+            walk,
+            one,
+            &number,
+            &shading,
+            batch_lanes != 0,
+            scalar_lanes != 0,
+        );
+        if scalar_lanes != 0 {
+            dropped += ctx.scalar_light(&shading, scalar_lanes, &light, &mut total);
+        }
+        if batch_lanes == 0 {
+            continue;
+        }
+        // The next packet's Primary here: two serial chains (ten Philox rounds; the divisions
+        // and square roots of the rays) that the core overlaps with this packet's batch and
+        // shadow walk, instead of waiting on them at the start of the next packet.
+        if let Some(next) = next.take() {
+            primary_kernel(ctx, next, pass, next_primary);
+        }
+        let samples = ctx.light_samples(&light, &shading, batch_lanes);
+        let (shadow, mask) = shadow_rays(&shading, &samples);
+        let occluded =
+            rs.shadows
+                .occluded_lanes(&rs.bvh, &light.light, light.uniform, &shadow, mask);
+        let lit = mask & !occluded;
+        dropped += lambert_contributions(&shading, &samples, lit, light.k(), &mut total);
+        dropped += glossy_contributions(&shading, &samples, lit, light.k(), &mut total);
+    }
+    // No batch lanes in this packet.
+    if let Some(next) = next {
+        primary_kernel(ctx, next, pass, next_primary);
+    }
+    if dropped > 0 {
+        rs.dropped
+            .0
+            .fetch_add(dropped, std::sync::atomic::Ordering::Relaxed);
+    }
+    Radiance {
+        total: total.0,
+        shaded: shading.active,
+        two_per_light,
+    }
+}
+
+mod contributions;
+mod lights;
+mod primary;
+mod scalar;
+mod shading;
+mod shadow;
+mod triangles;
+
+#[cfg(test)]
+mod tests;
