@@ -37,7 +37,7 @@ use crate::options::{Cylinders, TubeSampling};
 use crate::scene::Scene;
 use crate::shapes::{Primitive, Ray, SurfacePoint};
 use glam::{DVec3, Vec3};
-use linlight_sampling::cylinder::{Cylinder, CylinderSampler, CylinderView};
+use linlight_sampling::cylinder::{Cylinder, CylinderSampler, CylinderView, PreparedCylinder};
 use linlight_sampling::noise::Uniforms;
 
 /// One tube light.
@@ -178,6 +178,94 @@ pub fn cosine_hemisphere(n: Vec3, u1: f32, u2: f32) -> (DVec3, f32) {
     (w, (n.dot(w).max(0.0) * std::f64::consts::FRAC_1_PI) as f32)
 }
 
+/// A light sample of one iteration of the tube estimator before visibility: the unit world
+/// direction toward the tube, the distance to its point on the visible side, and the
+/// contribution L·f·cos/p (balance heuristic: p = p_e + p_b) it adds when that point is visible.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TubeCandidate {
+    pub w: Vec3,
+    pub dist: f32,
+    pub c: Vec3,
+}
+
+/// The cylinder technique prepared at a shading point: `None` where the point sees no front
+/// face or the technique has nothing to sample (no candidates then).
+pub struct PreparedTube {
+    view: CylinderView,
+    technique: PreparedCylinder,
+}
+
+impl PreparedTube {
+    /// The technique of `sampling` prepared for `tube` at point `p` with reflecting normal `n`.
+    #[inline]
+    pub fn new(tube: &Tube, sampling: TubeSampling, p: Vec3, n: Vec3) -> Option<Self> {
+        let view = CylinderView::from_f32(&tube.cylinder, p, n)?;
+        let technique = sampling.technique.prepare(&view)?;
+        Some(Self { view, technique })
+    }
+
+    /// One iteration's candidates (module documentation) for the numbers `xi` (emitter sample)
+    /// and `xi_b` (the BSDF-side sample, with MIS): the emitter sample's, then the BSDF-side
+    /// sample's. `eval(ω)`: f·max(0, n·ω); `radiance`: L (or L/p_j). The arithmetic of
+    /// [`estimate`], which sums the visible ones.
+    #[inline]
+    pub fn candidates(
+        &self,
+        mis: bool,
+        n: Vec3,
+        radiance: Vec3,
+        xi: [f32; 2],
+        xi_b: Option<(f32, f32)>,
+        eval: &impl Fn(Vec3) -> Vec3,
+    ) -> [Option<TubeCandidate>; 2] {
+        let (view, technique) = (&self.view, &self.technique);
+        let mut out = [None, None];
+        // The emitter sample.
+        if let Some((dir, p_e)) = technique.sample_with_pdf(xi) {
+            let w = dir.as_vec3();
+            let cos = n.dot(w);
+            if p_e > 0.0 && p_e.is_finite() && cos > 0.0 {
+                if let Some(dist) = distance_to_side(view, dir) {
+                    let f = eval(w);
+                    if f != Vec3::ZERO {
+                        let denominator = if mis {
+                            p_e as f32 + cos * std::f32::consts::FRAC_1_PI
+                        } else {
+                            p_e as f32
+                        };
+                        out[0] = Some(TubeCandidate {
+                            w,
+                            dist,
+                            c: radiance * f / denominator,
+                        });
+                    }
+                }
+            }
+        }
+        // The BSDF-side sample.
+        let Some((u1, u2)) = xi_b else { return out };
+        let (dir, p_b) = cosine_hemisphere(n, u1, u2);
+        if !(p_b > 0.0) {
+            return out;
+        }
+        let w = dir.as_vec3();
+        let Some(dist) = distance_to_side(view, dir) else {
+            return out;
+        };
+        let f = eval(w);
+        if f == Vec3::ZERO {
+            return out;
+        }
+        let p_e = technique.pdf(dir) as f32;
+        out[1] = Some(TubeCandidate {
+            w,
+            dist,
+            c: radiance * f / (p_e + p_b),
+        });
+        out
+    }
+}
+
 /// Σ over `samples` iterations (not divided) of the tube estimate of light j (module
 /// documentation) at `sp` with reflecting normal `n`; `radiance` is L (or L/p_j when the light
 /// was chosen with probability p_j). `eval(ω)`: f·max(0, n·ω) of a unit world direction.
@@ -197,16 +285,8 @@ pub fn estimate(
     visible: &mut impl FnMut(Vec3, f32) -> bool,
     dropped: &mut u32,
 ) -> Vec3 {
-    let view = CylinderView::from_f32(&tube.cylinder, sp.p, n);
-    let technique = view.as_ref().and_then(|v| sampling.technique.prepare(v));
+    let prepared = PreparedTube::new(tube, sampling, sp.p, n);
     let mut total = Vec3::ZERO;
-    let mut add = |c: Vec3, total: &mut Vec3| {
-        if c.is_finite() {
-            *total += c;
-        } else {
-            *dropped += 1;
-        }
-    };
     for _ in 0..samples {
         let xi = [rng.next_f32(), rng.next_f32()];
         let xi_b = if sampling.mis {
@@ -214,46 +294,21 @@ pub fn estimate(
         } else {
             None
         };
-        let (Some(view), Some(technique)) = (&view, &technique) else {
+        let Some(prepared) = &prepared else {
             continue;
         };
-        // The emitter sample.
-        if let Some((dir, p_e)) = technique.sample_with_pdf(xi) {
-            let w = dir.as_vec3();
-            let cos = n.dot(w);
-            if p_e > 0.0 && p_e.is_finite() && cos > 0.0 {
-                if let Some(dist) = distance_to_side(view, dir) {
-                    let f = eval(w);
-                    if f != Vec3::ZERO {
-                        let denominator = if sampling.mis {
-                            p_e as f32 + cos * std::f32::consts::FRAC_1_PI
-                        } else {
-                            p_e as f32
-                        };
-                        if visible(w, dist) {
-                            add(radiance * f / denominator, &mut total);
-                        }
-                    }
+        for c in prepared
+            .candidates(sampling.mis, n, radiance, xi, xi_b, eval)
+            .into_iter()
+            .flatten()
+        {
+            if visible(c.w, c.dist) {
+                if c.c.is_finite() {
+                    total += c.c;
+                } else {
+                    *dropped += 1;
                 }
             }
-        }
-        // The BSDF-side sample.
-        let Some((u1, u2)) = xi_b else { continue };
-        let (dir, p_b) = cosine_hemisphere(n, u1, u2);
-        if !(p_b > 0.0) {
-            continue;
-        }
-        let w = dir.as_vec3();
-        let Some(dist) = distance_to_side(view, dir) else {
-            continue;
-        };
-        let f = eval(w);
-        if f == Vec3::ZERO {
-            continue;
-        }
-        let p_e = technique.pdf(dir) as f32;
-        if visible(w, dist) {
-            add(radiance * f / (p_e + p_b), &mut total);
         }
     }
     total
