@@ -248,6 +248,9 @@ impl PreparedTube {
         if !(p_b > 0.0) {
             return out;
         }
+        if misses_in_azimuth(view, dir) {
+            return out;
+        }
         let w = dir.as_vec3();
         let Some(dist) = distance_to_side(view, dir) else {
             return out;
@@ -312,6 +315,23 @@ pub fn estimate(
         }
     }
     total
+}
+
+/// Whether `dir` misses the visible side by its azimuth α for certain, without the
+/// arctangents of [`CylinderView::hit`] (most BSDF-side samples miss a tube): where the side
+/// spans at most ±45° (R ≤ √(ρ² − R²), so tan α_max ≤ 1), a direction with n·ĉ < 0, or with
+/// |tan α| more than twice tan α_max, has |α| ≥ atan(2 tan α_max) > 1.3 α_max, beyond any
+/// rounding of the angles `hit` compares: `hit` returns `None` for it too. `false` otherwise
+/// (also for NaN).
+#[inline]
+fn misses_in_azimuth(view: &CylinderView, dir: DVec3) -> bool {
+    let (r, rho) = (view.radius, view.rho);
+    let tangent = ((rho - r) * (rho + r)).sqrt();
+    if !(r <= tangent) {
+        return false;
+    }
+    let (dc, dw) = (dir.dot(view.c), dir.dot(view.w));
+    dc < 0.0 || (dc == 0.0 && dw != 0.0) || dw.abs() * tangent > 2.0 * r * dc
 }
 
 /// Distance from the view's point along unit `dir` to the visible side; `None` if `dir` misses
@@ -558,6 +578,37 @@ mod tests {
         assert!(!tubes.occluded(&short, 0) && tubes.occluded(&short, 1));
         let (_, j, outside) = tubes.closest(&up).unwrap();
         assert!(j == 0 && outside);
+    }
+
+    /// The azimuth pre-test of the BSDF-side samples never rejects a direction `hit` accepts,
+    /// and rejects most cosine-weighted directions toward a thin and a fat tube (where the side
+    /// spans at most ±45°).
+    #[test]
+    fn the_azimuth_pretest_agrees_with_hit() {
+        for (t, x, n) in configs() {
+            let view = CylinderView::from_f32(&t.cylinder, x, n).unwrap();
+            let (mut rejected, mut hits) = (0, 0);
+            // Cosine-weighted directions, and directions near the silhouette azimuths.
+            for i in 0..20_000u32 {
+                let mut rng = CounterRng::camera_sample(9, 0, i, 0);
+                let (u1, u2) = (rng.next_f32(), rng.next_f32());
+                let dir = if i % 2 == 0 {
+                    cosine_hemisphere(n, u1, u2).0
+                } else {
+                    let alpha = view.alpha_max * (2.0 * u1 as f64 - 1.0) * 2.5;
+                    let phi = (2.0 * u2 as f64 - 1.0) * 1.5;
+                    view.direction(alpha, phi)
+                };
+                let hit = view.hit(dir).is_some();
+                let miss = misses_in_azimuth(&view, dir);
+                assert!(!(hit && miss), "{dir:?}");
+                rejected += miss as u32;
+                hits += hit as u32;
+            }
+            let spans_45 = view.radius <= view.rho * std::f64::consts::FRAC_1_SQRT_2;
+            assert!(!spans_45 || rejected > 5000, "{rejected} {hits}");
+            assert!(hits > 0);
+        }
     }
 
     /// A scene with a floor and one fat tube: the lights become tubes only under
