@@ -206,6 +206,28 @@ fn exact_tubes_equal_the_scalar_path() {
     assert_eq!(renders, 5 * (4 * 2 + 3 * 2));
 }
 
+/// Exact tubes take the packets only with every light a tube and one light sample; a scene
+/// that mixes a tube and a light of radius 0 (a line) renders on the scalar path, and
+/// `render_isa` refuses it.
+#[test]
+fn exact_tubes_take_the_packets_only_when_every_light_is_one() {
+    let mut s = scene("two-tubes", 8);
+    let opts = RenderOptions {
+        cylinders: Cylinders::EXACT,
+        ..Default::default()
+    };
+    assert!(applies(&s, &opts));
+    let two = RenderOptions {
+        light_samples: 2,
+        ..opts
+    };
+    assert!(!applies(&s, &two));
+    s.lights[1].radius = 0.0;
+    assert!(!applies(&s, &opts));
+    assert!(render_isa(&s, &opts, Isa::Baseline, &|_, _| {}).is_err());
+    assert!(crate::render::render(&s, &opts, &|_, _| {}).is_ok());
+}
+
 /// A scene with one light draws no choice number: `one` and `every` render the same pixels
 /// bit for bit, on the scalar path (glossy scenes, several light samples, the two-technique
 /// estimator) and the batched one; only the header's `light_selection` differs.
