@@ -15,7 +15,8 @@ use linlight_imagefile::Image;
 /// Runs on the current rayon pool (use `ThreadPool::install` to choose the thread count).
 ///
 /// Where it applies ([`crate::packet::applies`]: one light sample, white noise, and a batch
-/// technique or a scene with Lambertian surfaces) the packet renderer renders, whose images
+/// technique or a scene with Lambertian surfaces, or exact tubes as every light) the packet
+/// renderer renders, whose images
 /// equal those of the scalar path [`render_scalar`]`(scene, opts, &Hooks::new(), …)` bit for
 /// bit; the scalar path renders everything else.
 pub fn render(
@@ -23,10 +24,7 @@ pub fn render(
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    // Exact tubes are rendered by the scalar path only.
-    let tubes = matches!(opts.cylinders, crate::options::Cylinders::Exact(_))
-        && scene.lights.iter().any(|l| l.radius > 0.0);
-    if !tubes && crate::packet::applies(scene, opts) {
+    if crate::packet::applies(scene, opts) {
         return crate::packet::render(scene, opts, progress);
     }
     render_scalar(scene, opts, &Hooks::new(), progress)

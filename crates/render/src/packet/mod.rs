@@ -55,10 +55,11 @@ use crate::bvh::PACKET;
 use crate::film::Welford;
 use crate::frame::{metadata, pixel_entries, render_in_tiles};
 use crate::method::Method;
-use crate::options::{check_options, window, RenderError, RenderOptions};
+use crate::options::{check_options, window, Cylinders, RenderError, RenderOptions};
 use crate::render_scene::RenderScene;
 use crate::scene::Scene;
 use crate::shading::{lambert_technique, Combination};
+use crate::tube::Tubes;
 use crate::visible_line::PixelLine;
 use linlight_imagefile::Image;
 use linlight_sampling::philox::{unit_f32, CounterRng};
@@ -85,9 +86,24 @@ const _: () = assert!(
 /// see docs/performance.md). Every light selection takes the same decision.
 /// [`render_isa`] renders any scene, method and light selection with one light sample and
 /// white noise.
+/// Under `--cylinders exact` with tubes: wherever every light is a tube (their samples are
+/// scalar code per lane, [`tube`]; the packets' walks pay on every scene), never otherwise.
 pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
+    if let Some(all) = exact_tubes(scene, opts) {
+        return renders(opts) && all;
+    }
     let batch_kernel = matches!(opts.method, Method::Technique(t) if has_batch_kernel(t));
     renders(opts) && (batch_kernel || scene.shapes.iter().any(|s| s.bsdf.lambertian().is_some()))
+}
+
+/// Under `--cylinders exact` with some light a tube: whether every light is one (the packet
+/// renderer renders exact tubes only then, [`tube`]); `None` when no light is a tube.
+fn exact_tubes(scene: &Scene, opts: &RenderOptions) -> Option<bool> {
+    let Cylinders::Exact(_) = opts.cylinders else {
+        return None;
+    };
+    let tubes = Tubes::new(scene, opts.cylinders);
+    tubes.any().then(|| tubes.tubes.iter().all(Option::is_some))
 }
 
 /// The techniques with a batch kernel in `linlight_sampling::batch`.
@@ -133,8 +149,14 @@ pub fn render_isa(
             opts.noise.name()
         )));
     }
+    if exact_tubes(scene, opts) == Some(false) {
+        return Err(RenderError::Options(
+            "the packet renderer draws exact tubes only when every light is one".into(),
+        ));
+    }
     let (x0, y0, w, h) = window(scene)?;
-    let rs = RenderScene::new(scene)?;
+    let rs = RenderScene::with_cylinders(scene, opts.cylinders)?;
+    let tubes = rs.tubes.any();
     let technique = lambert_technique(opts.method);
     let combination = Combination::of(opts.method);
     let ctx = Context {
@@ -145,11 +167,19 @@ pub fn render_isa(
         technique,
         batch: has_batch_kernel(technique),
         combination,
-        per_light: if combination.is_some() && rs.lambert.iter().any(Option::is_none) {
+        per_light: if tubes {
+            // ξ₀ ξ₁ of the emitter sample, with MIS ξ₂ ξ₃ of the BSDF-side sample.
+            if rs.tubes.sampling.mis {
+                4
+            } else {
+                2
+            }
+        } else if combination.is_some() && rs.lambert.iter().any(Option::is_none) {
             2
         } else {
             1
         },
+        tubes,
         light_rows: light_rows(&rs),
     };
     let mut image = render_in_tiles(
@@ -183,8 +213,10 @@ struct Context<'a> {
     /// for single techniques.
     combination: Option<Combination>,
     /// The most numbers a lane draws per light: 2 for LTC and MIS on a scene with
-    /// non-Lambertian surfaces, else 1.
+    /// non-Lambertian surfaces, else 1; for exact tubes 4 with MIS, else 2.
     per_light: usize,
+    /// Every light is an exact tube ([`tube`]).
+    tubes: bool,
     /// Per light j, what a lane that chooses it (`--lights one`) samples: [`LightRow`].
     light_rows: Vec<LightRow>,
 }
@@ -477,9 +509,27 @@ fn packet_kernel(
     let hits = rs.bvh.intersect_lanes(rays, active);
     // Shading points for the lanes sampled with the scalar code; the batch kernels' lanes need
     // only the frames.
-    let points = (ctx.combination.is_some() || !ctx.batch).then_some(ctx.opts.method);
+    let points = (ctx.tubes || ctx.combination.is_some() || !ctx.batch).then_some(ctx.opts.method);
     let mut shading = ShadingLanes::default();
     shading_points(rs, points, rays, &hits, &mut shading);
+    if ctx.tubes {
+        if let Some(next) = next {
+            primary_kernel(ctx, next, pass, next_primary);
+        }
+        let mut total = Aligned([[0.0f32; PACKET_LANES]; 3]);
+        let (shaded, dropped) =
+            ctx.tube_lights(active, &number, (rays, &hits), &shading, &mut total);
+        if dropped > 0 {
+            rs.dropped
+                .0
+                .fetch_add(dropped, std::sync::atomic::Ordering::Relaxed);
+        }
+        return Radiance {
+            total: total.0,
+            shaded,
+            two_per_light: 0,
+        };
+    }
     // Lanes sampled by a batch kernel, lanes sampled with the scalar code lane by lane (a
     // technique without a batch kernel; LTC and MIS on non-Lambertian surfaces).
     let (batch_lanes, scalar_lanes, two_per_light) = match (ctx.combination, ctx.batch) {
@@ -550,6 +600,7 @@ mod scalar;
 mod shading;
 mod shadow;
 mod triangles;
+mod tube;
 
 #[cfg(test)]
 mod tests;

@@ -129,6 +129,105 @@ fn images_equal_the_scalar_path() {
     );
 }
 
+/// Exact tubes (`--cylinders exact`) on the committed finite-R scenes (diffuse with the tube
+/// seen by the camera, glossy, resting on the floor) and on cornell-tube and two-tubes
+/// (R = 1e-4; two tubes shadowing each other, the light chosen per lane): every cylinder
+/// technique, with and without MIS, every light selection on two lights, every kernel the
+/// CPU runs; the packet renderer renders them and its image equals the scalar path's bit
+/// for bit (means, variances, tail shares, header).
+#[test]
+fn exact_tubes_equal_the_scalar_path() {
+    use crate::options::TubeSampling;
+    use linlight_sampling::cylinder::CylinderTechnique;
+    let finite =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../references/finite-tubes");
+    let scenes: Vec<(String, Scene)> = [
+        "finite-tube-diffuse",
+        "finite-tube-glossy",
+        "finite-tube-contact",
+    ]
+    .iter()
+    .map(|n| {
+        let path = finite.join(format!("{n}.xml"));
+        let s = xml::load_scene(&path, &[("res".into(), "16".into())]).expect(n);
+        (n.to_string(), s)
+    })
+    .chain(["cornell-tube", "two-tubes"].map(|n| (n.to_string(), scene(n, 16))))
+    .collect();
+    // One scene's camera sees its tube; one scene has two tubes.
+    assert!(scenes.iter().any(|(_, s)| !s.integrator.hide_emitters));
+    assert!(scenes.iter().any(|(_, s)| s.lights.len() == 2));
+    let samplings = CylinderTechnique::ALL
+        .iter()
+        .map(|&technique| TubeSampling {
+            technique,
+            mis: true,
+        })
+        .chain([false].map(|mis| TubeSampling {
+            technique: CylinderTechnique::Projected,
+            mis,
+        }));
+    let mut renders = 0;
+    for sampling in samplings {
+        for (name, scene) in &scenes {
+            let selections: &[LightSelection] = if scene.lights.len() > 1 {
+                &LightSelection::ALL
+            } else {
+                &[LightSelection::Every]
+            };
+            for &lights in selections {
+                for (spp, passes) in [(5, 1), (16, 2)] {
+                    let opts = RenderOptions {
+                        spp,
+                        passes,
+                        seed: 11,
+                        method: Method::default(),
+                        light_samples: 1,
+                        lights,
+                        noise: Default::default(),
+                        cylinders: Cylinders::Exact(sampling),
+                    };
+                    assert!(applies(scene, &opts), "{name}");
+                    let scalar = render_scalar(scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
+                    assert_eq!(scalar.meta.extra["cylinders"], "exact");
+                    for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
+                        let batched = render_isa(scene, &opts, isa, &|_, _| {}).unwrap();
+                        assert!(
+                            bits(&batched) == bits(&scalar),
+                            "{name}, {sampling:?}, {lights}, {isa:?}, {spp} spp × {passes}"
+                        );
+                        assert_eq!(batched.meta, scalar.meta, "{name}, {sampling:?}");
+                    }
+                    renders += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(renders, 5 * (4 * 2 + 3 * 2));
+}
+
+/// Exact tubes take the packets only with every light a tube and one light sample; a scene
+/// that mixes a tube and a light of radius 0 (a line) renders on the scalar path, and
+/// `render_isa` refuses it.
+#[test]
+fn exact_tubes_take_the_packets_only_when_every_light_is_one() {
+    let mut s = scene("two-tubes", 8);
+    let opts = RenderOptions {
+        cylinders: Cylinders::EXACT,
+        ..Default::default()
+    };
+    assert!(applies(&s, &opts));
+    let two = RenderOptions {
+        light_samples: 2,
+        ..opts
+    };
+    assert!(!applies(&s, &two));
+    s.lights[1].radius = 0.0;
+    assert!(!applies(&s, &opts));
+    assert!(render_isa(&s, &opts, Isa::Baseline, &|_, _| {}).is_err());
+    assert!(crate::render::render(&s, &opts, &|_, _| {}).is_ok());
+}
+
 /// A scene with one light draws no choice number: `one` and `every` render the same pixels
 /// bit for bit, on the scalar path (glossy scenes, several light samples, the two-technique
 /// estimator) and the batched one; only the header's `light_selection` differs.

@@ -150,10 +150,37 @@ impl CylinderView {
     /// without cancellation.
     #[inline]
     pub fn h(&self, alpha: f64) -> f64 {
+        self.h_of(alpha.sin(), alpha.cos())
+    }
+
+    /// [`Self::h`] from sin α and cos α.
+    #[inline]
+    fn h_of(&self, sin_alpha: f64, cos_alpha: f64) -> f64 {
         let (r, rho) = (self.radius, self.rho);
-        let p = rho * alpha.sin().abs();
+        let p = rho * sin_alpha.abs();
         let k = ((r - p).max(0.0) * (r + p)).sqrt();
-        (rho - r) * (rho + r) / (rho * alpha.cos() + k)
+        (rho - r) * (rho + r) / (rho * cos_alpha + k)
+    }
+
+    /// The slice at azimuth α: sin α, cos α (one evaluation), h(α) and n·ĉ_α, the values of
+    /// [`Self::h`] and [`Self::n_t`] bit for bit.
+    #[inline]
+    pub fn slice_at(&self, alpha: f64) -> SliceAt {
+        let (sin, cos) = alpha.sin_cos();
+        SliceAt {
+            alpha,
+            sin,
+            cos,
+            h: self.h_of(sin, cos),
+            n_t: cos * self.n_c + sin * self.n_w,
+        }
+    }
+
+    /// [`Self::direction`] at the slice's azimuth (the same bits).
+    #[inline]
+    pub fn direction_at(&self, slice: &SliceAt, phi: f64) -> DVec3 {
+        let (s, c) = phi.sin_cos();
+        c * (slice.cos * self.c + slice.sin * self.w) + s * self.u
     }
 
     /// The direction with azimuth α and axial sine s if it hits the visible side, else `None`
@@ -253,6 +280,18 @@ impl CylinderView {
         }
         sum
     }
+}
+
+/// The values of one azimuth α that the slice there needs ([`CylinderView::slice_at`]).
+#[derive(Clone, Copy, Debug)]
+pub struct SliceAt {
+    pub alpha: f64,
+    pub sin: f64,
+    pub cos: f64,
+    /// h(α).
+    pub h: f64,
+    /// n·ĉ_α.
+    pub n_t: f64,
 }
 
 /// A technique prepared for one cylinder at one shading point: the triad of the line samplers

@@ -28,7 +28,7 @@
 //!
 //! Inverse: ξ₁ = the section's CDF at α, ξ₂ = the slice's exact CDF at φ.
 
-use super::{clamp_xi, CylinderSampler, CylinderView};
+use super::{clamp_xi, CylinderSampler, CylinderView, SliceAt};
 use crate::projected_solid_angle::{PsaCore, DEFAULT_ITERATIONS};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -50,12 +50,12 @@ pub struct CylinderProjected {
     iterations: u32,
 }
 
-/// The horizon-clipped elevation interval [φ_lo, φ_hi] of the slice at azimuth α (with h(α)),
-/// `None` if it is empty.
+/// The horizon-clipped elevation interval [φ_lo, φ_hi] of the slice with h(α) and
+/// n_t = n·ĉ_α, and n_t; `None` if it is empty.
 #[inline]
-pub(crate) fn slice_interval(view: &CylinderView, alpha: f64, h: f64) -> Option<(f64, f64, f64)> {
+fn slice_interval(view: &CylinderView, h: f64, nt: f64) -> Option<(f64, f64, f64)> {
     let (mut lo, mut hi) = view.phi_range(h);
-    let (ns, nt) = (view.n_u, view.n_t(alpha));
+    let ns = view.n_u;
     // n·ω(φ) = n_s sin φ + n_t cos φ vanishes at tan φ = −n_t/n_s on (−π/2, π/2).
     if ns != 0.0 {
         let mut phi0 = (-nt).atan2(ns);
@@ -78,7 +78,13 @@ pub(crate) fn slice_interval(view: &CylinderView, alpha: f64, h: f64) -> Option<
 /// The slice's line-sampler core: the interval from φ_lo and T(α) = `core.total`.
 #[inline]
 pub(crate) fn slice_core(view: &CylinderView, alpha: f64, h: f64) -> Option<(PsaCore<f64>, f64)> {
-    let (lo, hi, nt) = slice_interval(view, alpha, h)?;
+    slice_core_nt(view, h, view.n_t(alpha))
+}
+
+/// [`slice_core`] of a slice whose h and n_t are known ([`CylinderView::slice_at`]).
+#[inline]
+fn slice_core_nt(view: &CylinderView, h: f64, nt: f64) -> Option<(PsaCore<f64>, f64)> {
+    let (lo, hi, nt) = slice_interval(view, h, nt)?;
     let (s, c) = lo.sin_cos();
     Some((PsaCore::with_frame_values(view.n_u, nt, s, c, hi - lo)?, lo))
 }
@@ -106,7 +112,8 @@ impl CylinderProjected {
                 k if k == SECTION_NODES - 1 => v.alpha_max,
                 k => v.alpha_of_theta(-v.theta_max + k as f64 * step).0,
             };
-            m[k] = slice_total(v, alpha[k], v.h(alpha[k])).unwrap_or(0.0);
+            let at = v.slice_at(alpha[k]);
+            m[k] = slice_core_nt(v, at.h, at.n_t).map_or(0.0, |(core, _)| core.total);
         }
         let mean = m.iter().sum::<f64>() / SECTION_NODES as f64;
         // All nodes dead (a sliver above the horizon between them at most): uniform in θ.
@@ -181,11 +188,11 @@ impl CylinderSampler for CylinderProjected {
     fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
         let v = &self.view;
         let alpha = self.alpha_of_xi(clamp_xi(xi[0]));
-        let h = v.h(alpha);
-        let (core, lo) = slice_core(v, alpha, h)?;
+        let at: SliceAt = v.slice_at(alpha);
+        let (core, lo) = slice_core_nt(v, at.h, at.n_t)?;
         let tau = core.solve(clamp_xi(xi[1]), self.iterations);
         let phi = lo + tau;
-        let dir = v.direction(alpha, phi);
+        let dir = v.direction_at(&at, phi);
         // n·ω of the slice's core at τ (accurate near a clipped end), not the rounded n·dir.
         let (_, _, n_dot_w) = core.at(tau);
         let p = self.azimuth_density(alpha) * 2.0 * n_dot_w.max(0.0) / core.total;
