@@ -681,6 +681,44 @@ impl Bvh {
         self.prims.is_empty()
     }
 
+    /// Calls `visit(k, primitive)` for every primitive whose box lies in a node box that
+    /// `overlaps(lower, upper)` accepts down the tree (and whose own box it accepts), `k` its
+    /// position among the primitives in the order given to [`Bvh::build`] (less those of
+    /// non-finite bounds), in no particular order. A query by region, not a ray walk.
+    pub fn visit_overlapping(
+        &self,
+        overlaps: impl Fn(Vec3, Vec3) -> bool,
+        mut visit: impl FnMut(u32, &Primitive),
+    ) {
+        let mut stack: Vec<u32> = Vec::new();
+        if !self.nodes.is_empty() {
+            stack.push(0);
+        }
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            for lane in 0..WIDTH {
+                let lo = Vec3::from_array(std::array::from_fn(|a| node.b[0][a][lane]));
+                let hi = Vec3::from_array(std::array::from_fn(|a| node.b[1][a][lane]));
+                if !lo.cmple(hi).all() || !overlaps(lo, hi) {
+                    continue; // an empty slot, or outside the region
+                }
+                let (child, count) = (node.child[lane], node.count[lane]);
+                if count == 0 {
+                    stack.push(child);
+                    continue;
+                }
+                for pos in child..child + count {
+                    let k = self.order[pos as usize];
+                    let p = &self.prims[k as usize];
+                    let b = p.bounds();
+                    if overlaps(b.min, b.max) {
+                        visit(k, p);
+                    }
+                }
+            }
+        }
+    }
+
     /// Intersection of primitive `i` (in BVH order) with `ray`, as [`Primitive::intersect`].
     #[inline(always)]
     fn intersect_prim(&self, i: usize, ray: &Ray) -> Option<(f32, f32, f32)> {
