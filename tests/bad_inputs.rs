@@ -50,6 +50,31 @@ fn setup(dir: &Path) {
         r#"<integer name="shading_samples" value="2"/>"#,
     );
     write(dir, "empty.obj", "# no faces\nv 0 0 0\n");
+    // A header declaring 10⁷ triangles (the body is never read: the budget refuses it first).
+    write(
+        dir,
+        "huge.ply",
+        "ply\nformat binary_little_endian 1.0\nelement vertex 5000002\nproperty float x\n\
+         property float y\nproperty float z\nelement face 10000000\n\
+         property list uchar int vertex_indices\nend_header\n",
+    );
+    write(
+        dir,
+        "nan.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+         0 0 0\nnan 1 0\n0 1 0\n3 0 1 2\n",
+    );
+    for (name, file) in [("huge_ply.xml", "huge.ply"), ("nan_ply.xml", "nan.ply")] {
+        variant(
+            dir,
+            name,
+            r#"<shape type="sphere">"#,
+            &format!(
+                r#"<shape type="ply"><string name="filename" value="{file}"/></shape><shape type="sphere">"#
+            ),
+        );
+    }
     variant(
         dir,
         "empty_obj.xml",
@@ -111,6 +136,18 @@ fn setup(dir: &Path) {
 fn cases() -> Vec<Case> {
     vec![
         // render: the scene and its parameters
+        case(
+            "a PLY header of 10^7 triangles above --max-memory",
+            &["render", "{dir}/huge_ply.xml", "--max-memory", "0.5"],
+            2,
+            "declares 10000000 faces in its PLY header",
+        ),
+        case(
+            "a PLY vertex with a NaN coordinate",
+            &["render", "{dir}/nan_ply.xml"],
+            2,
+            "vertex 1 of 3 has a non-finite position (NaN, 1, 0)",
+        ),
         case(
             "no scene file",
             &["render", "{dir}/missing.xml"],

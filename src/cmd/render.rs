@@ -337,7 +337,18 @@ fn parse(args: &Args) -> Result<Request, String> {
 /// Loads the scene (printing its warnings) and fixes the options, memory, threads and the
 /// --match-variance reference.
 fn plan(args: &Args, req: &Request, started: Instant) -> Result<Plan, String> {
-    let scene = xml::load_scene(&args.scene, &req.overrides).map_err(|e| e.to_string())?;
+    let (limit, why) = args.memory.bytes()?;
+    // Mesh files too large for the limit are refused from their headers, before being read.
+    let budget = xml::MeshBudget {
+        max_triangles: limit.saturating_sub(outputs::render_memory(0, 0, 0))
+            / outputs::render_memory(0, 0, 1).saturating_sub(outputs::render_memory(0, 0, 0)),
+        why: format!(
+            "the memory limit of {} ({why})",
+            linlight_imagefile::memory_size(limit)
+        ),
+    };
+    let scene =
+        xml::load_scene_within(&args.scene, &req.overrides, budget).map_err(|e| e.to_string())?;
     let load_seconds = started.elapsed().as_secs_f64();
     // Warnings are printed once every check has passed (a refusal is one line), and never
     // silenced: --quiet only drops progress and the summary.
@@ -357,7 +368,6 @@ fn plan(args: &Args, req: &Request, started: Instant) -> Result<Plan, String> {
         // Shown even with --quiet: the output cannot be compared.
         args.match_variance.is_none(),
     );
-    let (limit, why) = args.memory.bytes()?;
     check_memory(&scene, limit, why)?;
     outputs::check_radiance(&scene)?;
     let pool = outputs::thread_pool(args.threads)?;

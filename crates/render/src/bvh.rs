@@ -15,7 +15,8 @@ use crate::shapes::{intersect_triangle_edges, Aabb, Hit, Primitive, Ray};
 use kernels::Kernel;
 
 mod kernels;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
+use rayon::prelude::*;
 
 const BINS: usize = 16;
 const MAX_LEAF: usize = 4;
@@ -74,13 +75,17 @@ fn collapse(bin: &[BuildNode], root: u32, out: &mut Vec<Node>) -> u32 {
     let index = out.len() as u32;
     out.push(Node::EMPTY);
     let r = &bin[root as usize];
-    let mut kids: Vec<u32> = if r.count > 0 {
-        vec![root]
+    // The (at most WIDTH) children of the node, kids[..len].
+    let mut kids = [0u32; WIDTH];
+    let mut len = if r.count > 0 {
+        kids[0] = root;
+        1
     } else {
-        vec![root + 1, r.offset]
+        kids[..2].copy_from_slice(&[root + 1, r.offset]);
+        2
     };
-    while kids.len() < WIDTH {
-        let open = kids
+    while len < WIDTH {
+        let open = kids[..len]
             .iter()
             .enumerate()
             .filter(|(_, &k)| bin[k as usize].count == 0)
@@ -90,11 +95,14 @@ fn collapse(bin: &[BuildNode], root: u32, out: &mut Vec<Node>) -> u32 {
             })
             .map(|(i, _)| i);
         let Some(i) = open else { break };
-        let k = kids.swap_remove(i);
-        kids.push(k + 1);
-        kids.push(bin[k as usize].offset);
+        // As Vec::swap_remove and two pushes.
+        let k = kids[i];
+        kids[i] = kids[len - 1];
+        kids[len - 1] = k + 1;
+        kids[len] = bin[k as usize].offset;
+        len += 1;
     }
-    for (lane, &k) in kids.iter().enumerate() {
+    for (lane, &k) in kids[..len].iter().enumerate() {
         let n = &bin[k as usize];
         let (child, count) = if n.count > 0 {
             (n.offset, n.count)
@@ -149,12 +157,6 @@ pub struct Bvh {
     /// The packet walks' kernel, detected once at build (detection per walk costs ~70
     /// instructions per packet): AVX-512 (with BW), AVX2 + FMA, or the target's baseline.
     walk_isa: linlight_simd::Isa,
-}
-
-struct BuildItem {
-    bounds: Aabb,
-    centroid: Vec3,
-    index: u32,
 }
 
 /// 1 + 2γ₃ with γₙ = nε/(1 − nε), ε = 2⁻²⁴: scaling the far slab distance by it makes the
@@ -614,26 +616,25 @@ impl Bvh {
             let b = p.bounds();
             b.min.is_finite() && b.max.is_finite()
         });
-        let mut items: Vec<BuildItem> = prims
+        let mut items: Vec<Box3> = prims
             .iter()
-            .enumerate()
-            .map(|(i, p)| {
+            .map(|p| {
                 let b = p.bounds();
-                BuildItem {
-                    bounds: b,
-                    centroid: b.centroid(),
-                    index: i as u32,
+                Box3 {
+                    min: b.min.into(),
+                    max: b.max.into(),
                 }
             })
             .collect();
+        let mut order: Vec<u32> = (0..items.len() as u32).collect();
         let mut bin = Vec::with_capacity(2 * items.len().max(1));
         let mut nodes = Vec::new();
         if !items.is_empty() {
-            build_node(&mut items, 0, 0, &mut bin);
+            let extent = Extent::of(&items);
+            build_node(&mut items, &mut order, 0, 0, extent, &mut bin);
             collapse(&bin, 0, &mut nodes);
         }
         drop(bin);
-        let order: Vec<u32> = items.iter().map(|it| it.index).collect();
         drop(items);
         let isect: Vec<Isect> = order
             .iter()
@@ -679,6 +680,44 @@ impl Bvh {
 
     pub fn is_empty(&self) -> bool {
         self.prims.is_empty()
+    }
+
+    /// Calls `visit(k, primitive)` for every primitive whose box lies in a node box that
+    /// `overlaps(lower, upper)` accepts down the tree (and whose own box it accepts), `k` its
+    /// position among the primitives in the order given to [`Bvh::build`] (less those of
+    /// non-finite bounds), in no particular order. A query by region, not a ray walk.
+    pub fn visit_overlapping(
+        &self,
+        overlaps: impl Fn(Vec3, Vec3) -> bool,
+        mut visit: impl FnMut(u32, &Primitive),
+    ) {
+        let mut stack: Vec<u32> = Vec::new();
+        if !self.nodes.is_empty() {
+            stack.push(0);
+        }
+        while let Some(n) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            for lane in 0..WIDTH {
+                let lo = Vec3::from_array(std::array::from_fn(|a| node.b[0][a][lane]));
+                let hi = Vec3::from_array(std::array::from_fn(|a| node.b[1][a][lane]));
+                if !lo.cmple(hi).all() || !overlaps(lo, hi) {
+                    continue; // an empty slot, or outside the region
+                }
+                let (child, count) = (node.child[lane], node.count[lane]);
+                if count == 0 {
+                    stack.push(child);
+                    continue;
+                }
+                for pos in child..child + count {
+                    let k = self.order[pos as usize];
+                    let p = &self.prims[k as usize];
+                    let b = p.bounds();
+                    if overlaps(b.min, b.max) {
+                        visit(k, p);
+                    }
+                }
+            }
+        }
     }
 
     /// Intersection of primitive `i` (in BVH order) with `ray`, as [`Primitive::intersect`].
@@ -1209,76 +1248,195 @@ impl Bvh {
 /// more than one thread).
 const PARALLEL_BUILD: usize = 4096;
 
-/// Build the subtree over `items` (the primitives `start ..` of the whole build) into `nodes`,
-/// in depth-first order (the left child follows its parent; `offset` of an interior node is the
+/// Items of at least this many are binned in parallel chunks (with more than one thread); the
+/// bins' boxes and counts do not depend on the order of the merge.
+const PARALLEL_BINNING: usize = 1 << 16;
+
+/// Box of the builder: min and max as 16-byte vectors, so a union is two vector operations.
+/// The same f32 arithmetic as [`Aabb`] lane by lane, so the tree is the one [`Aabb`] would give.
+#[derive(Clone, Copy, Debug)]
+struct Box3 {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl Box3 {
+    const EMPTY: Box3 = Box3 {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+    };
+
+    #[inline(always)]
+    fn union(self, o: Box3) -> Box3 {
+        Box3 {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    #[inline(always)]
+    fn grow(&mut self, p: Vec3A) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    #[inline(always)]
+    fn centroid(&self) -> Vec3A {
+        0.5 * (self.min + self.max)
+    }
+
+    /// As [`Aabb::half_area`].
+    #[inline(always)]
+    fn half_area(&self) -> f32 {
+        let e = (self.max - self.min).max(Vec3A::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+
+    fn aabb(&self) -> Aabb {
+        Aabb {
+            min: self.min.into(),
+            max: self.max.into(),
+        }
+    }
+}
+
+/// The boxes of a range of items and of their centroids.
+#[derive(Clone, Copy, Debug)]
+struct Extent {
+    bounds: Box3,
+    centroids: Box3,
+}
+
+impl Extent {
+    const EMPTY: Extent = Extent {
+        bounds: Box3::EMPTY,
+        centroids: Box3::EMPTY,
+    };
+
+    #[inline(always)]
+    fn add(&mut self, b: &Box3) {
+        self.bounds = self.bounds.union(*b);
+        self.centroids.grow(b.centroid());
+    }
+
+    fn of(items: &[Box3]) -> Extent {
+        let merge = |a: Extent, b: Extent| Extent {
+            bounds: a.bounds.union(b.bounds),
+            centroids: a.centroids.union(b.centroids),
+        };
+        let fold = |c: &[Box3]| {
+            let mut e = Extent::EMPTY;
+            for b in c {
+                e.add(b);
+            }
+            e
+        };
+        if items.len() >= PARALLEL_BINNING && rayon::current_num_threads() > 1 {
+            items
+                .par_chunks(PARALLEL_BINNING / 4)
+                .map(fold)
+                .reduce(|| Extent::EMPTY, merge)
+        } else {
+            fold(items)
+        }
+    }
+}
+
+/// Build the subtree over `items` (the boxes of the primitives `start ..` of the whole build,
+/// `index` their primitives, permuted alongside; `extent` their boxes) into `nodes`, in
+/// depth-first order (the left child follows its parent; `offset` of an interior node is the
 /// index of its right child), and return the index of its root.
 fn build_node(
-    items: &mut [BuildItem],
+    items: &mut [Box3],
+    index: &mut [u32],
     start: usize,
     depth: u32,
+    extent: Extent,
     nodes: &mut Vec<BuildNode>,
 ) -> u32 {
-    let index = nodes.len() as u32;
-    let mut bounds = Aabb::EMPTY;
-    let mut cbounds = Aabb::EMPTY;
-    for it in items.iter() {
-        bounds = bounds.union(&it.bounds);
-        cbounds.grow(it.centroid);
-    }
+    debug_assert_eq!(items.len(), index.len());
+    let node_index = nodes.len() as u32;
+    let Extent {
+        bounds,
+        centroids: cbounds,
+    } = extent;
     let n = items.len();
     nodes.push(BuildNode {
-        bounds,
+        bounds: bounds.aabb(),
         offset: start as u32,
         count: n as u32,
         axis: 0,
     });
     if n <= 1 {
-        return index;
+        return node_index;
     }
     let split = if depth < SAH_DEPTH {
         best_split(items, &bounds, &cbounds)
     } else {
         None
     };
-    let mid = match split {
+    let (mid, left_extent, right_extent) = match split {
         Some((axis, bin, _cost)) => {
             let lo = cbounds.min[axis];
             let scale = BINS as f32 / (cbounds.max[axis] - lo);
-            let bin_of = |c: Vec3| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
+            let bin_of = |c: Vec3A| (((c[axis] - lo) * scale) as usize).min(BINS - 1);
+            // The partition's swaps, and the two sides' extents on the way.
+            let (mut left, mut right) = (Extent::EMPTY, Extent::EMPTY);
             let mut m = 0;
             for i in 0..n {
-                if bin_of(items[i].centroid) <= bin {
+                let b = items[i];
+                if bin_of(b.centroid()) <= bin {
                     items.swap(i, m);
+                    index.swap(i, m);
                     m += 1;
+                    left.add(&b);
+                } else {
+                    right.add(&b);
                 }
             }
-            nodes[index as usize].axis = axis as u8;
-            m
+            nodes[node_index as usize].axis = axis as u8;
+            (m, left, right)
         }
-        None if n <= MAX_LEAF => return index,
+        None if n <= MAX_LEAF => return node_index,
         None => {
             // No useful SAH split (coincident centroids, or too deep): median split on the
-            // widest centroid axis.
+            // widest centroid axis (a stable sort by centroid).
             let axis = (cbounds.max - cbounds.min).max_position();
-            items.sort_by(|a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-            nodes[index as usize].axis = axis as u8;
-            n / 2
+            let mut perm: Vec<u32> = (0..n as u32).collect();
+            perm.sort_by(|&a, &b| {
+                items[a as usize].centroid()[axis].total_cmp(&items[b as usize].centroid()[axis])
+            });
+            let sorted_items: Vec<Box3> = perm.iter().map(|&p| items[p as usize]).collect();
+            let sorted_index: Vec<u32> = perm.iter().map(|&p| index[p as usize]).collect();
+            items.copy_from_slice(&sorted_items);
+            index.copy_from_slice(&sorted_index);
+            nodes[node_index as usize].axis = axis as u8;
+            let mid = n / 2;
+            (mid, Extent::of(&items[..mid]), Extent::of(&items[mid..]))
         }
     };
     if mid == 0 || mid == n {
-        return index; // keep as leaf (cannot happen with the binning above, kept for safety)
+        return node_index; // keep as leaf (cannot happen with the binning above, kept for safety)
     }
     let (left, right) = items.split_at_mut(mid);
+    let (left_index, right_index) = index.split_at_mut(mid);
     let right_root = if n >= PARALLEL_BUILD && rayon::current_num_threads() > 1 {
         // The right subtree goes to its own vector (indices from 0), appended after the left
         // one and shifted: the same layout as the sequential build.
         let ((), mut rnodes) = rayon::join(
             || {
-                build_node(left, start, depth + 1, nodes);
+                build_node(left, left_index, start, depth + 1, left_extent, nodes);
             },
             || {
                 let mut r = Vec::with_capacity(2 * right.len());
-                build_node(right, start + mid, depth + 1, &mut r);
+                build_node(
+                    right,
+                    right_index,
+                    start + mid,
+                    depth + 1,
+                    right_extent,
+                    &mut r,
+                );
                 r
             },
         );
@@ -1291,59 +1449,105 @@ fn build_node(
         nodes.append(&mut rnodes);
         base
     } else {
-        build_node(left, start, depth + 1, nodes);
-        build_node(right, start + mid, depth + 1, nodes)
+        build_node(left, left_index, start, depth + 1, left_extent, nodes);
+        build_node(
+            right,
+            right_index,
+            start + mid,
+            depth + 1,
+            right_extent,
+            nodes,
+        )
     };
-    let node = &mut nodes[index as usize];
+    let node = &mut nodes[node_index as usize];
     node.offset = right_root;
     node.count = 0;
-    index
+    node_index
 }
 
-/// Best (axis, last bin of the left side, cost) by binned SAH, if it beats a leaf. One pass
-/// over the items fills the bins of all three axes.
-fn best_split(items: &[BuildItem], bounds: &Aabb, cbounds: &Aabb) -> Option<(usize, usize, f32)> {
+/// The bins of all three axes: per axis and bin, the union of the items' boxes and their count.
+#[derive(Clone, Copy)]
+struct Bins {
+    bounds: [[Box3; BINS]; 3],
+    count: [[u32; BINS]; 3],
+}
+
+impl Bins {
+    const EMPTY: Bins = Bins {
+        bounds: [[Box3::EMPTY; BINS]; 3],
+        count: [[0; BINS]; 3],
+    };
+
+    /// One pass over the items fills the bins of all three axes.
+    fn fill(&mut self, items: &[Box3], lo: Vec3A, scale: Vec3A) {
+        for it in items {
+            let f = (it.centroid() - lo) * scale;
+            for axis in 0..3 {
+                let b = (f[axis] as usize).min(BINS - 1);
+                self.bounds[axis][b] = self.bounds[axis][b].union(*it);
+                self.count[axis][b] += 1;
+            }
+        }
+    }
+
+    fn merge(mut self, o: &Bins) -> Bins {
+        for axis in 0..3 {
+            for b in 0..BINS {
+                self.bounds[axis][b] = self.bounds[axis][b].union(o.bounds[axis][b]);
+                self.count[axis][b] += o.count[axis][b];
+            }
+        }
+        self
+    }
+}
+
+/// Best (axis, last bin of the left side, cost) by binned SAH, if it beats a leaf.
+fn best_split(items: &[Box3], bounds: &Box3, cbounds: &Box3) -> Option<(usize, usize, f32)> {
     let leaf_cost = items.len() as f32;
     let mut best: Option<(usize, usize, f32)> = None;
     let parent_area = bounds.half_area().max(f32::MIN_POSITIVE);
     let lo = cbounds.min;
     let extent = cbounds.max - lo;
     // An axis without extent gets scale 0 (every item in bin 0) and is skipped below.
-    let scale = Vec3::select(
-        extent.cmpgt(Vec3::ZERO),
-        Vec3::splat(BINS as f32) / extent,
-        Vec3::ZERO,
+    let scale = Vec3A::select(
+        extent.cmpgt(Vec3A::ZERO),
+        Vec3A::splat(BINS as f32) / extent,
+        Vec3A::ZERO,
     );
-    let mut bin_bounds = [[Aabb::EMPTY; BINS]; 3];
-    let mut bin_count = [[0usize; BINS]; 3];
-    for it in items {
-        let f = (it.centroid - lo) * scale;
-        for axis in 0..3 {
-            let b = (f[axis] as usize).min(BINS - 1);
-            bin_bounds[axis][b] = bin_bounds[axis][b].union(&it.bounds);
-            bin_count[axis][b] += 1;
-        }
-    }
+    let bins = if items.len() >= PARALLEL_BINNING && rayon::current_num_threads() > 1 {
+        items
+            .par_chunks(PARALLEL_BINNING / 4)
+            .map(|c| {
+                let mut b = Bins::EMPTY;
+                b.fill(c, lo, scale);
+                b
+            })
+            .reduce(|| Bins::EMPTY, |a, b| a.merge(&b))
+    } else {
+        let mut b = Bins::EMPTY;
+        b.fill(items, lo, scale);
+        b
+    };
     for axis in 0..3 {
         if !(extent[axis] > 0.0) {
             continue;
         }
-        let (bin_bounds, bin_count) = (&bin_bounds[axis], &bin_count[axis]);
+        let (bin_bounds, bin_count) = (&bins.bounds[axis], &bins.count[axis]);
         // Sweep from the right to get suffix areas and counts.
         let mut right_area = [0f32; BINS];
-        let mut right_count = [0usize; BINS];
-        let mut acc = Aabb::EMPTY;
+        let mut right_count = [0u32; BINS];
+        let mut acc = Box3::EMPTY;
         let mut cnt = 0;
         for b in (1..BINS).rev() {
-            acc = acc.union(&bin_bounds[b]);
+            acc = acc.union(bin_bounds[b]);
             cnt += bin_count[b];
             right_area[b] = acc.half_area();
             right_count[b] = cnt;
         }
-        let mut acc = Aabb::EMPTY;
+        let mut acc = Box3::EMPTY;
         let mut cnt = 0;
         for b in 0..BINS - 1 {
-            acc = acc.union(&bin_bounds[b]);
+            acc = acc.union(bin_bounds[b]);
             cnt += bin_count[b];
             if cnt == 0 || right_count[b + 1] == 0 {
                 continue;

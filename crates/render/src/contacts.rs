@@ -12,8 +12,10 @@
 //! - disks: crossings of the disk (in its local frame);
 //! - finite cylinders (occluders): crossings of the side surface.
 
+use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::scene::{Geometry, Scene};
+use crate::shapes::Primitive;
 use glam::{DVec3, Mat4};
 
 /// One point where light `light` meets shape `shape` (indices into the scene's lists).
@@ -227,29 +229,74 @@ fn segment_cylinder(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3, r: f64, out: &mu
     }
 }
 
-/// Every contact of every light with every shape of `scene`.
-pub fn light_contacts(scene: &Scene) -> Vec<Contact> {
+/// Whether segment p0p1 passes within `tol` of the box [lo, hi] (conservatively: the box is
+/// grown by a further 10⁻⁹ of the coordinates' magnitude for the rounding of this test and of
+/// the contact tests).
+fn segment_near_box(p0: DVec3, p1: DVec3, lo: DVec3, hi: DVec3, tol: f64) -> bool {
+    let scale = lo
+        .abs()
+        .max(hi.abs())
+        .max(p0.abs())
+        .max(p1.abs())
+        .max_element();
+    let grow = tol + 1e-9 * scale + f64::MIN_POSITIVE;
+    let (lo, hi) = (lo - grow, hi + grow);
+    let d = p1 - p0;
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for a in 0..3 {
+        if d[a] == 0.0 {
+            if p0[a] < lo[a] || p0[a] > hi[a] {
+                return false;
+            }
+            continue;
+        }
+        let (u, w) = ((lo[a] - p0[a]) / d[a], (hi[a] - p0[a]) / d[a]);
+        t0 = t0.max(u.min(w));
+        t1 = t1.min(u.max(w));
+        if !(t0 <= t1) {
+            return false;
+        }
+    }
+    true
+}
+
+/// Every contact of every light with every shape of `scene`, whose primitives `bvh` holds
+/// (built from the scene's shapes in order). Per light, only the triangles whose box the
+/// segment passes within tol of are tested (their boxes are exact), every other shape is
+/// tested; the result, in the order of the scene's shapes and triangles, is that of testing
+/// every triangle.
+pub fn light_contacts(scene: &Scene, bvh: &Bvh) -> Vec<Contact> {
+    let others: Vec<usize> = (0..scene.shapes.len())
+        .filter(|&s| !matches!(scene.shapes[s].geometry, Geometry::Mesh { .. }))
+        .collect();
     let mut contacts = Vec::new();
+    let mut triangles: Vec<(u32, [DVec3; 3], usize)> = Vec::new();
     for (li, light) in scene.lights.iter().enumerate() {
         let (p0, p1) = (v(light.begin), v(light.end));
         let tol = (light.radius.abs() as f64).max(1e-6 * (p1 - p0).length());
-        for (si, shape) in scene.shapes.iter().enumerate() {
-            let mut points = Vec::new();
-            match &shape.geometry {
-                Geometry::Mesh {
-                    positions, indices, ..
-                } => {
-                    for tri in indices {
-                        let Some(t) = tri
-                            .iter()
-                            .map(|&k| positions.get(k as usize).map(|p| v(*p)))
-                            .collect::<Option<Vec<_>>>()
-                        else {
-                            continue;
-                        };
-                        segment_triangle(p0, p1, [t[0], t[1], t[2]], tol, &mut points);
-                    }
+        triangles.clear();
+        bvh.visit_overlapping(
+            |lo, hi| segment_near_box(p0, p1, v(lo), v(hi), tol),
+            |k, p| {
+                if let Primitive::Triangle { v: t, shape, .. } = p {
+                    triangles.push((k, [v(t[0]), v(t[1]), v(t[2])], *shape as usize));
                 }
+            },
+        );
+        triangles.sort_unstable_by_key(|t| t.0);
+        // Per shape its points: a mesh's triangles are consecutive in the BVH's order.
+        let mut found: Vec<(usize, Vec<DVec3>)> = Vec::new();
+        for group in triangles.chunk_by(|a, b| a.2 == b.2) {
+            let mut points = Vec::new();
+            for (_, t, _) in group {
+                segment_triangle(p0, p1, *t, tol, &mut points);
+            }
+            found.push((group[0].2, points));
+        }
+        for &si in &others {
+            let mut points = Vec::new();
+            match &scene.shapes[si].geometry {
+                Geometry::Mesh { .. } => {}
                 Geometry::Sphere { center, radius } => {
                     segment_sphere(p0, p1, v(*center), radius.abs() as f64, tol, &mut points)
                 }
@@ -260,6 +307,10 @@ pub fn light_contacts(scene: &Scene) -> Vec<Contact> {
                     radius,
                 } => segment_cylinder(p0, p1, v(*q0), v(*q1), radius.abs() as f64, &mut points),
             }
+            found.push((si, points));
+        }
+        found.sort_by_key(|f| f.0);
+        for (si, mut points) in found {
             // A crossing on a shared mesh edge is found twice.
             points.dedup_by(|a, b| (*a - *b).length() <= tol);
             contacts.extend(points.into_iter().map(|point| Contact {
@@ -311,6 +362,94 @@ pub fn contact_pixels(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render_scene::RenderScene;
+    use crate::scene_builder::{cuboid, diffuse, light, quad};
+    use glam::Vec3;
+
+    /// Every light against every triangle and shape: what [`light_contacts`] must return.
+    fn brute_force(scene: &Scene) -> Vec<Contact> {
+        let mut contacts = Vec::new();
+        for (li, l) in scene.lights.iter().enumerate() {
+            let (p0, p1) = (v(l.begin), v(l.end));
+            let tol = (l.radius.abs() as f64).max(1e-6 * (p1 - p0).length());
+            for (si, shape) in scene.shapes.iter().enumerate() {
+                let mut points = Vec::new();
+                match &shape.geometry {
+                    Geometry::Mesh {
+                        positions, indices, ..
+                    } => {
+                        for t in indices {
+                            let t = t.map(|k| v(positions[k as usize]));
+                            segment_triangle(p0, p1, t, tol, &mut points);
+                        }
+                    }
+                    Geometry::Sphere { center, radius } => {
+                        segment_sphere(p0, p1, v(*center), *radius as f64, tol, &mut points)
+                    }
+                    Geometry::Disk { to_world } => segment_disk(p0, p1, to_world, &mut points),
+                    Geometry::Cylinder {
+                        p0: a,
+                        p1: b,
+                        radius,
+                    } => segment_cylinder(p0, p1, v(*a), v(*b), *radius as f64, &mut points),
+                }
+                points.dedup_by(|a, b| (*a - *b).length() <= tol);
+                contacts.extend(points.into_iter().map(|point| Contact {
+                    light: li,
+                    shape: si,
+                    point,
+                }));
+            }
+        }
+        contacts
+    }
+
+    /// The BVH query finds what testing everything finds: on every committed scene, and on a
+    /// box of boxes pierced, touched and grazed by lights (contacts on several shapes, shared
+    /// edges, a light lying in a face, one missing everything).
+    #[test]
+    fn contacts_by_the_bvh_equal_testing_every_shape() {
+        let mut scenes: Vec<Scene> = crate::test_scenes::committed()
+            .iter()
+            .map(|p| crate::xml::load_scene(p, &[]).unwrap())
+            .collect();
+        let mut box_scene = crate::scene_builder::cornell_box(8, 8);
+        let w = Vec3::new;
+        for i in 0..40 {
+            let x = i as f32 / 40.0;
+            box_scene.shapes.push(diffuse(
+                cuboid(w(x, 0.2, 0.0), w(x + 0.02, 0.25 + 0.01 * i as f32, 0.3)),
+                [0.5; 3],
+            ));
+        }
+        box_scene.shapes.push(diffuse(
+            quad(
+                w(0., 0., 0.5),
+                w(1., 0., 0.5),
+                w(1., 1., 0.5),
+                w(0., 1., 0.5),
+            ),
+            [0.5; 3],
+        ));
+        let k = [1.0; 3];
+        box_scene.lights = vec![
+            light(w(0.5, 0.5, -0.5), w(0.5, 0.5, 1.5), k), // through floor, shelf, ceiling
+            light(w(-0.5, 0.22, 0.1), w(1.5, 0.22, 0.1), k), // through the row of boxes
+            light(w(0.1, 0.1, 0.5), w(0.9, 0.9, 0.5), k),  // lying in the shelf
+            light(w(0.3, 0.5, 0.95), w(0.7, 0.6, 0.95), k), // touching nothing
+            light(w(0.0, 0.0, 0.0), w(1.0, 1.0, 1.0), k),  // corner to corner
+        ];
+        scenes.push(box_scene);
+        let mut total = 0;
+        for scene in &scenes {
+            let rs = RenderScene::new(scene).unwrap();
+            let expected = brute_force(scene);
+            assert_eq!(light_contacts(scene, &rs.bvh), expected);
+            total += expected.len();
+        }
+        // Not vacuous: the pierced boxes alone give dozens.
+        assert!(total > 50, "{total} contacts");
+    }
 
     #[test]
     fn triangle_crossing_touch_and_miss() {

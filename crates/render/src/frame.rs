@@ -8,7 +8,6 @@
 //! pixel index), so an image is bit-identical for any thread count and a crop equals the same
 //! window of the full render.
 
-use crate::camera::Camera;
 use crate::contacts::{contact_pixels, light_contacts};
 use crate::film::Welford;
 use crate::options::RenderOptions;
@@ -153,7 +152,7 @@ pub(crate) fn pixel_entries(
         meta.extra
             .insert("nonfinite_dropped".into(), dropped.to_string());
     }
-    record_lights(&mut meta, scene, &rs.camera, window);
+    record_lights(&mut meta, scene, rs, window);
     meta.extra
 }
 
@@ -165,7 +164,7 @@ pub const CONTACT_PIXEL_RADIUS: f64 = 2.0;
 fn record_lights(
     meta: &mut Metadata,
     scene: &Scene,
-    camera: &Camera,
+    rs: &RenderScene,
     window: (u32, u32, u32, u32),
 ) {
     if !scene.lights.is_empty() {
@@ -173,7 +172,7 @@ fn record_lights(
         meta.extra
             .insert(linlight_imagefile::KEY_RADIUS.into(), radii.join(","));
     }
-    let contacts = light_contacts(scene);
+    let contacts = light_contacts(scene, &rs.bvh);
     if contacts.is_empty() {
         return;
     }
@@ -187,7 +186,7 @@ fn record_lights(
         })
         .collect();
     meta.extra.insert("contacts".into(), text.join("; "));
-    let pixels = contact_pixels(camera, &contacts, window, CONTACT_PIXEL_RADIUS);
+    let pixels = contact_pixels(&rs.camera, &contacts, window, CONTACT_PIXEL_RADIUS);
     meta.extra.insert(
         linlight_imagefile::KEY_CONTACT_PIXELS.into(),
         linlight_imagefile::format_pixel_list(&pixels),

@@ -60,6 +60,7 @@
 use crate::bvh::{Bvh, RayLanes, PACKET};
 use crate::shapes::{Primitive, Ray};
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 
 /// u = 2⁻²⁴, the unit roundoff of f32.
 const U: f64 = 1.0 / 16_777_216.0;
@@ -112,6 +113,7 @@ pub struct ShadowCulling {
 }
 
 /// A triangle's plane in f64: unit normal, a vertex, sin θ between its edges.
+#[derive(Clone)]
 struct Plane {
     n: DVec3,
     v0: DVec3,
@@ -144,6 +146,16 @@ impl Plane {
             sin: self.sin,
         }
     }
+}
+
+/// A triangle that may be culled for some light: condition 2 holds on the `positive` or
+/// `negative` side of its plane.
+struct Candidate {
+    /// Index into the primitives of finite bounds.
+    index: usize,
+    plane: Plane,
+    positive: bool,
+    negative: bool,
 }
 
 /// Points that bound a primitive: its vertices (triangles) or its box's corners.
@@ -230,59 +242,73 @@ impl ShadowCulling {
         let tau = 1e-5 * diameter;
         let slack = 8.0 * U * scale;
 
+        // Condition 2 does not depend on the light, only on which side of the plane it lies:
+        // decided once per triangle, on each side. The lights then scan these candidates only
+        // (in a large scene, the few planes that bound it).
+        let candidates: Vec<Candidate> = finite
+            .par_iter()
+            .enumerate()
+            .filter_map(|(i, p)| {
+                let Primitive::Triangle { v, .. } = p else {
+                    return None;
+                };
+                let pl = Plane::of(v)?;
+                // The flipped plane's h is exactly −h (negation is exact), so each side's
+                // condition is one bound on h.
+                let all_above = |xs: &[DVec3], bound: f64, sign: f64| {
+                    xs.iter().all(|&x| sign * pl.h(x) >= bound)
+                };
+                let side = |sign: f64| {
+                    all_above(&primitive_corners, -tau, sign)
+                        || (!points.is_empty() && all_above(&points, -tau, sign))
+                };
+                let (positive, negative) = (side(1.0), side(-1.0));
+                (positive || negative).then_some(Candidate {
+                    index: i,
+                    plane: pl,
+                    positive,
+                    negative,
+                })
+            })
+            .collect();
+
         let mut out = Self::default();
         for &(a, b) in lights {
             let (a, b) = (a.as_dvec3(), b.as_dvec3());
-            let mut kept = Vec::new();
             let mut culled_index = Vec::new();
             // Guard planes: (plane, threshold on h over the group plane).
             let mut groups: Vec<(Plane, f64)> = Vec::new();
-            let mut culled = Vec::new();
-            for (i, p) in finite.iter().enumerate() {
-                let cull = match p {
-                    Primitive::Triangle { v, .. } => Plane::of(v).and_then(|pl| {
-                        let pl = if pl.h(a) < 0.0 { pl.flipped() } else { pl };
-                        let g = 64.0 * U * scale / pl.sin;
-                        // Beyond 2·(g + slack), a margin of 10⁻³ of the segment's length: a
-                        // shadow ray's target (p + dist·ω from the sampler, in f32) can
-                        // overshoot the segment's end where ω is nearly along the line.
-                        let clear = 2.0 * (g + slack) + 1e-3 * (b - a).length();
-                        let light_clear = pl.h(a) >= clear && pl.h(b) >= clear;
-                        // The group whose plane differs from this one by at most 10⁻⁶·D over
-                        // the scene box (affine: the maximum is at a corner), or a new one if
-                        // there is room: decided before the points are scanned, since a
-                        // triangle with no guard plane left is kept anyway.
-                        let dev = |q: &Plane| {
-                            box_corners
-                                .iter()
-                                .map(|&c| (pl.h(c) - q.h(c)).abs())
-                                .fold(0.0, f64::max)
-                        };
-                        let group = groups.iter().position(|(q, _)| dev(q) <= 1e-6 * diameter);
-                        let guarded = group.is_some() || groups.len() < MAX_GUARDS;
-                        let closed = light_clear
-                            && guarded
-                            && (primitive_corners.iter().all(|&x| pl.h(x) >= -tau)
-                                || (!points.is_empty() && points.iter().all(|&x| pl.h(x) >= -tau)));
-                        let need = g + slack;
-                        let joined = group.map(|k| (k, need + dev(&groups[k].0)));
-                        closed.then_some(match joined {
-                            Some((k, need)) => (k, need, None),
-                            None => (groups.len(), need, Some(pl)),
-                        })
-                    }),
-                    _ => None,
+            for c in &candidates {
+                let (pl, below_ok) = if c.plane.h(a) < 0.0 {
+                    (c.plane.flipped(), c.negative)
+                } else {
+                    (c.plane.clone(), c.positive)
                 };
-                match cull {
-                    None => kept.push((*p).clone()),
-                    Some((k, need, new_plane)) => {
-                        culled.push((*p).clone());
-                        culled_index.push(i);
-                        match new_plane {
-                            Some(pl) => groups.push((pl, need)),
-                            None => groups[k].1 = groups[k].1.max(need),
-                        }
-                    }
+                let g = 64.0 * U * scale / pl.sin;
+                // Beyond 2·(g + slack), a margin of 10⁻³ of the segment's length: a shadow
+                // ray's target (p + dist·ω from the sampler, in f32) can overshoot the
+                // segment's end where ω is nearly along the line.
+                let clear = 2.0 * (g + slack) + 1e-3 * (b - a).length();
+                let light_clear = pl.h(a) >= clear && pl.h(b) >= clear;
+                // The group whose plane differs from this one by at most 10⁻⁶·D over the
+                // scene box (affine: the maximum is at a corner), or a new one if there is
+                // room: a triangle with no guard plane left is kept.
+                let dev = |q: &Plane| {
+                    box_corners
+                        .iter()
+                        .map(|&c| (pl.h(c) - q.h(c)).abs())
+                        .fold(0.0, f64::max)
+                };
+                let group = groups.iter().position(|(q, _)| dev(q) <= 1e-6 * diameter);
+                let guarded = group.is_some() || groups.len() < MAX_GUARDS;
+                if !(light_clear && guarded && below_ok) {
+                    continue;
+                }
+                let need = g + slack;
+                culled_index.push(c.index);
+                match group {
+                    Some(k) => groups[k].1 = groups[k].1.max(need + dev(&groups[k].0)),
+                    None => groups.push((pl, need)),
                 }
             }
             let mut guards = [Guard::PASS; MAX_GUARDS];
@@ -300,7 +326,7 @@ impl ShadowCulling {
             // Measured (callgrind, docs/performance.md): culling 4 of 15 triangles
             // (glossy-principled) saves less in the walk than the guard costs; a third or more
             // (cornell-tube 14 of 34, the floors) pays.
-            if culled.is_empty() || 3 * culled.len() < finite.len() {
+            if culled_index.is_empty() || 3 * culled_index.len() < finite.len() {
                 out.light_set.push(None);
                 continue;
             }
@@ -311,6 +337,17 @@ impl ShadowCulling {
             match out.sets.iter().position(same) {
                 Some(k) => out.light_set.push(Some(k)),
                 None => {
+                    // The copies of the kept primitives are made only for a new set.
+                    let mut culled = Vec::with_capacity(culled_index.len());
+                    let mut kept = Vec::with_capacity(finite.len() - culled_index.len());
+                    let mut next = culled_index.iter().peekable();
+                    for (i, p) in finite.iter().enumerate() {
+                        if next.next_if_eq(&&i).is_some() {
+                            culled.push((*p).clone());
+                        } else {
+                            kept.push((*p).clone());
+                        }
+                    }
                     out.light_set.push(Some(out.sets.len()));
                     out.sets.push(ShadowSet {
                         bvh: Bvh::build(kept),

@@ -11,12 +11,15 @@ use crate::scene::{
     SourceLocation,
 };
 use glam::{DMat3, DMat4, DVec3, Vec3};
+use rayon::prelude::*;
 use std::rc::Rc;
 
 const SHAPES: &str = "rectangle, cube, sphere, disk, cylinder, obj, ply";
 
 pub struct Builder<'a> {
     tree: &'a TreeBuilder,
+    /// The limit on the triangles of the mesh files, if any.
+    pub(super) budget: Option<MeshBudget>,
     pub(super) warnings: Vec<String>,
     /// Refusals kept while the rest of the scene is built ([`Builder::keep`]).
     errors: Vec<SceneError>,
@@ -89,6 +92,7 @@ impl<'a> Builder<'a> {
     pub fn new(tree: &'a TreeBuilder) -> Builder<'a> {
         Builder {
             tree,
+            budget: None,
             warnings: Vec::new(),
             errors: Vec::new(),
         }
@@ -298,8 +302,10 @@ impl<'a> Builder<'a> {
         };
         let mut shapes = Vec::new();
         let mut lights = Vec::new();
-        for (s, _) in p.objects("shape") {
-            match self.shape(&s) {
+        let shape_elems = p.objects("shape");
+        let meshes = self.read_meshes(&shape_elems);
+        for ((s, _), mesh) in shape_elems.iter().zip(meshes) {
+            match self.shape(s, mesh) {
                 Ok(Built::Shape(sh)) => shapes.push(sh),
                 Ok(Built::Light(l)) => lights.push(l),
                 Err(e) => self.errors.push(e),
@@ -381,86 +387,10 @@ impl<'a> Builder<'a> {
         let (sample_count, seed) = self.keep(sampler).unwrap_or((1, 0));
         // A pinhole camera has no focus and a static scene no motion (docs/scene-support.md).
         p.ignore(&["focus_distance"]);
-        let open = p.float("shutter_open")?.unwrap_or(0.0);
-        if let Some((close, loc)) = p.float_at("shutter_close")? {
-            if close < open {
-                return err(
-                    &loc,
-                    "shutter_open must be less than or equal to shutter_close (Mitsuba refuses \
-                     this too)",
-                );
-            }
-        }
-        if p.has("srf") {
-            return err(
-                &e.loc,
-                "a sensor response function ('srf') needs a spectral variant of Mitsuba; \
-                 linlight renders RGB, as Mitsuba's RGB variants do, which refuse it too \
-                 (remove it)",
-            );
-        }
-        let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
-        for (i, axis) in [to_world.x_axis, to_world.y_axis, to_world.z_axis]
-            .iter()
-            .enumerate()
-        {
-            let n2 = axis.truncate().length_squared();
-            if (n2 - 1.0).abs() > 1e-4 {
-                return err(
-                    &e.loc,
-                    format!(
-                        "sensor to_world scales camera axis {} by {:.6}; scale factors in the \
-                         camera-to-world transformation are not allowed",
-                        ["x", "y", "z"][i],
-                        n2.sqrt()
-                    ),
-                );
-            }
-        }
+        check_shutter_and_srf(&p, &e.loc)?;
+        let to_world = sensor_to_world(&p, &e.loc)?;
         let aspect = film.width as f64 / film.height as f64;
-        let fov = p.float("fov")?;
-        let focal = p.string("focal_length")?;
-        let (fov_deg, fov_axis) = match (fov, focal) {
-            (Some(_), Some((_, loc))) => {
-                return err(&loc, "give either 'fov' or 'focal_length', not both")
-            }
-            (Some(f), None) => {
-                let axis = match p.string("fov_axis")? {
-                    None => FovAxis::X,
-                    Some((s, loc)) => match s.to_ascii_lowercase().as_str() {
-                        "x" => FovAxis::X,
-                        "y" => FovAxis::Y,
-                        "diagonal" => FovAxis::Diagonal,
-                        "smaller" => FovAxis::Smaller,
-                        "larger" => FovAxis::Larger,
-                        _ => {
-                            return err(
-                                &loc,
-                                format!(
-                                    "fov_axis must be x, y, diagonal, smaller or larger (got \
-                                     '{s}')"
-                                ),
-                            )
-                        }
-                    },
-                };
-                (f, axis)
-            }
-            (None, focal) => {
-                let mm = match focal {
-                    None => 50.0,
-                    Some((s, loc)) => {
-                        let t = s.trim().strip_suffix("mm").unwrap_or(s.trim());
-                        let v = parse_f64(t, &loc, "focal_length")?;
-                        if v <= 0.0 {
-                            return err(&loc, "focal_length must be positive");
-                        }
-                        v
-                    }
-                };
-                (focal_length_fov(mm), FovAxis::Diagonal)
-            }
-        };
+        let (fov_deg, fov_axis) = field_of_view(&p)?;
         let fov_x = fov_axis.horizontal_fov(fov_deg, aspect);
         if fov_x <= 0.0 || fov_x >= 180.0 || !fov_x.is_finite() {
             return err(
@@ -762,7 +692,66 @@ impl<'a> Builder<'a> {
         Ok((r, weight as f32))
     }
 
-    fn shape(&mut self, e: &Elem) -> Result<Built, SceneError> {
+    /// The mesh files of the `obj` and `ply` shapes among `shapes`, read and parsed in
+    /// parallel, in the order of `shapes` (None for other shapes and for a shape whose
+    /// `filename` or `face_normals` does not read: [`Builder::shape`] reports why). Files whose
+    /// PLY headers declare more triangles than the scene's budget allows are refused unread.
+    fn read_meshes(&mut self, shapes: &[(Rc<Elem>, SourceLocation)]) -> Vec<Option<MeshRead>> {
+        let jobs: Vec<Option<MeshJob>> = shapes.iter().map(|(e, _)| self.mesh_job(e)).collect();
+        let mut refused: Vec<Option<String>> = vec![None; jobs.len()];
+        if let Some(budget) = &self.budget {
+            let mut total = 0u64;
+            for (job, refusal) in jobs.iter().zip(&mut refused) {
+                let Some(job) = job.as_ref().filter(|j| j.ply) else {
+                    continue;
+                };
+                let Ok(faces) = ply::declared_faces(&job.path) else {
+                    continue; // the parse reports what is wrong with the file
+                };
+                total = total.saturating_add(faces);
+                if total > budget.max_triangles {
+                    *refusal = Some(format!(
+                        "'{}' declares {faces} faces in its PLY header: with the meshes before it, \
+                         {total} triangles or more, more than {} allows (about {} triangles); \
+                         the file was not read",
+                        job.path.display(),
+                        budget.why,
+                        budget.max_triangles
+                    ));
+                }
+            }
+        }
+        jobs.into_par_iter()
+            .zip(refused)
+            .map(|(job, refusal)| {
+                let job = job?;
+                Some(match refusal {
+                    Some(why) => Err(MeshError::Refused(why)),
+                    None => read_mesh(&job),
+                })
+            })
+            .collect()
+    }
+
+    /// The file an `obj` or `ply` shape names, when its properties read.
+    fn mesh_job(&self, e: &Elem) -> Option<MeshJob> {
+        let ty = e.attr("type")?;
+        if ty != "obj" && ty != "ply" {
+            return None;
+        }
+        let p = self.props(e).ok()?;
+        let face_normals = p.boolean("face_normals").ok()?.unwrap_or(false);
+        let (name, _) = p.string("filename").ok()??;
+        Some(MeshJob {
+            path: self.tree.resolve(&name),
+            ply: ty == "ply",
+            face_normals,
+        })
+    }
+
+    /// A `<shape>`: a surface, or a linear light (an emitting cylinder). `mesh` is its file's
+    /// mesh when [`Builder::read_meshes`] read it.
+    fn shape(&mut self, e: &Elem, mesh: Option<MeshRead>) -> Result<Built, SceneError> {
         let ty = plugin_type(e)?;
         if !SHAPES.split(", ").any(|s| s == ty) {
             return err(
@@ -773,18 +762,7 @@ impl<'a> Builder<'a> {
         let p = self.props(e)?;
         let flip_normals = p.boolean("flip_normals")?.unwrap_or(false);
         let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
-        // The BSDF's and the emitter's problems are reported with the shape's own.
-        let bsdf = match p.object("bsdf")? {
-            Some(b) => {
-                let b = self.bsdf(&b);
-                self.keep(b).unwrap_or(Bsdf::Diffuse {
-                    reflectance: [0.5; 3],
-                })
-            }
-            None => Bsdf::Diffuse {
-                reflectance: [0.5; 3],
-            },
-        };
+        let bsdf = self.shape_bsdf(&p)?;
         let emitter = p.object("emitter")?;
         if let Some(em) = &emitter {
             if ty != "cylinder" {
@@ -800,89 +778,14 @@ impl<'a> Builder<'a> {
         // Only differentiable rendering of silhouettes reads it (docs/scene-support.md).
         p.ignore(&["silhouette_sampling_weight"]);
         let loc = e.loc.clone();
-        let mesh = |b: &mut Self, raw: RawMesh, face_normals: bool, smooth: bool| {
-            let (g, w) = shapes::world_mesh(raw, &m, face_normals, smooth, &loc)?;
-            b.warnings.extend(w);
-            Ok::<Geometry, SceneError>(g)
-        };
         let geometry = match ty {
-            "rectangle" => {
-                let mut raw = shapes::rectangle();
-                // Mitsuba's analytic rectangle keeps normal M⁻ᵀ·z; a mirroring to_world would
-                // flip the triangles' winding normal, so undo that.
-                if DMat3::from_mat4(m).determinant() < 0.0 {
-                    for t in &mut raw.triangles {
-                        t.swap(1, 2);
-                    }
-                }
-                mesh(self, raw, false, false)?
-            }
+            "rectangle" => self.rectangle(&m, &loc)?,
             "cube" => {
                 let face_normals = p.boolean("face_normals")?.unwrap_or(false);
-                mesh(self, shapes::cube(), face_normals, false)?
+                self.world_mesh(shapes::cube(), &m, face_normals, false, &loc)?
             }
-            "obj" | "ply" => {
-                let face_normals = p.boolean("face_normals")?.unwrap_or(false);
-                let Some((name, nloc)) = p.string("filename")? else {
-                    return err(&loc, format!("shape '{ty}' needs a 'filename'"));
-                };
-                // Only affects texture coordinates, which this renderer does not use.
-                p.boolean("flip_tex_coords")?;
-                let path = self.tree.resolve(&name);
-                let data = linlight_imagefile::input::read_capped(
-                    &path,
-                    linlight_imagefile::input::MAX_BINARY_BYTES,
-                )
-                .or_else(|io| err(&nloc, format!("cannot read mesh file: {io}")))?;
-                let raw = if ty == "obj" {
-                    obj::parse_obj(&String::from_utf8_lossy(&data), face_normals)
-                } else {
-                    ply::parse_ply(&data, face_normals)
-                }
-                .or_else(|m| {
-                    err(
-                        &loc,
-                        format!(
-                            "error loading {} file '{}': {m}",
-                            ty.to_uppercase(),
-                            path.display()
-                        ),
-                    )
-                })?;
-                if raw.triangles.is_empty() {
-                    return err(
-                        &loc,
-                        format!(
-                            "{} file '{}' contains no faces (Mitsuba cannot load an empty mesh \
-                             either)",
-                            ty.to_uppercase(),
-                            path.display()
-                        ),
-                    );
-                }
-                mesh(self, raw, face_normals, true)?
-            }
-            "sphere" => {
-                let center = p.vec3("center")?.unwrap_or(DVec3::ZERO);
-                let r = p.float("radius")?.unwrap_or(1.0);
-                if r <= 0.0 {
-                    return err(&loc, format!("sphere radius must be positive (got {r})"));
-                }
-                let Some(s) = uniform_scale(&m) else {
-                    return err(
-                        &loc,
-                        "sphere to_world must not scale non-uniformly or shear (it would be an \
-                         ellipsoid)",
-                    );
-                };
-                if DMat3::from_mat4(m).determinant() < 0.0 {
-                    return err(&loc, "sphere to_world must not mirror");
-                }
-                Geometry::Sphere {
-                    center: vec3_of(m.transform_point3(center), &loc, "sphere center")?,
-                    radius: f32_of(r * s, &loc, "sphere radius")?,
-                }
-            }
+            "obj" | "ply" => self.mesh_file(&p, ty, &m, mesh, &loc)?,
+            "sphere" => sphere(&p, &m, &loc)?,
             "disk" => {
                 if DMat3::from_mat4(m).determinant() == 0.0 {
                     return err(&loc, "disk to_world is singular");
@@ -891,58 +794,10 @@ impl<'a> Builder<'a> {
                     to_world: mat4_of(&m, &loc)?,
                 }
             }
-            "cylinder" => {
-                let p0 = p.vec3("p0")?.unwrap_or(DVec3::ZERO);
-                let p1 = p.vec3("p1")?.unwrap_or(DVec3::Z);
-                let r = p.float("radius")?.unwrap_or(1.0);
-                if !(r > 0.0 && r.is_finite()) {
-                    return err(
-                        &loc,
-                        format!("cylinder radius must be positive and finite (got {r})"),
-                    );
-                }
-                let (w0, w1, radius) = cylinder_placement(&m, p0, p1, r, &loc)?;
-                let radius = f32_of(radius, &loc, "cylinder radius")?;
-                let (begin, end) = (
-                    vec3_of(w0, &loc, "cylinder p0")?,
-                    vec3_of(w1, &loc, "cylinder p1")?,
-                );
-                if begin == end {
-                    return err(&loc, "cylinder p0 and p1 coincide in single precision");
-                }
-                if let Some(em) = &emitter {
-                    let (radiance, sampling_weight) = self.area_emitter(em)?;
-                    if flip_normals {
-                        return err(
-                            &loc,
-                            "an emitting cylinder with flip_normals would emit inward",
-                        );
-                    }
-                    p.finish()?;
-                    if radiance.min_element() < 0.0 {
-                        self.warnings.push(format!(
-                            "{}: the emitter's radiance ({}, {}, {}) has a negative component: \
-                             the image will have negative pixels (Mitsuba renders them too, \
-                             warning \"Invalid sample value\")",
-                            em.loc, radiance.x, radiance.y, radiance.z
-                        ));
-                    }
-                    let k = radiance * radius as f64;
-                    return Ok(Built::Light(LinearLight {
-                        begin,
-                        end,
-                        radius,
-                        radiance_times_radius: rgb_of(k, &em.loc, "radiance × radius")?,
-                        sampling_weight,
-                        location: loc,
-                    }));
-                }
-                Geometry::Cylinder {
-                    p0: begin,
-                    p1: end,
-                    radius,
-                }
-            }
+            "cylinder" => match self.cylinder(&p, &m, flip_normals, emitter.as_deref(), &loc)? {
+                Built::Light(l) => return Ok(Built::Light(l)),
+                Built::Shape(s) => s.geometry,
+            },
             _ => unreachable!("type checked against SHAPES above"),
         };
         p.finish()?;
@@ -953,6 +808,227 @@ impl<'a> Builder<'a> {
             location: e.loc.clone(),
         }))
     }
+
+    /// A shape's BSDF (diffuse 0.5 when it has none, or when its own is refused: that
+    /// refusal is reported with the shape's other problems).
+    fn shape_bsdf(&mut self, p: &Props) -> Result<Bsdf, SceneError> {
+        let default = Bsdf::Diffuse {
+            reflectance: [0.5; 3],
+        };
+        Ok(match p.object("bsdf")? {
+            Some(b) => {
+                let b = self.bsdf(&b);
+                self.keep(b).unwrap_or(default)
+            }
+            None => default,
+        })
+    }
+
+    /// Object → world for a mesh, its warning (if any) kept.
+    fn world_mesh(
+        &mut self,
+        raw: RawMesh,
+        m: &DMat4,
+        face_normals: bool,
+        smooth: bool,
+        loc: &SourceLocation,
+    ) -> Result<Geometry, SceneError> {
+        let (g, w) = shapes::world_mesh(raw, m, face_normals, smooth, loc)?;
+        self.warnings.extend(w);
+        Ok(g)
+    }
+
+    fn rectangle(&mut self, m: &DMat4, loc: &SourceLocation) -> Result<Geometry, SceneError> {
+        let mut raw = shapes::rectangle();
+        // Mitsuba's analytic rectangle keeps normal M⁻ᵀ·z; a mirroring to_world would flip the
+        // triangles' winding normal, so undo that.
+        if DMat3::from_mat4(*m).determinant() < 0.0 {
+            for t in &mut raw.triangles {
+                t.swap(1, 2);
+            }
+        }
+        self.world_mesh(raw, m, false, false, loc)
+    }
+
+    /// An `obj` or `ply` shape's mesh: `read` when [`Builder::read_meshes`] read its file,
+    /// read here otherwise.
+    fn mesh_file(
+        &mut self,
+        p: &Props,
+        ty: &str,
+        m: &DMat4,
+        read: Option<MeshRead>,
+        loc: &SourceLocation,
+    ) -> Result<Geometry, SceneError> {
+        let face_normals = p.boolean("face_normals")?.unwrap_or(false);
+        let Some((name, nloc)) = p.string("filename")? else {
+            return err(loc, format!("shape '{ty}' needs a 'filename'"));
+        };
+        // Only affects texture coordinates, which this renderer does not use.
+        p.boolean("flip_tex_coords")?;
+        let path = self.tree.resolve(&name);
+        let read = read.unwrap_or_else(|| {
+            read_mesh(&MeshJob {
+                path: path.clone(),
+                ply: ty == "ply",
+                face_normals,
+            })
+        });
+        let what = ty.to_uppercase();
+        let raw = match read {
+            Ok(raw) => raw,
+            Err(MeshError::Read(io)) => return err(&nloc, format!("cannot read mesh file: {io}")),
+            Err(MeshError::Refused(why)) => return err(loc, why),
+            Err(MeshError::Parse(m)) => {
+                return err(
+                    loc,
+                    format!("error loading {what} file '{}': {m}", path.display()),
+                )
+            }
+        };
+        if raw.triangles.is_empty() {
+            return err(
+                loc,
+                format!(
+                    "{what} file '{}' contains no faces (Mitsuba cannot load an empty mesh \
+                     either)",
+                    path.display()
+                ),
+            );
+        }
+        self.world_mesh(raw, m, face_normals, true, loc)
+    }
+
+    /// A `cylinder`: a linear light when it has an (area) emitter, else an occluder.
+    fn cylinder(
+        &mut self,
+        p: &Props,
+        m: &DMat4,
+        flip_normals: bool,
+        emitter: Option<&Elem>,
+        loc: &SourceLocation,
+    ) -> Result<Built, SceneError> {
+        let p0 = p.vec3("p0")?.unwrap_or(DVec3::ZERO);
+        let p1 = p.vec3("p1")?.unwrap_or(DVec3::Z);
+        let r = p.float("radius")?.unwrap_or(1.0);
+        if !(r > 0.0 && r.is_finite()) {
+            return err(
+                loc,
+                format!("cylinder radius must be positive and finite (got {r})"),
+            );
+        }
+        let (w0, w1, radius) = cylinder_placement(m, p0, p1, r, loc)?;
+        let radius = f32_of(radius, loc, "cylinder radius")?;
+        let (begin, end) = (
+            vec3_of(w0, loc, "cylinder p0")?,
+            vec3_of(w1, loc, "cylinder p1")?,
+        );
+        if begin == end {
+            return err(loc, "cylinder p0 and p1 coincide in single precision");
+        }
+        let Some(em) = emitter else {
+            return Ok(Built::Shape(Shape {
+                geometry: Geometry::Cylinder {
+                    p0: begin,
+                    p1: end,
+                    radius,
+                },
+                bsdf: Bsdf::Diffuse {
+                    reflectance: [0.5; 3],
+                },
+                flip_normals,
+                location: loc.clone(),
+            }));
+        };
+        let (radiance, sampling_weight) = self.area_emitter(em)?;
+        if flip_normals {
+            return err(
+                loc,
+                "an emitting cylinder with flip_normals would emit inward",
+            );
+        }
+        p.finish()?;
+        if radiance.min_element() < 0.0 {
+            self.warnings.push(format!(
+                "{}: the emitter's radiance ({}, {}, {}) has a negative component: the image \
+                 will have negative pixels (Mitsuba renders them too, warning \"Invalid sample \
+                 value\")",
+                em.loc, radiance.x, radiance.y, radiance.z
+            ));
+        }
+        let k = radiance * radius as f64;
+        Ok(Built::Light(LinearLight {
+            begin,
+            end,
+            radius,
+            radiance_times_radius: rgb_of(k, &em.loc, "radiance × radius")?,
+            sampling_weight,
+            location: loc.clone(),
+        }))
+    }
+}
+
+/// A `sphere` (a uniform, non-mirroring to_world keeps it a sphere).
+fn sphere(p: &Props, m: &DMat4, loc: &SourceLocation) -> Result<Geometry, SceneError> {
+    let center = p.vec3("center")?.unwrap_or(DVec3::ZERO);
+    let r = p.float("radius")?.unwrap_or(1.0);
+    if r <= 0.0 {
+        return err(loc, format!("sphere radius must be positive (got {r})"));
+    }
+    let Some(s) = uniform_scale(m) else {
+        return err(
+            loc,
+            "sphere to_world must not scale non-uniformly or shear (it would be an ellipsoid)",
+        );
+    };
+    if DMat3::from_mat4(*m).determinant() < 0.0 {
+        return err(loc, "sphere to_world must not mirror");
+    }
+    Ok(Geometry::Sphere {
+        center: vec3_of(m.transform_point3(center), loc, "sphere center")?,
+        radius: f32_of(r * s, loc, "sphere radius")?,
+    })
+}
+
+/// A mesh file to read: its path, format and whether face normals were asked for.
+struct MeshJob {
+    path: std::path::PathBuf,
+    ply: bool,
+    face_normals: bool,
+}
+
+/// Why a mesh file gave no mesh: it could not be read, its content was refused, or it was
+/// refused unread (the budget).
+enum MeshError {
+    Read(String),
+    Parse(String),
+    Refused(String),
+}
+
+type MeshRead = Result<RawMesh, MeshError>;
+
+/// Reads and parses one mesh file (any thread).
+fn read_mesh(job: &MeshJob) -> MeshRead {
+    let data = linlight_imagefile::input::read_capped(
+        &job.path,
+        linlight_imagefile::input::MAX_BINARY_BYTES,
+    )
+    .map_err(MeshError::Read)?;
+    if job.ply {
+        ply::parse_ply(&data, job.face_normals)
+    } else {
+        obj::parse_obj(&String::from_utf8_lossy(&data), job.face_normals)
+    }
+    .map_err(MeshError::Parse)
+}
+
+/// A limit on the triangles of a scene's mesh files, checked against their PLY headers before
+/// they are read.
+#[derive(Clone, Debug)]
+pub struct MeshBudget {
+    pub max_triangles: u64,
+    /// What sets the limit, for the message (e.g. "--max-memory 1 GiB").
+    pub why: String,
 }
 
 /// Above this ratio of radius to length a tube light is warned about.
@@ -1015,4 +1091,97 @@ fn focal_length_fov(mm: f64) -> f64 {
     2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * mm))
         .atan()
         .to_degrees()
+}
+
+/// Shutter times and a spectral response: what a pinhole RGB camera refuses (as Mitsuba does).
+fn check_shutter_and_srf(p: &Props, sensor: &SourceLocation) -> Result<(), SceneError> {
+    let open = p.float("shutter_open")?.unwrap_or(0.0);
+    if let Some((close, loc)) = p.float_at("shutter_close")? {
+        if close < open {
+            return err(
+                &loc,
+                "shutter_open must be less than or equal to shutter_close (Mitsuba refuses \
+                 this too)",
+            );
+        }
+    }
+    if p.has("srf") {
+        return err(
+            sensor,
+            "a sensor response function ('srf') needs a spectral variant of Mitsuba; \
+             linlight renders RGB, as Mitsuba's RGB variants do, which refuse it too \
+             (remove it)",
+        );
+    }
+    Ok(())
+}
+
+/// The sensor's to_world, refused when it scales a camera axis (as in Mitsuba).
+fn sensor_to_world(p: &Props, sensor: &SourceLocation) -> Result<DMat4, SceneError> {
+    let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    for (i, axis) in [to_world.x_axis, to_world.y_axis, to_world.z_axis]
+        .iter()
+        .enumerate()
+    {
+        let n2 = axis.truncate().length_squared();
+        if (n2 - 1.0).abs() > 1e-4 {
+            return err(
+                sensor,
+                format!(
+                    "sensor to_world scales camera axis {} by {:.6}; scale factors in the \
+                     camera-to-world transformation are not allowed",
+                    ["x", "y", "z"][i],
+                    n2.sqrt()
+                ),
+            );
+        }
+    }
+    Ok(to_world)
+}
+
+/// The field of view (degrees) and its axis, from `fov` and `fov_axis`, or from
+/// `focal_length` (default 50 mm, diagonal), not both.
+fn field_of_view(p: &Props) -> Result<(f64, FovAxis), SceneError> {
+    let fov = p.float("fov")?;
+    let focal = p.string("focal_length")?;
+    Ok(match (fov, focal) {
+        (Some(_), Some((_, loc))) => {
+            return err(&loc, "give either 'fov' or 'focal_length', not both")
+        }
+        (Some(f), None) => {
+            let axis = match p.string("fov_axis")? {
+                None => FovAxis::X,
+                Some((s, loc)) => match s.to_ascii_lowercase().as_str() {
+                    "x" => FovAxis::X,
+                    "y" => FovAxis::Y,
+                    "diagonal" => FovAxis::Diagonal,
+                    "smaller" => FovAxis::Smaller,
+                    "larger" => FovAxis::Larger,
+                    _ => {
+                        return err(
+                            &loc,
+                            format!(
+                                "fov_axis must be x, y, diagonal, smaller or larger (got '{s}')"
+                            ),
+                        )
+                    }
+                },
+            };
+            (f, axis)
+        }
+        (None, focal) => {
+            let mm = match focal {
+                None => 50.0,
+                Some((s, loc)) => {
+                    let t = s.trim().strip_suffix("mm").unwrap_or(s.trim());
+                    let v = parse_f64(t, &loc, "focal_length")?;
+                    if v <= 0.0 {
+                        return err(&loc, "focal_length must be positive");
+                    }
+                    v
+                }
+            };
+            (focal_length_fov(mm), FovAxis::Diagonal)
+        }
+    })
 }

@@ -42,6 +42,7 @@ mod values;
 mod tests;
 
 use crate::scene::{Scene, SourceLocation};
+pub use build::MeshBudget;
 use std::path::Path;
 pub use transform::look_at;
 
@@ -152,7 +153,25 @@ pub struct SceneCheck {
 /// Mitsuba's `load_file(path, spp=...)`: they replace the `<default>` of the same name. A scene
 /// with several problems fails with all of them ([`SceneError::more`]).
 pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, SceneError> {
-    let c = check_scene(path, overrides);
+    load(path, overrides, None)
+}
+
+/// [`load_scene`] refusing, before reading them, mesh files whose PLY headers declare more
+/// triangles in all than `budget` allows.
+pub fn load_scene_within(
+    path: &Path,
+    overrides: &[(String, String)],
+    budget: MeshBudget,
+) -> Result<Scene, SceneError> {
+    load(path, overrides, Some(budget))
+}
+
+fn load(
+    path: &Path,
+    overrides: &[(String, String)],
+    budget: Option<MeshBudget>,
+) -> Result<Scene, SceneError> {
+    let c = check(path, overrides, budget);
     match (c.scene, SceneError::collect(c.errors)) {
         (Some(s), None) => Ok(s),
         (_, Some(e)) => Err(e),
@@ -163,6 +182,10 @@ pub fn load_scene(path: &Path, overrides: &[(String, String)]) -> Result<Scene, 
 /// Loads a scene as [`load_scene`] does and reports everything: the warnings are kept when the
 /// scene is refused (`linlight check`).
 pub fn check_scene(path: &Path, overrides: &[(String, String)]) -> SceneCheck {
+    check(path, overrides, None)
+}
+
+fn check(path: &Path, overrides: &[(String, String)], budget: Option<MeshBudget>) -> SceneCheck {
     let fail = |e: SceneError, warnings: Vec<String>| SceneCheck {
         scene: None,
         errors: e.all(),
@@ -219,6 +242,7 @@ pub fn check_scene(path: &Path, overrides: &[(String, String)]) -> SceneCheck {
         );
     }
     let mut b = build::Builder::new(&tb);
+    b.budget = budget;
     match b.scene(&root) {
         Ok(mut scene) => {
             scene.sha256 = sha256;

@@ -188,6 +188,23 @@ fn parse_header(data: &[u8]) -> Result<(Format, Vec<Element>, usize), String> {
     Ok((format, elems, pos))
 }
 
+/// The face count a PLY file's header declares, from its first 64 KiB (an error when the
+/// header is not there or is malformed). A face is at least one triangle.
+pub fn declared_faces(path: &std::path::Path) -> Result<u64, String> {
+    use std::io::Read;
+    linlight_imagefile::input::regular_file_len(path, linlight_imagefile::input::MAX_BINARY_BYTES)?;
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(64 << 10).read_to_end(&mut head))
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let (_, elems, _) = parse_header(&head)?;
+    Ok(elems
+        .iter()
+        .filter(|e| e.name == "face")
+        .map(|e| e.count as u64)
+        .sum())
+}
+
 pub fn parse_ply(data: &[u8], face_normals: bool) -> Result<RawMesh, String> {
     let (format, elems, body_start) = parse_header(data)?;
     let mut body = Body {
@@ -220,7 +237,7 @@ pub fn parse_ply(data: &[u8], face_normals: bool) -> Result<RawMesh, String> {
                 has_normals = !face_normals && nidx.iter().all(Option::is_some);
                 positions.reserve(cap);
                 let mut vals = vec![0.0; e.props.len()];
-                for _ in 0..e.count {
+                for vertex in 0..e.count {
                     for (k, p) in e.props.iter().enumerate() {
                         vals[k] = match p {
                             Property::Scalar(_, t) => body.read(*t)?,
@@ -239,7 +256,11 @@ pub fn parse_ply(data: &[u8], face_normals: bool) -> Result<RawMesh, String> {
                         vals[idx[2].unwrap()],
                     );
                     if !p.is_finite() {
-                        return Err("mesh contains invalid vertex position data".into());
+                        return Err(format!(
+                            "vertex {vertex} of {} has a non-finite position ({}, {}, {}) \
+                             (counted from 0)",
+                            e.count, p.x, p.y, p.z
+                        ));
                     }
                     positions.push(p);
                     if has_normals {
