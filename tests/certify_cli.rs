@@ -277,3 +277,67 @@ fn a_live_oracle_without_its_venv_is_unusable_input() {
         stderr(&o)
     );
 }
+
+/// The finite-tube family through the command line: an `exact:` subject on one of its scenes
+/// is listed in the summary (with the family's line) and in the JSON (its scene marked
+/// `exact_tubes`); a line technique alone has nothing to render there (unusable input), and an
+/// unknown cylinder technique is refused.
+#[test]
+fn finite_tube_family_through_the_command_line() {
+    let dir = scratch("finite");
+    let json = dir.join("summary.json");
+    let o = linlight(&[
+        "certify",
+        "--quiet",
+        "--no-sampler-suite",
+        "--no-gpu-kernels",
+        "--scenes",
+        "finite-tube-diffuse",
+        "--techniques",
+        "exact:projected:mis=off",
+        "--report-dir",
+        dir.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}{}", stderr(&o));
+    assert!(out.contains("exact:projected:mis=off"), "{out}");
+    assert!(
+        out.contains("finite-tube family (exact tubes): 1 of 1 comparisons consistent"),
+        "{out}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let scene = &report["scenes"][0];
+    assert_eq!(scene["name"], "finite-tube-diffuse");
+    assert_eq!(scene["exact_tubes"], true);
+    assert_eq!(scene["rows"][0]["subject"], "exact:projected:mis=off");
+
+    let o = linlight(&[
+        "certify",
+        "--scenes",
+        "finite-tube-*",
+        "--techniques",
+        "projected-solid-angle",
+        "--no-sampler-suite",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("no selected technique applies"),
+        "{}",
+        stderr(&o)
+    );
+    let o = linlight(&[
+        "certify",
+        "--techniques",
+        "exact:line",
+        "--no-sampler-suite",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("unknown cylinder technique 'line'"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -58,6 +58,9 @@ fn render(scene: &Path, seed: &str, out: &Path) {
             "256",
             "--seed",
             seed,
+            // The contacts of the R → 0 limit; an exact tube has none (crates/render frame).
+            "--cylinders",
+            "line",
         ])
         .arg("--out")
         .arg(out)

@@ -12,10 +12,17 @@
 //! - [`EXACT_SCENES`]: unoccluded planes whose R → 0 image is known without sampling
 //!   (`crate::ground_truth::closed_form`: closed form on Lambertian surfaces, quadrature along the line
 //!   on glossy ones); every render of such a scene is compared with that image as well.
+//! - The finite-tube family ([`super::scenes::FINITE_TUBES_DIR`]): scenes whose tubes have a
+//!   radius the R → 0 limit cannot ignore. They are rendered as the cylinders they are
+//!   (`--cylinders exact`) by [`FINITE_SUBJECTS`]: every cylinder technique with MIS (balance)
+//!   and ours without MIS; the line techniques do not apply to them.
 
 use super::Subject;
+use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
-use linlight_render::{Heuristic, Method};
+use linlight_render::{options::cylinder_technique, TubeSampling};
+use linlight_render::{render, Cylinders, Heuristic, Method, RenderError, RenderOptions};
+use linlight_sampling::cylinder::CylinderTechnique;
 use linlight_sampling::Technique;
 
 /// Scenes also compared with their exact unshadowed image (closed form or line quadrature).
@@ -74,8 +81,103 @@ fn glossy_only_subjects() -> Vec<Box<dyn Subject>> {
         .collect()
 }
 
-/// The default subjects of a scene (see the module documentation).
-pub fn default_subjects(scene: &Scene) -> Vec<Box<dyn Subject>> {
+/// A render of the scene's tubes as the cylinders they are (`linlight render --cylinders exact
+/// --cylinder-technique T --cylinder-mis balance|off`), named `exact:T:mis=balance|off`
+/// (T: `projected`, `solid-angle`, `gamito`, `area`). The method of the certify options is left
+/// as it is: it samples only lights of zero radius, which the finite-tube scenes do not have.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExactTubes(pub TubeSampling);
+
+/// The subjects of the finite-tube family: every cylinder technique with MIS (balance), and ours
+/// (the projected technique) alone.
+pub const FINITE_SUBJECTS: [ExactTubes; 5] = [
+    ExactTubes(TubeSampling {
+        technique: CylinderTechnique::Projected,
+        mis: true,
+    }),
+    ExactTubes(TubeSampling {
+        technique: CylinderTechnique::SolidAngle,
+        mis: true,
+    }),
+    ExactTubes(TubeSampling {
+        technique: CylinderTechnique::Gamito,
+        mis: true,
+    }),
+    ExactTubes(TubeSampling {
+        technique: CylinderTechnique::Area,
+        mis: true,
+    }),
+    ExactTubes(TubeSampling {
+        technique: CylinderTechnique::Projected,
+        mis: false,
+    }),
+];
+
+impl ExactTubes {
+    /// The render options of this subject from certify's.
+    pub fn options(&self, opts: &RenderOptions) -> RenderOptions {
+        RenderOptions {
+            cylinders: Cylinders::Exact(self.0),
+            ..*opts
+        }
+    }
+}
+
+impl std::str::FromStr for ExactTubes {
+    type Err = String;
+    /// `exact:T` (MIS balance, `linlight render`'s default) or `exact:T:mis=balance|off`.
+    fn from_str(text: &str) -> Result<Self, String> {
+        let rest = text
+            .strip_prefix("exact:")
+            .ok_or_else(|| format!("'{text}' is not an exact-tube subject (exact:TECHNIQUE)"))?;
+        let (technique, mis) = match rest.split_once(":mis=") {
+            None => (rest, true),
+            Some((t, "balance")) => (t, true),
+            Some((t, "off")) => (t, false),
+            Some((_, m)) => {
+                return Err(format!(
+                    "'{text}': unknown cylinder MIS '{m}' (expected balance or off)"
+                ))
+            }
+        };
+        Ok(ExactTubes(TubeSampling {
+            technique: cylinder_technique(technique)?,
+            mis,
+        }))
+    }
+}
+
+impl Subject for ExactTubes {
+    fn name(&self) -> String {
+        let t = self.0.technique.name();
+        format!(
+            "exact:{}:mis={}",
+            t.strip_prefix("cylinder-").unwrap_or(t),
+            if self.0.mis { "balance" } else { "off" }
+        )
+    }
+    fn render(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError> {
+        render(scene, &self.options(opts), progress)
+    }
+    fn exact_tubes(&self) -> bool {
+        true
+    }
+}
+
+/// The default subjects of a scene (see the module documentation); `exact_tubes`: the scene is
+/// of the finite-tube family.
+pub fn default_subjects(scene: &Scene, exact_tubes: bool) -> Vec<Box<dyn Subject>> {
+    if exact_tubes {
+        return FINITE_SUBJECTS
+            .into_iter()
+            .map(|s| Box::new(s) as Box<dyn Subject>)
+            .collect();
+    }
     let mut subjects: Vec<Box<dyn Subject>> = Technique::UNBIASED
         .iter()
         .map(|t| Box::new(*t) as Box<dyn Subject>)
@@ -86,8 +188,12 @@ pub fn default_subjects(scene: &Scene) -> Vec<Box<dyn Subject>> {
     subjects
 }
 
-/// How many comparisons the default certification makes on a scene.
-pub fn default_comparisons(name: &str, scene: &Scene) -> usize {
+/// How many comparisons the default certification makes on a scene (`exact_tubes`: of the
+/// finite-tube family).
+pub fn default_comparisons(name: &str, scene: &Scene, exact_tubes: bool) -> usize {
+    if exact_tubes {
+        return FINITE_SUBJECTS.len();
+    }
     let oracles = 1 + usize::from(has_exact_oracle(name));
     let subjects = Technique::UNBIASED.len()
         + if is_glossy(scene) {
@@ -111,6 +217,27 @@ mod tests {
             assert_eq!(m.name(), name);
             assert!(m.is_unbiased());
         }
+    }
+
+    #[test]
+    fn exact_tube_subjects_are_named_as_they_parse() {
+        for s in FINITE_SUBJECTS {
+            assert!(s.exact_tubes());
+            assert_eq!(s.name().parse::<ExactTubes>(), Ok(s));
+        }
+        let names: Vec<String> = FINITE_SUBJECTS.iter().map(|s| s.name()).collect();
+        assert_eq!(names[0], "exact:projected:mis=balance");
+        assert_eq!(names[4], "exact:projected:mis=off");
+        assert_eq!(
+            "exact:gamito".parse::<ExactTubes>(),
+            Ok(FINITE_SUBJECTS[2]),
+            "MIS balance by default"
+        );
+        for bad in ["projected", "exact:line", "exact:area:mis=power", "exact:"] {
+            assert!(bad.parse::<ExactTubes>().is_err(), "{bad}");
+        }
+        let o = FINITE_SUBJECTS[4].options(&RenderOptions::default());
+        assert!(matches!(o.cylinders, Cylinders::Exact(t) if !t.mis));
     }
 
     #[test]

@@ -10,7 +10,9 @@
 //!    [`budget::BudgetRule`], compared with the reference (B) by
 //!    [`linlight_verify::image_stats::compare`]; for the scenes of [`matrix::EXACT_SCENES`] the
 //!    same render is also compared with the exact R → 0 image (closed form on Lambertian
-//!    surfaces, quadrature along the line on glossy ones).
+//!    surfaces, quadrature along the line on glossy ones). The scenes of the finite-tube family
+//!    (`Options::finite_scenes_dir`) are rendered with exact tubes by
+//!    [`matrix::FINITE_SUBJECTS`] and compared with their reference alone.
 //!
 //! 3. Besides them, the renders of [`NOISE_RENDERS`] (blue noise) and
 //!    [`LIGHT_SELECTION_RENDERS`] (one light chosen per light sample, uniformly or by the light
@@ -200,6 +202,12 @@ pub trait Subject: Sync {
     fn renders_in_packets(&self, _scene: &Scene, _opts: &RenderOptions) -> bool {
         false
     }
+    /// Whether the subject renders tubes as the cylinders they are (the finite-tube family's
+    /// subjects, [`matrix::ExactTubes`]) rather than as lines: a subject renders the scenes of
+    /// its own family only.
+    fn exact_tubes(&self) -> bool {
+        false
+    }
 }
 
 /// A single technique: the [`Method`] subject of that technique.
@@ -271,6 +279,10 @@ pub struct Options {
     /// Project root: `scripts/harness` lives here (live oracle).
     pub root: PathBuf,
     pub scenes_dir: PathBuf,
+    /// The scenes of the finite-tube family, rendered with exact tubes
+    /// ([`matrix::FINITE_SUBJECTS`]); None: not certified (`--scenes-dir` certifies one
+    /// directory alone).
+    pub finite_scenes_dir: Option<PathBuf>,
     pub references_dir: PathBuf,
     /// Wildcard pattern selecting scenes (name, file name or path).
     pub scenes: String,
@@ -308,6 +320,7 @@ impl Options {
         Self {
             root: root.to_path_buf(),
             scenes_dir: root.join("references/scenes"),
+            finite_scenes_dir: Some(root.join(scenes::FINITE_TUBES_DIR)),
             references_dir: root.join("references/mitsuba"),
             scenes: "*".into(),
             oracle: Oracle::Committed,
@@ -405,6 +418,9 @@ pub struct SceneReport {
     pub reference: ReferenceInfo,
     /// Wall time of the live Mitsuba render (None: committed reference).
     pub live_oracle_seconds: Option<f64>,
+    /// Of the finite-tube family (rendered with exact tubes).
+    #[serde(default)]
+    pub exact_tubes: bool,
     pub rows: Vec<Row>,
 }
 
@@ -453,17 +469,18 @@ impl Report {
     }
 }
 
-/// m: comparisons of the full default certification of the scenes in `scenes_dir` that have a
-/// reference (each scene loaded with its reference's overrides to tell glossy from diffuse).
+/// m: comparisons of the full default certification of the scenes in `scenes_dir` and
+/// `finite_scenes_dir` that have a reference (each scene loaded with its reference's overrides
+/// to tell glossy from diffuse).
 fn family_size(opts: &Options) -> Result<usize, Unusable> {
     let mut m = 0;
-    for path in scenes::scene_files(&opts.scenes_dir)? {
+    for (path, exact_tubes) in scene_files(opts)? {
         let name = scenes::scene_name(&path);
         if !scenes::reference_path(&opts.references_dir, &name).is_file() {
             continue;
         }
         let s = scenes::load_referenced(&path, &opts.references_dir, false)?;
-        m += matrix::default_comparisons(&name, &s.scene);
+        m += matrix::default_comparisons(&name, &s.scene, exact_tubes);
         // The scene's blue-noise and light-selection renders, against each of its oracles.
         let oracles = if matrix::has_exact_oracle(&name) {
             2
@@ -501,15 +518,38 @@ pub fn pilot_seed(seed: u64) -> u64 {
     seed ^ 0x5049_4c4f_5453_4545 // "PILOTSEE"
 }
 
+/// The scene files of `scenes_dir` and then of `finite_scenes_dir` (where it exists), each with
+/// whether it is of the finite-tube family; a scene name in both is unusable input.
+fn scene_files(opts: &Options) -> Result<Vec<(PathBuf, bool)>, Unusable> {
+    let mut all: Vec<(PathBuf, bool)> = scenes::scene_files(&opts.scenes_dir)?
+        .into_iter()
+        .map(|p| (p, false))
+        .collect();
+    if let Some(dir) = opts.finite_scenes_dir.as_ref().filter(|d| d.is_dir()) {
+        for p in scenes::scene_files(dir)? {
+            let name = scenes::scene_name(&p);
+            if let Some((q, _)) = all.iter().find(|(q, _)| scenes::scene_name(q) == name) {
+                return Err(Unusable(format!(
+                    "scene {name} is in {} and in {}: names must be unique",
+                    q.display(),
+                    p.display()
+                )));
+            }
+            all.push((p, true));
+        }
+    }
+    Ok(all)
+}
+
 /// Selected scenes with their references, all checked before anything is rendered.
 pub fn selected_scenes(opts: &Options) -> Result<Vec<ReferencedScene>, Unusable> {
-    let all = scenes::scene_files(&opts.scenes_dir)?;
-    let chosen: Vec<&PathBuf> = all
+    let all = scene_files(opts)?;
+    let chosen: Vec<&(PathBuf, bool)> = all
         .iter()
-        .filter(|p| scenes::selected(&opts.scenes, p))
+        .filter(|(p, _)| scenes::selected(&opts.scenes, p))
         .collect();
     if chosen.is_empty() {
-        let names: Vec<String> = all.iter().map(|p| scenes::scene_name(p)).collect();
+        let names: Vec<String> = all.iter().map(|(p, _)| scenes::scene_name(p)).collect();
         return Err(Unusable(format!(
             "--scenes '{}' matches no scene in {} (available: {})",
             opts.scenes,
@@ -523,7 +563,12 @@ pub fn selected_scenes(opts: &Options) -> Result<Vec<ReferencedScene>, Unusable>
     }
     chosen
         .into_iter()
-        .map(|p| scenes::load_referenced(p, &opts.references_dir, opts.oracle == Oracle::Committed))
+        .map(|(p, exact_tubes)| {
+            let mut s =
+                scenes::load_referenced(p, &opts.references_dir, opts.oracle == Oracle::Committed)?;
+            s.exact_tubes = *exact_tubes;
+            Ok(s)
+        })
         .collect()
 }
 
@@ -611,11 +656,18 @@ fn run_plan(
     let per_scene: Vec<Vec<Box<dyn Subject>>> = chosen
         .iter()
         .map(|s| match plan {
-            Plan::Default => matrix::default_subjects(&s.scene),
+            Plan::Default => matrix::default_subjects(&s.scene, s.exact_tubes),
             Plan::Only(_) => Vec::new(),
         })
         .collect();
     let scene_subjects = scene_subjects(opts, &chosen, &plan, &per_scene);
+    if scene_subjects.iter().all(Vec::is_empty) {
+        return Err(Unusable(
+            "no selected technique applies to the selected scenes (the finite-tube scenes take \
+             exact:TECHNIQUE, the others the line techniques)"
+                .into(),
+        ));
+    }
     let plan = shard::plan(&chosen, &scene_subjects);
     // This shard's subjects of each scene (all of them without --shard).
     let mine = shard_subjects(opts, &scene_subjects);
@@ -709,7 +761,11 @@ fn scene_subjects<'a>(
         .map(|(i, s)| {
             let own: Vec<&dyn Subject> = match plan {
                 Plan::Default => per_scene[i].iter().map(|b| b.as_ref()).collect(),
-                Plan::Only(list) => list.to_vec(),
+                Plan::Only(list) => list
+                    .iter()
+                    .filter(|t| t.exact_tubes() == s.exact_tubes)
+                    .copied()
+                    .collect(),
             };
             own.into_iter()
                 .chain(
@@ -780,6 +836,7 @@ impl SceneRun<'_> {
             scene_file: s.scene_file.clone(),
             reference: reference_info(s),
             live_oracle_seconds,
+            exact_tubes: s.exact_tubes,
             rows,
         })
     }

@@ -167,6 +167,24 @@ pub fn summary(report: &Report) -> String {
     for row in report.rows() {
         let _ = writeln!(s, "{}", row_line(row));
     }
+    let finite: Vec<&Row> = report
+        .scenes
+        .iter()
+        .filter(|s| s.exact_tubes)
+        .flat_map(|s| &s.rows)
+        .collect();
+    if !finite.is_empty() {
+        let _ = writeln!(
+            s,
+            "finite-tube family (exact tubes): {} of {} comparisons consistent, {:.1} s of pilots and renders",
+            finite.iter().filter(|r| r.passed()).count(),
+            finite.len(),
+            finite
+                .iter()
+                .map(|r| r.pilot_seconds + r.render_seconds)
+                .sum::<f64>()
+        );
+    }
     let failed: Vec<String> = report
         .rows()
         .filter(|r| !r.passed())

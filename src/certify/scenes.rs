@@ -14,6 +14,11 @@ use std::path::{Path, PathBuf};
 
 use super::Unusable;
 
+/// The directory (relative to the project root) of the finite-tube family: scenes whose tubes
+/// are rendered as the cylinders they are (docs/cylinders.md), with references in
+/// `references/mitsuba/` like the others.
+pub const FINITE_TUBES_DIR: &str = "references/finite-tubes";
+
 /// Scene files of `dir` (`*.xml`, not recursive), sorted by name.
 pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>, Unusable> {
     let entries = std::fs::read_dir(dir).map_err(|e| {
@@ -97,6 +102,8 @@ pub struct ReferencedScene {
     /// Loaded with the reference's overrides.
     pub scene: Scene,
     pub reference: Image,
+    /// Of the finite-tube family: rendered with exact tubes ([`super::matrix::FINITE_SUBJECTS`]).
+    pub exact_tubes: bool,
 }
 
 /// The reference file of a scene.
@@ -172,6 +179,7 @@ pub fn load_referenced(
         overrides,
         scene,
         reference,
+        exact_tubes: false,
     })
 }
 

@@ -5,6 +5,7 @@
 
 use indicatif::{ProgressBar, ProgressStyle};
 use linlight::certify::budget::BudgetRule;
+use linlight::certify::matrix::ExactTubes;
 use linlight::certify::shard::{self, Shard};
 use linlight::certify::{self, report, report_html, Event, Options, Oracle, Report, Subject};
 use linlight::outputs;
@@ -21,6 +22,9 @@ Examples:
   linlight certify --full                   the exhaustive budget (as precise as the reference
                                             in 99 % of the pixels; 5× the samples and more)
   linlight certify --scenes 'floor-*' --techniques projected-solid-angle,li2018
+  linlight certify --scenes 'finite-tube-*' --techniques exact:projected:mis=off,exact:gamito
+                                            the finite-tube family (exact tubes) with two
+                                            of its techniques
   linlight certify --shard 1/4 --report-dir shard-1   one part of a CI matrix (1/4 … 4/4)
   linlight certify --merge shard-*/report.json        one verdict from all parts
   linlight certify --quiet --json summary.json
@@ -29,6 +33,9 @@ Examples:
                                             docs/generated-scenes.md)
 
 Budgets: docs/budget.md. Sharding and a CI matrix: docs/ci.md. Exit codes: docs/exit-codes.md.";
+
+/// `--scenes-dir`'s default: the committed scenes (with the finite-tube family beside them).
+const DEFAULT_SCENES_DIR: &str = "references/scenes";
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 pub enum OracleArg {
@@ -54,8 +61,10 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "committed")]
     oracle: OracleArg,
     /// Comma-separated methods: technique names, `ltc`, `mis` (clamped optimal, v = 0.5) or
-    /// `mis:HEURISTIC` (balance, power, weighted, clamped-optimal=v) [default: every unbiased
-    /// technique; on glossy scenes also ltc and mis with every heuristic, v in {0, 0.5, 1}].
+    /// `mis:HEURISTIC` (balance, power, weighted, clamped-optimal=v); on the finite-tube scenes
+    /// `exact:T[:mis=balance|off]` (T: projected, solid-angle, gamito, area) [default: every
+    /// unbiased technique; on glossy scenes also ltc and mis with every heuristic, v in
+    /// {0, 0.5, 1}; on the finite-tube scenes every T with MIS and projected without].
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     techniques: Vec<String>,
     /// Worker threads [default: all cores; at most 4 per core, or 64].
@@ -90,9 +99,11 @@ pub struct Args {
     #[arg(long, value_name = "DIR", default_value = ".")]
     root: PathBuf,
     /// Directory of the scenes (`*.xml`), relative to --root; each needs its reference
-    /// references/mitsuba/<scene>.exr. references/generated holds the large generated scenes,
-    /// certified as their own family (scripts/make-scenes first; docs/generated-scenes.md).
-    #[arg(long, value_name = "DIR", default_value = "references/scenes")]
+    /// references/mitsuba/<scene>.exr. By default also the finite-tube family
+    /// (references/finite-tubes, rendered with exact tubes); another DIR is certified alone, as
+    /// a family of its own: references/generated holds the large generated scenes
+    /// (scripts/make-scenes first; docs/generated-scenes.md).
+    #[arg(long, value_name = "DIR", default_value = DEFAULT_SCENES_DIR)]
     scenes_dir: PathBuf,
 }
 
@@ -106,7 +117,15 @@ pub fn run(args: Args) -> ExitCode {
         return merge(&args);
     }
     let mut methods: Vec<Method> = Vec::new();
+    let mut tubes: Vec<ExactTubes> = Vec::new();
     for name in &args.techniques {
+        if name.trim().starts_with("exact:") {
+            match name.trim().parse::<ExactTubes>() {
+                Ok(t) => tubes.push(t),
+                Err(e) => return unusable(e),
+            }
+            continue;
+        }
         match name.trim().parse::<Method>() {
             Ok(m) if !m.is_unbiased() => {
                 return unusable(format!(
@@ -118,12 +137,20 @@ pub fn run(args: Args) -> ExitCode {
         }
     }
     // No --techniques: each scene's default subjects (certify::matrix).
-    let subjects: Vec<&dyn Subject> = methods.iter().map(|m| m as &dyn Subject).collect();
+    let subjects: Vec<&dyn Subject> = methods
+        .iter()
+        .map(|m| m as &dyn Subject)
+        .chain(tubes.iter().map(|t| t as &dyn Subject))
+        .collect();
     let mut opts = Options::new(&args.root);
+    if args.scenes_dir != std::path::Path::new(DEFAULT_SCENES_DIR) {
+        // Another directory is certified alone, as a family of its own.
+        opts.finite_scenes_dir = None;
+    }
     opts.scenes_dir = args.root.join(&args.scenes_dir);
     opts.scenes = args.scenes.clone();
     // The blue-noise and light-selection renders of the selected techniques (all by default).
-    if !methods.is_empty() {
+    if !args.techniques.is_empty() {
         opts.variant_renders
             .retain(|r| methods.contains(&Method::Technique(r.technique)));
     }

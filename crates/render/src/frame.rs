@@ -160,7 +160,10 @@ pub(crate) fn pixel_entries(
 pub const CONTACT_PIXEL_RADIUS: f64 = 2.0;
 
 /// Header keys about the lights: `radius` (per light, as in the file) and, where a light
-/// touches a surface, `contacts` (readable) and `contact_pixels` (`x,y;…`, window coordinates).
+/// rendered as a line touches a surface, `contacts` (readable) and `contact_pixels` (`x,y;…`,
+/// window coordinates), the pixels `compare` tests apart against the R → 0 limit's allowance.
+/// A light rendered as the tube it is (`rs.tubes`) has no contacts: its radiance is finite, so
+/// the integrand stays bounded at a contact and no limit is taken there.
 fn record_lights(
     meta: &mut Metadata,
     scene: &Scene,
@@ -172,7 +175,8 @@ fn record_lights(
         meta.extra
             .insert(linlight_imagefile::KEY_RADIUS.into(), radii.join(","));
     }
-    let contacts = light_contacts(scene, &rs.bvh);
+    let mut contacts = light_contacts(scene, &rs.bvh);
+    contacts.retain(|c| rs.tubes.get(c.light).is_none());
     if contacts.is_empty() {
         return;
     }
@@ -231,5 +235,39 @@ pub(crate) fn pixel_value(opts: &RenderOptions, passes: &Welford, single: &Welfo
         mean: terms.mean().map(|m| m as f32),
         var: terms.variance_of_mean().map(|v| v as f32),
         tail: terms.tail_share().map(|t| t as f32),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::options::Cylinders;
+    use crate::scene_builder::{floor, light, scene, sensor};
+    use glam::Vec3;
+
+    /// A tube resting on the floor in view: its contact is recorded (and tested apart by
+    /// `compare` against the R → 0 allowance) when it is rendered as a line, not when it is
+    /// rendered as the tube it is.
+    #[test]
+    fn contacts_are_recorded_for_lines_only() {
+        let v = Vec3::new;
+        let mut l = light(v(-0.8, 0.2, 0.12), v(0.7, 0.7, 0.12), [0.36; 3]);
+        l.radius = 0.12;
+        let s = scene(
+            sensor(v(0.0, -1.6, 2.4), v(0.0, 0.1, 0.0), Vec3::Z, 50.0, 32, 32),
+            vec![floor(3.0, [0.5; 3])],
+            vec![l],
+        );
+        let entries = |cylinders| {
+            let rs = RenderScene::with_cylinders(&s, cylinders).unwrap();
+            pixel_entries(&s, &rs, (0, 0, 32, 32))
+        };
+        let line = entries(Cylinders::Line);
+        assert!(line.contains_key("contacts"), "{line:?}");
+        assert!(!line[linlight_imagefile::KEY_CONTACT_PIXELS].is_empty());
+        let exact = entries(Cylinders::EXACT);
+        assert!(!exact.contains_key("contacts"), "{exact:?}");
+        assert!(!exact.contains_key(linlight_imagefile::KEY_CONTACT_PIXELS));
+        assert_eq!(exact[linlight_imagefile::KEY_RADIUS], "0.12");
     }
 }
