@@ -336,6 +336,35 @@ class Render(unittest.TestCase):
             linlight.render(SCENES / "floor-tube.xml", spp=1, passes=1, defines={"res": 4})
         self.assertTrue(any("no variance estimate" in str(x.message) for x in w), [str(x.message) for x in w])
 
+    def test_many_thin_tubes_are_one_warning_and_one_note(self):
+        # scripts/make-scenes many-tubes: 64 equal tubes (R = 1e-4), rendered in the R → 0 limit.
+        with tempfile.TemporaryDirectory() as d:
+            r = subprocess.run([sys.executable, str(ROOT / "scripts" / "make-scenes"), "--out", d, "many-tubes"],
+                               capture_output=True, text=True)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            scene = Path(d) / "many-tubes.xml"
+            with warnings.catch_warnings(record=True) as w:
+                warnings.simplefilter("always")
+                # At the scene's 64² (the effect is estimated per pixel: 0.13 % there).
+                img = linlight.render(scene, spp=2, passes=2, cylinders="line")
+            tubes = [str(x.message) for x in w if "R → 0" in str(x.message)]
+            self.assertEqual(len(tubes), 1, tubes)
+            self.assertRegex(tubes[0], r"^64 lights \(R = 0\.0001 each\), the largest effect light at "
+                                       r"\S*many-tubes\.xml:\d+:\d+ \(R = 0\.0001\): up to \d")
+            # The header keeps every light (docs/image-format.md), as `linlight render` writes it.
+            self.assertEqual(len(img.header["finite_radius_effect"].split(";")), 64)
+            # A difference (the image doubled against itself) names them in one note.
+            doubled = linlight.write_image(Path(d) / "doubled.exr", img.mean * 2, img.var * 4, img.header)
+            linlight.write_image(Path(d) / "img.exr", img.mean, img.var, img.header)
+            report = linlight.compare(doubled, img)
+            self.assertEqual(report["verdict"], "Different")
+            thin = [n for n in report["notes"] if "Mitsuba's finite radius" in n]
+            self.assertEqual(len(thin), 1, report["notes"])
+            self.assertIn(": 64 lights, the largest effect light at ", thin[0])
+            cli = run(["compare", str(Path(d) / "doubled.exr"), str(Path(d) / "img.exr")])
+            self.assertEqual(cli.returncode, 1, cli.stdout + cli.stderr)
+            self.assertEqual([n for n in cli.stdout.splitlines() if "finite radius" in n], ["note: " + thin[0]])
+
 
 class DocsExample(unittest.TestCase):
     def test_docs_python_md_example_runs(self):

@@ -757,6 +757,12 @@ fn render_image(req: &RenderRequest) -> Result<(Image, Vec<String>), String> {
         .install(|| render_scene(&scene, &opts, &|_, _| {}))
         .map_err(|e| e.to_string())?;
     record_inputs(&mut image.meta, &req.scene, &req.overrides);
+    if let Some(effects) = linlight::outputs::finite_radius_effect(&scene, opts.cylinders) {
+        image
+            .meta
+            .extra
+            .insert("finite_radius_effect".into(), effects);
+    }
     Ok((image, warnings))
 }
 
