@@ -128,25 +128,40 @@ pub fn precision_advice(h: &PrecisionHint, a: &Image, b: &Image) -> String {
     format!("{why}: more samples of A alone cannot decide; {reference}")
 }
 
-/// For each linear light of A's header whose radius is not negligible: its name, R and the
-/// expected size of the finite-R effect (printed when a comparison fails).
+/// The thin tubes of the images' header (`finite_radius_effect`, the first image that has
+/// one): the one light with its R and the expected size of the finite-R effect, or, for several,
+/// their count and the largest (printed when a comparison fails).
 fn thin_tube_notes(a: &Image, b: &Image) -> Vec<String> {
-    let lights = [a, b]
+    let Some(lights) = [a, b]
         .iter()
-        .find_map(|i| i.meta.extra.get("finite_radius_effect").cloned());
-    match lights {
-        None => Vec::new(),
-        Some(v) => v
-            .split(';')
-            .filter(|s| !s.is_empty())
-            .map(|s| {
-                format!(
-                    "a difference where tubes are thin may be Mitsuba's finite radius, which \
-                     linlight renders in the limit R → 0: {s} (docs/oracle.md)"
-                )
-            })
-            .collect(),
-    }
+        .find_map(|i| i.meta.extra.get("finite_radius_effect"))
+    else {
+        return Vec::new();
+    };
+    let lights: Vec<&str> = lights.split(';').filter(|s| !s.is_empty()).collect();
+    // The largest "up to X % per pixel" (an entry without one counts as 0; the first wins ties).
+    let size = |s: &str| -> f64 {
+        s.split_once("up to ")
+            .and_then(|(_, rest)| rest.split_whitespace().next())
+            .and_then(|x| x.parse().ok())
+            .unwrap_or(0.0)
+    };
+    let Some(worst) = lights
+        .iter()
+        .copied()
+        .reduce(|w, s| if size(s) > size(w) { s } else { w })
+    else {
+        return Vec::new();
+    };
+    let which = if lights.len() == 1 {
+        worst.to_string()
+    } else {
+        format!("{} lights, the largest effect {worst}", lights.len())
+    };
+    vec![format!(
+        "a difference where tubes are thin may be Mitsuba's finite radius, which linlight \
+         renders in the limit R → 0: {which} (docs/oracle.md)"
+    )]
 }
 
 #[cfg(test)]
@@ -235,5 +250,22 @@ mod tests {
             "{n:?}"
         );
         assert_eq!(notes(&a, &b, false).len(), 2);
+        // Several thin tubes are one note: their count and the largest effect.
+        b.meta.extra.insert(
+            "finite_radius_effect".into(),
+            "light at s.xml:3:1 (R = 0.001): up to 0.13 % per pixel;light at s.xml:4:1 (R = \
+             0.001): up to 2.50 % per pixel (Mitsuba darker);light at s.xml:5:1 (R = 0.001): up \
+             to 0.90 % per pixel;"
+                .into(),
+        );
+        let n = notes(&a, &b, true);
+        assert_eq!(n.len(), 3, "{n:?}");
+        assert!(
+            n[2].ends_with(
+                "R → 0: 3 lights, the largest effect light at s.xml:4:1 (R = 0.001): up to \
+                 2.50 % per pixel (Mitsuba darker) (docs/oracle.md)"
+            ),
+            "{n:?}"
+        );
     }
 }

@@ -240,6 +240,25 @@ pub fn render_options(
     (opts, warnings)
 }
 
+/// The header value `finite_radius_effect` of a render (docs/image-format.md): under
+/// `--cylinders line`, every light whose estimated finite-radius effect exceeds the warning
+/// level, `;`-separated (compare repeats it when it finds a difference); None otherwise.
+pub fn finite_radius_effect(
+    scene: &linlight_render::scene::Scene,
+    cylinders: linlight_render::Cylinders,
+) -> Option<String> {
+    use linlight_render::xml::radius;
+    if cylinders != linlight_render::Cylinders::Line {
+        return None;
+    }
+    let effects: Vec<String> = radius::effects(scene)
+        .iter()
+        .filter(|e| e.per_pixel > radius::WARN_RELATIVE)
+        .map(|e| radius::describe(scene, e))
+        .collect();
+    (!effects.is_empty()).then(|| effects.join(";"))
+}
+
 /// Largest radiance × radius K a light may have: a sample's value is K times geometry and BRDF
 /// terms of order 1 (up to ~1e6 near a light), and its square is summed in f32 for the variance;
 /// K² · 1e12 must stay below f32::MAX (3.4e38).

@@ -6,9 +6,9 @@ use super::suite_tables::{print_failures, print_techniques, write_json};
 use linlight::external::ExternalSampler;
 use linlight_sampling::Technique;
 use linlight_verify::configs::ltc_table_configs;
-use linlight_verify::subjects::{ltc, technique, SamplerUnderTest};
-use linlight_verify::suite::Outcome;
-use linlight_verify::{run_suite, Settings};
+use linlight_verify::subjects::{certified, ltc, technique, SamplerUnderTest};
+use linlight_verify::suite::{run_suite_as, Outcome};
+use linlight_verify::Settings;
 use std::path::Path;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -70,9 +70,13 @@ pub fn run(command: &str, timeout: Duration, settings: &Settings, json: Option<&
         ),
         Box::new(sampler),
     );
-    let subjects = [subject];
-    let report = run_suite(&subjects, &[], settings);
-    let source = subjects[0].answers.as_ref().expect("an answered subject");
+    // The ξ of linlight's own sampler of the technique (`linlight samplers` at the same seed).
+    let index = certified()
+        .iter()
+        .position(|s| s.name == hello.technique)
+        .expect("every reference technique is certified");
+    let report = run_suite_as(&subject, index, settings);
+    let source = subject.answers.as_ref().expect("an answered subject");
     if let Err(e) = source.finish() {
         return fail(&e);
     }

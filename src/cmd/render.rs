@@ -567,21 +567,12 @@ fn write(args: &Args, req: &Request, plan: &Plan, r: Rendered) -> Result<(), Str
     // No times in the header: a render's bytes depend on its inputs only.
     record_inputs(&mut image.meta, &args.scene, &req.overrides);
     // The finite-radius effect where it may be visible, for compare's message on a failure.
-    let scene = &plan.scene;
-    let effects: Vec<String> = if plan.opts.cylinders == Cylinders::Line {
-        xml::radius::effects(scene)
-            .iter()
-            .filter(|e| e.per_pixel > xml::radius::WARN_RELATIVE)
-            .map(|e| xml::radius::describe(scene, e))
-            .collect()
-    } else {
-        Vec::new()
-    };
-    if !effects.is_empty() {
+    if let Some(effects) = linlight::outputs::finite_radius_effect(&plan.scene, plan.opts.cylinders)
+    {
         image
             .meta
             .extra
-            .insert("finite_radius_effect".into(), effects.join(";"));
+            .insert("finite_radius_effect".into(), effects);
     }
     if let Some(n) = image.meta.extra.get("nonfinite_dropped") {
         warn(format!(

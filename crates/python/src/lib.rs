@@ -12,16 +12,23 @@ use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 
-use glam::Vec3;
+use glam::{Mat3, Vec3};
+use linlight_brdf::ltc::GgxLtcTable;
 use linlight_imagefile::{Image, Metadata};
 use linlight_render::scene::Scene;
+use linlight_render::shading::shading_frame;
 use linlight_render::xml;
 use linlight_render::{record_inputs, render as render_scene, Cylinders, LightSelection, Method};
+use linlight_sampling::ltc::LtcLine;
 use linlight_sampling::noise::Noise;
-use linlight_sampling::{LineSampler, Prepared as PreparedTechnique, Segment, Technique};
+use linlight_sampling::{
+    unit_normal, LineSampler, Prepared as PreparedTechnique, Segment, Technique,
+};
 use linlight_verify::image_stats::{compare as compare_images, CompareConfig};
 use numpy::ndarray::{Array1, Array2, Array3, ArrayView2, ArrayView3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+};
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -56,8 +63,24 @@ fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> PyResult<T> 
     }
 }
 
+/// The name of LTC line sampling, the technique that is not a [`Technique`] (it needs a view
+/// direction and a matrix A besides the light and the shading point).
+const LTC: &str = "ltc";
+
 fn technique(name: &str) -> Result<Technique, String> {
-    name.parse::<Technique>()
+    if name == LTC {
+        return Err(format!(
+            "technique '{LTC}' needs a view direction and alpha or ltc_a (prepare(\"{LTC}\", \
+             ..., view=..., alpha=...))"
+        ));
+    }
+    Technique::from_name(name).ok_or_else(|| {
+        let names: Vec<_> = Technique::ALL.iter().map(|t| t.name()).collect();
+        format!(
+            "unknown technique '{name}' (expected one of: {}, {LTC})",
+            names.join(", ")
+        )
+    })
 }
 
 /// Rows of an (N, 3) array as vectors; `name` and the row index in the error of a non-finite
@@ -87,12 +110,28 @@ fn vectors(name: &str, a: ArrayView2<'_, f32>, n: usize) -> Result<Vec<Vec3>, St
 /// Directions (N, M, 3) and densities (N, M).
 type Samples<'py> = (Bound<'py, PyArray3<f32>>, Bound<'py, PyArray2<f32>>);
 
+/// One prepared sampler: a [`Technique`]'s or LTC line sampling's.
+enum Sampler {
+    Line(PreparedTechnique),
+    Ltc(LtcLine),
+}
+
+impl Sampler {
+    fn get(&self) -> &dyn LineSampler {
+        match self {
+            Sampler::Line(s) => s,
+            Sampler::Ltc(s) => s,
+        }
+    }
+}
+
 /// Prepared samplers of one technique for N (light, shading point) pairs.
 #[pyclass(module = "linlight._linlight", frozen)]
 struct Prepared {
-    technique: Technique,
+    /// One of [`techniques`].
+    technique: &'static str,
     /// `None` where the light contributes nothing at that point (no sample, pdf 0).
-    samplers: Vec<Option<PreparedTechnique>>,
+    samplers: Vec<Option<Sampler>>,
 }
 
 #[pymethods]
@@ -100,7 +139,7 @@ impl Prepared {
     /// The technique's name.
     #[getter]
     fn technique(&self) -> &'static str {
-        self.technique.name()
+        self.technique
     }
 
     fn __len__(&self) -> usize {
@@ -110,7 +149,7 @@ impl Prepared {
     fn __repr__(&self) -> String {
         format!(
             "Prepared(technique='{}', n={}, valid={})",
-            self.technique.name(),
+            self.technique,
             self.samplers.len(),
             self.samplers.iter().filter(|s| s.is_some()).count()
         )
@@ -146,7 +185,9 @@ impl Prepared {
                 let mut dirs = Array3::<f32>::zeros((n, m, 3));
                 let mut pdfs = Array2::<f32>::zeros((n, m));
                 for (i, s) in self.samplers.iter().enumerate() {
-                    let Some(s) = s.as_ref() else { continue };
+                    let Some(s) = s.as_ref().map(Sampler::get) else {
+                        continue;
+                    };
                     for j in 0..m {
                         let (d, p) = s.sample_with_pdf(xi[[i, j]]);
                         for c in 0..3 {
@@ -189,7 +230,9 @@ impl Prepared {
             guarded("Prepared.inverse", || {
                 let mut out = Array2::<f32>::from_elem((n, m), f32::NAN);
                 for (i, s) in self.samplers.iter().enumerate() {
-                    let Some(s) = s.as_ref() else { continue };
+                    let Some(s) = s.as_ref().map(Sampler::get) else {
+                        continue;
+                    };
                     for j in 0..m {
                         if let Some(x) = s.inverse(dirs[i * m + j]) {
                             out[[i, j]] = x;
@@ -224,11 +267,13 @@ impl Prepared {
         dirs: &[Vec3],
         n: usize,
         m: usize,
-        f: impl Fn(&PreparedTechnique, Vec3) -> f32,
+        f: impl Fn(&dyn LineSampler, Vec3) -> f32,
     ) -> Array2<f32> {
         let mut out = Array2::<f32>::zeros((n, m));
         for (i, s) in self.samplers.iter().enumerate() {
-            let Some(s) = s.as_ref() else { continue };
+            let Some(s) = s.as_ref().map(Sampler::get) else {
+                continue;
+            };
             for j in 0..m {
                 out[[i, j]] = f(s, dirs[i * m + j]);
             }
@@ -237,10 +282,29 @@ impl Prepared {
     }
 }
 
-/// The names of every technique `prepare` accepts.
+/// The names of every technique `prepare` accepts (`ltc` through `prepare_ltc`).
 #[pyfunction]
 fn techniques() -> Vec<&'static str> {
-    Technique::ALL.iter().map(|t| t.name()).collect()
+    let mut v: Vec<&'static str> = Technique::ALL.iter().map(|t| t.name()).collect();
+    v.push(LTC);
+    v
+}
+
+/// The segments of N rows, refusing a zero-length one.
+fn segments(b: &[Vec3], e: &[Vec3]) -> Result<Vec<Segment>, String> {
+    b.iter()
+        .zip(e)
+        .enumerate()
+        .map(|(i, (&b, &e))| {
+            if b == e {
+                Err(format!(
+                    "light {i}: begin and end are the same point {b} (a segment needs two)"
+                ))
+            } else {
+                Ok(Segment::new(b, e))
+            }
+        })
+        .collect()
 }
 
 /// Prepares `technique` for N (light, shading point) pairs: `begin`, `end`, `x`, `n` of shape
@@ -260,22 +324,130 @@ fn prepare(
     let e = vectors("end", end.as_array(), rows).map_err(err)?;
     let x = vectors("x", x.as_array(), rows).map_err(err)?;
     let nn = vectors("n", n.as_array(), rows).map_err(err)?;
-    for (i, (b, e)) in b.iter().zip(&e).enumerate() {
-        if b == e {
-            return Err(err(format!(
-                "light {i}: begin and end are the same point {b} (a segment needs two)"
-            )));
-        }
-    }
+    let seg = segments(&b, &e).map_err(err)?;
     let samplers = py.detach(|| {
         guarded("prepare", || {
             Ok((0..rows)
-                .map(|i| t.prepare(&Segment::new(b[i], e[i]), x[i], nn[i]))
+                .map(|i| t.prepare(&seg[i], x[i], nn[i]).map(Sampler::Line))
                 .collect())
         })
     })?;
     Ok(Prepared {
-        technique: t,
+        technique: t.name(),
+        samplers,
+    })
+}
+
+/// Where LTC line sampling takes its matrix A (shading frame → cosine space) from.
+enum LtcMatrices {
+    /// GGX roughness per row: A from the fitted table at (α, cos θ_v), as the renderer looks it
+    /// up.
+    Ggx(Vec<f32>),
+    /// A per row, given (rows of A in shading-frame coordinates).
+    Given(Vec<Mat3>),
+}
+
+/// Prepares LTC line sampling for N rows: `begin`, `end`, `x`, `n`, `view` of shape (N, 3)
+/// float32 and either `alpha` (N,) or `ltc_a` (N, 3, 3) (broadcasting is done by the Python
+/// wrapper). The shading frame is the renderer's: x̂ = normalize(v − (n·v)n), ŷ = n × x̂, n (n
+/// normalised); a row whose view is not above the surface (n·v ≤ 0) is not valid.
+#[pyfunction]
+#[pyo3(signature = (begin, end, x, n, view, alpha = None, ltc_a = None))]
+#[allow(clippy::too_many_arguments)]
+fn prepare_ltc(
+    py: Python<'_>,
+    begin: PyReadonlyArray2<'_, f32>,
+    end: PyReadonlyArray2<'_, f32>,
+    x: PyReadonlyArray2<'_, f32>,
+    n: PyReadonlyArray2<'_, f32>,
+    view: PyReadonlyArray2<'_, f32>,
+    alpha: Option<PyReadonlyArray1<'_, f32>>,
+    ltc_a: Option<PyReadonlyArray3<'_, f32>>,
+) -> PyResult<Prepared> {
+    let rows = begin.as_array().nrows();
+    let b = vectors("begin", begin.as_array(), rows).map_err(err)?;
+    let e = vectors("end", end.as_array(), rows).map_err(err)?;
+    let x = vectors("x", x.as_array(), rows).map_err(err)?;
+    let nn = vectors("n", n.as_array(), rows).map_err(err)?;
+    let v = vectors("view", view.as_array(), rows).map_err(err)?;
+    let seg = segments(&b, &e).map_err(err)?;
+    let matrices =
+        match (alpha, ltc_a) {
+            (Some(alpha), None) => {
+                let alpha = alpha.as_array();
+                if alpha.len() != rows {
+                    return Err(err(format!(
+                        "alpha has shape ({},), expected ({rows},)",
+                        alpha.len()
+                    )));
+                }
+                if let Some((i, a)) = alpha
+                    .iter()
+                    .enumerate()
+                    .find(|(_, a)| !(a.is_finite() && **a > 0.0))
+                {
+                    return Err(err(format!(
+                        "alpha[{i}] = {a} is not a GGX roughness (finite and > 0)"
+                    )));
+                }
+                LtcMatrices::Ggx(alpha.to_vec())
+            }
+            (None, Some(a)) => {
+                let a = a.as_array();
+                if a.dim() != (rows, 3, 3) {
+                    let (r, p, q) = a.dim();
+                    return Err(err(format!(
+                        "ltc_a has shape ({r}, {p}, {q}), expected ({rows}, 3, 3)"
+                    )));
+                }
+                let mut out = Vec::with_capacity(rows);
+                for (i, m) in a.outer_iter().enumerate() {
+                    let r = |k: usize| [m[[k, 0]], m[[k, 1]], m[[k, 2]]];
+                    // Rows in, as the external protocol's `ltc_a`; glam's matrices are columns.
+                    let a = Mat3::from_cols_array_2d(&[r(0), r(1), r(2)]).transpose();
+                    if !a.is_finite() {
+                        return Err(err(format!("ltc_a[{i}] = {a} is not finite")));
+                    }
+                    out.push(a);
+                }
+                LtcMatrices::Given(out)
+            }
+            (Some(_), Some(_)) => {
+                return Err(err(
+                    "ltc takes alpha (A from the fitted GGX table) or ltc_a (A given), not both",
+                ))
+            }
+            (None, None) => return Err(err(
+                "ltc needs alpha (GGX roughness: A from the fitted table) or ltc_a (the matrix A)",
+            )),
+        };
+    let samplers = py.detach(|| {
+        guarded("prepare", || {
+            Ok((0..rows)
+                .map(|i| {
+                    let (n, v_unit) = (unit_normal(nn[i])?, unit_normal(v[i])?);
+                    // Unit and finite: the dot product is a number.
+                    let cos_theta_v = n.dot(v_unit);
+                    if cos_theta_v <= 0.0 {
+                        return None;
+                    }
+                    // The frame depends on the view's direction only: taken from the view as
+                    // given, it is the frame of the external protocol's configurations (and of
+                    // the renderer, whose views are unit vectors) to the last bit.
+                    let (frame, _) = shading_frame(n, v[i]);
+                    let a = match &matrices {
+                        LtcMatrices::Ggx(alpha) => {
+                            GgxLtcTable::ggx().lookup(alpha[i], cos_theta_v).0
+                        }
+                        LtcMatrices::Given(a) => a[i],
+                    };
+                    LtcLine::prepare(&seg[i], x[i], frame, a).map(Sampler::Ltc)
+                })
+                .collect())
+        })
+    })?;
+    Ok(Prepared {
+        technique: LTC,
         samplers,
     })
 }
@@ -585,6 +757,12 @@ fn render_image(req: &RenderRequest) -> Result<(Image, Vec<String>), String> {
         .install(|| render_scene(&scene, &opts, &|_, _| {}))
         .map_err(|e| e.to_string())?;
     record_inputs(&mut image.meta, &req.scene, &req.overrides);
+    if let Some(effects) = linlight::outputs::finite_radius_effect(&scene, opts.cylinders) {
+        image
+            .meta
+            .extra
+            .insert("finite_radius_effect".into(), effects);
+    }
     Ok((image, warnings))
 }
 
@@ -639,6 +817,7 @@ fn _linlight(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyImage>()?;
     m.add_function(wrap_pyfunction!(techniques, m)?)?;
     m.add_function(wrap_pyfunction!(prepare, m)?)?;
+    m.add_function(wrap_pyfunction!(prepare_ltc, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
     Ok(())

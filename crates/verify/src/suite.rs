@@ -1369,11 +1369,67 @@ pub fn run_suite_at(
     }
 }
 
+/// [`run_suite`] of one certified subject that draws the primary samples of the subject at
+/// `index` of a [`run_suite`] run (a (subject, configuration) stream is keyed by the subject's
+/// position and the configuration's): run at the index of technique T in
+/// [`crate::subjects::certified`], it is given, configuration by configuration, the ξ that
+/// `linlight samplers` gives T's own sampler, so that an answer source claiming T can be
+/// compared with T statistic for statistic. The Šidák correction is over this subject's tests.
+pub fn run_suite_as(subject: &SamplerUnderTest, index: usize, settings: &Settings) -> SuiteReport {
+    let started = std::time::Instant::now();
+    let configs = suite_configs(settings.seed, settings.random_configs);
+    let m = statistical_tests(std::slice::from_ref(subject), &configs).max(1);
+    let (alpha_c, z) = corrected_levels(settings.alpha, m);
+    let report = run_subject(
+        subject,
+        index,
+        &subject.configs(&configs),
+        settings,
+        (alpha_c, z),
+    );
+    SuiteReport {
+        settings: settings.clone(),
+        statistical_tests: m,
+        alpha_per_test: alpha_c,
+        z_threshold: z,
+        configurations: configs,
+        extra_configurations: subject.extra_configs.clone(),
+        passed: report.passed,
+        techniques: vec![report],
+        negative_controls: Vec::new(),
+        elapsed_seconds: started.elapsed().as_secs_f64(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::subjects::{self, technique};
     use linlight_sampling::Technique;
+
+    /// A subject run alone at the index of a technique in a run draws that technique's primary
+    /// samples (the same statistics, configuration by configuration); at another index, others.
+    #[test]
+    fn a_subject_run_alone_at_an_index_draws_the_samples_of_that_index() {
+        let settings = Settings {
+            samples: 4_000,
+            random_configs: 2,
+            ..Settings::default()
+        };
+        let psa = || technique(Technique::ProjectedSolidAngle);
+        let run = run_suite(&[technique(Technique::Area), psa()], &[], &settings);
+        let stats = |c: &ConfigResult| {
+            let i = c.integral.as_ref().map(|i| (i.estimate, i.std_error));
+            format!("{:?} {:?} {i:?}", c.chi2, c.chi2_coarse)
+        };
+        let same = |alone: &SuiteReport| {
+            let (a, b) = (&run.techniques[1].configs, &alone.techniques[0].configs);
+            assert_eq!(a.len(), b.len());
+            a.iter().zip(b).all(|(x, y)| stats(x) == stats(y))
+        };
+        assert!(same(&run_suite_as(&psa(), 1, &settings)));
+        assert!(!same(&run_suite_as(&psa(), 0, &settings)));
+    }
 
     #[test]
     fn sidak_levels() {

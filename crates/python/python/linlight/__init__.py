@@ -29,6 +29,7 @@ from linlight._linlight import Image, LinlightError, techniques
 from linlight._linlight import Prepared as _NativePrepared
 from linlight._linlight import compare as _compare
 from linlight._linlight import prepare as _prepare
+from linlight._linlight import prepare_ltc as _prepare_ltc
 from linlight._linlight import render as _render
 
 __all__ = [
@@ -142,41 +143,95 @@ class Prepared:
         return f"Prepared(technique={self.technique!r}, shape={self.shape}, valid={int(self.valid.sum())})"
 
 
-def prepare(technique: str, begin: Any, end: Any, x: Any, n: Any) -> Prepared:
+def prepare(
+    technique: str,
+    begin: Any,
+    end: Any,
+    x: Any,
+    n: Any,
+    *,
+    view: Any = None,
+    alpha: Any = None,
+    ltc_a: Any = None,
+) -> Prepared:
     """Prepares ``technique`` for every (light, shading point) pair.
 
     ``begin``, ``end`` (the segment), ``x`` (the shading point) and ``n`` (its normal, need not
     be unit length) are array-likes of shape ``(..., 3)`` that broadcast together: many lights at
     one point, one light at many points, or one pair per row. ``technique`` is one of
     :func:`techniques`: ``baseline``, ``area``, ``solid-angle``, ``clipped-solid-angle``,
-    ``hart-linear``, ``hart-quadratic``, ``li2018``, ``projected-solid-angle``.
+    ``hart-linear``, ``hart-quadratic``, ``li2018``, ``projected-solid-angle``, ``ltc``.
+
+    ``ltc`` (LTC line sampling: the linearly transformed cosine of a GGX lobe restricted to the
+    line, with its density per radius, κ included) also takes the view direction ``view``
+    (``(..., 3)``, toward the viewer, need not be unit length) and either ``alpha``, the GGX
+    roughness (``(...)``, > 0; A is looked up in the fitted table at (α, n·v) as the renderer
+    does; α above 1 is looked up as 1, docs/ltc-table.md has the grid), or ``ltc_a``, the matrix A itself (``(..., 3, 3)``, rows,
+    shading frame → cosine space). The shading frame is the renderer's: x̂ = normalize(v − (n·v)n),
+    ŷ = n × x̂, n. Pairs whose view is not above the surface (n·v ≤ 0) are not ``valid``.
 
     >>> x = np.stack([np.linspace(-1, 1, 5), np.zeros(5), np.zeros(5)], axis=-1)
     >>> p = prepare("projected-solid-angle", [-1, 0, 1], [1, 0, 1], x, [0, 0, 1])
     >>> p.shape, p.valid.tolist()
     ((5,), [True, True, True, True, True])
+    >>> g = prepare("ltc", [-1, 0, 1], [1, 0, 1], x[:, None], [0, 0, 1], view=[1, 0, 1], alpha=[0.1, 0.4])
+    >>> g.shape, bool(g.valid.all())
+    ((5, 2), True)
     """
-    arrs = [_vec3(k, v) for k, v in (("begin", begin), ("end", end), ("x", x), ("n", n))]
+    ltc = technique == "ltc"
+    extra = {"view": view, "alpha": alpha, "ltc_a": ltc_a}
+    if not ltc:
+        given = [k for k, v in extra.items() if v is not None]
+        if given:
+            raise LinlightError(f"{', '.join(given)}: only technique 'ltc' takes a view, alpha or ltc_a")
+        arrs = [_vec3(k, v) for k, v in (("begin", begin), ("end", end), ("x", x), ("n", n))]
+        lead = [a.shape[:-1] for a in arrs]
+    else:
+        if view is None:
+            raise LinlightError("technique 'ltc' needs view, the direction toward the viewer")
+        if (alpha is None) == (ltc_a is None):
+            raise LinlightError(
+                "technique 'ltc' takes alpha (GGX roughness: A from the fitted table) or ltc_a "
+                "(the matrix A), exactly one of them"
+            )
+        arrs = [_vec3(k, v) for k, v in (("begin", begin), ("end", end), ("x", x), ("n", n), ("view", view))]
+        lead = [a.shape[:-1] for a in arrs]
+        if alpha is not None:
+            m = np.asarray(alpha, dtype=np.float32)
+            lead.append(m.shape)
+        else:
+            m = np.asarray(ltc_a, dtype=np.float32)
+            if m.ndim < 2 or m.shape[-2:] != (3, 3):
+                raise LinlightError(f"ltc_a has shape {m.shape}, expected (..., 3, 3)")
+            lead.append(m.shape[:-2])
     try:
-        arrs = np.broadcast_arrays(*arrs)
+        shape = np.broadcast_shapes(*lead)
     except ValueError as e:
+        names = ["begin", "end", "x", "n", "view", "alpha" if alpha is not None else "ltc_a"]
         raise LinlightError(
-            "begin, end, x and n do not broadcast: shapes "
+            f"{', '.join(names[: len(lead)])} do not broadcast: shapes "
             + ", ".join(str(a.shape) for a in arrs)
+            + ("" if not ltc else f", {m.shape}")
         ) from e
-    shape = arrs[0].shape[:-1]
-    flat = [np.ascontiguousarray(a.reshape(-1, 3)) for a in arrs]
-    return Prepared(_prepare(technique, *flat), shape)
+    flat = [np.ascontiguousarray(np.broadcast_to(a, shape + (3,)).reshape(-1, 3)) for a in arrs]
+    if not ltc:
+        return Prepared(_prepare(technique, *flat), shape)
+    if alpha is not None:
+        mat = np.ascontiguousarray(np.broadcast_to(m, shape).reshape(-1))
+        return Prepared(_prepare_ltc(*flat, alpha=mat), shape)
+    mat = np.ascontiguousarray(np.broadcast_to(m, shape + (3, 3)).reshape(-1, 3, 3))
+    return Prepared(_prepare_ltc(*flat, ltc_a=mat), shape)
 
 
-def sample(technique: str, begin: Any, end: Any, x: Any, n: Any, xi: Any) -> Tuple[np.ndarray, np.ndarray]:
-    """``prepare(technique, begin, end, x, n).sample(xi)``: directions and densities."""
-    return prepare(technique, begin, end, x, n).sample(xi)
+def sample(technique: str, begin: Any, end: Any, x: Any, n: Any, xi: Any, **ltc: Any) -> Tuple[np.ndarray, np.ndarray]:
+    """``prepare(technique, begin, end, x, n, **ltc).sample(xi)``: directions and densities
+    (``ltc``: ``view`` and ``alpha`` or ``ltc_a`` of technique ``ltc``)."""
+    return prepare(technique, begin, end, x, n, **ltc).sample(xi)
 
 
-def pdf(technique: str, begin: Any, end: Any, x: Any, n: Any, directions: Any) -> np.ndarray:
-    """``prepare(technique, begin, end, x, n).pdf(directions)``: densities per radius."""
-    return prepare(technique, begin, end, x, n).pdf(directions)
+def pdf(technique: str, begin: Any, end: Any, x: Any, n: Any, directions: Any, **ltc: Any) -> np.ndarray:
+    """``prepare(technique, begin, end, x, n, **ltc).pdf(directions)``: densities per radius."""
+    return prepare(technique, begin, end, x, n, **ltc).pdf(directions)
 
 
 def read_image(path: PathLike) -> Image:

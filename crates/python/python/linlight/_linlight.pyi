@@ -27,6 +27,15 @@ def prepare(
     x: npt.NDArray[np.float32],
     n: npt.NDArray[np.float32],
 ) -> Prepared: ...
+def prepare_ltc(
+    begin: npt.NDArray[np.float32],
+    end: npt.NDArray[np.float32],
+    x: npt.NDArray[np.float32],
+    n: npt.NDArray[np.float32],
+    view: npt.NDArray[np.float32],
+    alpha: Optional[npt.NDArray[np.float32]] = ...,
+    ltc_a: Optional[npt.NDArray[np.float32]] = ...,
+) -> Prepared: ...
 
 class Image:
     def __init__(

@@ -263,23 +263,55 @@ pub fn effects(scene: &Scene) -> Vec<RadiusEffect> {
         .collect()
 }
 
-/// The warnings of a render of `scene` under `--cylinders line`: one per light whose estimated
-/// per-pixel effect ([`effects`]) exceeds [`WARN_RELATIVE`], with the expected relative error.
+/// The warning of a render of `scene` under `--cylinders line` about the lights whose estimated
+/// per-pixel effect ([`effects`]) exceeds [`WARN_RELATIVE`]: none, the one light with its
+/// expected relative error, or, for several lights, one message with their count and the
+/// largest effect (a ceiling of 64 equal tubes is one warning, not 64).
 pub fn line_limit_warnings(scene: &Scene) -> Vec<String> {
-    effects(scene)
-        .iter()
+    let over: Vec<RadiusEffect> = effects(scene)
+        .into_iter()
         .filter(|e| e.per_pixel > WARN_RELATIVE)
-        .map(|e| {
-            format!(
-                "{}: Mitsuba's finite open cylinder differs from the R → 0 limit rendered here \
-                 (--cylinders line) by more than {} % per pixel there, which compare can \
-                 detect; --cylinders exact renders the tube itself, and a smaller radius (same \
-                 K = radiance × radius) shrinks the difference in proportion (docs/oracle.md)",
-                describe(scene, e),
-                100.0 * WARN_RELATIVE
-            )
-        })
-        .collect()
+        .collect();
+    let Some(worst) = over
+        .iter()
+        .max_by(|a, b| a.per_pixel.total_cmp(&b.per_pixel))
+    else {
+        return Vec::new();
+    };
+    let which = if over.len() == 1 {
+        describe(scene, worst)
+    } else {
+        format!(
+            "{} lights{}, the largest effect {}",
+            over.len(),
+            radius_range(over.iter().map(|e| scene.lights[e.light].radius)),
+            describe(scene, worst)
+        )
+    };
+    let cylinders = if over.len() == 1 {
+        "Mitsuba's finite open cylinder differs"
+    } else {
+        "Mitsuba's finite open cylinders differ"
+    };
+    vec![format!(
+        "{which}: {cylinders} from the R → 0 limit rendered here (--cylinders line) by more \
+         than {} % per pixel there, which compare can detect; --cylinders exact renders the \
+         tube itself, and a smaller radius (same K = radiance × radius) shrinks the difference \
+         in proportion (docs/oracle.md)",
+        100.0 * WARN_RELATIVE
+    )]
+}
+
+/// " (R = 0.0001 each)" or " (R from 0.001 to 0.01)".
+fn radius_range(radii: impl Iterator<Item = f32>) -> String {
+    let (lo, hi) = radii.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), r| {
+        (lo.min(r), hi.max(r))
+    });
+    if lo == hi {
+        format!(" (R = {lo} each)")
+    } else {
+        format!(" (R from {lo} to {hi})")
+    }
 }
 
 /// "light at FILE:L:C (R = 0.001): up to 3.1 % per pixel (Mitsuba darker) near (1, 0.24,

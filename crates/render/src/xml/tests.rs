@@ -473,6 +473,23 @@ fn linear_light() {
         "{line:?}"
     );
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // Several such lights are one warning with their count and the largest effect.
+    let s = load(
+        "fatlights",
+        r#"<shape type="rectangle"/>
+<shape type="cylinder"><float name="radius" value="0.1"/><emitter type="area"/></shape>
+<shape type="cylinder"><float name="radius" value="0.05"/><emitter type="area"/></shape>
+<shape type="cylinder"><float name="radius" value="0.1"/><emitter type="area"/></shape>"#,
+    );
+    let grouped = super::radius::line_limit_warnings(&s);
+    assert_eq!(grouped.len(), 1, "{grouped:?}");
+    assert!(
+        grouped[0].starts_with("3 lights (R from 0.05 to 0.1), the largest effect light at ")
+            && grouped[0].contains("(R = 0.1): up to")
+            && grouped[0].contains("cylinders differ from the R → 0 limit"),
+        "{grouped:?}"
+    );
+    assert_eq!(line.len(), 1, "{line:?}");
     // A radius above a quarter of the length is warned about in any mode.
     let s = load(
         "fatterlight",
