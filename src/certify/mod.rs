@@ -29,6 +29,7 @@
 
 pub mod budget;
 pub mod closed_form;
+pub mod cpu;
 pub mod gpu;
 pub mod matrix;
 pub mod oracle;
@@ -51,6 +52,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use budget::{Budget, BudgetRule, Precision};
+use cpu::ClockedPool;
 use gpu::GpuSummary;
 use sampler_suite::SuiteSummary;
 use scenes::ReferencedScene;
@@ -422,6 +424,69 @@ pub struct SceneReport {
     #[serde(default)]
     pub exact_tubes: bool,
     pub rows: Vec<Row>,
+    /// CPU-s of this scene's stages (None: not measured, or a report without them).
+    #[serde(default)]
+    pub cpu: Option<StageCpu>,
+}
+
+/// CPU-s (user + system) of a scene's stages in `certify`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StageCpu {
+    /// The exact image (closed form or line quadrature), where the scene has one.
+    pub exact_image: f64,
+    /// The pilot renders that set the budgets.
+    pub pilots: f64,
+    /// The renders at the budget (crop windows of the per-tile budget included).
+    pub renders: f64,
+    /// The comparisons with every oracle, and the row's files in the report directory.
+    pub comparisons: f64,
+}
+
+impl std::ops::Add for StageCpu {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Self {
+            exact_image: self.exact_image + o.exact_image,
+            pilots: self.pilots + o.pilots,
+            renders: self.renders + o.renders,
+            comparisons: self.comparisons + o.comparisons,
+        }
+    }
+}
+
+impl StageCpu {
+    pub fn total(&self) -> f64 {
+        self.exact_image + self.pilots + self.renders + self.comparisons
+    }
+}
+
+/// CPU-s of a whole certification, by stage (docs/certify.md, "Cost").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CpuTimes {
+    /// The whole run: every thread of the process, from the scenes' loading to the report.
+    pub process: f64,
+    /// Loading the scenes and references and counting the family's comparisons.
+    pub loading: f64,
+    /// The sampler suite (line techniques and finite cylinders).
+    pub sampler_suite: f64,
+    /// The shader kernels' checks on the suite's thread (a driver's own threads, e.g.
+    /// lavapipe's, count in `process` only).
+    pub gpu_kernels: f64,
+    /// The scenes' stages, summed.
+    pub scenes: StageCpu,
+}
+
+impl std::ops::Add for CpuTimes {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Self {
+            process: self.process + o.process,
+            loading: self.loading + o.loading,
+            sampler_suite: self.sampler_suite + o.sampler_suite,
+            gpu_kernels: self.gpu_kernels + o.gpu_kernels,
+            scenes: self.scenes + o.scenes,
+        }
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -448,6 +513,9 @@ pub struct Report {
     pub gpu_kernels: Option<GpuSummary>,
     pub scenes: Vec<SceneReport>,
     pub elapsed_seconds: f64,
+    /// CPU-s by stage (None: not measured, or a report without them).
+    #[serde(default)]
+    pub cpu: Option<CpuTimes>,
     /// The committed calibration of the comparison (docs/calibration.json), quoted by report.md.
     pub calibration: Option<serde_json::Value>,
     /// The scene × technique list of the whole run, and the part of it this report holds
@@ -471,16 +539,21 @@ impl Report {
 
 /// m: comparisons of the full default certification of the scenes in `scenes_dir` and
 /// `finite_scenes_dir` that have a reference (each scene loaded with its reference's overrides
-/// to tell glossy from diffuse).
-fn family_size(opts: &Options) -> Result<usize, Unusable> {
+/// to tell glossy from diffuse; the scenes of `loaded` are not loaded again).
+fn family_size(opts: &Options, loaded: &[ReferencedScene]) -> Result<usize, Unusable> {
     let mut m = 0;
     for (path, exact_tubes) in scene_files(opts)? {
         let name = scenes::scene_name(&path);
         if !scenes::reference_path(&opts.references_dir, &name).is_file() {
             continue;
         }
-        let s = scenes::load_referenced(&path, &opts.references_dir, false)?;
-        m += matrix::default_comparisons(&name, &s.scene, exact_tubes);
+        m += match loaded.iter().find(|s| s.scene_file == path) {
+            Some(s) => matrix::default_comparisons(&name, &s.scene, exact_tubes),
+            None => {
+                let s = scenes::load_referenced(&path, &opts.references_dir, false)?;
+                matrix::default_comparisons(&name, &s.scene, exact_tubes)
+            }
+        };
         // The scene's blue-noise and light-selection renders, against each of its oracles.
         let oracles = if matrix::has_exact_oracle(&name) {
             2
@@ -596,7 +669,15 @@ fn summarise(cmp: &Comparison) -> Summary {
 
 /// m of the Šidák split and the configuration of every comparison of a certification.
 pub fn comparison_config(opts: &Options) -> Result<(usize, CompareConfig), Unusable> {
-    let m = family_size(opts)?;
+    comparison_config_of(opts, &[])
+}
+
+/// [`comparison_config`] with the scenes of `loaded` (already loaded) not loaded again.
+fn comparison_config_of(
+    opts: &Options,
+    loaded: &[ReferencedScene],
+) -> Result<(usize, CompareConfig), Unusable> {
+    let m = family_size(opts, loaded)?;
     Ok((
         m,
         CompareConfig {
@@ -640,11 +721,13 @@ fn run_plan(
     events: &(dyn Fn(Event) + Sync),
 ) -> Result<Report, Unusable> {
     let started = Instant::now();
+    let cpu_started = cpu::process_seconds();
     let chosen = selected_scenes(opts)?;
     if opts.oracle == Oracle::Live {
         oracle::check_ready(&opts.root)?;
     }
-    let (m, cfg) = comparison_config(opts)?;
+    let (m, cfg) = comparison_config_of(opts, &chosen)?;
+    let loading_cpu = cpu_started.zip(cpu::process_seconds()).map(|(a, b)| b - a);
     if let Some(dir) = &opts.report_dir {
         std::fs::create_dir_all(dir).map_err(|e| {
             Unusable(format!(
@@ -679,17 +762,24 @@ fn run_plan(
         steps: mine.iter().map(Vec::len).sum::<usize>() + live_renders,
     });
 
-    // The sampler suite runs alongside the renders (both are data-parallel on the same pool:
-    // each fills the other's serial stretches — a suite subject's first configuration, a
-    // render's last tiles, the comparisons).
-    // The shader kernels' certification follows the suite on the same thread (the first
-    // shard's).
+    // The sampler suite (then the shader kernels' certification, on the first shard) runs
+    // alongside the renders, each stage group on a pool of its own with as many threads as the
+    // caller's: the system fills each one's serial stretches (a suite subject's first
+    // configuration, a render's last tiles, the comparisons) with the other's work, and each
+    // pool's threads' CPU clocks give that group's CPU-s. Neither result depends on the
+    // number of threads.
+    let threads = rayon::current_num_threads();
+    let pool = |what: &str| ClockedPool::new(threads).map_err(|e| Unusable(format!("{what}: {e}")));
+    let suite_pool = pool("sampler suite")?;
+    let render_pool = pool("renders")?;
     let suite = || {
+        let start = suite_pool.cpu_seconds();
         let suite = run_suite.then(|| {
             let s = sampler_suite::run();
             events(Event::SuiteDone(&s));
             s
         });
+        let after_suite = suite_pool.cpu_seconds();
         let kernels = first_shard.then(|| {
             if opts.gpu_kernels {
                 gpu::run(gpu::AGREEMENT_SAMPLES, gpu::SUITE_SAMPLES, &mut |_| {}).summary
@@ -697,12 +787,17 @@ fn run_plan(
                 GpuSummary::skipped(gpu::NOT_REQUESTED, None)
             }
         });
-        (suite, kernels)
+        let cpu = start
+            .zip(after_suite)
+            .zip(suite_pool.cpu_seconds())
+            .map(|((a, b), c)| (b - a, c - b));
+        (suite, kernels, cpu)
     };
     let run = SceneRun {
         opts,
         cfg: &cfg,
         events,
+        pool: &render_pool,
     };
     let render_all = || -> Result<Vec<SceneReport>, Unusable> {
         chosen
@@ -712,8 +807,29 @@ fn run_plan(
             .map(|(s, subjects)| run.scene(s, subjects))
             .collect()
     };
-    let ((sampler_suite, gpu_kernels), scene_reports) = rayon::join(suite, render_all);
+    let ((sampler_suite, gpu_kernels, suite_cpu), scene_reports) = std::thread::scope(|scope| {
+        let suite = scope.spawn(|| suite_pool.install(suite));
+        let scenes = render_pool.install(render_all);
+        let suite = suite
+            .join()
+            .unwrap_or_else(|p| std::panic::resume_unwind(p));
+        (suite, scenes)
+    });
     let scene_reports = scene_reports?;
+    let cpu = cpu::process_seconds()
+        .zip(cpu_started)
+        .zip(loading_cpu)
+        .zip(suite_cpu)
+        .map(|(((end, start), loading), (suite, kernels))| CpuTimes {
+            process: end - start,
+            loading,
+            sampler_suite: suite,
+            gpu_kernels: kernels,
+            scenes: scene_reports
+                .iter()
+                .filter_map(|s| s.cpu)
+                .fold(StageCpu::default(), |a, b| a + b),
+        });
 
     let verdict = overall_verdict(sampler_suite.as_ref(), gpu_kernels.as_ref(), &scene_reports);
     let report = Report {
@@ -732,6 +848,7 @@ fn run_plan(
         gpu_kernels,
         scenes: scene_reports,
         elapsed_seconds: started.elapsed().as_secs_f64(),
+        cpu,
         calibration: std::fs::read_to_string(opts.root.join("docs/calibration.json"))
             .ok()
             .and_then(|t| serde_json::from_str(&t).ok()),
@@ -806,6 +923,8 @@ struct SceneRun<'a> {
     opts: &'a Options,
     cfg: &'a CompareConfig,
     events: &'a (dyn Fn(Event) + Sync),
+    /// The pool the scenes run on, alone: its CPU clock's differences are their stages' CPU-s.
+    pool: &'a ClockedPool,
 }
 
 /// A subject's budget: the spp (and per-pixel spp), the light samples per camera sample and
@@ -826,10 +945,11 @@ impl SceneRun<'_> {
         subjects: &[&dyn Subject],
     ) -> Result<SceneReport, Unusable> {
         let (reference, live_oracle_seconds) = self.reference(s)?;
-        let exact = self.exact(s)?;
+        let mut cpu = self.pool.cpu_seconds().map(|_| StageCpu::default());
+        let exact = self.stage(&mut cpu, |c| &mut c.exact_image, || self.exact(s))?;
         let mut rows = Vec::new();
         for &subject in subjects {
-            rows.extend(self.subject_rows(s, subject, &reference, exact.as_ref())?);
+            rows.extend(self.subject_rows(s, subject, &reference, exact.as_ref(), &mut cpu)?);
         }
         Ok(SceneReport {
             name: s.name.clone(),
@@ -838,7 +958,26 @@ impl SceneRun<'_> {
             live_oracle_seconds,
             exact_tubes: s.exact_tubes,
             rows,
+            cpu,
         })
+    }
+
+    /// `f`, with the pool's CPU-s while it ran added to the stage `field` of `cpu` (which
+    /// becomes None if the clock cannot be read).
+    fn stage<R>(
+        &self,
+        cpu: &mut Option<StageCpu>,
+        field: impl Fn(&mut StageCpu) -> &mut f64,
+        f: impl FnOnce() -> R,
+    ) -> R {
+        let before = self.pool.cpu_seconds();
+        let r = f();
+        let spent = before.zip(self.pool.cpu_seconds()).map(|(a, b)| b - a);
+        *cpu = cpu.zip(spent).map(|(mut c, t)| {
+            *field(&mut c) += t;
+            c
+        });
+        r
     }
 
     /// The Mitsuba image of `s`: the committed reference, or a live render (and its seconds).
@@ -936,6 +1075,7 @@ impl SceneRun<'_> {
         subject: &dyn Subject,
         reference: &Image,
         exact: Option<&Image>,
+        cpu: &mut Option<StageCpu>,
     ) -> Result<Vec<Row>, Unusable> {
         let (opts, events) = (self.opts, self.events);
         let name = subject.name();
@@ -960,60 +1100,130 @@ impl SceneRun<'_> {
             pixel_spp,
             light_samples,
             pilot_seconds,
-        } = self.plan(s, subject, reference, &base)?;
+        } = self.stage(
+            cpu,
+            |c| &mut c.pilots,
+            || self.plan(s, subject, reference, &base),
+        )?;
         let tiles = |done: usize, total: usize| events(Event::Tiles { done, total });
         let t = Instant::now();
-        let mut image = planned::render(
-            &|scene, o, p| subject.render(scene, o, p),
-            &s.scene,
-            &RenderOptions {
-                spp: budget.spp,
-                seed: opts.seed,
-                light_samples,
-                ..base
-            },
-            pixel_spp.as_deref(),
-            &tiles,
-        )
-        .map_err(|e| render_error(&s.name, &name, e))?;
+        let mut image = self
+            .stage(
+                cpu,
+                |c| &mut c.renders,
+                || {
+                    planned::render(
+                        &|scene, o, p| subject.render(scene, o, p),
+                        &s.scene,
+                        &RenderOptions {
+                            spp: budget.spp,
+                            seed: opts.seed,
+                            light_samples,
+                            ..base
+                        },
+                        pixel_spp.as_deref(),
+                        &tiles,
+                    )
+                },
+            )
+            .map_err(|e| render_error(&s.name, &name, e))?;
         let render_seconds = t.elapsed().as_secs_f64();
         record_inputs(&mut image.meta, &s.scene_file, &s.overrides);
         let mut oracles = vec![("mitsuba", reference)];
         if let Some(c) = exact {
             oracles.push((closed_form::oracle_name(c), c));
         }
-        let mut rows = Vec::new();
-        for (oracle_name, b) in oracles {
-            let cmp = compare(&image, b, self.cfg).map_err(|e| {
-                Unusable(format!(
-                    "cannot compare {} / {name} with the {oracle_name} image: {e}",
-                    s.name
-                ))
-            })?;
-            let (rel_diff, rel_ci, worst_tile_p) = summarise(&cmp);
-            let mut row = Row {
-                scene: s.name.clone(),
-                subject: name.clone(),
-                oracle: oracle_name.to_string(),
-                verdict: cmp.verdict,
-                budget,
-                light_samples,
-                seed: opts.seed,
-                pilot_seconds,
-                render_seconds,
-                precision: budget::precision(&image, b),
-                rel_diff,
-                rel_ci,
-                worst_tile_p,
-                files: Vec::new(),
-                comparison: cmp,
-            };
-            if let Some(dir) = &opts.report_dir {
-                row.files = report::write_row_images(dir, &row, &image, b)?;
-            }
-            events(Event::RowDone(&row));
-            rows.push(row);
+        self.stage(
+            cpu,
+            |c| &mut c.comparisons,
+            || {
+                let mut rows = Vec::new();
+                for (oracle_name, b) in oracles {
+                    let cmp = compare(&image, b, self.cfg).map_err(|e| {
+                        Unusable(format!(
+                            "cannot compare {} / {name} with the {oracle_name} image: {e}",
+                            s.name
+                        ))
+                    })?;
+                    let (rel_diff, rel_ci, worst_tile_p) = summarise(&cmp);
+                    let mut row = Row {
+                        scene: s.name.clone(),
+                        subject: name.clone(),
+                        oracle: oracle_name.to_string(),
+                        verdict: cmp.verdict,
+                        budget,
+                        light_samples,
+                        seed: opts.seed,
+                        pilot_seconds,
+                        render_seconds,
+                        precision: budget::precision(&image, b),
+                        rel_diff,
+                        rel_ci,
+                        worst_tile_p,
+                        files: Vec::new(),
+                        comparison: cmp,
+                    };
+                    if let Some(dir) = &opts.report_dir {
+                        row.files = report::write_row_images(dir, &row, &image, b)?;
+                    }
+                    events(Event::RowDone(&row));
+                    rows.push(row);
+                }
+                Ok(rows)
+            },
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A certification's verdicts, budgets and statistics do not depend on the number of
+    /// threads (renders, crop windows and exact images are collected in order; the comparisons
+    /// are serial), and its CPU time is measured by stage.
+    #[test]
+    fn results_do_not_depend_on_the_thread_count() {
+        let mut opts = Options::new(Path::new(env!("CARGO_MANIFEST_DIR")));
+        opts.scenes = "floor-tube".into();
+        opts.sampler_suite = false;
+        opts.gpu_kernels = false;
+        opts.variant_renders.clear();
+        let subjects: [&dyn Subject; 1] = [&Technique::ProjectedSolidAngle];
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a thread pool");
+            let report = pool
+                .install(|| run(&opts, &subjects, &|_| {}))
+                .expect("usable input");
+            let rows: Vec<String> = report
+                .rows()
+                .map(|r| {
+                    format!(
+                        "{} {} {:?} {:?} {}",
+                        r.subject,
+                        r.oracle,
+                        r.budget,
+                        r.rel_diff.map(|d| d.map(f64::to_bits)),
+                        serde_json::to_string(&r.comparison).expect("serialisable")
+                    )
+                })
+                .collect();
+            (rows, report.cpu, report.scenes[0].cpu)
+        };
+        let (one, cpu, scene_cpu) = run(1);
+        assert_eq!(one.len(), 2, "{one:?}"); // mitsuba and closed form
+        assert_eq!(one, run(3).0);
+        if cfg!(target_os = "linux") {
+            let (cpu, scene) = (cpu.expect("measured"), scene_cpu.expect("measured"));
+            assert_eq!(cpu.scenes, scene);
+            assert!(scene.pilots > 0.0 && scene.renders > 0.0 && scene.comparisons > 0.0);
+            assert!(scene.exact_image > 0.0, "{scene:?}");
+            assert!(cpu.process >= cpu.loading + scene.total(), "{cpu:?}");
+            // Neither ran: the suite's pool only started its threads.
+            assert!(cpu.sampler_suite + cpu.gpu_kernels < 0.1, "{cpu:?}");
         }
-        Ok(rows)
     }
 }

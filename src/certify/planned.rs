@@ -1,6 +1,6 @@
-//! Rendering at a per-tile budget ([`super::budget::BudgetRule::plan`]): the whole image at the
-//! budget's spp, then every cell of [`CELL`]² pixels whose pixels need more rendered again as
-//! a crop window at that count, and pasted over it.
+//! Rendering at a per-tile budget ([`super::budget::BudgetRule::plan`]): every cell of [`CELL`]²
+//! pixels rendered once, as a crop window at its count (the budget's spp, or more where its
+//! pixels need more), and pasted into an image whose header is the window's.
 //!
 //! The random stream of a pixel sample depends only on (seed, pass, full-film pixel index,
 //! sample index), not on the spp or the window (`linlight_render::render`), so with white noise
@@ -37,6 +37,15 @@ struct Strip {
 
 /// The strips of cells whose largest count exceeds `base`, in row-major order.
 fn strips(pixel_spp: &[u32], width: usize, height: usize, base: u32) -> Vec<Strip> {
+    all_strips(pixel_spp, width, height)
+        .into_iter()
+        .filter(|s| s.spp > base)
+        .collect()
+}
+
+/// Every cell in a strip: runs of cells of one cell row with the same largest count, in
+/// row-major order.
+fn all_strips(pixel_spp: &[u32], width: usize, height: usize) -> Vec<Strip> {
     let mut out: Vec<Strip> = Vec::new();
     for cy in (0..height).step_by(CELL) {
         let ch = CELL.min(height - cy);
@@ -47,11 +56,11 @@ fn strips(pixel_spp: &[u32], width: usize, height: usize, base: u32) -> Vec<Stri
                 .flat_map(|y| pixel_spp[y * width + cx..y * width + cx + cw].iter())
                 .copied()
                 .max()
-                .unwrap_or(base);
+                .unwrap_or(0);
             match &mut run {
                 Some(r) if r.spp == n && r.x + r.width == cx => r.width += cw,
                 _ => {
-                    out.extend(run.take().filter(|r| r.spp > base));
+                    out.extend(run.take());
                     run = Some(Strip {
                         x: cx,
                         y: cy,
@@ -62,7 +71,7 @@ fn strips(pixel_spp: &[u32], width: usize, height: usize, base: u32) -> Vec<Stri
                 }
             }
         }
-        out.extend(run.filter(|r| r.spp > base));
+        out.extend(run);
     }
     out
 }
@@ -109,10 +118,28 @@ pub fn render(
         )));
     }
     let base_spp = opts.spp;
-    let strips = strips(plan, w, h, base_spp);
+    // Every cell at its count (at least the base): a pixel's samples are rendered once, in
+    // the strip of its cell (rendering the whole window at the base first would render the
+    // base samples of the cells rendered again a second time).
+    let cells: Vec<Strip> = all_strips(plan, w, h)
+        .into_iter()
+        .map(|s| Strip {
+            spp: s.spp.max(base_spp),
+            ..s
+        })
+        .collect();
+    if !cells.iter().any(|s| s.spp == base_spp) {
+        return render_over_base(render, scene, opts, plan, (w, h), progress);
+    }
     let unit = |spp: u32| spp as usize * opts.passes as usize;
-    let total = w * h * unit(base_spp)
-        + strips
+    // The window's header (the contact pixels are in window coordinates) from a render of
+    // the whole window at the fewest samples that have a variance.
+    let header_opts = RenderOptions {
+        spp: HEADER_SPP.min(base_spp),
+        ..*opts
+    };
+    let total = w * h * unit(header_opts.spp)
+        + cells
             .iter()
             .map(|s| s.width * s.height * unit(s.spp))
             .sum::<usize>();
@@ -123,8 +150,45 @@ pub fn render(
         progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
     };
     let last = AtomicUsize::new(0);
-    let mut image = render(scene, opts, &|d, _| tracked(&last, d))?;
-    let crops: Vec<(Strip, Image)> = strips
+    let mut image = render(scene, &header_opts, &|d, _| tracked(&last, d))?;
+    let crops = render_strips(render, scene, opts, &cells, &tracked)?;
+    // The header of a render at the base count, with the window's own entries.
+    let base = crops
+        .iter()
+        .find(|(s, _)| s.spp == base_spp)
+        .map(|(_, img)| &img.meta)
+        .ok_or_else(|| RenderError::Options("no cell at the base count".into()))?;
+    let window_keys = [linlight_imagefile::KEY_CONTACT_PIXELS, "contacts"];
+    let mut meta = base.clone();
+    meta.extra.retain(|k, _| !window_keys.contains(&k.as_str()));
+    for key in window_keys {
+        if let Some(v) = image.meta.extra.get(key) {
+            meta.extra.insert(key.into(), v.clone());
+        }
+    }
+    meta.extra.remove("nonfinite_dropped");
+    image.meta = meta;
+    let mut counts = vec![0u32; w * h];
+    paste(&mut image, &mut counts, w, &crops, 0)?;
+    debug_assert!(
+        counts.iter().all(|&n| n >= base_spp),
+        "every pixel rendered"
+    );
+    finish(image, counts)
+}
+
+/// Fewest samples of the whole-window render whose header [`render`] keeps.
+const HEADER_SPP: u32 = 2;
+
+/// The strips `cells`, each rendered as a crop window at its count, in order.
+fn render_strips(
+    render: &RenderFn,
+    scene: &Scene,
+    opts: &RenderOptions,
+    cells: &[Strip],
+    tracked: &(dyn Fn(&AtomicUsize, usize) + Sync),
+) -> Result<Vec<(Strip, Image)>, RenderError> {
+    cells
         .par_iter()
         .map(|s| {
             let last = AtomicUsize::new(0);
@@ -138,15 +202,60 @@ pub fn render(
             )?;
             Ok((*s, img))
         })
-        .collect::<Result<_, RenderError>>()?;
+        .collect()
+}
+
+/// Where no cell is at the base count: the whole window at the base, the cells pasted over it
+/// (the header is the base render's).
+fn render_over_base(
+    render: &RenderFn,
+    scene: &Scene,
+    opts: &RenderOptions,
+    plan: &[u32],
+    (w, h): (usize, usize),
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    let base_spp = opts.spp;
+    let strips = strips(plan, w, h, base_spp);
+    let unit = |spp: u32| spp as usize * opts.passes as usize;
+    let total = w * h * unit(base_spp)
+        + strips
+            .iter()
+            .map(|s| s.width * s.height * unit(s.spp))
+            .sum::<usize>();
+    let done = AtomicUsize::new(0);
+    let tracked = |last: &AtomicUsize, d: usize| {
+        let step = d.saturating_sub(last.swap(d, Ordering::Relaxed));
+        progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
+    };
+    let last = AtomicUsize::new(0);
+    let mut image = render(scene, opts, &|d, _| tracked(&last, d))?;
+    let crops = render_strips(render, scene, opts, &strips, &tracked)?;
     let mut counts = vec![image.meta.spp.min(u32::MAX as u64) as u32; w * h];
-    let mut dropped: u64 = image
-        .meta
+    let dropped = dropped_samples(&image);
+    paste(&mut image, &mut counts, w, &crops, dropped)?;
+    finish(image, counts)
+}
+
+/// Non-finite samples a render dropped (its header's `nonfinite_dropped`).
+fn dropped_samples(img: &Image) -> u64 {
+    img.meta
         .extra
         .get("nonfinite_dropped")
         .and_then(|v| v.parse().ok())
-        .unwrap_or(0);
-    for (s, img) in &crops {
+        .unwrap_or(0)
+}
+
+/// `crops` pasted over `image` (window width `w`), their counts into `counts`; the header's
+/// `nonfinite_dropped` becomes `dropped` plus the crops'.
+fn paste(
+    image: &mut Image,
+    counts: &mut [u32],
+    w: usize,
+    crops: &[(Strip, Image)],
+    mut dropped: u64,
+) -> Result<(), RenderError> {
+    for (s, img) in crops {
         if (img.width, img.height) != (s.width, s.height) {
             return Err(RenderError::Options(format!(
                 "a crop of {}×{} rendered {}×{} pixels",
@@ -165,12 +274,7 @@ pub fn render(
                 counts[i] = n;
             }
         }
-        dropped += img
-            .meta
-            .extra
-            .get("nonfinite_dropped")
-            .and_then(|v| v.parse::<u64>().ok())
-            .unwrap_or(0);
+        dropped += dropped_samples(img);
     }
     if dropped > 0 {
         image
@@ -178,6 +282,11 @@ pub fn render(
             .extra
             .insert("nonfinite_dropped".into(), dropped.to_string());
     }
+    Ok(())
+}
+
+/// The image with its per-pixel counts and their largest (`spp_max`).
+fn finish(mut image: Image, counts: Vec<u32>) -> Result<Image, RenderError> {
     if let Some(max) = counts.iter().max() {
         image.meta.extra.insert("spp_max".into(), max.to_string());
     }
@@ -243,8 +352,42 @@ mod tests {
         }
         assert_eq!((img.meta.spp, img.meta.dof), (8, 7.0));
         let (d, t) = *last.lock().unwrap();
-        let total = w * h * 8 + 128 * 32 + 64 * 16;
+        // The header's render at 2 spp, then every cell once at its count.
+        let total = w * h * 2 + (w * h - 128 - 64) * 8 + 128 * 32 + 64 * 16;
         assert_eq!((d, t), (total, total));
+        // The same image as the whole window at the base with the cells pasted over it,
+        // header included.
+        let over_base =
+            render_over_base(&render_fn, &scene, &opts, &plan, (w, h), &|_, _| {}).unwrap();
+        assert_eq!(img, over_base);
+    }
+
+    /// On the floor with a horizon-crossing light touching it, with a cell at more samples in
+    /// every cell row: the image and its header (the window's entries included) are those of
+    /// the whole window at the base with the cells pasted over it.
+    #[test]
+    fn the_header_is_the_windows() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("references/scenes/floor-crossing.xml");
+        let scene = load_scene(&path, &[("res".into(), "24".into())]).unwrap();
+        let opts = RenderOptions {
+            spp: 4,
+            seed: 3,
+            method: Technique::SolidAngle.into(),
+            ..Default::default()
+        };
+        let (w, h) = (24, 24);
+        let mut plan = vec![4u32; w * h];
+        for y in 0..h {
+            plan[y * w + 20] = 8 + 4 * (y / 8) as u32;
+        }
+        let render_fn = |s: &Scene, o: &RenderOptions, p: &(dyn Fn(usize, usize) + Sync)| {
+            linlight_render::render(s, o, p)
+        };
+        let img = render(&render_fn, &scene, &opts, Some(&plan), &|_, _| {}).unwrap();
+        let over_base =
+            render_over_base(&render_fn, &scene, &opts, &plan, (w, h), &|_, _| {}).unwrap();
+        assert_eq!(img, over_base);
     }
 
     #[test]

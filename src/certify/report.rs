@@ -198,6 +198,7 @@ pub fn summary(report: &Report) -> String {
             )
         })
         .collect();
+    s.push_str(&cpu_lines(report));
     let _ = writeln!(
         s,
         "certify: {} in {:.1} s ({} comparisons{})",
@@ -254,6 +255,50 @@ fn gpu_markdown(g: &super::gpu::GpuSummary) -> String {
     s
 }
 
+/// Where the run's CPU time went, by stage and per scene (empty where it was not measured):
+/// user + system CPU-s of each stage's threads.
+pub fn cpu_lines(report: &Report) -> String {
+    let mut s = String::new();
+    let Some(c) = &report.cpu else {
+        return s;
+    };
+    let sc = &c.scenes;
+    let _ = writeln!(
+        s,
+        "CPU time: {:.1} CPU-s in {:.1} s wall ({:.2} cores on {} threads): sampler suite {:.1}, \
+         GPU kernels {:.1}, loading {:.1}, exact images {:.1}, pilots {:.1}, renders {:.1}, \
+         comparisons {:.1}, other {:.1}",
+        c.process,
+        report.elapsed_seconds,
+        c.process / report.elapsed_seconds.max(1e-9),
+        report.threads,
+        c.sampler_suite,
+        c.gpu_kernels,
+        c.loading,
+        sc.exact_image,
+        sc.pilots,
+        sc.renders,
+        sc.comparisons,
+        (c.process - c.sampler_suite - c.gpu_kernels - c.loading - sc.total()).max(0.0),
+    );
+    for scene in &report.scenes {
+        if let Some(t) = &scene.cpu {
+            let _ = writeln!(
+                s,
+                "  {:<24} {:>6.1} CPU-s: exact image {:.1}, pilots {:.1}, renders {:.1}, \
+                 comparisons {:.1}",
+                scene.name,
+                t.total(),
+                t.exact_image,
+                t.pilots,
+                t.renders,
+                t.comparisons
+            );
+        }
+    }
+    s
+}
+
 /// `report.md`.
 pub fn markdown(report: &Report) -> String {
     let mut s = String::new();
@@ -286,6 +331,10 @@ pub fn markdown(report: &Report) -> String {
     }
     if let Some(g) = &report.gpu_kernels {
         s += &gpu_markdown(g);
+    }
+    let cpu = cpu_lines(report);
+    if !cpu.is_empty() {
+        let _ = writeln!(s, "## CPU time\n\n```\n{cpu}```\n");
     }
     for sc in &report.scenes {
         s += &scene_section(sc);

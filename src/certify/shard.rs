@@ -280,6 +280,11 @@ pub fn merge(shards: Vec<(PathBuf, Report)>, require_suite: bool) -> Result<Repo
             .iter()
             .map(|(_, r)| r.elapsed_seconds)
             .fold(0.0, f64::max),
+        // The CPU-s of all shards (None unless every shard measured them).
+        cpu: shards
+            .iter()
+            .map(|(_, r)| r.cpu)
+            .try_fold(super::CpuTimes::default(), |a, c| c.map(|c| a + c)),
         ..first.clone()
     })
 }
@@ -457,8 +462,11 @@ fn rows_by_item(
                     )));
                 }
             }
+            // A scene's CPU-s are split over the shards that ran its rows: the merged report
+            // has the sum over shards only.
             let info = SceneReport {
                 rows: Vec::new(),
+                cpu: None,
                 ..s.clone()
             };
             let json = |r: &SceneReport| serde_json::to_string(&r.reference).unwrap_or_default();
