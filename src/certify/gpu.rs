@@ -228,7 +228,8 @@ impl Recorder<'_> {
     }
 }
 
-/// The checks in order: agreement, backward-error sweep, lookup and MIS, the mutated kernels,
+/// The checks in order: agreement, support ends, backward-error sweep, lookup and MIS, the
+/// mutated kernels,
 /// the sampler suite on the kernels' answers (its report kept for the caller's tables).
 #[cfg(feature = "gpu")]
 fn steps(
@@ -248,6 +249,7 @@ fn steps(
         checks: &mut summary.checks,
     };
     check_agreement(&gpu, &configs, per_config, &mut out)?;
+    check_support_ends(&gpu, &configs, &mut out)?;
     check_backward_error(&gpu, &mut out)?;
     check_lookup_and_mis(&gpu, &mut out)?;
     check_controls(&configs, per_config, &mut out)?;
@@ -318,6 +320,39 @@ fn check_agreement(
         "  bound: direction p99 ≤ {}, max ≤ {}; density p99 ≤ {}, max ≤ {} (docs/kernels.md)",
         b.direction_p99, b.direction_max, b.density_p99, b.density_max
     ));
+    Ok(())
+}
+
+/// The kernels' pdf at every direction near each support end against the reference's
+/// (precision contract: ends within [`linlight_gpu::certify::SUPPORT_END_BOUND`]).
+#[cfg(feature = "gpu")]
+fn check_support_ends(
+    gpu: &linlight_gpu::Gpu,
+    configs: &[linlight_verify::configs::Config],
+    out: &mut Recorder,
+) -> Result<(), linlight_gpu::GpuError> {
+    use linlight_gpu::certify::{support_ends, SUPPORT_END_BOUND};
+    out.say(&format!(
+        "\nsupport ends: the kernels' pdf near each end against the reference's within \
+         {SUPPORT_END_BOUND:.2e} rad (docs/kernels.md)"
+    ));
+    for t in linlight_gpu::Technique::ALL {
+        let e = support_ends(gpu, t, configs)?;
+        let ok = e.mismatches == 0;
+        let detail = match e.examples.first() {
+            None => format!("{} directions probed, none off", e.probes),
+            Some(first) => format!(
+                "{} of {} directions probed off, e.g. {first}",
+                e.mismatches, e.probes
+            ),
+        };
+        out.say(&format!(
+            "  {:<22} {detail}  {}",
+            e.technique,
+            if ok { "pass" } else { "FAIL" }
+        ));
+        out.check(format!("support ends {}", e.technique), ok, detail);
+    }
     Ok(())
 }
 

@@ -259,8 +259,9 @@ pub struct SupportEnds {
     /// Directions probed.
     pub probes: usize,
     /// Probes where the kernel's pdf matches the reference pdf at no direction within
-    /// [`SUPPORT_END_BOUND`] (at most 10 listed, then counted).
+    /// [`SUPPORT_END_BOUND`].
     pub mismatches: usize,
+    /// The first 10 mismatches, one line each.
     pub examples: Vec<String>,
 }
 
