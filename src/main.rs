@@ -88,6 +88,9 @@ fn end_quietly_on_closed_stdout() {
 }
 
 fn main() -> ExitCode {
+    // First: it may set an environment variable, which only a single thread may do.
+    #[cfg(feature = "gpu")]
+    linlight_gpu::without_display_device_select();
     end_quietly_on_closed_stdout();
     let command = Cli::command().mut_subcommand("render", |c| {
         c.mut_arg("technique", |a| a.help(technique_help()))

@@ -126,9 +126,8 @@ pub struct KernelRun {
 
 /// The sizes `certify` runs the kernels at: ξ per configuration of the agreement (as `linlight
 /// samplers --backend gpu`), and samples per configuration of the answer suite (as
-/// `samplers --backend gpu --samples 10000`: from N = 10⁵ on, its pdf queries find the support
-/// ends of the kernels' f32 line frame ~1e-6 rad from the reference's, which the
-/// cross-density check rejects; docs/kernels.md).
+/// `samplers --backend gpu --samples 10000`, a tenth of its default: the suite on the kernels
+/// is most of the run's time on lavapipe).
 pub const AGREEMENT_SAMPLES: usize = 1024;
 pub const SUITE_SAMPLES: usize = 10_000;
 
@@ -206,6 +205,32 @@ impl GpuSummary {
     }
 }
 
+/// Where the checks' results go: each check's row of the summary, and its line for the caller
+/// as soon as it is known.
+#[cfg(feature = "gpu")]
+struct Recorder<'a> {
+    say: &'a mut dyn FnMut(&str),
+    checks: &'a mut Vec<GpuCheck>,
+}
+
+#[cfg(feature = "gpu")]
+impl Recorder<'_> {
+    fn say(&mut self, line: &str) {
+        (self.say)(line)
+    }
+
+    fn check(&mut self, name: String, passed: bool, detail: String) {
+        self.checks.push(GpuCheck {
+            name,
+            passed,
+            detail,
+        })
+    }
+}
+
+/// The checks in order: agreement, support ends, backward-error sweep, lookup and MIS, the
+/// mutated kernels,
+/// the sampler suite on the kernels' answers (its report kept for the caller's tables).
 #[cfg(feature = "gpu")]
 fn steps(
     gpu: linlight_gpu::Gpu,
@@ -215,42 +240,63 @@ fn steps(
     summary: &mut GpuSummary,
     suite: &mut Option<linlight_verify::suite::SuiteReport>,
 ) -> Result<(), linlight_gpu::GpuError> {
-    use linlight_gpu::certify::{
-        agreement, backward_error_sweep, lookup_difference, mis_difference, Agreement,
-        AGREEMENT_BOUND, BACKWARD_ERROR_BOUND,
-    };
-    use linlight_gpu::mutate::{mutated, Mutation};
-    use linlight_gpu::{Gpu, Technique};
-    use linlight_sampling::backward_error::SweepConfig;
     use linlight_verify::configs::{edge_configs, ltc_table_configs, random_configs};
-
-    let mut check = |name: String, passed: bool, detail: String| {
-        summary.checks.push(GpuCheck {
-            name,
-            passed,
-            detail,
-        })
-    };
     let mut configs = random_configs(1, 64);
     configs.extend(edge_configs());
     configs.extend(ltc_table_configs());
+    let mut out = Recorder {
+        say,
+        checks: &mut summary.checks,
+    };
+    check_agreement(&gpu, &configs, per_config, &mut out)?;
+    check_support_ends(&gpu, &configs, &mut out)?;
+    check_backward_error(&gpu, &mut out)?;
+    check_lookup_and_mis(&gpu, &mut out)?;
+    check_controls(&configs, per_config, &mut out)?;
+    out.say(&format!(
+        "\nsampler suite on the kernels' answers (N = {suite_samples} samples per configuration)"
+    ));
+    let report = answer_suite(gpu, suite_samples)?;
+    for r in report.techniques.iter().chain(&report.negative_controls) {
+        let detail = match &r.panic {
+            Some(p) => format!("panicked: {p}"),
+            None => r.verdict.clone(),
+        };
+        out.check(format!("suite {}", r.name), r.passed, detail);
+    }
+    *suite = Some(report);
+    Ok(())
+}
 
-    say(&format!(
+/// The agreement's quantiles as one line.
+#[cfg(feature = "gpu")]
+fn quantiles(a: &linlight_gpu::certify::Agreement) -> String {
+    format!(
+        "direction p50 {:>6.2} p99 {:>7.2} max {:>9.2}  density p50 {:>5.0} p99 {:>7.0} max {:>9.0}",
+        a.direction.p50, a.direction.p99, a.direction.max, a.density.p50, a.density.p99,
+        a.density.max
+    )
+}
+
+/// Per-sample agreement of each kernel with its Rust f32 sampler, within
+/// [`linlight_gpu::certify::AGREEMENT_BOUND`].
+#[cfg(feature = "gpu")]
+fn check_agreement(
+    gpu: &linlight_gpu::Gpu,
+    configs: &[linlight_verify::configs::Config],
+    per_config: usize,
+    out: &mut Recorder,
+) -> Result<(), linlight_gpu::GpuError> {
+    use linlight_gpu::certify::{agreement, AGREEMENT_BOUND};
+    out.say(&format!(
         "\nper-sample agreement with the Rust f32 samplers ({} configurations × {per_config} ξ); \
          directions in ulps of 1, densities in ulps",
         configs.len()
     ));
-    let quantiles = |a: &Agreement| {
-        format!(
-            "direction p50 {:>6.2} p99 {:>7.2} max {:>9.2}  density p50 {:>5.0} p99 {:>7.0} max {:>9.0}",
-            a.direction.p50, a.direction.p99, a.direction.max, a.density.p50, a.density.p99,
-            a.density.max
-        )
-    };
-    for t in Technique::ALL {
-        let a = agreement(&gpu, t, &configs, per_config)?;
+    for t in linlight_gpu::Technique::ALL {
+        let a = agreement(gpu, t, configs, per_config)?;
         let verdict = AGREEMENT_BOUND.check(&a);
-        say(&format!(
+        out.say(&format!(
             "  {:<22} {}  {}",
             a.technique,
             quantiles(&a),
@@ -259,25 +305,66 @@ fn steps(
                 Err(e) => format!("FAIL: {e}"),
             }
         ));
-        check(
+        let detail = match verdict {
+            Ok(()) => quantiles(&a),
+            Err(ref e) => e.clone(),
+        };
+        out.check(
             format!("agreement {}", a.technique),
             verdict.is_ok(),
-            match verdict {
-                Ok(()) => quantiles(&a),
-                Err(e) => e,
-            },
+            detail,
         );
     }
-    say(&format!(
+    let b = AGREEMENT_BOUND;
+    out.say(&format!(
         "  bound: direction p99 ≤ {}, max ≤ {}; density p99 ≤ {}, max ≤ {} (docs/kernels.md)",
-        AGREEMENT_BOUND.direction_p99,
-        AGREEMENT_BOUND.direction_max,
-        AGREEMENT_BOUND.density_p99,
-        AGREEMENT_BOUND.density_max
+        b.direction_p99, b.direction_max, b.density_p99, b.density_max
     ));
+    Ok(())
+}
 
-    let sweep = SweepConfig::default();
-    let row = backward_error_sweep(&gpu, &sweep, 2)?;
+/// The kernels' pdf at every direction near each support end against the reference's
+/// (precision contract: ends within [`linlight_gpu::certify::SUPPORT_END_BOUND`]).
+#[cfg(feature = "gpu")]
+fn check_support_ends(
+    gpu: &linlight_gpu::Gpu,
+    configs: &[linlight_verify::configs::Config],
+    out: &mut Recorder,
+) -> Result<(), linlight_gpu::GpuError> {
+    use linlight_gpu::certify::{support_ends, SUPPORT_END_BOUND};
+    out.say(&format!(
+        "\nsupport ends: the kernels' pdf near each end against the reference's within \
+         {SUPPORT_END_BOUND:.2e} rad (docs/kernels.md)"
+    ));
+    for t in linlight_gpu::Technique::ALL {
+        let e = support_ends(gpu, t, configs)?;
+        let ok = e.mismatches == 0;
+        let detail = match e.examples.first() {
+            None => format!("{} directions probed, none off", e.probes),
+            Some(first) => format!(
+                "{} of {} directions probed off, e.g. {first}",
+                e.mismatches, e.probes
+            ),
+        };
+        out.say(&format!(
+            "  {:<22} {detail}  {}",
+            e.technique,
+            if ok { "pass" } else { "FAIL" }
+        ));
+        out.check(format!("support ends {}", e.technique), ok, detail);
+    }
+    Ok(())
+}
+
+/// The backward-error sweep of the kernels' projected-solid-angle inversion (two Halley steps),
+/// ξ guard included, within [`linlight_gpu::certify::BACKWARD_ERROR_BOUND`].
+#[cfg(feature = "gpu")]
+fn check_backward_error(
+    gpu: &linlight_gpu::Gpu,
+    out: &mut Recorder,
+) -> Result<(), linlight_gpu::GpuError> {
+    use linlight_gpu::certify::{backward_error_sweep, BACKWARD_ERROR_BOUND};
+    let row = backward_error_sweep(gpu, &Default::default(), 2)?;
     let ok = row.worst_including_guard <= BACKWARD_ERROR_BOUND;
     let detail = format!(
         "{} problems: worst {:.3e} outside the ξ guard, {:.3e} with it, {:.3e} near the ends \
@@ -288,22 +375,46 @@ fn steps(
         row.worst_near_ends,
         BACKWARD_ERROR_BOUND
     );
-    say(&format!(
+    out.say(&format!(
         "\nbackward-error sweep of the kernels' projected-solid-angle inversion ({detail})  {}",
         if ok { "pass" } else { "FAIL" }
     ));
-    check("backward-error sweep".into(), ok, detail);
+    out.check("backward-error sweep".into(), ok, detail);
+    Ok(())
+}
 
-    let (lookup, mis) = (lookup_difference(&gpu, 40)?, mis_difference(&gpu)?);
+/// The LTC table lookup and the four MIS weights within 1e-6 of the Rust ones.
+#[cfg(feature = "gpu")]
+fn check_lookup_and_mis(
+    gpu: &linlight_gpu::Gpu,
+    out: &mut Recorder,
+) -> Result<(), linlight_gpu::GpuError> {
+    use linlight_gpu::certify::{lookup_difference, mis_difference};
+    let (lookup, mis) = (lookup_difference(gpu, 40)?, mis_difference(gpu)?);
     let ok = lookup <= 1e-6 && mis <= 1e-6;
     let detail = format!(
         "LTC table lookup within {lookup:.2e} of the Rust one, MIS weights within {mis:.2e} \
          (bound 1e-6)"
     );
-    say(&format!("{detail}  {}", if ok { "pass" } else { "FAIL" }));
-    check("ltc lookup and mis weights".into(), ok, detail);
+    out.say(&format!("{detail}  {}", if ok { "pass" } else { "FAIL" }));
+    out.check("ltc lookup and mis weights".into(), ok, detail);
+    Ok(())
+}
 
-    say("\nnegative controls (mutated kernels, same backend): must be rejected");
+/// Each mutated kernel through the same backend: rejected iff the agreement (and for one
+/// Halley step, the backward-error sweep) finds it.
+#[cfg(feature = "gpu")]
+fn check_controls(
+    configs: &[linlight_verify::configs::Config],
+    per_config: usize,
+    out: &mut Recorder,
+) -> Result<(), linlight_gpu::GpuError> {
+    use linlight_gpu::certify::{
+        agreement, backward_error_sweep, AGREEMENT_BOUND, BACKWARD_ERROR_BOUND,
+    };
+    use linlight_gpu::mutate::{mutated, Mutation};
+    use linlight_gpu::{Gpu, Technique};
+    out.say("\nnegative controls (mutated kernels, same backend): must be rejected");
     for m in Mutation::ALL {
         let mutant = Gpu::with_source(&mutated(linlight_kernels::WGSL, m))?;
         let mut reasons = Vec::new();
@@ -312,13 +423,13 @@ fn steps(
             _ => &[Technique::ProjectedSolidAngle, Technique::Ltc],
         };
         for &t in techniques {
-            let a = agreement(&mutant, t, &configs, per_config)?;
+            let a = agreement(&mutant, t, configs, per_config)?;
             if let Err(e) = AGREEMENT_BOUND.check(&a) {
                 reasons.push(format!("{} agreement: {e}", a.technique));
             }
         }
         if m == Mutation::OneHalleyStep {
-            let r = backward_error_sweep(&mutant, &sweep, 1)?;
+            let r = backward_error_sweep(&mutant, &Default::default(), 1)?;
             if r.worst_outside_guard > BACKWARD_ERROR_BOUND {
                 reasons.push(format!(
                     "backward error {:.3e} > {:.0e}",
@@ -332,25 +443,9 @@ fn steps(
         } else {
             "NOT REJECTED".to_string()
         };
-        say(&format!("  {:<20} {detail}", m.name()));
-        check(format!("control {}", m.name()), rejected, detail);
+        out.say(&format!("  {:<20} {detail}", m.name()));
+        out.check(format!("control {}", m.name()), rejected, detail);
     }
-
-    say(&format!(
-        "\nsampler suite on the kernels' answers (N = {suite_samples} samples per configuration)"
-    ));
-    let report = answer_suite(gpu, suite_samples)?;
-    for r in report.techniques.iter().chain(&report.negative_controls) {
-        check(
-            format!("suite {}", r.name),
-            r.passed,
-            match &r.panic {
-                Some(p) => format!("panicked: {p}"),
-                None => r.verdict.clone(),
-            },
-        );
-    }
-    *suite = Some(report);
     Ok(())
 }
 

@@ -39,7 +39,7 @@ pub fn frame(width: usize, height: usize) -> Vec<[f32; 4]> {
 pub struct Timing {
     pub mode: BenchMode,
     pub samples: u32,
-    /// Median over the timed runs (after one untimed warm-up run).
+    /// Median over the timed runs (after one untimed warm-up dispatch).
     pub median: Duration,
     /// Mean of the estimates over the frame (so that the work cannot be skipped; also a sanity
     /// check: clipped and projected solid angle estimate the same diffuse integral).
@@ -55,7 +55,7 @@ pub fn mode_name(mode: BenchMode) -> &'static str {
 }
 
 /// Times every technique at `samples` samples per point over `points` (from [`frame`]), each
-/// `runs` times after a warm-up.
+/// `runs` times after a one-sample warm-up.
 pub fn time_frame(
     gpu: &Gpu,
     points: &[[f32; 4]],
@@ -68,7 +68,9 @@ pub fn time_frame(
         BenchMode::ProjectedSolidAngle,
         BenchMode::LtcMis,
     ] {
-        gpu.bench(mode, samples, points, LIGHT)?;
+        // Warm-up: the first dispatch pays one-time costs (allocation, on some drivers the
+        // compilation); one sample per point suffices.
+        gpu.bench(mode, 1, points, LIGHT)?;
         let mut times = Vec::new();
         let mut mean = 0.0;
         for _ in 0..runs.max(1) {

@@ -80,6 +80,44 @@ impl fmt::Display for GpuError {
 
 impl std::error::Error for GpuError {}
 
+/// Switches off Mesa's device-selection layer where it has nothing to select by, so that
+/// libwayland's "error: XDG_RUNTIME_DIR is invalid or not set in the environment." does not
+/// reach the user's terminal on a machine without a desktop (no user runtime directory, no
+/// display).
+///
+/// `VK_LAYER_MESA_device_select`, an implicit Vulkan layer installed with Mesa's drivers
+/// (lavapipe's too), asks the Wayland compositor for the display's GPU each time an instance
+/// that enables the Wayland surface extension (wgpu enables every surface extension it finds)
+/// enumerates its adapters, and libwayland prints that line to stderr when `XDG_RUNTIME_DIR`
+/// is unset. Where that variable is unset (or not an absolute path), there is no display
+/// (`WAYLAND_DISPLAY`, `DISPLAY` unset) and no device selection was asked for
+/// (`MESA_VK_DEVICE_SELECT`, `MESA_VK_DEVICE_SELECT_FORCE_DEFAULT_DEVICE`, `DRI_PRIME`,
+/// `NODEVICE_SELECT` unset), the layer keeps the drivers' order of the adapters; this sets the
+/// layer's own off switch `NODEVICE_SELECT=1` for the process (and its children) and returns
+/// true. Anywhere else it changes nothing, and the layer's message, if any, stays.
+///
+/// It may set an environment variable: call it first in `main`, before any thread starts.
+pub fn without_display_device_select() -> bool {
+    let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
+    let runtime_dir = std::env::var_os("XDG_RUNTIME_DIR")
+        .is_some_and(|dir| std::path::Path::new(&dir).is_absolute());
+    let chosen = [
+        "WAYLAND_DISPLAY",
+        "DISPLAY",
+        "MESA_VK_DEVICE_SELECT",
+        "MESA_VK_DEVICE_SELECT_FORCE_DEFAULT_DEVICE",
+        "DRI_PRIME",
+        "NODEVICE_SELECT",
+    ]
+    .iter()
+    .any(|name| set(name));
+    if runtime_dir || chosen {
+        return false;
+    }
+    std::env::set_var("NODEVICE_SELECT", "1");
+    true
+}
+
 /// Queries per dispatch of `certify` (144 bytes each: 36 MiB, below every adapter's 128 MiB
 /// storage binding limit; 4096 workgroups).
 const CERTIFY_CHUNK: usize = 1 << 18;

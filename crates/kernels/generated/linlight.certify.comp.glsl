@@ -18,6 +18,8 @@ struct LlArc {
     float s_b;
     float c_b;
     float width;
+    float s_e;
+    float c_e;
 };
 struct LlClipped {
     LlArc arc;
@@ -103,9 +105,9 @@ vec2 ll_sin_cos(float x) {
     bool upper = (x > LL_QUARTER_PI);
     float y_2 = (upper ? ((LL_HALF_PI_HI - x) + LL_HALF_PI_LO) : x);
     float y2_ = (y_2 * y_2);
-    float s = (y_2 * (1.0 - ((y2_ / 6.0) * (1.0 - ((y2_ / 20.0) * (1.0 - ((y2_ / 42.0) * (1.0 - ((y2_ / 72.0) * (1.0 - (y2_ / 110.0)))))))))));
+    float s_1 = (y_2 * (1.0 - ((y2_ / 6.0) * (1.0 - ((y2_ / 20.0) * (1.0 - ((y2_ / 42.0) * (1.0 - ((y2_ / 72.0) * (1.0 - (y2_ / 110.0)))))))))));
     float c_16 = (1.0 - ((y2_ / 2.0) * (1.0 - ((y2_ / 12.0) * (1.0 - ((y2_ / 30.0) * (1.0 - ((y2_ / 56.0) * (1.0 - ((y2_ / 90.0) * (1.0 - (y2_ / 132.0))))))))))));
-    return (upper ? vec2(c_16, s) : vec2(s, c_16));
+    return (upper ? vec2(c_16, s_1) : vec2(s_1, c_16));
 }
 
 float ll_atan_unit(float a) {
@@ -184,16 +186,16 @@ uvec2 ll_fixed_product(float a_1, float b) {
     uvec2 _e34 = p_1;
     uvec2 _e40 = ll_fixed_add(_e34, uvec2((hh << 24u), (hh >> 8u)));
     p_1 = _e40;
-    int s_1 = ((_e2.y + _e3.y) + 60);
-    if ((s_1 > 0)) {
-        uint k_5 = uint(s_1);
+    int s_2 = ((_e2.y + _e3.y) + 60);
+    if ((s_2 > 0)) {
+        uint k_5 = uint(s_2);
         uint _e50 = p_1.x;
         uint _e53 = p_1.y;
         uint _e56 = p_1.x;
         p_1 = uvec2((_e50 << k_5), ((_e53 << k_5) | (_e56 >> (32u - k_5))));
     } else {
-        if ((s_1 < 0)) {
-            uint r_2 = uint(-(s_1));
+        if ((s_2 < 0)) {
+            uint r_2 = uint(-(s_2));
             if ((r_2 >= 64u)) {
                 p_1 = uvec2(0u, 0u);
             } else {
@@ -354,7 +356,7 @@ LlFrame ll_frame_clip(LlFrame f_in, vec3 n) {
 }
 
 LlArc ll_arc(LlFrame f_2) {
-    LlArc a_3 = LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0);
+    LlArc a_3 = LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     a_3.u = f_2.u;
     a_3.c_hat = f_2.c_hat;
     a_3.d = f_2.d;
@@ -363,8 +365,11 @@ LlArc ll_arc(LlFrame f_2) {
     a_3.c_b = (f_2.d / r_b);
     float _e34 = ll_atan2_(((f_2.l_e - f_2.l_b) * f_2.d), fma(f_2.l_b, f_2.l_e, (f_2.d * f_2.d)));
     a_3.width = _e34;
-    LlArc _e35 = a_3;
-    return _e35;
+    float r_e = sqrt(((f_2.l_e * f_2.l_e) + (f_2.d * f_2.d)));
+    a_3.s_e = (f_2.l_e / r_e);
+    a_3.c_e = (f_2.d / r_e);
+    LlArc _e49 = a_3;
+    return _e49;
 }
 
 vec2 ll_arc_rotate(LlArc a_4, float sin_tau, float cos_tau) {
@@ -377,31 +382,37 @@ vec3 ll_arc_direction(LlArc a_5, float tau) {
     return ((_e20.x * a_5.u) + (max(_e20.y, 0.0) * a_5.c_hat));
 }
 
+float ll_angle_from(float s, float t, float sin_r, float cos_r) {
+    float _e10 = ll_atan2_(((s * cos_r) - (t * sin_r)), ((t * cos_r) + (s * sin_r)));
+    return _e10;
+}
+
 float ll_arc_tau(LlArc a_6, vec3 dir) {
-    float s_2 = dot(a_6.u, dir);
-    float t = max(dot(a_6.c_hat, dir), 0.0);
-    float _e18 = ll_atan2_(((s_2 * a_6.c_b) - (t * a_6.s_b)), ((t * a_6.c_b) + (s_2 * a_6.s_b)));
-    return _e18;
+    float _e10 = ll_angle_from(dot(a_6.u, dir), max(dot(a_6.c_hat, dir), 0.0), a_6.s_b, a_6.c_b);
+    return _e10;
 }
 
 bool ll_arc_contains(LlArc a_7, vec3 dir_1) {
     bool local_8 = false;
     bool local_9 = false;
-    float _e2 = ll_arc_tau(a_7, dir_1);
-    float tol = (1e-6 + (2e-6 * a_7.width));
-    if ((dot(a_7.c_hat, dir_1) >= 0.0)) {
-        local_8 = (_e2 >= -(tol));
+    float s_3 = dot(a_7.u, dir_1);
+    float t_1 = dot(a_7.c_hat, dir_1);
+    float tol = (2.5e-7 + (1e-6 * a_7.width));
+    if ((t_1 >= 0.0)) {
+        float _e17 = ll_angle_from(s_3, t_1, a_7.s_b, a_7.c_b);
+        local_8 = (_e17 >= -(tol));
     } else {
         local_8 = false;
     }
-    bool _e17 = local_8;
-    if (_e17) {
-        local_9 = (_e2 <= (a_7.width + tol));
+    bool _e21 = local_8;
+    if (_e21) {
+        float _e26 = ll_angle_from(s_3, t_1, a_7.s_e, a_7.c_e);
+        local_9 = (_e26 <= tol);
     } else {
         local_9 = false;
     }
-    bool _e24 = local_9;
-    return _e24;
+    bool _e29 = local_9;
+    return _e29;
 }
 
 float ll_arc_delta_s(LlArc a_8, float tau_1) {
@@ -410,7 +421,7 @@ float ll_arc_delta_s(LlArc a_8, float tau_1) {
 }
 
 LlClipped ll_clipped_prepare(vec3 begin_1, vec3 end_1, vec3 x_7, vec3 n_1) {
-    LlClipped c_2 = LlClipped(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0), 0.0, 0.0, false);
+    LlClipped c_2 = LlClipped(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0, 0.0, false);
     bool local_10 = false;
     bool local_11 = false;
     bool local_12 = false;
@@ -701,14 +712,14 @@ float ll_psa_solve_converged(LlPsaCore c_13, float xi_5) {
 }
 
 float ll_psa_cdf(LlPsaCore c_14, float tau_9) {
-    float t_1 = clamp(tau_9, 0.0, c_14.width);
-    vec2 _e7 = ll_sin_cos((0.5 * t_1));
-    vec2 _e10 = ll_psa_delta_c_parts(c_14, t_1, _e7.x, _e7.y);
+    float t_2 = clamp(tau_9, 0.0, c_14.width);
+    vec2 _e7 = ll_sin_cos((0.5 * t_2));
+    vec2 _e10 = ll_psa_delta_c_parts(c_14, t_2, _e7.x, _e7.y);
     return clamp(((_e10.x + _e10.y) / c_14.total), 0.0, 1.0);
 }
 
 LlPsa ll_psa_on_frame(LlFrame f_3, vec3 n_2) {
-    LlPsa p_2 = LlPsa(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0), vec3(0.0), LlPsaCore(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0, false);
+    LlPsa p_2 = LlPsa(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), vec3(0.0), LlPsaCore(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0, false);
     bool local_18 = false;
     bool local_19 = false;
     bool local_20 = false;
@@ -798,12 +809,12 @@ float ll_psa_inverse(LlPsa p_7, vec3 dir_6) {
 }
 
 mat3x3 ll_shading_frame(vec3 n_4, vec3 v) {
-    vec3 t_2 = (v - (dot(n_4, v) * n_4));
-    float len = length(t_2);
+    vec3 t_3 = (v - (dot(n_4, v) * n_4));
+    float len = length(t_3);
     float sgn = ((n_4.z >= 0.0) ? 1.0 : -1.0);
     float k_6 = (-1.0 / (sgn + n_4.z));
     vec3 any_ = vec3(((n_4.x * n_4.y) * k_6), (sgn + ((n_4.y * n_4.y) * k_6)), -(n_4.y));
-    vec3 xh = ((len > 1e-7) ? (t_2 / vec3(len)) : any_);
+    vec3 xh = ((len > 1e-7) ? (t_3 / vec3(len)) : any_);
     return mat3x3(xh, cross(n_4, xh), n_4);
 }
 
@@ -813,7 +824,7 @@ mat3x3 ll_inverse3_(mat3x3 m, float det) {
 }
 
 LlLtc ll_ltc_prepare(vec3 begin_3, vec3 end_3, vec3 x_10, mat3x3 shading_frame, mat3x3 a_9) {
-    LlLtc l = LlLtc(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0), mat3x3(0.0), mat3x3(0.0), mat3x3(0.0), LlPsa(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0), vec3(0.0), LlPsaCore(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0, false), 0.0, 0.0, false);
+    LlLtc l = LlLtc(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), mat3x3(0.0), mat3x3(0.0), mat3x3(0.0), LlPsa(LlArc(vec3(0.0), vec3(0.0), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), vec3(0.0), LlPsaCore(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0, false), 0.0, 0.0, false);
     float norm = 0.0;
     int i_2 = 0;
     bool local_22 = false;

@@ -26,7 +26,9 @@ struct LlArc {
     float s_b;
     float c_b;
     float width;
-    char _pad6[4];
+    float s_e;
+    float c_e;
+    char _pad8[12];
 };
 struct LlClipped {
     LlArc arc;
@@ -111,9 +113,9 @@ metal::float2 ll_sin_cos(
     bool upper = x > LL_QUARTER_PI;
     float y_2 = upper ? ((LL_HALF_PI_HI - x) + LL_HALF_PI_LO) : x;
     float y2_ = y_2 * y_2;
-    float s = y_2 * (1.0 - ((y2_ / 6.0) * (1.0 - ((y2_ / 20.0) * (1.0 - ((y2_ / 42.0) * (1.0 - ((y2_ / 72.0) * (1.0 - (y2_ / 110.0))))))))));
+    float s_1 = y_2 * (1.0 - ((y2_ / 6.0) * (1.0 - ((y2_ / 20.0) * (1.0 - ((y2_ / 42.0) * (1.0 - ((y2_ / 72.0) * (1.0 - (y2_ / 110.0))))))))));
     float c_16 = 1.0 - ((y2_ / 2.0) * (1.0 - ((y2_ / 12.0) * (1.0 - ((y2_ / 30.0) * (1.0 - ((y2_ / 56.0) * (1.0 - ((y2_ / 90.0) * (1.0 - (y2_ / 132.0)))))))))));
-    return upper ? metal::float2(c_16, s) : metal::float2(s, c_16);
+    return upper ? metal::float2(c_16, s_1) : metal::float2(s_1, c_16);
 }
 
 float ll_atan_unit(
@@ -211,16 +213,16 @@ metal::uint2 ll_fixed_product(
     metal::uint2 _e34 = p_1;
     metal::uint2 _e40 = ll_fixed_add(_e34, metal::uint2(hh << 24u, hh >> 8u));
     p_1 = _e40;
-    int s_1 = as_type<int>(as_type<uint>(as_type<int>(as_type<uint>(_e2.y) + as_type<uint>(_e3.y))) + as_type<uint>(60));
-    if (s_1 > 0) {
-        uint k_5 = static_cast<uint>(s_1);
+    int s_2 = as_type<int>(as_type<uint>(as_type<int>(as_type<uint>(_e2.y) + as_type<uint>(_e3.y))) + as_type<uint>(60));
+    if (s_2 > 0) {
+        uint k_5 = static_cast<uint>(s_2);
         uint _e50 = p_1.x;
         uint _e53 = p_1.y;
         uint _e56 = p_1.x;
         p_1 = metal::uint2(_e50 << k_5, (_e53 << k_5) | (_e56 >> (32u - k_5)));
     } else {
-        if (s_1 < 0) {
-            uint r_2 = static_cast<uint>(naga_neg(s_1));
+        if (s_2 < 0) {
+            uint r_2 = static_cast<uint>(naga_neg(s_2));
             if (r_2 >= 64u) {
                 p_1 = metal::uint2(0u, 0u);
             } else {
@@ -406,8 +408,11 @@ LlArc ll_arc(
     a_3.c_b = f_2.d / r_b;
     float _e34 = ll_atan2_((f_2.l_e - f_2.l_b) * f_2.d, metal::fma(f_2.l_b, f_2.l_e, f_2.d * f_2.d));
     a_3.width = _e34;
-    LlArc _e35 = a_3;
-    return _e35;
+    float r_e = metal::sqrt((f_2.l_e * f_2.l_e) + (f_2.d * f_2.d));
+    a_3.s_e = f_2.l_e / r_e;
+    a_3.c_e = f_2.d / r_e;
+    LlArc _e49 = a_3;
+    return _e49;
 }
 
 metal::float2 ll_arc_rotate(
@@ -427,14 +432,22 @@ metal::float3 ll_arc_direction(
     return (_e20.x * a_5.u) + (metal::max(_e20.y, 0.0) * a_5.c_hat);
 }
 
+float ll_angle_from(
+    float s,
+    float t,
+    float sin_r,
+    float cos_r
+) {
+    float _e10 = ll_atan2_((s * cos_r) - (t * sin_r), (t * cos_r) + (s * sin_r));
+    return _e10;
+}
+
 float ll_arc_tau(
     LlArc a_6,
     metal::float3 dir
 ) {
-    float s_2 = metal::dot(a_6.u, dir);
-    float t = metal::max(metal::dot(a_6.c_hat, dir), 0.0);
-    float _e18 = ll_atan2_((s_2 * a_6.c_b) - (t * a_6.s_b), (t * a_6.c_b) + (s_2 * a_6.s_b));
-    return _e18;
+    float _e10 = ll_angle_from(metal::dot(a_6.u, dir), metal::max(metal::dot(a_6.c_hat, dir), 0.0), a_6.s_b, a_6.c_b);
+    return _e10;
 }
 
 bool ll_arc_contains(
@@ -443,21 +456,24 @@ bool ll_arc_contains(
 ) {
     bool local_8 = {};
     bool local_9 = {};
-    float _e2 = ll_arc_tau(a_7, dir_1);
-    float tol = 0.000001 + (0.000002 * a_7.width);
-    if (metal::dot(a_7.c_hat, dir_1) >= 0.0) {
-        local_8 = _e2 >= -(tol);
+    float s_3 = metal::dot(a_7.u, dir_1);
+    float t_1 = metal::dot(a_7.c_hat, dir_1);
+    float tol = 0.00000025 + (0.000001 * a_7.width);
+    if (t_1 >= 0.0) {
+        float _e17 = ll_angle_from(s_3, t_1, a_7.s_b, a_7.c_b);
+        local_8 = _e17 >= -(tol);
     } else {
         local_8 = false;
     }
-    bool _e17 = local_8;
-    if (_e17) {
-        local_9 = _e2 <= (a_7.width + tol);
+    bool _e21 = local_8;
+    if (_e21) {
+        float _e26 = ll_angle_from(s_3, t_1, a_7.s_e, a_7.c_e);
+        local_9 = _e26 <= tol;
     } else {
         local_9 = false;
     }
-    bool _e24 = local_9;
-    return _e24;
+    bool _e29 = local_9;
+    return _e29;
 }
 
 float ll_arc_delta_s(
@@ -825,9 +841,9 @@ float ll_psa_cdf(
     LlPsaCore c_14,
     float tau_9
 ) {
-    float t_1 = metal::clamp(tau_9, 0.0, c_14.width);
-    metal::float2 _e7 = ll_sin_cos(0.5 * t_1);
-    metal::float2 _e10 = ll_psa_delta_c_parts(c_14, t_1, _e7.x, _e7.y);
+    float t_2 = metal::clamp(tau_9, 0.0, c_14.width);
+    metal::float2 _e7 = ll_sin_cos(0.5 * t_2);
+    metal::float2 _e10 = ll_psa_delta_c_parts(c_14, t_2, _e7.x, _e7.y);
     return metal::clamp((_e10.x + _e10.y) / c_14.total, 0.0, 1.0);
 }
 
@@ -948,12 +964,12 @@ metal::float3x3 ll_shading_frame(
     metal::float3 n_4,
     metal::float3 v
 ) {
-    metal::float3 t_2 = v - (metal::dot(n_4, v) * n_4);
-    float len = metal::length(t_2);
+    metal::float3 t_3 = v - (metal::dot(n_4, v) * n_4);
+    float len = metal::length(t_3);
     float sgn = (n_4.z >= 0.0) ? 1.0 : -1.0;
     float k_6 = -1.0 / (sgn + n_4.z);
     metal::float3 any = metal::float3((n_4.x * n_4.y) * k_6, sgn + ((n_4.y * n_4.y) * k_6), -(n_4.y));
-    metal::float3 xh = (len > 0.0000001) ? (t_2 / metal::float3(len)) : any;
+    metal::float3 xh = (len > 0.0000001) ? (t_3 / metal::float3(len)) : any;
     return metal::float3x3(xh, metal::cross(n_4, xh), n_4);
 }
 

@@ -216,7 +216,7 @@ fn ll_frame_clip(f_in: LlFrame, n: vec3f) -> LlFrame {
 }
 
 // The frame's interval as an arc: sin φ_b, cos φ_b and Δ, with tan Δ = (l_e − l_b)d/(d² + l_b l_e)
-// (no cancellation of φ_e − φ_b).
+// (no cancellation of φ_e − φ_b); sin φ_e, cos φ_e for the support test at the end.
 struct LlArc {
     u: vec3f,
     c_hat: vec3f,
@@ -224,6 +224,8 @@ struct LlArc {
     s_b: f32,
     c_b: f32,
     width: f32,
+    s_e: f32,
+    c_e: f32,
 }
 
 fn ll_arc(f: LlFrame) -> LlArc {
@@ -235,6 +237,9 @@ fn ll_arc(f: LlFrame) -> LlArc {
     a.s_b = f.l_b / r_b;
     a.c_b = f.d / r_b;
     a.width = ll_atan2((f.l_e - f.l_b) * f.d, fma(f.l_b, f.l_e, f.d * f.d));
+    let r_e = sqrt(f.l_e * f.l_e + f.d * f.d);
+    a.s_e = f.l_e / r_e;
+    a.c_e = f.d / r_e;
     return a;
 }
 
@@ -250,19 +255,28 @@ fn ll_arc_direction(a: LlArc, tau: f32) -> vec3f {
     return st.x * a.u + max(st.y, 0.0) * a.c_hat;
 }
 
+// The angle φ − φ_r of a direction with plane coordinates s = u·ω, t = ĉ·ω from the direction
+// (sin φ_r, cos φ_r): accurate to a few ulps of itself near 0 (no cancellation against φ_r).
+fn ll_angle_from(s: f32, t: f32, sin_r: f32, cos_r: f32) -> f32 {
+    return ll_atan2(s * cos_r - t * sin_r, t * cos_r + s * sin_r);
+}
+
 // τ = φ − φ_b of a direction toward the line (its component off the plane of u and ĉ dropped;
 // behind the shading point, t < 0, counts as t = 0). Not clamped.
 fn ll_arc_tau(a: LlArc, dir: vec3f) -> f32 {
-    let s = dot(a.u, dir);
-    let t = max(dot(a.c_hat, dir), 0.0);
-    return ll_atan2(s * a.c_b - t * a.s_b, t * a.c_b + s * a.s_b);
+    return ll_angle_from(dot(a.u, dir), max(dot(a.c_hat, dir), 0.0), a.s_b, a.c_b);
 }
 
-// Whether a direction points into the arc, up to the rounding of an f32 direction.
+// Whether a direction points into the arc widened by 2.5e-7 + 1e-6·Δ rad at each end (the
+// rounding of an f32 direction and of the arc's own ends; the tolerance of linlight's Rust
+// samplers). Each end is tested by the angle from its own direction: τ near Δ, measured from
+// φ_b, carries the rounding of Δ and of τ (~ε·Δ), which would move the far end.
 fn ll_arc_contains(a: LlArc, dir: vec3f) -> bool {
-    let tau = ll_arc_tau(a, dir);
-    let tol = 1e-6 + 2e-6 * a.width;
-    return dot(a.c_hat, dir) >= 0.0 && tau >= -tol && tau <= a.width + tol;
+    let s = dot(a.u, dir);
+    let t = dot(a.c_hat, dir);
+    let tol = 2.5e-7 + 1e-6 * a.width;
+    return t >= 0.0 && ll_angle_from(s, t, a.s_b, a.c_b) >= -tol
+        && ll_angle_from(s, t, a.s_e, a.c_e) <= tol;
 }
 
 // sin(φ_b + τ) − sin φ_b = 2 sin(τ/2) cos(φ_b + τ/2), without cancellation.

@@ -11,6 +11,8 @@ use linlight_gpu::Gpu;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // First: it may set an environment variable, which only a single thread may do.
+    linlight_gpu::without_display_device_select();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let parse = |k: usize, default: usize| -> Result<usize, String> {
         args.get(k).map_or(Ok(default), |s| {
