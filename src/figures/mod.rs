@@ -26,6 +26,7 @@ mod one_spp;
 mod specular;
 mod timings;
 mod tube_radius;
+mod tube_sampling;
 
 use crate::certify::scenes::load_referenced;
 use linlight_imagefile::Image;
@@ -117,7 +118,7 @@ pub struct Figure {
 }
 
 /// Every figure, in page order.
-pub const FIGURES: [Figure; 9] = [
+pub const FIGURES: [Figure; 10] = [
     Figure {
         name: "one-spp",
         title: "One sample per pixel: area vs solid angle vs projected solid angle",
@@ -162,6 +163,12 @@ pub const FIGURES: [Figure; 9] = [
         name: "tube-radius",
         title: "Finite tubes: the exact tube approaches its line as R → 0",
         make: tube_radius::make,
+    },
+    Figure {
+        name: "tube-sampling",
+        title:
+            "Finite tubes: what users pick instead (variance, time to equal error, shading cost)",
+        make: tube_sampling::make,
     },
 ];
 
