@@ -24,7 +24,7 @@ pub struct Args {
     #[arg(long, default_value = "figures")]
     out: PathBuf,
     /// Comma-separated figure names, of: one-spp, cornell, specular, backward-error, noise, newton,
-    /// convergence, timings [default: all].
+    /// convergence, timings, tube-radius, tube-sampling [default: all].
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
     /// Small resolutions and sample counts (what the test suite runs).

@@ -25,6 +25,8 @@ mod noise;
 mod one_spp;
 mod specular;
 mod timings;
+mod tube_radius;
+mod tube_sampling;
 
 use crate::certify::scenes::load_referenced;
 use linlight_imagefile::Image;
@@ -116,7 +118,7 @@ pub struct Figure {
 }
 
 /// Every figure, in page order.
-pub const FIGURES: [Figure; 8] = [
+pub const FIGURES: [Figure; 10] = [
     Figure {
         name: "one-spp",
         title: "One sample per pixel: area vs solid angle vs projected solid angle",
@@ -156,6 +158,17 @@ pub const FIGURES: [Figure; 8] = [
         name: "timings",
         title: "Timings: shading cost of every technique",
         make: timings::make,
+    },
+    Figure {
+        name: "tube-radius",
+        title: "Finite tubes: the exact tube approaches its line as R → 0",
+        make: tube_radius::make,
+    },
+    Figure {
+        name: "tube-sampling",
+        title:
+            "Finite tubes: what users pick instead (variance, time to equal error, shading cost)",
+        make: tube_sampling::make,
     },
 ];
 

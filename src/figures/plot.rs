@@ -48,6 +48,13 @@ fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo / 1.3, hi * 1.3)
 }
 
+/// Vertical error bars: (x, y, low, high) of one colour.
+#[derive(Clone, Debug)]
+pub struct ErrorBars {
+    pub bars: Vec<(f64, f64, f64, f64)>,
+    pub colour: RGBColor,
+}
+
 /// A log–log line plot with a legend, as SVG text.
 pub fn log_log(
     title: &str,
@@ -55,12 +62,28 @@ pub fn log_log(
     y_label: &str,
     series: &[Series],
 ) -> Result<String, String> {
+    log_log_with_bars(title, x_label, y_label, series, &[])
+}
+
+/// [`log_log`] with vertical error bars (a bar's ends below zero are drawn at the plot's edge).
+pub fn log_log_with_bars(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    bars: &[ErrorBars],
+) -> Result<String, String> {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (640, 420)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
         let (x0, x1) = log_range(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
-        let (y0, y1) = log_range(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+        let (y0, y1) = log_range(
+            series
+                .iter()
+                .flat_map(|s| s.points.iter().map(|p| p.1))
+                .chain(bars.iter().flat_map(|b| b.bars.iter().map(|p| p.3))),
+        );
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 16))
             .margin(10)
@@ -96,6 +119,26 @@ pub fn log_log(
             });
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 2, c.filled())))
+                .map_err(err)?;
+        }
+        for b in bars {
+            let style = b.colour.stroke_width(1);
+            chart
+                .draw_series(
+                    b.bars
+                        .iter()
+                        .filter(|p| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.3.is_finite())
+                        .flat_map(|&(x, _, lo, hi)| {
+                            // A vertical line with caps 8 % either side of x (log axis).
+                            let (lo, hi) = (lo.max(y0), hi.min(y1));
+                            let (xl, xr) = (x / 1.08, x * 1.08);
+                            [
+                                PathElement::new(vec![(x, lo), (x, hi)], style),
+                                PathElement::new(vec![(xl, lo), (xr, lo)], style),
+                                PathElement::new(vec![(xl, hi), (xr, hi)], style),
+                            ]
+                        }),
+                )
                 .map_err(err)?;
         }
         chart

@@ -434,6 +434,27 @@ pub(crate) mod test_support {
             .collect()
     }
 
+    /// Ω of the visible side by a reference quadrature independent of the techniques': θ-panels
+    /// graded geometrically toward θ = 0 (edges θ_max·2^−k, k ≤ 60), 24 nodes each, of
+    /// (s_b − s_a)·dα/dθ with α(θ) and h from the view.
+    pub fn omega_reference(v: &CylinderView) -> f64 {
+        let nodes = gauss_legendre(24);
+        let s_of = |e: f64, h: f64| e / e.hypot(h);
+        let mut half = 0.0;
+        let mut hi = v.theta_max;
+        for k in 0..=60 {
+            let lo = if k == 60 { 0.0 } else { 0.5 * hi };
+            for &(x, wt) in &nodes {
+                let theta = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x;
+                let (alpha, jac) = v.alpha_of_theta(theta);
+                let h = v.h(alpha);
+                half += 0.5 * (hi - lo) * wt * jac * (s_of(v.b, h) - s_of(v.a, h));
+            }
+            hi = lo;
+        }
+        2.0 * half
+    }
+
     /// ∫ g(α, φ) dΩ over the visible side: θ-panels × φ between the ends, Gauss–Legendre in
     /// both, the φ-interval split at the horizon (densities may kink or jump there).
     pub fn integrate(view: &CylinderView, g: &mut dyn FnMut(f64, f64) -> f64) -> f64 {

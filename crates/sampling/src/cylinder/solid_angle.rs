@@ -33,7 +33,7 @@ pub const PANELS: usize = 3;
 const MAX_CANDIDATES: usize = 2000;
 
 /// 8-point Gauss–Legendre nodes and weights on [0, 1] (the positive half of the symmetric rule).
-const GL8: [(f64, f64); 4] = [
+pub(crate) const GL8: [(f64, f64); 4] = [
     (0.183_434_642_495_649_8, 0.362_683_783_378_362),
     (0.525_532_409_916_329, 0.313_706_645_877_887_3),
     (0.796_666_477_413_626_7, 0.222_381_034_453_374_5),
