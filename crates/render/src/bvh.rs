@@ -215,17 +215,18 @@ impl RayBoxes {
 /// Most rays in one packet ([`Bvh::intersect_lanes`], [`Bvh::occluded_lanes`]).
 pub const PACKET: usize = 16;
 
-/// Most 4-wide nodes of a tree whose any-hit packet walks test boxes against a coherent packet
-/// by intervals. The interval box of shadow rays fanning out from one pixel's points toward a
-/// long light covers the whole wedge between them: on a large tree it enters subtrees no ray
-/// meets (many-meshes, 2.3 M triangles: ~30× the cost per sample of ray-by-ray box tests),
-/// while on a small one (the committed scenes, at most a few hundred nodes) it is the cheaper
-/// test. Larger trees test boxes ray by ray.
+/// Most 4-wide nodes of a tree whose packet walks test boxes against a coherent packet by
+/// intervals. The interval box of shadow rays fanning out from one pixel's points toward a
+/// long light covers the whole wedge between them, and that of a pixel's camera rays a whole
+/// pixel footprint, which on a large tree holds many triangles: it enters subtrees no ray
+/// meets (many-meshes, 2.3 M triangles: ~30× the cost per shadow ray of ray-by-ray box tests;
+/// camera rays on ladder-4m: 6.5×), while on a small tree (the committed scenes, at most a few
+/// hundred nodes) it is the cheaper test. Larger trees test boxes ray by ray.
 const INTERVAL_NODES: usize = 1024;
 
-/// A subtree that at most this many rays of an any-hit packet walk enter is walked ray by
-/// ray ([`Bvh::occluded`]'s walk from that node): the packet's box and triangle tests cost
-/// all sixteen lanes whatever the number of rays.
+/// A subtree that at most this many rays of a packet walk on a large tree enter is walked ray
+/// by ray (the walk of [`Bvh::occluded`] or [`Bvh::intersect`] from that node): the packet's
+/// box and triangle tests cost all sixteen lanes whatever the number of rays.
 const FEW_RAYS: u32 = 2;
 
 /// Up to [`PACKET`] rays as structure of arrays (the rays of a packet renderer); which lanes
@@ -986,7 +987,16 @@ impl Bvh {
     /// [`Self::intersect_walk`] through the tree: `out`'s hits, not its mask.
     #[inline(always)]
     fn intersect_tree<K: Kernel>(&self, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
+        // As the any-hit walk: small trees test coherent packets by intervals, larger ones
+        // test boxes ray by ray and walk the subtrees that few rays enter ray by ray.
+        let small = self.nodes.len() <= INTERVAL_NODES;
+        let few = if small { 0 } else { FEW_RAYS };
         let mut packet = K::packet(lanes, active);
+        packet.coherent &= small;
+        if active.count_ones() <= few {
+            self.intersect_rays(lanes, active, 0, &mut packet.t_max, out);
+            return;
+        }
         let mut stack = stack::<PacketEntry, 64>();
         let mut spill: Vec<PacketEntry> = Vec::new();
         let mut sp = 0;
@@ -1040,7 +1050,11 @@ impl Bvh {
             let node = &self.nodes[parent as usize];
             let (child, count) = (node.child[lane], node.count[lane]);
             if count == 0 {
-                expand = Some((child, mask));
+                if mask.count_ones() <= few {
+                    self.intersect_rays(lanes, mask, child, &mut packet.t_max, out);
+                } else {
+                    expand = Some((child, mask));
+                }
                 continue;
             }
             let mut took = 0u32;
@@ -1058,6 +1072,41 @@ impl Bvh {
                 // interval tests of a coherent packet).
                 packet.t_hi = K::max(&packet.t_max);
             }
+        }
+    }
+
+    /// The closest hits of the rays of `mask` within the subtree of node `node`, walked ray by
+    /// ray from their current best hits in `out` and intervals up to `t_max` (both updated).
+    #[inline(never)]
+    fn intersect_rays(
+        &self,
+        lanes: &RayLanes,
+        mask: u32,
+        node: u32,
+        t_max: &mut [f32; PACKET],
+        out: &mut PacketHits,
+    ) {
+        let mut m = mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let mut ray = Ray {
+                t_max: t_max[k],
+                ..lanes.get(k)
+            };
+            let mut best = (out.t[k], out.prim[k], out.b1[k], out.b2[k]);
+            let start = (node, 0, ray.t_min);
+            self.traverse_from::<STACK>(&mut ray, start, |bvh, i, ray| {
+                if let Some((t, b1, b2)) = bvh.intersect_prim(i as usize, ray) {
+                    if replaces(t, i, best.0, best.1) {
+                        ray.t_max = t.next_up();
+                        best = (t, i, b1, b2);
+                    }
+                }
+                false
+            });
+            (out.t[k], out.prim[k], out.b1[k], out.b2[k]) = best;
+            t_max[k] = ray.t_max;
         }
     }
 
@@ -1733,6 +1782,73 @@ mod tests {
     }
 
     /// A triangle soup of `count` triangles with a sphere in its middle.
+    /// Closest hits on a tree of more than `INTERVAL_NODES` nodes (ray-by-ray box tests, the
+    /// subtrees of few rays walked ray by ray) equal the single-ray walk's, ties included.
+    #[test]
+    fn closest_hit_packets_match_single_rays_on_large_trees() {
+        let mut rng = Pcg32::new(8, 4);
+        let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let mut prims = triangle_soup(&mut r3, 16_000, 0.6);
+        // Every fifth triangle twice: every hit on it is a tie.
+        let twins: Vec<Primitive> = prims
+            .iter()
+            .step_by(5)
+            .map(|p| match p {
+                Primitive::Triangle { v, n, shape } => Primitive::Triangle {
+                    v: *v,
+                    n: *n,
+                    shape: 100_000 + shape,
+                },
+                _ => unreachable!("the soup holds triangles"),
+            })
+            .collect();
+        prims.extend(twins);
+        prims.push(Primitive::Sphere {
+            center: Vec3::splat(5.0),
+            radius: 1.0,
+            shape: 200_000,
+        });
+        let bvh = Bvh::build(prims);
+        assert!(bvh.nodes.len() > INTERVAL_NODES, "{}", bvh.nodes.len());
+        let variants = walk_variants(&bvh);
+        let (mut hits, mut total) = (0, 0);
+        for k in 0..600 {
+            let size = 1 + k % PACKET;
+            let origin = r3() * 12.0 - 1.0;
+            let aim = r3() * 12.0 - 1.0;
+            let rays: Vec<Ray> = (0..size)
+                .map(|_| {
+                    // A pixel's camera rays (one origin, close directions), rays fanning out
+                    // from one origin, or anything.
+                    let (o, target) = match k % 3 {
+                        0 => (origin, aim + 0.02 * (r3() - 0.5)),
+                        1 => (origin, aim + 2.0 * (r3() - 0.5)),
+                        _ => (r3() * 12.0 - 1.0, r3() * 12.0 - 1.0),
+                    };
+                    Ray {
+                        o,
+                        d: (target - o).normalize_or(Vec3::X),
+                        t_min: 0.01,
+                        t_max: 20.0,
+                    }
+                })
+                .collect();
+            for b in std::iter::once(&bvh).chain(&variants) {
+                let packet = b.intersect_packet(&rays);
+                assert_eq!(packet.mask >> size, 0);
+                for (i, ray) in rays.iter().enumerate() {
+                    let single = bvh.intersect(ray).map(|h| (h.t, h.prim, h.b1, h.b2));
+                    let got = packet.get(i).map(|h| (h.t, h.prim, h.b1, h.b2));
+                    assert_eq!(got, single, "packet {k}, ray {i}, {:?}", b.walk_isa);
+                    hits += single.is_some() as usize;
+                    total += 1;
+                }
+            }
+        }
+        // Both outcomes occur.
+        assert!(hits > total / 5 && hits < total, "{hits}/{total}");
+    }
+
     fn occlusion_soup(count: u32, size: f32) -> Bvh {
         let mut rng = Pcg32::new(3, 9);
         let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());

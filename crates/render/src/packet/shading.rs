@@ -266,6 +266,7 @@ fn shading_frames(
     n: &Lanes3,
     (frame_x, frame_y, v): (&mut Lanes3, &mut Lanes3, &mut [[f32; PACKET_LANES]; 2]),
 ) {
+    #[allow(clippy::needless_range_loop)] // lane k of every array: the loop that vectorises
     for k in 0..PACKET_LANES {
         let (frame, vk) = shading_frame(get3(n, k), -get3(&rays.d, k));
         set3(frame_x, k, frame.x_axis);
