@@ -265,7 +265,7 @@ pub struct SupportEnds {
     pub examples: Vec<String>,
 }
 
-/// Probes the kernels' `pdf` at directions spaced [`SUPPORT_END_STEP`] apart across each end of
+/// Probes the kernels' `pdf` at directions spaced `SUPPORT_END_STEP` (1e-8 rad) apart across each end of
 /// every configuration's support (from [`SUPPORT_END_BOUND`] + 2e-7 inside the reference's end
 /// to as far outside its widened support, docs/kernels.md): each answer must lie within the
 /// sampler suite's pdf-consistency tolerance (1e-3 relative plus 1e-5 of the mean density) of

@@ -4,14 +4,15 @@
 //! the batch kernels of `linlight_sampling::batch` (the packet's sixteen lanes at once), one
 //! packet walk for their shadow rays, then the contributions: Lambertian lanes (f = ρ/π) on the lanes'
 //! arrays, lanes on other surfaces (rough conductor, principled, blends) with the scalar path's
-//! shading frame ([`shading_frame`]) for all lanes at once and its BSDF evaluation on all
-//! sixteen lanes at once per BSDF ([`Bsdf::eval_lanes`], f32 SIMD lanes: the scalar path's
-//! `Bsdf::eval_f32` is its one-lane case) and [`single_contribution`]'s arithmetic; a packet
+//! shading frame ([`shading_frame`](crate::shading::shading_frame)) for all lanes at once and its BSDF evaluation on all
+//! sixteen lanes at once per BSDF ([`Bsdf::eval_lanes`](crate::scene::Bsdf::eval_lanes), f32 SIMD lanes: the scalar path's
+//! `Bsdf::eval_f32` is its one-lane case) and [`single_contribution`](crate::shading::single_contribution)'s arithmetic; a packet
 //! may mix both.
 //!
 //! Lanes that a batch kernel cannot sample — a technique without one (area, solid angle, Hart),
 //! LTC and MIS on non-Lambertian surfaces — take their samples lane by lane with the scalar
-//! code ([`single_sample`], [`TwoTechniqueLight::candidates`]) and trace them in packet walks
+//! code ([`single_sample`](crate::shading::single_sample),
+//! [`TwoTechniqueLight::candidates`](crate::shading::TwoTechniqueLight::candidates)) and trace them in packet walks
 //! (LTC and MIS: one for the diffuse, one for the specular samples).
 //!
 //! The lights: with `--lights every` one pass per light, every lane sampling that light; with
@@ -87,7 +88,7 @@ const _: () = assert!(
 /// [`render_isa`] renders any scene, method and light selection with one light sample and
 /// white noise.
 /// Under `--cylinders exact` with tubes: wherever every light is a tube (their samples are
-/// scalar code per lane, [`tube`]; the packets' walks pay on every scene), never otherwise.
+/// scalar code per lane, `packet::tube`; the packets' walks pay on every scene), never otherwise.
 pub fn applies(scene: &Scene, opts: &RenderOptions) -> bool {
     if let Some(all) = exact_tubes(scene, opts) {
         return renders(opts) && all;
