@@ -90,7 +90,10 @@ class Line:
         """Density per radius of directions toward the line: (n·ω)/Ω⊥_R on the clipped part."""
         w = dirs.astype(np.float64)
         phi = np.arctan2(w @ self.u, w @ self.c_hat)
-        inside = (phi >= self.phi_b) & (phi <= self.phi_e)
+        # A direction rounded to f32 lies up to ~1e-7 rad off its φ: the support includes a
+        # tolerance at each end, the same as linlight's samplers (2.5e-7 + 1e-6 × its width).
+        tol = 2.5e-7 + 1e-6 * (self.phi_e - self.phi_b)
+        inside = (phi >= self.phi_b - tol) & (phi <= self.phi_e + tol)
         cos = np.maximum(w @ self.n, 0.0)
         return np.where(inside, cos / self.psa, 0.0).astype(np.float32)
 
