@@ -31,27 +31,8 @@ impl<'a> Context<'a> {
         let visible = samples
             .each_ref()
             .map(|s| s.visible(self.rs, shading, lights));
-        let mut dropped = 0;
-        let mut m = lanes;
-        while m != 0 {
-            let k = m.trailing_zeros() as usize;
-            m &= m - 1;
-            // This light's estimate at lane k: its visible samples in the scalar order, summed
-            // from +0 (a lane without one adds +0, which leaves the total's bits unchanged).
-            let mut light = Vec3::ZERO;
-            for (s, visible) in samples.iter().zip(visible) {
-                if visible >> k & 1 == 1 {
-                    let c = get3(&s.c, k);
-                    if c.is_finite() {
-                        light += c;
-                    } else {
-                        dropped += 1;
-                    }
-                }
-            }
-            set3(total, k, get3(total, k) + light);
-        }
-        dropped
+        let seen: [(&Lanes3, u32); 2] = std::array::from_fn(|i| (&samples[i].c, visible[i]));
+        add_visible(&seen, lanes, total)
     }
 
     /// The samples of [`Self::scalar_light`] before visibility, lane by lane; ξ of lane k:
@@ -116,6 +97,33 @@ impl<'a> Context<'a> {
         }
         samples
     }
+}
+
+/// Adds to `total`, at each lane of `lanes`, the contributions of the samples whose shadow ray
+/// reached the light there (bit k of each mask), in the samples' order and summed from +0 per
+/// lane as the scalar path sums them. Returns the number of non-finite contributions left out.
+#[inline(always)]
+pub(super) fn add_visible(samples: &[(&Lanes3, u32)], lanes: u32, total: &mut Lanes3) -> u64 {
+    let mut dropped = 0;
+    let mut m = lanes;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        // A lane without a visible sample adds +0, which leaves the total's bits unchanged.
+        let mut light = Vec3::ZERO;
+        for &(c, visible) in samples {
+            if visible >> k & 1 == 1 {
+                let c = get3(c, k);
+                if c.is_finite() {
+                    light += c;
+                } else {
+                    dropped += 1;
+                }
+            }
+        }
+        set3(total, k, get3(total, k) + light);
+    }
+    dropped
 }
 
 /// Samples found lane by lane with the scalar code: lane k (in `mask`) adds `c[k]` when the

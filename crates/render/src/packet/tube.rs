@@ -15,6 +15,7 @@
 //! light numbers. So the images equal the scalar path's bit for bit (tests in the parent
 //! module).
 
+use super::scalar::add_visible;
 use super::shading::ShadingLanes;
 use super::shadow::shadow_ray_lane;
 use super::{Context, Lanes3};
@@ -118,23 +119,8 @@ impl Context<'_> {
             let visible = samples
                 .each_ref()
                 .map(|s| s.visible_past_tubes(self, shading, &lights.light));
-            let mut m = shaded;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let mut light = Vec3::ZERO;
-                for (s, visible) in samples.iter().zip(visible) {
-                    if visible >> k & 1 == 1 {
-                        let c = get3(&s.c, k);
-                        if c.is_finite() {
-                            light += c;
-                        } else {
-                            dropped += 1;
-                        }
-                    }
-                }
-                set3(total, k, get3(total, k) + light);
-            }
+            let seen = [(&samples[0].c, visible[0]), (&samples[1].c, visible[1])];
+            dropped += add_visible(&seen, shaded, total);
         }
         (shaded, dropped)
     }
