@@ -380,12 +380,7 @@ pub fn markdown(rows: &[Row], shading: &[(String, Vec<(CylinderTechnique, f64)>)
     }
     s.push_str("\n| scene | area | solid angle | Gamito | ours | ours / Gamito |\n|---|---|---|---|---|---|\n");
     for (scene, ns) in shading {
-        let get = |t: CylinderTechnique| {
-            ns.iter()
-                .find(|x| x.0 == t)
-                .map(|x| x.1)
-                .unwrap_or(f64::NAN)
-        };
+        let get = |t: CylinderTechnique| ns_of(ns, t);
         s.push_str(&format!(
             "| {scene} | {} | {} | {} | {} | {} |\n",
             num(get(CylinderTechnique::Area)),
@@ -398,66 +393,46 @@ pub fn markdown(rows: &[Row], shading: &[(String, Vec<(CylinderTechnique, f64)>)
     s
 }
 
-pub fn make(ctx: &Ctx) -> Result<Section, String> {
-    let root = &ctx.opts.root;
-    let (passes, spp) = sizes(ctx.opts.quick);
-    let started = Instant::now();
-    let mut rows = Vec::new();
-    let mut shading = Vec::new();
-    for (i, (label, stem)) in SCENES.iter().enumerate() {
-        let base = i as f64 / SCENES.len() as f64;
-        let progress = |f: f64| ctx.progress(base + 0.9 * f / SCENES.len() as f64);
-        rows.extend(scene_rows(
-            root,
-            label,
-            stem,
-            (passes, spp),
-            ctx.opts.seed,
-            &progress,
-        )?);
-        shading.push((
-            label.to_string(),
-            shading_ns(root, stem, bench_passes(ctx.opts.quick))?,
-        ));
-        ctx.progress((i + 1) as f64 / SCENES.len() as f64);
-    }
-    let seconds = started.elapsed().as_secs_f64();
-    let md = markdown(&rows, &shading);
-    let mut files = vec![ctx.write_text("tube-sampling.md", &md)?];
-    files.push(
-        ctx.write_text(
-            "tube-sampling.csv",
-            &csv(
-                &[
-                    "scene",
-                    "method",
-                    "options",
-                    "relative_variance",
-                    "ns_per_sample",
-                    "variance_vs_mitsuba",
-                    "time_vs_mitsuba",
-                    "difference_vs_reference",
-                    "difference_error",
-                ],
-                &rows
-                    .iter()
-                    .map(|r| {
-                        vec![
-                            r.scene.clone(),
-                            format!("\"{}\"", r.method),
-                            r.options.clone(),
-                            format!("{:e}", r.relative_variance),
-                            format!("{}", r.ns_per_sample),
-                            format!("{:e}", r.variance_vs_mitsuba),
-                            format!("{:e}", r.time_vs_mitsuba),
-                            format!("{:e}", r.difference_vs_reference),
-                            format!("{:e}", r.difference_error),
-                        ]
-                    })
-                    .collect::<Vec<_>>(),
-            ),
-        )?,
-    );
+/// ns per shading point of technique `t` in one scene's shading benchmark (NaN if absent).
+fn ns_of(ns: &[(CylinderTechnique, f64)], t: CylinderTechnique) -> f64 {
+    ns.iter().find(|x| x.0 == t).map_or(f64::NAN, |x| x.1)
+}
+
+/// The rows as CSV, one line per scene × method.
+fn rows_csv(rows: &[Row]) -> String {
+    csv(
+        &[
+            "scene",
+            "method",
+            "options",
+            "relative_variance",
+            "ns_per_sample",
+            "variance_vs_mitsuba",
+            "time_vs_mitsuba",
+            "difference_vs_reference",
+            "difference_error",
+        ],
+        &rows
+            .iter()
+            .map(|r| {
+                vec![
+                    r.scene.clone(),
+                    format!("\"{}\"", r.method),
+                    r.options.clone(),
+                    format!("{:e}", r.relative_variance),
+                    format!("{}", r.ns_per_sample),
+                    format!("{:e}", r.variance_vs_mitsuba),
+                    format!("{:e}", r.time_vs_mitsuba),
+                    format!("{:e}", r.difference_vs_reference),
+                    format!("{:e}", r.difference_error),
+                ]
+            })
+            .collect::<Vec<_>>(),
+    )
+}
+
+/// The section's two HTML tables: the rows, then the shading benchmark per scene.
+fn html_tables(rows: &[Row], shading: &[(String, Vec<(CylinderTechnique, f64)>)]) -> String {
     let body = format!(
         "{}{}",
         table(
@@ -498,12 +473,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
                 .iter()
                 .map(|(scene, ns)| {
                     let mut r = vec![scene.clone()];
-                    let get = |t: CylinderTechnique| {
-                        ns.iter()
-                            .find(|x| x.0 == t)
-                            .map(|x| x.1)
-                            .unwrap_or(f64::NAN)
-                    };
+                    let get = |t: CylinderTechnique| ns_of(ns, t);
                     for t in [
                         CylinderTechnique::Area,
                         CylinderTechnique::SolidAngle,
@@ -520,21 +490,26 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
                 .collect::<Vec<_>>(),
         )
     );
+    body
+}
+
+/// "scene ratio" of ours to Gamito's shading cost, per scene.
+fn ours_over_gamito(shading: &[(String, Vec<(CylinderTechnique, f64)>)]) -> Vec<String> {
     let ratio: Vec<String> = shading
         .iter()
         .map(|(scene, ns)| {
-            let get = |t: CylinderTechnique| {
-                ns.iter()
-                    .find(|x| x.0 == t)
-                    .map(|x| x.1)
-                    .unwrap_or(f64::NAN)
-            };
+            let get = |t: CylinderTechnique| ns_of(ns, t);
             format!(
                 "{scene} {}",
                 num(get(CylinderTechnique::Projected) / get(CylinderTechnique::Gamito))
             )
         })
         .collect();
+    ratio
+}
+
+/// Per scene, the method (with options) fastest to equal error, and its time vs Mitsuba's.
+fn fastest(rows: &[Row]) -> Vec<String> {
     let best: Vec<String> = SCENES
         .iter()
         .map(|(label, _)| {
@@ -552,6 +527,41 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             }
         })
         .collect();
+    best
+}
+
+pub fn make(ctx: &Ctx) -> Result<Section, String> {
+    let root = &ctx.opts.root;
+    let (passes, spp) = sizes(ctx.opts.quick);
+    let started = Instant::now();
+    let mut rows = Vec::new();
+    let mut shading = Vec::new();
+    for (i, (label, stem)) in SCENES.iter().enumerate() {
+        let base = i as f64 / SCENES.len() as f64;
+        let progress = |f: f64| ctx.progress(base + 0.9 * f / SCENES.len() as f64);
+        rows.extend(scene_rows(
+            root,
+            label,
+            stem,
+            (passes, spp),
+            ctx.opts.seed,
+            &progress,
+        )?);
+        shading.push((
+            label.to_string(),
+            shading_ns(root, stem, bench_passes(ctx.opts.quick))?,
+        ));
+        ctx.progress((i + 1) as f64 / SCENES.len() as f64);
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let md = markdown(&rows, &shading);
+    let files = vec![
+        ctx.write_text("tube-sampling.md", &md)?,
+        ctx.write_text("tube-sampling.csv", &rows_csv(&rows))?,
+    ];
+    let body = html_tables(&rows, &shading);
+    let ratio = ours_over_gamito(&shading);
+    let best = fastest(&rows);
     let caption = format!(
         "What it shows: which technique to pick for a tube light of finite radius. The committed scenes \
          <code>references/finite-tubes/</code> (diffuse floor, R = 0.08; rough conductor, GGX α = 0.25, \
