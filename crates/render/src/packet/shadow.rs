@@ -49,3 +49,27 @@ pub(super) fn shadow_ray_lane(p: Vec3, ng: Vec3, target: Vec3) -> (Ray, bool) {
     };
     (ray, ok)
 }
+
+/// The shadow rays of the lanes of `mask` from their shading points toward the points at
+/// `distance[k]` along `dir[k]` ([`shadow_ray_lane`]), and the lanes whose ray is valid.
+#[inline(always)]
+pub(super) fn shadow_rays_along(
+    mask: u32,
+    dir: &super::Lanes3,
+    distance: &[f32; PACKET_LANES],
+    shading: &ShadingLanes,
+) -> (RayLanes, u32) {
+    let mut rays = RayLanes::default();
+    let mut valid = 0u32;
+    let mut m = mask;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let p = get3(&shading.p, k);
+        let target = p + distance[k] * get3(dir, k);
+        let (ray, ok) = shadow_ray_lane(p, get3(&shading.ng, k), target);
+        rays.set(k, &ray);
+        valid |= (ok as u32) << k;
+    }
+    (rays, valid)
+}

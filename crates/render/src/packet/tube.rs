@@ -17,7 +17,7 @@
 
 use super::scalar::add_visible;
 use super::shading::ShadingLanes;
-use super::shadow::shadow_ray_lane;
+use super::shadow::shadow_rays_along;
 use super::{Context, Lanes3};
 use crate::bvh::{PacketHits, RayLanes};
 use crate::hooks::SceneBsdf;
@@ -158,18 +158,7 @@ impl TubeLanes {
         if self.mask == 0 {
             return 0;
         }
-        let mut rays = RayLanes::default();
-        let mut mask = 0u32;
-        let mut m = self.mask;
-        while m != 0 {
-            let k = m.trailing_zeros() as usize;
-            m &= m - 1;
-            let p = get3(&shading.p, k);
-            let target = p + self.distance[k] * get3(&self.dir, k);
-            let (ray, ok) = shadow_ray_lane(p, get3(&shading.ng, k), target);
-            rays.set(k, &ray);
-            mask |= (ok as u32) << k;
-        }
+        let (rays, mask) = shadow_rays_along(self.mask, &self.dir, &self.distance, shading);
         let mut visible = mask & !ctx.rs.bvh.occluded_lanes(&rays, mask);
         let mut m = visible;
         while m != 0 {
