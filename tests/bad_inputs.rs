@@ -58,6 +58,12 @@ fn setup(dir: &Path) {
          property float y\nproperty float z\nelement face 10000000\n\
          property list uchar int vertex_indices\nend_header\n",
     );
+    // One polygon of 30 000 corners: 29 998 triangles, more than --max-memory 0.065 allows.
+    write(
+        dir,
+        "huge.obj",
+        format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nf{}\n", " 1 2 3".repeat(10_000)),
+    );
     write(
         dir,
         "nan.ply",
@@ -75,6 +81,12 @@ fn setup(dir: &Path) {
             ),
         );
     }
+    variant(
+        dir,
+        "huge_obj.xml",
+        r#"<shape type="sphere">"#,
+        r#"<shape type="obj"><string name="filename" value="huge.obj"/></shape><shape type="sphere">"#,
+    );
     variant(
         dir,
         "empty_obj.xml",
@@ -141,6 +153,12 @@ fn cases() -> Vec<Case> {
             &["render", "{dir}/huge_ply.xml", "--max-memory", "0.5"],
             2,
             "declares 10000000 faces in its PLY header",
+        ),
+        case(
+            "an OBJ of 29 998 triangles above --max-memory",
+            &["render", "{dir}/huge_obj.xml", "--max-memory", "0.065"],
+            2,
+            "has faces of 29998 triangles",
         ),
         case(
             "a PLY vertex with a NaN coordinate",

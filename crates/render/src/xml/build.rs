@@ -694,33 +694,15 @@ impl<'a> Builder<'a> {
 
     /// The mesh files of the `obj` and `ply` shapes among `shapes`, read and parsed in
     /// parallel, in the order of `shapes` (None for other shapes and for a shape whose
-    /// `filename` or `face_normals` does not read: [`Builder::shape`] reports why). Files whose
-    /// PLY headers declare more triangles than the scene's budget allows are refused unread.
+    /// `filename` or `face_normals` does not read: [`Builder::shape`] reports why). Files that
+    /// would make more triangles than the scene's budget allows are refused before a mesh is
+    /// built: PLY files from their headers, unread; OBJ files from a count of their faces.
     fn read_meshes(&mut self, shapes: &[(Rc<Elem>, SourceLocation)]) -> Vec<Option<MeshRead>> {
         let jobs: Vec<Option<MeshJob>> = shapes.iter().map(|(e, _)| self.mesh_job(e)).collect();
-        let mut refused: Vec<Option<String>> = vec![None; jobs.len()];
-        if let Some(budget) = &self.budget {
-            let mut total = 0u64;
-            for (job, refusal) in jobs.iter().zip(&mut refused) {
-                let Some(job) = job.as_ref().filter(|j| j.ply) else {
-                    continue;
-                };
-                let Ok(faces) = ply::declared_faces(&job.path) else {
-                    continue; // the parse reports what is wrong with the file
-                };
-                total = total.saturating_add(faces);
-                if total > budget.max_triangles {
-                    *refusal = Some(format!(
-                        "'{}' declares {faces} faces in its PLY header: with the meshes before it, \
-                         {total} triangles or more, more than {} allows (about {} triangles); \
-                         the file was not read",
-                        job.path.display(),
-                        budget.why,
-                        budget.max_triangles
-                    ));
-                }
-            }
-        }
+        let refused = match &self.budget {
+            Some(budget) => refusals(&jobs, budget),
+            None => vec![None; jobs.len()],
+        };
         jobs.into_par_iter()
             .zip(refused)
             .map(|(job, refusal)| {
@@ -995,6 +977,44 @@ struct MeshJob {
     path: std::path::PathBuf,
     ply: bool,
     face_normals: bool,
+}
+
+/// Per job, why the budget refuses it: the triangles of the mesh files up to and including it
+/// exceed `budget` (a file whose count cannot be read is left to the parse to report).
+fn refusals(jobs: &[Option<MeshJob>], budget: &MeshBudget) -> Vec<Option<String>> {
+    let counts: Vec<Option<u64>> = jobs
+        .par_iter()
+        .map(|job| {
+            let job = job.as_ref()?;
+            if job.ply {
+                ply::declared_faces(&job.path).ok()
+            } else {
+                obj::counted_triangles(&job.path).ok()
+            }
+        })
+        .collect();
+    let mut total = 0u64;
+    jobs.iter()
+        .zip(counts)
+        .map(|(job, count)| {
+            let (job, n) = (job.as_ref()?, count?);
+            total = total.saturating_add(n);
+            let what = if job.ply {
+                format!("declares {n} faces in its PLY header")
+            } else {
+                format!("has faces of {n} triangles")
+            };
+            (total > budget.max_triangles).then(|| {
+                format!(
+                    "'{}' {what}: with the meshes before it, {total} triangles or more, more \
+                     than {} allows (about {} triangles); its mesh was not built",
+                    job.path.display(),
+                    budget.why,
+                    budget.max_triangles
+                )
+            })
+        })
+        .collect()
 }
 
 /// Why a mesh file gave no mesh: it could not be read, its content was refused, or it was

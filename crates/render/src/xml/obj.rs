@@ -7,6 +7,22 @@ use super::shapes::RawMesh;
 use glam::DVec3;
 use std::collections::HashMap;
 
+/// The triangles the `f` lines of an OBJ file make (a polygon of n corners is n − 2), counted
+/// without building the mesh: what [`parse_obj`] would produce from a well-formed file.
+pub fn counted_triangles(path: &std::path::Path) -> Result<u64, String> {
+    let data =
+        linlight_imagefile::input::read_capped(path, linlight_imagefile::input::MAX_BINARY_BYTES)?;
+    Ok(data
+        .split(|&b| b == b'\n')
+        .filter_map(|line| {
+            let mut tok = line
+                .split(u8::is_ascii_whitespace)
+                .filter(|t| !t.is_empty());
+            (tok.next() == Some(b"f".as_slice())).then(|| (tok.count() as u64).saturating_sub(2))
+        })
+        .sum())
+}
+
 /// Parses OBJ text. Errors are "line N: message".
 pub fn parse_obj(text: &str, face_normals: bool) -> Result<RawMesh, String> {
     let mut v: Vec<DVec3> = Vec::new();
