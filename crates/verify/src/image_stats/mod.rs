@@ -373,7 +373,8 @@ pub struct Comparison {
     pub channels: Vec<ChannelReport>,
     pub pixel_classes: PixelClasses,
     pub zero_variance: ZeroVarianceReport,
-    /// Contact pixels (union of both headers' `contact_pixels`) and the relative allowance.
+    /// Contact pixels (union of both headers' `contact_pixels`) and their relative allowance
+    /// (0 when there are none: no pixel is then judged with an allowance).
     pub contact_pixels: Vec<[usize; 2]>,
     pub contact_allowance: f64,
     /// Plain error metrics (MSE, relMSE, MAPE) of A against B.
@@ -661,7 +662,11 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
     for &[x, y] in &contact_list {
         contact[y * w + x] = true;
     }
-    let allowance = contact_allowance(a, b, cfg.contact_coefficient);
+    let allowance = if contact_list.is_empty() {
+        0.0
+    } else {
+        contact_allowance(a, b, cfg.contact_coefficient)
+    };
     let tests = CHANNELS.len() * (TESTS_PER_CHANNEL + usize::from(!contact_list.is_empty()));
     let alpha_test = cfg.alpha / tests as f64;
     let levels = GlobalLevels {

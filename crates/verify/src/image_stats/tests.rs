@@ -528,6 +528,10 @@ fn contact_pixels_are_tested_apart_against_the_finite_radius_allowance() {
     let a0 = render(4500, NOISE, |_, _| 1.0);
     let mut b = render(4501, NOISE, |_, _| 1.0);
     b.meta.extra.insert("radius".into(), "0.0001".into());
+    // A radius without contact pixels: no pixel has an allowance, none is reported.
+    let plain = compare(&a0, &b, &CompareConfig::default()).unwrap();
+    assert!(plain.contact_pixels.is_empty());
+    assert_eq!(plain.contact_allowance, 0.0);
     // A 1 % difference at 9 contact pixels: within c·R·ln(1/R) = 20·1e-4·9.21 = 1.84 %.
     let contact: Vec<(usize, usize)> = (60..63)
         .flat_map(|y| (60..63).map(move |x| (x, y)))
