@@ -7,13 +7,12 @@ use super::imaging::{enlarge, log_colour, log_colour_bar, luminance, white_scale
 use super::page::{colour_bar, num, picture, row, table};
 use super::HitPoint;
 use super::{csv, hit_points, Ctx, Section};
-use glam::Vec3;
+use linlight_render::light::Light;
 use linlight_sampling::backward_error::{
     sampler_backward_error, sweep, Precision, SweepConfig, SweepRow,
 };
 use linlight_sampling::noise::{Noise, NoiseSource};
 use linlight_sampling::projected_solid_angle::{ProjectedSolidAngle, XI_GUARD};
-use linlight_sampling::Segment;
 use linlight_verify::heatmap::Rgb8;
 use serde_json::json;
 
@@ -30,16 +29,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let (reference, _) = ctx.reference(rel, &overrides)?;
     let scale = white_scale(&reference);
     let hits = hit_points(&scene)?;
-    let lights: Vec<_> = scene
-        .lights
-        .iter()
-        .map(|l| {
-            (
-                linlight_sampling::Segment::new(l.begin, l.end),
-                glam::Vec3::from_array(l.radiance_times_radius),
-            )
-        })
-        .collect();
+    let lights: Vec<Light> = scene.lights.iter().map(Light::of).collect();
     let noise = NoiseSource::new(Noise::Blue, ctx.opts.seed, 1);
     let width = scene.sensor.film.width;
     let zoom = (256 / res as usize).max(1);
@@ -149,7 +139,7 @@ struct IterationMaps {
 
 fn iteration_maps(
     hits: &[Option<HitPoint>],
-    lights: &[(Segment, Vec3)],
+    lights: &[Light],
     noise: &NoiseSource,
     (width, res): (u32, u32),
     scale: f64,
@@ -170,7 +160,11 @@ fn iteration_maps(
         if let Some(h) = h {
             let mut stream = noise.stream(h.x, h.y, h.y * width + h.x, 0, 0);
             let _ = stream.film_position();
-            for (seg, kr) in lights {
+            for Light {
+                segment: seg,
+                k: kr,
+            } in lights
+            {
                 let xi = stream.next_f32();
                 let Some(s) = ProjectedSolidAngle::prepare_with_iterations(seg, h.p, h.n, k) else {
                     continue;

@@ -21,6 +21,7 @@
 
 use glam::Vec3;
 use linlight_brdf::microfacet;
+use linlight_render::light::Light;
 use linlight_sampling::batch::{
     sample_clipped_solid_angle_packet, sample_li2018_with, sample_projected_solid_angle_packet,
     BatchProblems, BatchSamples, ClippedBatch, Isa, LineProblems, LineSamples, PreparedBatch,
@@ -91,7 +92,7 @@ pub fn hit_points(stride: usize) -> HitPoints {
 }
 
 /// 128 lights above the floor, with K = radiance × radius.
-pub fn lights() -> Vec<(Segment, Vec3)> {
+pub fn lights() -> Vec<Light> {
     let mut rng = linlight_sampling::rng::Pcg32::new(128, 1);
     let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
     (0..LIGHTS)
@@ -99,7 +100,7 @@ pub fn lights() -> Vec<(Segment, Vec3)> {
             let c = Vec3::new(r(-4.0, 4.0), r(-1.0, 5.5), r(0.3, 3.0));
             let axis = Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-0.3, 0.3)).normalize();
             let half = 0.5 * r(0.5, 2.0) * axis;
-            (
+            Light::new(
                 Segment::new(c - half, c + half),
                 Vec3::new(r(0.5, 1.0), r(0.5, 1.0), r(0.5, 1.0)),
             )
@@ -142,12 +143,12 @@ fn brdf_cos(n: Vec3, v: Vec3, l: Vec3, alpha: f32) -> f32 {
 
 /// Scalar shading of every hit point: `lights` lights × `spp` samples each.
 #[inline(never)]
-pub fn shade_scalar(t: Technique, h: &HitPoints, lights: &[(Segment, Vec3)], spp: usize) -> f32 {
+pub fn shade_scalar(t: Technique, h: &HitPoints, lights: &[Light], spp: usize) -> f32 {
     let mut sum = 0.0f32;
     for i in 0..h.p.len() {
         let (p, n, v, a) = (h.p[i], h.n[i], h.v[i], h.alpha[i]);
         let mut radiance = 0.0f32;
-        for (j, (segment, k)) in lights.iter().enumerate() {
+        for (j, Light { segment, k }) in lights.iter().enumerate() {
             // By reference, as the renderer does (see `Technique::prepare`).
             let prepared = t.prepare(segment, p, n);
             let Some(sampler) = &prepared else {
@@ -216,7 +217,7 @@ pub fn shade_batched(
     which: Batched,
     isa: Isa,
     h: &HitPoints,
-    lights: &[(Segment, Vec3)],
+    lights: &[Light],
     spp: usize,
 ) -> (f32, u64) {
     shade_prepared_lanes(which, isa, &BatchRows(Work { h, lights, spp }))
@@ -226,7 +227,7 @@ pub fn shade_batched(
 #[derive(Clone, Copy)]
 struct Work<'a> {
     h: &'a HitPoints,
-    lights: &'a [(Segment, Vec3)],
+    lights: &'a [Light],
     spp: usize,
 }
 
@@ -321,7 +322,7 @@ pub fn shade_packet(
     which: Batched,
     isa: Isa,
     h: &HitPoints,
-    lights: &[(Segment, Vec3)],
+    lights: &[Light],
     spp: usize,
 ) -> (f32, u64) {
     if spp != 1 {
@@ -388,13 +389,20 @@ fn packet_input(h: &HitPoints, first: usize) -> LineProblems<P> {
 #[inline(always)]
 fn shade_packets_fused(
     h: &HitPoints,
-    lights: &[(Segment, Vec3)],
+    lights: &[Light],
     mut sample: impl FnMut(&LineProblems<P>) -> LineSamples<P>,
 ) -> f32 {
     let mut sum = 0.0f32;
     for first in (0..h.p.len()).step_by(P) {
         let mut input = packet_input(h, first);
-        for (j, (segment, radiance)) in lights.iter().enumerate() {
+        for (
+            j,
+            Light {
+                segment,
+                k: radiance,
+            },
+        ) in lights.iter().enumerate()
+        {
             input.begin = splat3(segment.begin);
             input.end = splat3(segment.end);
             input.xi = std::array::from_fn(|l| xi(first + l, j, 0));
@@ -418,7 +426,14 @@ fn shade_packets_prepared<Q>(
     let mut sum = 0.0f32;
     for first in (0..h.p.len()).step_by(P) {
         let mut input = packet_input(h, first);
-        for (j, (segment, radiance)) in lights.iter().enumerate() {
+        for (
+            j,
+            Light {
+                segment,
+                k: radiance,
+            },
+        ) in lights.iter().enumerate()
+        {
             input.begin = splat3(segment.begin);
             input.end = splat3(segment.end);
             let prepared = prepare(&input);
@@ -453,7 +468,14 @@ fn shade_prepared<Q>(
         if spp == 1 {
             for (g, group) in lights.chunks(BATCH_LANES).enumerate() {
                 let mut k = [0.0f32; BATCH_LANES];
-                for (l, (segment, radiance)) in group.iter().enumerate() {
+                for (
+                    l,
+                    Light {
+                        segment,
+                        k: radiance,
+                    },
+                ) in group.iter().enumerate()
+                {
                     set3(&mut input.begin, l, segment.begin);
                     set3(&mut input.end, l, segment.end);
                     k[l] = radiance.x;
@@ -466,7 +488,10 @@ fn shade_prepared<Q>(
                 sum += shade_lanes(&sample(&prepared, &xi), n, v, a, &k);
             }
         } else {
-            let (segment, radiance) = lights[0];
+            let Light {
+                segment,
+                k: radiance,
+            } = lights[0];
             input.begin = splat3(segment.begin);
             input.end = splat3(segment.end);
             let prepared = prepare(&input);
@@ -488,7 +513,7 @@ fn shade_prepared<Q>(
 /// density 1, no preparation): what a row costs besides its sampler (the count mode's `shade-x8` and
 /// `shade-x16` rows; not a technique, not in the table).
 #[inline(never)]
-pub fn shade_stand_in(lanes: usize, h: &HitPoints, lights: &[(Segment, Vec3)], spp: usize) -> f32 {
+pub fn shade_stand_in(lanes: usize, h: &HitPoints, lights: &[Light], spp: usize) -> f32 {
     let work = Work { h, lights, spp };
     if lanes == BATCH_LANES {
         BatchRows(work).shade(|input| *input, |_| u32::MAX, stand_in)

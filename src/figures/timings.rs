@@ -5,7 +5,7 @@
 //! `cargo bench -p linlight --bench shading`.
 
 use super::page::{num, table};
-use super::shading_cost::{measure, Batched, ConfigTiming, RowKind};
+use super::shading_cost::{measure, Batched, ConfigTiming, Measurement, RowKind};
 use super::{csv, Ctx, Section};
 use linlight_sampling::Technique;
 use linlight_simd::Isa;
@@ -29,6 +29,39 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         &|done, total| ctx.progress(done as f64 / total as f64),
     );
     let (a, b) = (&m.configs[0], &m.configs[1]);
+    let (rows, csv_rows, json_rows) = table_rows(a, b);
+    let csv_file = write_csv(ctx, &csv_rows)?;
+    let header = [
+        "technique",
+        "128 lights × 1 spp: ns/sample median (min)",
+        "÷ clipped SA",
+        "ms/frame (CPU, 1 core)",
+        "1 light × 128 spp: ns/sample median (min)",
+        "÷ clipped SA",
+        "paper (GPU, 128 lights)",
+    ];
+    Ok(Section {
+        caption: caption(&m),
+        body: table(&header, &rows),
+        files: vec![csv_file],
+        numbers: json!({
+            "stride": m.stride, "repeats": m.repeats, "hit_points": m.hit_points, "isa": m.isa,
+            "load": [a.load, b.load],
+            "li_iterations_per_batch": [a.li_iterations_per_batch, b.li_iterations_per_batch],
+            "rows": json_rows,
+            "paper_ms": {"clipped-solid-angle": 1.1, "projected-solid-angle": 1.1, "projected-solid-angle + LTC MIS": 1.5},
+            "summary_html": summary_html(a, b),
+        }),
+        ..Default::default()
+    })
+}
+
+/// The table's rows (HTML cells), the CSV rows and the JSON rows of the two configurations
+/// `a` (128 lights × 1 spp) and `b` (1 light × 128 spp), row by row.
+fn table_rows(
+    a: &ConfigTiming,
+    b: &ConfigTiming,
+) -> (Vec<Vec<String>>, Vec<Vec<String>>, Vec<serde_json::Value>) {
     let mut rows = Vec::new();
     let mut csv_rows = Vec::new();
     let mut json_rows = Vec::new();
@@ -67,7 +100,12 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             "ns_per_sample_1x128": [nb, nb_min], "ratio_1x128": [qb, qb_min],
         }));
     }
-    let csv_file = ctx.write_text(
+    (rows, csv_rows, json_rows)
+}
+
+/// timings.csv: the medians and minima of [`table_rows`].
+fn write_csv(ctx: &Ctx, csv_rows: &[Vec<String>]) -> Result<String, String> {
+    ctx.write_text(
         "timings.csv",
         &csv(
             &[
@@ -81,19 +119,14 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
                 "ratio_1x128_median",
                 "ratio_1x128_min",
             ],
-            &csv_rows,
+            csv_rows,
         ),
-    )?;
-    let header = [
-        "technique",
-        "128 lights × 1 spp: ns/sample median (min)",
-        "÷ clipped SA",
-        "ms/frame (CPU, 1 core)",
-        "1 light × 128 spp: ns/sample median (min)",
-        "÷ clipped SA",
-        "paper (GPU, 128 lights)",
-    ];
-    let body = table(&header, &rows);
+    )
+}
+
+/// The figure's caption: settings and the measured ratios of `m`.
+fn caption(m: &Measurement) -> String {
+    let (a, b) = (&m.configs[0], &m.configs[1]);
     let ratio = |c: &ConfigTiming, t: Technique| {
         c.row(RowKind::Scalar(t))
             .map_or(f64::NAN, |r| c.ratio_to_clipped(r).0)
@@ -104,7 +137,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     );
     let li = (ratio(a, Technique::Li2018), ratio(b, Technique::Li2018));
     let x8 = RowKind::Batched;
-    let caption = format!(
+    format!(
         "What it shows: the cost of each sampling technique in a shading loop, as the paper's timing table — every \
          technique prepares and draws one sample per light and sample, evaluates Lambert + GGX (F0 = 0.04, α in ten \
          stripes from 0.05 to 1) and divides by the density; no shadow rays. Settings: cached hit points of a \
@@ -132,7 +165,11 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             .map_or(f64::NAN, |r| b.ratio_to_clipped(r).0)),
         num(a.ratio(x8(Batched::ProjectedSolidAngle), x8(Batched::ClippedSolidAngle)).0),
         num(b.ratio(x8(Batched::ProjectedSolidAngle), x8(Batched::ClippedSolidAngle)).0),
-    );
+    )
+}
+
+/// The short table of ratios to clipped solid angle (HTML), for the summary page.
+fn summary_html(a: &ConfigTiming, b: &ConfigTiming) -> String {
     let summary_rows: Vec<Vec<String>> = a
         .rows
         .iter()
@@ -146,25 +183,11 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             ]
         })
         .collect();
-    let summary_html = format!(
+    format!(
         "<p>Timing ratios to clipped solid angle (median):</p>{}",
         table(
             &["technique", "128 × 1", "1 × 128", "paper (GPU)"],
             &summary_rows
         )
-    );
-    Ok(Section {
-        caption,
-        body,
-        files: vec![csv_file],
-        numbers: json!({
-            "stride": m.stride, "repeats": m.repeats, "hit_points": m.hit_points, "isa": m.isa,
-            "load": [a.load, b.load],
-            "li_iterations_per_batch": [a.li_iterations_per_batch, b.li_iterations_per_batch],
-            "rows": json_rows,
-            "paper_ms": {"clipped-solid-angle": 1.1, "projected-solid-angle": 1.1, "projected-solid-angle + LTC MIS": 1.5},
-            "summary_html": summary_html,
-        }),
-        ..Default::default()
-    })
+    )
 }

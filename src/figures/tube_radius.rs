@@ -195,6 +195,41 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let sizes = Sizes::of(ctx.opts.quick);
     let (points, seconds) = measure(&ctx.opts.root, sizes, ctx.opts.seed, &|f| ctx.progress(f))?;
     let fit = fit_slope(&points).ok_or("fewer than 3 radii with a positive difference")?;
+    let svg = plot_points(&points, &fit)?;
+    let files = vec![
+        ctx.write_text("tube-radius.svg", &svg)?,
+        ctx.write_text("tube-radius.csv", &points_csv(&points))?,
+    ];
+    let body = format!("{}{}", plot(&svg), points_table(&points));
+    let summary = format!(
+        "<p>R → 0 with K fixed: the exact tube's image differs from the line's by d ≈ {}·R^{} (slope {} ± {}, \
+         R = {} … {}).</p>",
+        num(fit.intercept),
+        num(fit.slope),
+        num(fit.slope),
+        num(fit.slope_error),
+        num(RADII[RADII.len() - 1]),
+        num(RADII[0]),
+    );
+    Ok(Section {
+        caption: caption(ctx, sizes, seconds, &fit),
+        body,
+        files,
+        numbers: json!({
+            "scene": figure_scene("thin-tube"),
+            "K": K,
+            "sizes": sizes,
+            "render_seconds": seconds,
+            "points": points,
+            "fit": fit,
+            "summary_html": summary,
+        }),
+        ..Default::default()
+    })
+}
+
+/// The log-log plot (SVG) of the relative differences with their error bars and the fit.
+fn plot_points(points: &[RadiusPoint], fit: &SlopeFit) -> Result<String, String> {
     let colour = PALETTE[0];
     let data = Series {
         name: "exact vs line (image mean)".into(),
@@ -224,14 +259,17 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             .collect(),
         colour,
     };
-    let svg = log_log_with_bars(
+    log_log_with_bars(
         "Exact tube vs its R → 0 line, K = L·R fixed",
         "radius R (scene units)",
         "relative difference of the image mean",
         &[data, fitted],
         &[bars],
-    )?;
-    let mut files = vec![ctx.write_text("tube-radius.svg", &svg)?];
+    )
+}
+
+/// tube-radius.csv: per radius the difference, its standard error and difference / R.
+fn points_csv(points: &[RadiusPoint]) -> String {
     let rows: Vec<Vec<String>> = points
         .iter()
         .map(|p| {
@@ -243,43 +281,41 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             ]
         })
         .collect();
-    files.push(ctx.write_text(
-        "tube-radius.csv",
-        &csv(
-            &[
-                "radius",
-                "relative_difference",
-                "standard_error",
-                "difference_over_radius",
-            ],
-            &rows,
-        ),
-    )?);
-    let body = format!(
-        "{}{}",
-        plot(&svg),
-        table(
-            &[
-                "R",
-                "relative difference",
-                "± standard error",
-                "difference / R"
-            ],
-            &points
-                .iter()
-                .map(|p| {
-                    vec![
-                        num(p.radius),
-                        num(p.relative_difference),
-                        num(p.standard_error),
-                        num(p.relative_difference / p.radius),
-                    ]
-                })
-                .collect::<Vec<_>>(),
-        )
-    );
+    let header = [
+        "radius",
+        "relative_difference",
+        "standard_error",
+        "difference_over_radius",
+    ];
+    csv(&header, &rows)
+}
+
+/// The HTML table of the points.
+fn points_table(points: &[RadiusPoint]) -> String {
+    let rows: Vec<Vec<String>> = points
+        .iter()
+        .map(|p| {
+            vec![
+                num(p.radius),
+                num(p.relative_difference),
+                num(p.standard_error),
+                num(p.relative_difference / p.radius),
+            ]
+        })
+        .collect();
+    let header = [
+        "R",
+        "relative difference",
+        "± standard error",
+        "difference / R",
+    ];
+    table(&header, &rows)
+}
+
+/// The figure's caption: the scene, the sizes, the render time `seconds` and the `fit`.
+fn caption(ctx: &Ctx, sizes: Sizes, seconds: f64, fit: &SlopeFit) -> String {
     let renders = sizes.passes as usize * (RADII.len() + 1);
-    let caption = format!(
+    format!(
         "What it shows: a tube light of radius R rendered as the cylinder it is approaches its R → 0 \
          limit, the linear light of intensity K = L·R, at first order in R. Scene \
          <code>{}</code>: a diffuse floor under one tilted tube 1.5 long, hidden from camera rays; K = {K} \
@@ -302,32 +338,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         num(fit.slope_error),
         num(fit.chi2_per_dof),
         num(fit.intercept),
-    );
-    let summary = format!(
-        "<p>R → 0 with K fixed: the exact tube's image differs from the line's by d ≈ {}·R^{} (slope {} ± {}, \
-         R = {} … {}).</p>",
-        num(fit.intercept),
-        num(fit.slope),
-        num(fit.slope),
-        num(fit.slope_error),
-        num(RADII[RADII.len() - 1]),
-        num(RADII[0]),
-    );
-    Ok(Section {
-        caption,
-        body,
-        files,
-        numbers: json!({
-            "scene": figure_scene("thin-tube"),
-            "K": K,
-            "sizes": sizes,
-            "render_seconds": seconds,
-            "points": points,
-            "fit": fit,
-            "summary_html": summary,
-        }),
-        ..Default::default()
-    })
+    )
 }
 
 #[cfg(test)]

@@ -34,6 +34,7 @@
 use crate::ground_truth::line_quadrature::{unshadowed_line_integral, QuadraturePoint};
 use glam::{DVec3, Vec3};
 use linlight_imagefile::{Image, Metadata};
+use linlight_render::light::Light;
 use linlight_render::render_scene::{diffuse_lobe, reflecting_normal, RenderScene};
 use linlight_render::scene::{Bsdf, Geometry, Scene};
 use linlight_render::RenderError;
@@ -173,7 +174,7 @@ fn closed_form_at(rs: &RenderScene, px: f32, py: f32) -> [f64; 3] {
         return [0.0; 3];
     };
     let mut sum = DVec3::ZERO;
-    for (segment, k) in &rs.lights {
+    for Light { segment, k } in &rs.lights {
         let omega = LineFrame::new(segment, p)
             .and_then(|f| f.clip_to_horizon(n))
             .map_or(0.0, |f| f.projected_solid_angle(n));
@@ -193,7 +194,7 @@ fn quadrature_at(rs: &RenderScene, px: f32, py: f32, unconverged: &AtomicU64) ->
     };
     let sp = QuadraturePoint::new(p.as_dvec3(), n.as_dvec3(), wi.as_dvec3());
     let mut sum = DVec3::ZERO;
-    for (segment, k) in &rs.lights {
+    for Light { segment, k } in &rs.lights {
         let (value, converged) =
             unshadowed_line_integral(bsdf, &sp, segment.begin.as_dvec3(), segment.end.as_dvec3());
         if !converged {

@@ -26,6 +26,7 @@
 use crate::film::Welford;
 use crate::frame::{metadata, pixel_entries, render_in_tiles};
 use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
+use crate::light::Light;
 use crate::method::Method;
 use crate::options::{check_options, window, RenderError, RenderOptions};
 use crate::ray_offset::shadow_ray_to;
@@ -37,30 +38,30 @@ use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
 use linlight_sampling::noise::{NoiseSource, SampleStream};
-use linlight_sampling::Segment;
 
-/// Σ estimate(segment, K, iterations, rng) over the lights of the light samples: every light
-/// with `opts.light_samples` iterations, or ([`RenderScene::chooses_one`]) `opts.light_samples`
-/// times the light chosen by ξ_c (from shading point x with normal n), with K/p and one
-/// iteration.
+/// Σ estimate(j, light, K, iterations, rng) over the lights of the light samples: every light
+/// with its K and `opts.light_samples` iterations, or ([`RenderScene::chooses_one`])
+/// `opts.light_samples` times the light chosen by ξ_c (from shading point x with normal n),
+/// with K/p and one iteration. This is the order of a camera sample's light numbers
+/// ([`RenderScene::light_dimension`]).
 #[inline(always)]
 fn sum_over_light_samples(
     scene: &RenderScene,
     opts: &RenderOptions,
     (x, n): (Vec3, Vec3),
     rng: &mut SampleStream,
-    mut estimate: impl FnMut(usize, &Segment, Vec3, u32, &mut SampleStream) -> Vec3,
+    mut estimate: impl FnMut(usize, &Light, Vec3, u32, &mut SampleStream) -> Vec3,
 ) -> Vec3 {
     let mut total = Vec3::ZERO;
     if scene.chooses_one(opts.lights) {
         for _ in 0..opts.light_samples {
             let xi = rng.next_f32_unstratified();
             let (j, k) = scene.choose_light(opts.lights, x, n, xi);
-            total += estimate(j, &scene.lights[j].0, k, 1, rng);
+            total += estimate(j, &scene.lights[j], k, 1, rng);
         }
     } else {
-        for (j, (segment, k)) in scene.lights.iter().enumerate() {
-            total += estimate(j, segment, *k, opts.light_samples, rng);
+        for (j, light) in scene.lights.iter().enumerate() {
+            total += estimate(j, light, light.k(), opts.light_samples, rng);
         }
     }
     total
@@ -121,14 +122,10 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     match scene.lambert[shape] {
         Some(f) => {
             // K·(ρ/π)·cos θ/p(ω), p per radius (dΩ_R).
-            total = sum_over_light_samples(
-                scene,
-                opts,
-                (sp.p, n),
-                rng,
-                |j, segment, k, samples, rng| {
+            total =
+                sum_over_light_samples(scene, opts, (sp.p, n), rng, |j, light, k, samples, rng| {
                     single_technique(
-                        pieces.technique.prepare(segment, sp.p, n).as_ref(),
+                        light.sampler(pieces.technique, sp.p, n).as_ref(),
                         n,
                         samples,
                         rng,
@@ -136,8 +133,7 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
                         |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
                         &mut dropped,
                     )
-                },
-            );
+                });
             if light_samples > 1 {
                 total /= light_samples as f32;
             }
@@ -146,25 +142,20 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             let point = ShadingPoint::for_method(pieces.bsdf, opts.method, bsdf, sp.p, n, wi);
             // `every`: each light's estimate is its iterations' mean; `one`: the mean of the
             // light samples is taken here.
-            total = sum_over_light_samples(
-                scene,
-                opts,
-                (sp.p, n),
-                rng,
-                |j, segment, k, samples, rng| {
+            total =
+                sum_over_light_samples(scene, opts, (sp.p, n), rng, |j, light, k, samples, rng| {
                     estimate_resolved(
                         pieces,
                         opts.method,
                         &point,
-                        segment,
+                        light.segment(),
                         k,
                         samples,
                         rng,
                         &mut visible(j),
                         &mut dropped,
                     )
-                },
-            );
+                });
             if one && light_samples > 1 {
                 total /= light_samples as f32;
             }
@@ -209,63 +200,57 @@ fn tube_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     };
     let light_samples = opts.light_samples;
     let one = scene.chooses_one(opts.lights);
-    let total = sum_over_light_samples(
-        scene,
-        opts,
-        (sp.p, n),
-        rng,
-        |j, segment, k, samples, rng| {
-            let Some(tube) = tubes.get(j) else {
-                // A line light among tubes (a light of zero radius).
-                let mut sum = match lambert {
-                    Some(f) => single_technique(
-                        pieces.technique.prepare(segment, sp.p, n).as_ref(),
-                        n,
+    let total = sum_over_light_samples(scene, opts, (sp.p, n), rng, |j, light, k, samples, rng| {
+        let Some(tube) = tubes.get(j) else {
+            // A line light among tubes (a light of zero radius).
+            let mut sum = match lambert {
+                Some(f) => single_technique(
+                    light.sampler(pieces.technique, sp.p, n).as_ref(),
+                    n,
+                    samples,
+                    rng,
+                    &mut visible(j),
+                    |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
+                    &mut dropped,
+                ),
+                None => {
+                    estimate_resolved(
+                        pieces,
+                        opts.method,
+                        &point,
+                        light.segment(),
+                        k,
                         samples,
                         rng,
                         &mut visible(j),
-                        |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
                         &mut dropped,
-                    ),
-                    None => {
-                        estimate_resolved(
-                            pieces,
-                            opts.method,
-                            &point,
-                            segment,
-                            k,
-                            samples,
-                            rng,
-                            &mut visible(j),
-                            &mut dropped,
-                        ) * samples as f32
-                    }
-                };
-                if samples > 1 {
-                    sum /= samples as f32;
+                    ) * samples as f32
                 }
-                return sum;
             };
-            // k is K (or K/p_j): L = k/R.
-            let sum = crate::tube::estimate(
-                tube,
-                tubes.sampling,
-                sp,
-                n,
-                k / tube.radius,
-                samples,
-                rng,
-                &eval,
-                &mut visible(j),
-                &mut dropped,
-            );
             if samples > 1 {
-                sum / samples as f32
-            } else {
-                sum
+                sum /= samples as f32;
             }
-        },
-    );
+            return sum;
+        };
+        // k is K (or K/p_j): L = k/R.
+        let sum = crate::tube::estimate(
+            tube,
+            tubes.sampling,
+            sp,
+            n,
+            k / tube.radius,
+            samples,
+            rng,
+            &eval,
+            &mut visible(j),
+            &mut dropped,
+        );
+        if samples > 1 {
+            sum / samples as f32
+        } else {
+            sum
+        }
+    });
     if dropped > 0 {
         scene.dropped.add_many(dropped as u64);
     }

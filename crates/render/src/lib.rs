@@ -11,6 +11,7 @@ pub mod film;
 pub mod frame;
 pub mod hooks;
 pub mod integrator;
+pub mod light;
 pub mod light_choice;
 pub mod light_tree;
 pub mod method;

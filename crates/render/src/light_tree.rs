@@ -28,6 +28,7 @@
 //! D·2⁻⁵² relative rounding per step, and within 2⁻²⁴ of the lattice spacing of ξ).
 //! [`LightTree::pmf`] recomputes the same products in the same order, bit for bit.
 
+use crate::light::Light;
 use glam::Vec3;
 use linlight_sampling::Segment;
 
@@ -117,10 +118,10 @@ pub struct LightTree {
 }
 
 impl LightTree {
-    /// The tree over `lights` (segment, K). A light's power is ‖K‖₁·length (positive lengths
+    /// The tree over `lights`. A light's power is ‖K‖₁·length (positive lengths
     /// and K assumed; a zero power is raised to the smallest positive f32 so every light can be
     /// chosen).
-    pub fn new(lights: &[(Segment, Vec3)]) -> Self {
+    pub fn new(lights: &[Light]) -> Self {
         let mut tree = Self {
             nodes: Vec::with_capacity(2 * lights.len()),
             trail: vec![(0, 0); lights.len()],
@@ -136,18 +137,12 @@ impl LightTree {
     /// Builds the subtree of `lights[order]` at depth `depth` with trail `bits`; returns its
     /// node index. Splits at the median of the segments' midpoints along the axis where they
     /// spread most.
-    fn build(
-        &mut self,
-        lights: &[(Segment, Vec3)],
-        order: &mut [u32],
-        depth: u32,
-        bits: u64,
-    ) -> u32 {
+    fn build(&mut self, lights: &[Light], order: &mut [u32], depth: u32, bits: u64) -> u32 {
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         let (mut clo, mut chi) = (lo, hi);
         let mut power = 0.0f32;
         for &j in order.iter() {
-            let (s, k) = &lights[j as usize];
+            let Light { segment: s, k } = &lights[j as usize];
             lo = lo.min(s.begin).min(s.end);
             hi = hi.max(s.begin).max(s.end);
             let mid = 0.5 * (s.begin + s.end);
@@ -156,7 +151,7 @@ impl LightTree {
             power += light_power(s, *k);
         }
         let index = self.nodes.len() as u32;
-        let (segment, k) = lights[order[0] as usize];
+        let Light { segment, k } = lights[order[0] as usize];
         self.nodes.push(Node {
             lo,
             hi,
@@ -175,7 +170,7 @@ impl LightTree {
         }
         let axis = (chi - clo).max_position();
         let key = |j: &u32| {
-            let s = &lights[*j as usize].0;
+            let s = &lights[*j as usize].segment;
             (0.5 * (s.begin + s.end))[axis]
         };
         order.sort_by(|a, b| key(a).total_cmp(&key(b)).then(a.cmp(b)));
@@ -260,12 +255,6 @@ fn light_power(s: &Segment, k: Vec3) -> f32 {
     }
 }
 
-/// K/p_j as both render paths compute it: K times 1/p rounded to f32 once.
-#[inline(always)]
-pub fn k_over_pmf(k: Vec3, pmf: f64) -> Vec3 {
-    k * (1.0 / pmf) as f32
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -291,13 +280,13 @@ mod tests {
     }
 
     /// The many-tubes ceiling: 8 × 8 tubes along x at height 3.9, K of a few sizes.
-    fn ceiling() -> Vec<(Segment, Vec3)> {
+    fn ceiling() -> Vec<Light> {
         (0..64)
             .map(|i| {
                 let (a, b) = ((i % 8) as f32, (i / 8) as f32);
                 let (x, y) = (-7.0 + 2.0 * a, -5.0 + 1.4 * b);
                 let k = Vec3::splat(1.0 + (i % 3) as f32);
-                (
+                Light::new(
                     Segment::new(Vec3::new(x - 0.6, y, 3.9), Vec3::new(x + 0.6, y, 3.9)),
                     k,
                 )
@@ -306,7 +295,7 @@ mod tests {
     }
 
     /// Random segments in a box (some crossing, some long), random K.
-    fn random_lights(rng: &mut Mix, n: usize) -> Vec<(Segment, Vec3)> {
+    fn random_lights(rng: &mut Mix, n: usize) -> Vec<Light> {
         (0..n)
             .map(|_| {
                 let p = |rng: &mut Mix| {
@@ -314,7 +303,7 @@ mod tests {
                 };
                 let a = p(rng);
                 let b = a + (p(rng) * 0.3);
-                (Segment::new(a, b), Vec3::splat(0.1 + rng.unit()))
+                Light::new(Segment::new(a, b), Vec3::splat(0.1 + rng.unit()))
             })
             .collect()
     }
@@ -451,7 +440,10 @@ mod tests {
     /// every light possible.
     #[test]
     fn importance_prefers_near_lights_above_the_horizon() {
-        let lights: Vec<_> = ceiling().into_iter().map(|(s, _)| (s, Vec3::ONE)).collect();
+        let lights: Vec<_> = ceiling()
+            .into_iter()
+            .map(|l| Light::new(l.segment, Vec3::ONE))
+            .collect();
         let tree = LightTree::new(&lights);
         let x = Vec3::new(-7.0, -5.0, 0.0);
         let pmf: Vec<f64> = (0..64).map(|j| tree.pmf(x, Vec3::Z, j)).collect();

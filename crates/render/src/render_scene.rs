@@ -5,8 +5,9 @@
 
 use crate::bvh::Bvh;
 use crate::camera::Camera;
+use crate::light::Light;
 use crate::light_choice::{LightChoice, LightSelection};
-use crate::light_tree::{k_over_pmf, LightTree};
+use crate::light_tree::LightTree;
 use crate::options::{window, Cylinders, RenderError};
 use crate::scene::{Bsdf, Geometry, Scene};
 use crate::shadow_culling::ShadowCulling;
@@ -14,7 +15,9 @@ use crate::shapes::{transformed_normal, Primitive};
 use crate::tube::Tubes;
 use crate::visible_line::VisibleLines;
 use glam::Vec3;
-use linlight_sampling::Segment;
+
+/// The numbers a camera sample draws first: its film position (x, y in the pixel).
+pub const FILM_POSITION_NUMBERS: usize = 2;
 
 /// Everything the integrator needs, prepared from a [`crate::scene::Scene`].
 #[derive(Clone, Debug)]
@@ -29,8 +32,8 @@ pub struct RenderScene {
     /// Per `Scene::shapes` entry: f = ρ/π when its BSDF is Lambertian (`Bsdf::lambertian`), the
     /// integrator's fast path; `None` for glossy BSDFs.
     pub lambert: Vec<Option<Vec3>>,
-    /// Segment and K = radiance × radius per light.
-    pub lights: Vec<(Segment, Vec3)>,
+    /// The lights, in the scene's order.
+    pub lights: Vec<Light>,
     /// The distribution of the light chosen per light sample under [`LightSelection::One`].
     pub choice: LightChoice,
     /// The tree that chooses the light per light sample under [`LightSelection::Tree`].
@@ -109,10 +112,54 @@ impl RenderScene {
     ) -> (usize, Vec3) {
         if selection == LightSelection::Tree {
             let (j, pmf) = self.tree.sample(x, n, xi);
-            (j, k_over_pmf(self.lights[j].1, pmf))
+            (j, self.lights[j].k_over_pmf(pmf))
         } else {
-            chosen_light(&self.lights, &self.choice, xi)
+            let (j, _) = self.choice.pick(xi);
+            (j, self.k_over_probability(j))
         }
+    }
+
+    /// K_j/p_j of light j under [`LightSelection::One`] (the same operation on both render
+    /// paths).
+    #[inline(always)]
+    pub fn k_over_probability(&self, j: usize) -> Vec3 {
+        self.lights[j].k_over_probability(self.choice.inverse_probability(j))
+    }
+
+    /// The dimension of ξ_c, the number that chooses the light of the first light sample
+    /// when [`Self::chooses_one`] (the first after the film position's
+    /// [`FILM_POSITION_NUMBERS`]).
+    pub const LIGHT_CHOICE_DIMENSION: usize = FILM_POSITION_NUMBERS;
+
+    /// The dimension of the first number of light `walk` (`every`: the lights one after the
+    /// other, `numbers` per iteration of one light) or of the chosen light (after ξ_c) in the
+    /// first light sample of a camera sample that reaches a reflecting surface: where the
+    /// order in which [`crate::integrator::radiance`] draws (film position, then
+    /// `sum_over_light_samples`) puts it. The packet renderer reads its lanes' numbers here.
+    #[inline(always)]
+    pub fn light_dimension(&self, selection: LightSelection, walk: usize, numbers: usize) -> usize {
+        if self.chooses_one(selection) {
+            Self::LIGHT_CHOICE_DIMENSION + 1
+        } else {
+            FILM_POSITION_NUMBERS + numbers * walk
+        }
+    }
+
+    /// Numbers a camera sample draws for its film position and, when it reaches a reflecting
+    /// surface (`shaded`: `Some` of the numbers per iteration of one light),
+    /// [`Self::light_numbers`]; those of the lines the camera sees ([`crate::visible_line`])
+    /// follow.
+    #[inline(always)]
+    pub fn camera_sample_numbers(
+        &self,
+        selection: LightSelection,
+        light_samples: u32,
+        shaded: Option<usize>,
+    ) -> usize {
+        FILM_POSITION_NUMBERS
+            + shaded.map_or(0, |numbers| {
+                self.light_numbers(selection, light_samples, numbers)
+            })
     }
 
     /// Numbers a camera sample that reaches a reflecting surface draws for its lights, with
@@ -132,19 +179,6 @@ impl RenderScene {
     }
 }
 
-/// The light chosen by ξ_c under [`LightSelection::One`]: its index, and its K/p.
-#[inline]
-pub fn chosen_light(lights: &[(Segment, Vec3)], choice: &LightChoice, xi: f32) -> (usize, Vec3) {
-    let (j, _) = choice.pick(xi);
-    (j, k_over_probability(lights, choice, j))
-}
-
-/// K_j/p_j of light j (the same operation on both render paths).
-#[inline(always)]
-pub fn k_over_probability(lights: &[(Segment, Vec3)], choice: &LightChoice, j: usize) -> Vec3 {
-    lights[j].1 * choice.inverse_probability(j)
-}
-
 impl RenderScene {
     /// Acceleration structure, camera and lights of a scene, its cylinders as lines.
     pub fn new(scene: &Scene) -> Result<Self, RenderError> {
@@ -162,64 +196,7 @@ impl RenderScene {
                     .into(),
             )
         })?;
-        let mut prims = Vec::new();
-        for (i, shape) in scene.shapes.iter().enumerate() {
-            let s = i as u32;
-            match &shape.geometry {
-                Geometry::Mesh {
-                    positions,
-                    normals,
-                    indices,
-                } => {
-                    let normals = normals.as_ref().filter(|n| n.len() == positions.len());
-                    for tri in indices {
-                        let Some(v) = tri
-                            .iter()
-                            .map(|&k| positions.get(k as usize).copied())
-                            .collect::<Option<Vec<_>>>()
-                        else {
-                            continue; // out-of-range index (the loader should have rejected it)
-                        };
-                        let n = normals.map(|n| tri.map(|k| n[k as usize]));
-                        prims.push(Primitive::Triangle {
-                            v: [v[0], v[1], v[2]],
-                            n,
-                            shape: s,
-                        });
-                    }
-                }
-                Geometry::Sphere { center, radius } => prims.push(Primitive::Sphere {
-                    center: *center,
-                    radius: radius.abs(),
-                    shape: s,
-                }),
-                Geometry::Disk { to_world } => {
-                    let det = to_world.determinant();
-                    if det != 0.0 && det.is_finite() {
-                        let to_local = to_world.inverse();
-                        let normal = transformed_normal(&to_local);
-                        prims.push(Primitive::Disk {
-                            to_local,
-                            normal,
-                            shape: s,
-                        });
-                    }
-                }
-                Geometry::Cylinder { p0, p1, radius } => {
-                    let axis = *p1 - *p0;
-                    let length = axis.length();
-                    if length > 0.0 && length.is_finite() && *radius != 0.0 {
-                        prims.push(Primitive::Cylinder {
-                            p0: *p0,
-                            axis: axis / length,
-                            length,
-                            radius: radius.abs(),
-                            shape: s,
-                        });
-                    }
-                }
-            }
-        }
+        let prims = primitives(scene);
         // The integrator flips the shading frame toward the viewer only for a `twosided` at the
         // top (the loader allows it nowhere else); one nested in a blend would be shaded as
         // one-sided from below.
@@ -227,68 +204,103 @@ impl RenderScene {
             scene.shapes.iter().all(|s| !nested_two_sided(&s.bsdf)),
             "twosided is supported only as the outermost BSDF"
         );
+        let lights: Vec<Light> = scene.lights.iter().map(Light::of).collect();
         let visible = if scene.integrator.hide_emitters {
             VisibleLines::default()
         } else {
             // Tubes are seen by the camera's own rays.
-            let lights: Vec<(Vec3, Vec3, Vec3)> = scene
-                .lights
-                .iter()
-                .enumerate()
+            let lines: Vec<Light> = (lights.iter().enumerate())
                 .filter(|(j, _)| tubes.get(*j).is_none())
-                .map(|(_, l)| (l.begin, l.end, Vec3::from_array(l.radiance_times_radius)))
+                .map(|(_, l)| *l)
                 .collect();
-            VisibleLines::new(&camera, &lights)
+            VisibleLines::new(&camera, &lines)
         };
-        let lights: Vec<(Segment, Vec3)> = scene
-            .lights
-            .iter()
-            .map(|l| {
-                (
-                    Segment::new(l.begin, l.end),
-                    Vec3::from_array(l.radiance_times_radius),
-                )
-            })
-            .collect();
+        let weights: Vec<f32> = scene.lights.iter().map(|l| l.sampling_weight).collect();
         Ok(Self {
             tree: LightTree::new(&lights),
             tubes,
             visible,
             dropped: Default::default(),
             camera,
-            shadows: ShadowCulling::new(
-                &prims,
-                &scene
-                    .lights
-                    .iter()
-                    .map(|l| (l.begin, l.end))
-                    .collect::<Vec<_>>(),
-            ),
+            shadows: ShadowCulling::new(&prims, &lights),
             bvh: Bvh::build(prims),
-            surfaces: scene
-                .shapes
-                .iter()
+            surfaces: (scene.shapes.iter())
                 .map(|s| (s.bsdf.clone(), s.flip_normals))
                 .collect(),
-            lambert: scene
-                .shapes
-                .iter()
+            lambert: (scene.shapes.iter())
                 .map(|s| {
-                    s.bsdf
-                        .lambertian()
-                        .map(|rho| rho.as_vec3() * std::f32::consts::FRAC_1_PI)
+                    (s.bsdf.lambertian()).map(|rho| rho.as_vec3() * std::f32::consts::FRAC_1_PI)
                 })
                 .collect(),
             lights,
-            choice: LightChoice::new(
-                &scene
-                    .lights
-                    .iter()
-                    .map(|l| l.sampling_weight)
-                    .collect::<Vec<_>>(),
-            ),
+            choice: LightChoice::new(&weights),
         })
     }
+}
+
+/// The primitives of a scene's shapes, in the shapes' order: a mesh's triangles (those with
+/// an index out of range skipped), and the spheres, disks (with an invertible finite
+/// transform) and cylinders (of positive finite length and non-zero radius).
+fn primitives(scene: &Scene) -> Vec<Primitive> {
+    let mut prims = Vec::new();
+    for (i, shape) in scene.shapes.iter().enumerate() {
+        let s = i as u32;
+        match &shape.geometry {
+            Geometry::Mesh {
+                positions,
+                normals,
+                indices,
+            } => {
+                let normals = normals.as_ref().filter(|n| n.len() == positions.len());
+                for tri in indices {
+                    let Some(v) = tri
+                        .iter()
+                        .map(|&k| positions.get(k as usize).copied())
+                        .collect::<Option<Vec<_>>>()
+                    else {
+                        continue; // out-of-range index (the loader should have rejected it)
+                    };
+                    let n = normals.map(|n| tri.map(|k| n[k as usize]));
+                    prims.push(Primitive::Triangle {
+                        v: [v[0], v[1], v[2]],
+                        n,
+                        shape: s,
+                    });
+                }
+            }
+            Geometry::Sphere { center, radius } => prims.push(Primitive::Sphere {
+                center: *center,
+                radius: radius.abs(),
+                shape: s,
+            }),
+            Geometry::Disk { to_world } => {
+                let det = to_world.determinant();
+                if det != 0.0 && det.is_finite() {
+                    let to_local = to_world.inverse();
+                    let normal = transformed_normal(&to_local);
+                    prims.push(Primitive::Disk {
+                        to_local,
+                        normal,
+                        shape: s,
+                    });
+                }
+            }
+            Geometry::Cylinder { p0, p1, radius } => {
+                let axis = *p1 - *p0;
+                let length = axis.length();
+                if length > 0.0 && length.is_finite() && *radius != 0.0 {
+                    prims.push(Primitive::Cylinder {
+                        p0: *p0,
+                        axis: axis / length,
+                        length,
+                        radius: radius.abs(),
+                        shape: s,
+                    });
+                }
+            }
+        }
+    }
+    prims
 }
 
 /// Whether a `twosided` occurs below the top of `bsdf`.

@@ -58,6 +58,7 @@
 //! [`ShadowCulling::new`]).
 
 use crate::bvh::{Bvh, RayLanes, PACKET};
+use crate::light::Light;
 use crate::shapes::{Primitive, Ray};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -189,40 +190,37 @@ fn f32_at_least(x: f64) -> f32 {
     }
 }
 
-impl ShadowCulling {
-    /// The culled shadow BVH of each light (segment `begin`–`end`), from the scene's primitives.
-    /// A light that culls fewer than a third of the primitives culls none (its shadow rays walk
-    /// the scene's BVH): the guard would cost more than the walk saves.
-    pub fn new(prims: &[Primitive], lights: &[(Vec3, Vec3)]) -> Self {
-        let finite: Vec<&Primitive> = prims
-            .iter()
-            .filter(|p| {
-                let b = p.bounds();
-                b.min.is_finite() && b.max.is_finite()
-            })
-            .collect();
-        if finite.is_empty() {
-            return Self::default();
-        }
+/// The extent of a scene for the culling tests, in f64: the primitives' box corners, the box
+/// that holds every ray origin (primitives and lights, grown by 1 and by the shadow rays'
+/// offset) with its corners, diameter D and largest corner norm, and the margins that bound
+/// f32 rounding there.
+struct Extent {
+    primitive_corners: [DVec3; 8],
+    box_corners: [DVec3; 8],
+    diameter: f64,
+    max_norm: f64,
+    /// max(D, largest corner norm): f32 rounding of origins and targets grows with their
+    /// distance from the world origin, not only with the scene's size.
+    scale: f64,
+    /// 10⁻⁵·D, the tolerance of condition 2.
+    tau: f64,
+    /// 8u·scale.
+    slack: f64,
+}
+
+impl Extent {
+    /// The extent of the primitives `finite` (non-empty, finite bounds) and `lights`.
+    fn new(finite: &[&Primitive], lights: &[Light]) -> Self {
         // The primitives' box; with the lights and grown by 1 it holds every ray origin.
         let (mut plo, mut phi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for p in &finite {
+        for p in finite {
             let b = p.bounds();
             plo = plo.min(b.min.as_dvec3());
             phi = phi.max(b.max.as_dvec3());
         }
-        let primitive_corners = corners(plo, phi);
-        // Condition 2 is checked on the primitives' box corners (enough: every point lies in
-        // the box and h is affine), and where they fail on every hull point when the scene is
-        // small (O(triangles²) per light).
-        let points: Vec<DVec3> = if finite.len() <= EXACT_CHECK {
-            finite.iter().flat_map(|p| hull_points(p)).collect()
-        } else {
-            Vec::new()
-        };
         let (mut lo, mut hi) = (plo, phi);
         for l in lights {
-            for x in [l.0.as_dvec3(), l.1.as_dvec3()] {
+            for x in [l.segment.begin.as_dvec3(), l.segment.end.as_dvec3()] {
                 lo = lo.min(x);
                 hi = hi.max(x);
             }
@@ -236,93 +234,143 @@ impl ShadowCulling {
         let box_corners = corners(lo, hi);
         let diameter = (hi - lo).length();
         let max_norm = box_corners.iter().map(|c| c.length()).fold(0.0, f64::max);
-        // f32 rounding of origins and targets grows with their distance from the world origin,
-        // not only with the scene's size: the margins use the larger of the two.
         let scale = diameter.max(max_norm);
-        let tau = 1e-5 * diameter;
-        let slack = 8.0 * U * scale;
+        Self {
+            primitive_corners: corners(plo, phi),
+            box_corners,
+            diameter,
+            max_norm,
+            scale,
+            tau: 1e-5 * diameter,
+            slack: 8.0 * U * scale,
+        }
+    }
+}
 
-        // Condition 2 does not depend on the light, only on which side of the plane it lies:
-        // decided once per triangle, on each side. The lights then scan these candidates only
-        // (in a large scene, the few planes that bound it).
-        let candidates: Vec<Candidate> = finite
-            .par_iter()
-            .enumerate()
-            .filter_map(|(i, p)| {
-                let Primitive::Triangle { v, .. } = p else {
-                    return None;
-                };
-                let pl = Plane::of(v)?;
-                // The flipped plane's h is exactly −h (negation is exact), so each side's
-                // condition is one bound on h.
-                let all_above = |xs: &[DVec3], bound: f64, sign: f64| {
-                    xs.iter().all(|&x| sign * pl.h(x) >= bound)
-                };
-                let side = |sign: f64| {
-                    all_above(&primitive_corners, -tau, sign)
-                        || (!points.is_empty() && all_above(&points, -tau, sign))
-                };
-                let (positive, negative) = (side(1.0), side(-1.0));
-                (positive || negative).then_some(Candidate {
-                    index: i,
-                    plane: pl,
-                    positive,
-                    negative,
-                })
+/// The triangles of `finite` that some light may cull: condition 2 does not depend on the
+/// light, only on which side of the plane it lies, so it is decided once per triangle, on
+/// each side. The lights then scan these candidates only (in a large scene, the few planes
+/// that bound it).
+fn candidates(finite: &[&Primitive], extent: &Extent) -> Vec<Candidate> {
+    // Condition 2 is checked on the primitives' box corners (enough: every point lies in the
+    // box and h is affine), and where they fail on every hull point when the scene is small
+    // (O(triangles²) per light).
+    let points: Vec<DVec3> = if finite.len() <= EXACT_CHECK {
+        finite.iter().flat_map(|p| hull_points(p)).collect()
+    } else {
+        Vec::new()
+    };
+    let tau = extent.tau;
+    finite
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            let Primitive::Triangle { v, .. } = p else {
+                return None;
+            };
+            let pl = Plane::of(v)?;
+            // The flipped plane's h is exactly −h (negation is exact), so each side's
+            // condition is one bound on h.
+            let all_above =
+                |xs: &[DVec3], bound: f64, sign: f64| xs.iter().all(|&x| sign * pl.h(x) >= bound);
+            let side = |sign: f64| {
+                all_above(&extent.primitive_corners, -tau, sign)
+                    || (!points.is_empty() && all_above(&points, -tau, sign))
+            };
+            let (positive, negative) = (side(1.0), side(-1.0));
+            (positive || negative).then_some(Candidate {
+                index: i,
+                plane: pl,
+                positive,
+                negative,
+            })
+        })
+        .collect()
+}
+
+/// The candidates the light `a`–`b` culls (indices into the primitives of finite bounds, in
+/// order) and their guard planes: (plane, threshold on h over the group plane), at most
+/// [`MAX_GUARDS`].
+fn culled_by(
+    (a, b): (DVec3, DVec3),
+    candidates: &[Candidate],
+    extent: &Extent,
+) -> (Vec<usize>, Vec<(Plane, f64)>) {
+    let mut culled_index = Vec::new();
+    let mut groups: Vec<(Plane, f64)> = Vec::new();
+    for c in candidates {
+        let (pl, below_ok) = if c.plane.h(a) < 0.0 {
+            (c.plane.flipped(), c.negative)
+        } else {
+            (c.plane.clone(), c.positive)
+        };
+        let g = 64.0 * U * extent.scale / pl.sin;
+        // Beyond 2·(g + slack), a margin of 10⁻³ of the segment's length: a shadow ray's
+        // target (p + dist·ω from the sampler, in f32) can overshoot the segment's end where ω
+        // is nearly along the line.
+        let clear = 2.0 * (g + extent.slack) + 1e-3 * (b - a).length();
+        let light_clear = pl.h(a) >= clear && pl.h(b) >= clear;
+        // The group whose plane differs from this one by at most 10⁻⁶·D over the scene box
+        // (affine: the maximum is at a corner), or a new one if there is room: a triangle with
+        // no guard plane left is kept.
+        let dev = |q: &Plane| {
+            (extent.box_corners.iter())
+                .map(|&c| (pl.h(c) - q.h(c)).abs())
+                .fold(0.0, f64::max)
+        };
+        let group = groups
+            .iter()
+            .position(|(q, _)| dev(q) <= 1e-6 * extent.diameter);
+        let guarded = group.is_some() || groups.len() < MAX_GUARDS;
+        if !(light_clear && guarded && below_ok) {
+            continue;
+        }
+        let need = g + extent.slack;
+        culled_index.push(c.index);
+        match group {
+            Some(k) => groups[k].1 = groups[k].1.max(need + dev(&groups[k].0)),
+            None => groups.push((pl, need)),
+        }
+    }
+    (culled_index, groups)
+}
+
+/// The f32 guards of `groups` ([`Guard::PASS`] after them) for origins of norm ≤ `max_norm`.
+fn guards_of(groups: &[(Plane, f64)], max_norm: f64) -> [Guard; MAX_GUARDS] {
+    let mut guards = [Guard::PASS; MAX_GUARDS];
+    for (g, (q, need)) in guards.iter_mut().zip(groups) {
+        // h_q(o) = n·o − n·v₀; the f32 n·o is within 7u·max|o| of the exact one (n rounded to
+        // f32, three products and two sums).
+        let c = q.n.dot(q.v0);
+        *g = Guard {
+            n: q.n.as_vec3().to_array(),
+            w: f32_at_least(c + need + 7.0 * U * max_norm + 1e-12 * max_norm),
+        };
+    }
+    guards
+}
+
+impl ShadowCulling {
+    /// The culled shadow BVH of each light, from the scene's primitives. A light that culls
+    /// fewer than a third of the primitives culls none (its shadow rays walk the scene's BVH):
+    /// the guard would cost more than the walk saves.
+    pub fn new(prims: &[Primitive], lights: &[Light]) -> Self {
+        let finite: Vec<&Primitive> = prims
+            .iter()
+            .filter(|p| {
+                let b = p.bounds();
+                b.min.is_finite() && b.max.is_finite()
             })
             .collect();
-
+        if finite.is_empty() {
+            return Self::default();
+        }
+        let extent = Extent::new(&finite, lights);
+        let candidates = candidates(&finite, &extent);
         let mut out = Self::default();
-        for &(a, b) in lights {
-            let (a, b) = (a.as_dvec3(), b.as_dvec3());
-            let mut culled_index = Vec::new();
-            // Guard planes: (plane, threshold on h over the group plane).
-            let mut groups: Vec<(Plane, f64)> = Vec::new();
-            for c in &candidates {
-                let (pl, below_ok) = if c.plane.h(a) < 0.0 {
-                    (c.plane.flipped(), c.negative)
-                } else {
-                    (c.plane.clone(), c.positive)
-                };
-                let g = 64.0 * U * scale / pl.sin;
-                // Beyond 2·(g + slack), a margin of 10⁻³ of the segment's length: a shadow
-                // ray's target (p + dist·ω from the sampler, in f32) can overshoot the
-                // segment's end where ω is nearly along the line.
-                let clear = 2.0 * (g + slack) + 1e-3 * (b - a).length();
-                let light_clear = pl.h(a) >= clear && pl.h(b) >= clear;
-                // The group whose plane differs from this one by at most 10⁻⁶·D over the
-                // scene box (affine: the maximum is at a corner), or a new one if there is
-                // room: a triangle with no guard plane left is kept.
-                let dev = |q: &Plane| {
-                    box_corners
-                        .iter()
-                        .map(|&c| (pl.h(c) - q.h(c)).abs())
-                        .fold(0.0, f64::max)
-                };
-                let group = groups.iter().position(|(q, _)| dev(q) <= 1e-6 * diameter);
-                let guarded = group.is_some() || groups.len() < MAX_GUARDS;
-                if !(light_clear && guarded && below_ok) {
-                    continue;
-                }
-                let need = g + slack;
-                culled_index.push(c.index);
-                match group {
-                    Some(k) => groups[k].1 = groups[k].1.max(need + dev(&groups[k].0)),
-                    None => groups.push((pl, need)),
-                }
-            }
-            let mut guards = [Guard::PASS; MAX_GUARDS];
-            for (g, (q, need)) in guards.iter_mut().zip(&groups) {
-                *g = {
-                    // h_q(o) = n·o − n·v₀; the f32 n·o is within 7u·max|o| of the exact one
-                    // (n rounded to f32, three products and two sums).
-                    let c = q.n.dot(q.v0);
-                    Guard {
-                        n: q.n.as_vec3().to_array(),
-                        w: f32_at_least(c + need + 7.0 * U * max_norm + 1e-12 * max_norm),
-                    }
-                };
-            }
+        for l in lights {
+            let ends = (l.segment.begin.as_dvec3(), l.segment.end.as_dvec3());
+            let (culled_index, groups) = culled_by(ends, &candidates, &extent);
             // Measured (callgrind, docs/performance.md): culling 4 of 15 triangles
             // (glossy-principled) saves less in the walk than the guard costs; a third or more
             // (cornell-tube 14 of 34, the floors) pays.
@@ -330,36 +378,47 @@ impl ShadowCulling {
                 out.light_set.push(None);
                 continue;
             }
-            let used = groups.len();
-            let same = |t: &ShadowSet| {
-                t.culled_index == culled_index && t.used == used && t.guards == guards
-            };
-            match out.sets.iter().position(same) {
-                Some(k) => out.light_set.push(Some(k)),
-                None => {
-                    // The copies of the kept primitives are made only for a new set.
-                    let mut culled = Vec::with_capacity(culled_index.len());
-                    let mut kept = Vec::with_capacity(finite.len() - culled_index.len());
-                    let mut next = culled_index.iter().peekable();
-                    for (i, p) in finite.iter().enumerate() {
-                        if next.next_if_eq(&&i).is_some() {
-                            culled.push((*p).clone());
-                        } else {
-                            kept.push((*p).clone());
-                        }
-                    }
-                    out.light_set.push(Some(out.sets.len()));
-                    out.sets.push(ShadowSet {
-                        bvh: Bvh::build(kept),
-                        guards,
-                        used,
-                        culled_index,
-                        culled,
-                    });
-                }
-            }
+            let guards = guards_of(&groups, extent.max_norm);
+            out.add_light(culled_index, guards, groups.len(), &finite);
         }
         out
+    }
+
+    /// Adds a light that culls the primitives `culled_index` of `finite` with the first `used`
+    /// of `guards`: the set of an earlier light with the same culled primitives and guards, or
+    /// a new set.
+    fn add_light(
+        &mut self,
+        culled_index: Vec<usize>,
+        guards: [Guard; MAX_GUARDS],
+        used: usize,
+        finite: &[&Primitive],
+    ) {
+        let same =
+            |t: &ShadowSet| t.culled_index == culled_index && t.used == used && t.guards == guards;
+        if let Some(k) = self.sets.iter().position(same) {
+            self.light_set.push(Some(k));
+            return;
+        }
+        // The copies of the kept primitives are made only for a new set.
+        let mut culled = Vec::with_capacity(culled_index.len());
+        let mut kept = Vec::with_capacity(finite.len() - culled_index.len());
+        let mut next = culled_index.iter().peekable();
+        for (i, p) in finite.iter().enumerate() {
+            if next.next_if_eq(&&i).is_some() {
+                culled.push((*p).clone());
+            } else {
+                kept.push((*p).clone());
+            }
+        }
+        self.light_set.push(Some(self.sets.len()));
+        self.sets.push(ShadowSet {
+            bvh: Bvh::build(kept),
+            guards,
+            used,
+            culled_index,
+            culled,
+        });
     }
 
     fn set(&self, j: usize) -> Option<&ShadowSet> {
@@ -527,6 +586,13 @@ mod tests {
         quad([-1., y, 0.], [1., y, 0.], [1., y, 2.], [-1., y, 2.], shape)
     }
 
+    /// Lights of unit K along the segments `ends`.
+    fn lines(ends: &[(Vec3, Vec3)]) -> Vec<Light> {
+        (ends.iter())
+            .map(|&(a, b)| Light::new(linlight_sampling::Segment::new(a, b), Vec3::ONE))
+            .collect()
+    }
+
     fn culled_shapes(c: &ShadowCulling, j: usize) -> Vec<u32> {
         let mut s: Vec<u32> = c.culled(j).iter().map(|p| p.shape()).collect();
         s.dedup();
@@ -541,7 +607,7 @@ mod tests {
         // A small occluder between floor and light: the floor lies below its plane.
         prims.push(tri([-0.2, -0.2, 0.5], [0.2, -0.2, 0.5], [0.0, 0.2, 0.5], 2));
         let light = (Vec3::new(-0.5, 0.0, 1.5), Vec3::new(0.5, 0.0, 1.5));
-        let c = ShadowCulling::new(&prims, &[light]);
+        let c = ShadowCulling::new(&prims, &lines(&[light]));
         assert_eq!(culled_shapes(&c, 0), vec![0, 1]);
         assert_eq!(c.culled(0).len(), 4);
     }
@@ -555,7 +621,7 @@ mod tests {
         // It is itself culled: everything lies on the light's side of its plane y = 1.5.
         prims.push(tri([0.0, 1.5, 0.0], [0.5, 1.5, 0.0], [0.0, 1.5, 0.5], 2));
         let light = (Vec3::new(-0.5, 0.0, 1.5), Vec3::new(0.5, 0.0, 1.5));
-        let c = ShadowCulling::new(&prims, &[light]);
+        let c = ShadowCulling::new(&prims, &lines(&[light]));
         assert_eq!(culled_shapes(&c, 0), vec![0, 2]);
     }
 
@@ -566,7 +632,7 @@ mod tests {
         let touching = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0));
         let grazing = (Vec3::new(0.0, 0.0, 1e-6), Vec3::new(1.0, 0.0, 1e-6));
         let above = (Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0));
-        let c = ShadowCulling::new(&prims, &[crossing, touching, grazing, above]);
+        let c = ShadowCulling::new(&prims, &lines(&[crossing, touching, grazing, above]));
         assert!(c.culled(0).is_empty() && c.culled(1).is_empty() && c.culled(2).is_empty());
         assert_eq!(c.culled(3).len(), 2);
     }
@@ -577,7 +643,7 @@ mod tests {
         let full = Bvh::build(prims.clone());
         let c = ShadowCulling::new(
             &prims,
-            &[(Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0))],
+            &lines(&[(Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0))]),
         );
         assert_eq!(c.culled(0).len(), 2);
         let up = |z: f32| Ray {
@@ -629,7 +695,7 @@ mod tests {
         let full = Bvh::build(prims.clone());
         let light = |gap: f32| (Vec3::new(0.0, -0.5, 1.0), Vec3::new(0.0, 1.0 - gap, 1.0));
         let wall_culled = |gap: f32| {
-            let c = ShadowCulling::new(&prims, &[light(gap)]);
+            let c = ShadowCulling::new(&prims, &lines(&[light(gap)]));
             c.culled(0).iter().any(|p| p.shape() == 5)
         };
         // The smallest gap (to a relative 10⁻⁴) at which the wall y = 1 is culled.
@@ -644,7 +710,7 @@ mod tests {
             }
         }
         let (begin, end) = light(hi);
-        let sh = ShadowCulling::new(&prims, &[(begin, end)]);
+        let sh = ShadowCulling::new(&prims, &lines(&[(begin, end)]));
         assert_eq!(culled_shapes(&sh, 0), vec![0, 1, 2, 3, 4, 5]);
         let segment = Segment::new(begin, end);
         let mut rng = Pcg32::new(0x5eed, 7);
@@ -842,7 +908,7 @@ mod tests {
             };
             let mut packet_vs_scalar = 0u64;
             for sp in &points {
-                for (j, (segment, _)) in rs.lights.iter().enumerate() {
+                for (j, Light { segment, .. }) in rs.lights.iter().enumerate() {
                     for i in 0..6 {
                         let s = match i {
                             0 => 0.0,

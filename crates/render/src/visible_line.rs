@@ -25,6 +25,7 @@
 
 use crate::bvh::Bvh;
 use crate::camera::Camera;
+use crate::light::Light;
 use crate::ray_offset::SHADOW_EPSILON;
 use crate::shapes::Ray;
 use glam::{DMat4, DVec3, Vec3};
@@ -69,14 +70,16 @@ pub struct VisibleLines {
 }
 
 impl VisibleLines {
-    /// `lights`: (begin, end, K) in world space. Empty when `hide_emitters` is set.
-    pub fn new(camera: &Camera, lights: &[(Vec3, Vec3, Vec3)]) -> Self {
+    /// The lines of `lights` (world space) as `camera` sees them. Empty when `hide_emitters`
+    /// is set.
+    pub fn new(camera: &Camera, lights: &[Light]) -> Self {
         let p = camera.projection();
         let to_camera = p.to_world.inverse();
         let film_scale = p.width / (2.0 * p.tan_half_x);
         let lines = lights
             .iter()
-            .filter_map(|&(a, b, k)| {
+            .filter_map(|light| {
+                let (a, b, k) = (light.segment.begin, light.segment.end, light.k);
                 let q0 = to_camera.transform_point3(a.as_dvec3());
                 let q1 = to_camera.transform_point3(b.as_dvec3());
                 let length = (q1 - q0).length();
@@ -228,7 +231,7 @@ mod tests {
     use crate::render::render;
     use crate::scene_builder::{scene, sensor};
     use crate::RenderOptions;
-    use linlight_sampling::Technique;
+    use linlight_sampling::{Segment, Technique};
 
     /// A line in front of the camera, no geometry: the sum over all pixels of the pixel
     /// integrals equals the integral over the whole segment (the pixels tile the film), which
@@ -242,7 +245,7 @@ mod tests {
         // Camera space: +x left; world = camera here up to the look-at frame (identity-like).
         let (a, b) = (Vec3::new(-0.5, 0.2, z), Vec3::new(0.6, 0.2, z));
         let k = Vec3::new(1.0, 2.0, 0.5);
-        let vis = VisibleLines::new(&camera, &[(a, b, k)]);
+        let vis = VisibleLines::new(&camera, &[Light::new(Segment::new(a, b), k)]);
         let mut total = DVec3::ZERO;
         let mut seen = Vec::new();
         let mut crossed = 0;
@@ -296,11 +299,7 @@ mod tests {
         sc.integrator.hide_emitters = false;
         let img = render(&sc, &opts, &|_, _| {}).unwrap();
         let camera = Camera::new(&sc.sensor).unwrap();
-        let l = &sc.lights[0];
-        let vis = VisibleLines::new(
-            &camera,
-            &[(l.begin, l.end, Vec3::from_array(l.radiance_times_radius))],
-        );
+        let vis = VisibleLines::new(&camera, &[Light::of(&sc.lights[0])]);
         let mut seen = Vec::new();
         let mut lit = 0;
         for y in 0..16 {

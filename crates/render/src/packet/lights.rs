@@ -4,36 +4,18 @@
 
 use super::shading::ShadingLanes;
 use super::{Context, Lanes3};
+use crate::light::{Light, LightRow, ROW_BEGIN, ROW_END, ROW_K};
 use crate::light_choice::LightSelection;
-use crate::render_scene::{k_over_probability, RenderScene};
+use crate::render_scene::RenderScene;
 use glam::Vec3;
 use linlight_sampling::batch::{self, LineProblems, LineSamples};
-use linlight_sampling::{Segment, Technique};
+use linlight_sampling::Technique;
 use linlight_simd::{get3, splat3, Aligned, PACKET_LANES};
-
-/// A light's values for the lanes that sample it: K (K_j/p_j when the lanes choose one light:
-/// [`k_over_probability`], the scalar path's operation) at 0..3, its segment's begin at 3..6
-/// and end at 6..9.
-pub(super) type LightRow = [f32; 9];
-
-/// The [`LightRow`] of light j with K = `k`.
-fn light_row(segment: &Segment, k: Vec3) -> LightRow {
-    let mut row = [0.0; 9];
-    for (c, v) in [k, segment.begin, segment.end].iter().enumerate() {
-        row[3 * c..3 * c + 3].copy_from_slice(&v.to_array());
-    }
-    row
-}
 
 /// The [`LightRow`] of every light of `rs` chosen with its probability (K/p).
 pub(super) fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
-    (0..rs.lights.len())
-        .map(|j| {
-            light_row(
-                &rs.lights[j].0,
-                k_over_probability(&rs.lights, &rs.choice, j),
-            )
-        })
+    (rs.lights.iter().enumerate())
+        .map(|(j, light)| light.row(rs.k_over_probability(j)))
         .collect()
 }
 
@@ -53,23 +35,23 @@ pub(super) struct LightLanes {
 }
 
 impl LightLanes {
-    /// Lane k's light segment and K.
+    /// Lane k's light and its K (K/p when chosen).
     #[inline(always)]
-    pub(super) fn of<'s>(&self, rs: &'s RenderScene, k: usize) -> (&'s Segment, Vec3) {
-        (&rs.lights[self.light[k] as usize].0, get3(self.k(), k))
+    pub(super) fn of<'s>(&self, rs: &'s RenderScene, k: usize) -> (&'s Light, Vec3) {
+        (&rs.lights[self.light[k] as usize], get3(self.k(), k))
     }
 
     /// Each lane's K.
     #[inline(always)]
     pub(super) fn k(&self) -> &Lanes3 {
-        self.row3(0)
+        self.row3(ROW_K)
     }
 
-    /// Rows 3·i … 3·i + 2 (0: K, 1: segment begin, 2: segment end).
+    /// Rows `at` … `at` + 2 ([`ROW_K`], [`ROW_BEGIN`] or [`ROW_END`]).
     #[inline(always)]
-    pub(super) fn row3(&self, i: usize) -> &Lanes3 {
-        // Three whole rows (i is a constant after inlining): the conversion cannot fail.
-        self.rows[3 * i..3 * i + 3].try_into().expect("three rows")
+    pub(super) fn row3(&self, at: usize) -> &Lanes3 {
+        // Three whole rows (at is a constant after inlining): the conversion cannot fail.
+        self.rows[at..at + 3].try_into().expect("three rows")
     }
 }
 
@@ -81,11 +63,11 @@ pub(super) type SampleLanes = Aligned<LineSamples<PACKET_LANES>>;
 impl<'a> Context<'a> {
     /// The lights of pass `walk` over the lights and their numbers, `number(d)` being
     /// dimension d of the lanes (only the batch lanes' ξ when `batch`, the scalar lanes' when
-    /// `scalar`): light `walk` in every lane, ξ of dimension 2 + `walk` for the batch lanes and
-    /// 2 + `walk` or (2 + 2·`walk`, 3 + 2·`walk`) for the scalar lanes (`every`); or (`one`,
-    /// `tree`) each lane's light chosen by its ξ_c (dimension 2; the scalar path's
-    /// `choose_light` on the lanes, `tree` from the lane's shading point) with K/p, and its
-    /// numbers from dimension 3 on.
+    /// `scalar`), at the dimensions [`RenderScene::light_dimension`] gives (one number per
+    /// light for the batch lanes, one or two for the scalar lanes): light `walk` in every lane
+    /// (`every`); or (`one`, `tree`) each lane's light chosen by its ξ_c
+    /// ([`RenderScene::LIGHT_CHOICE_DIMENSION`]; the scalar path's `choose_light` on the lanes,
+    /// `tree` from the lane's shading point) with K/p.
     #[inline(always)]
     pub(super) fn light_lanes(
         &self,
@@ -97,13 +79,11 @@ impl<'a> Context<'a> {
         scalar: bool,
     ) -> LightLanes {
         let rs = self.rs;
-        // First dimension of the light's numbers, and how many a scalar lane draws per light.
-        let (first, scalar_per_light) = match (one, self.combination) {
-            (false, None) => (2 + walk, 1),
-            (false, Some(_)) => (2 + 2 * walk, 2),
-            (true, None) => (3, 1),
-            (true, Some(_)) => (3, 2),
-        };
+        let selection = self.opts.lights;
+        debug_assert_eq!(one, rs.chooses_one(selection));
+        // A scalar lane draws one number per light, or two (the two-technique methods).
+        let scalar_per_light = if self.combination.is_some() { 2 } else { 1 };
+        let first = rs.light_dimension(selection, walk, scalar_per_light);
         let zero = [0.0; PACKET_LANES];
         let scalar_xi = if !scalar {
             [zero; 2]
@@ -115,25 +95,23 @@ impl<'a> Context<'a> {
         // Batch lanes draw one number per light.
         let xi = if !batch {
             zero
-        } else if one {
-            number(3)
         } else {
-            number(2 + walk)
+            number(rs.light_dimension(selection, walk, 1))
         };
         if !one {
-            let (segment, k) = &rs.lights[walk];
+            let light = &rs.lights[walk];
             return LightLanes {
                 uniform: Some(walk),
                 light: [walk as u32; PACKET_LANES],
-                rows: light_row(segment, *k).map(|v| [v; PACKET_LANES]),
+                rows: light.row(light.k()).map(|v| [v; PACKET_LANES]),
                 xi,
                 scalar_xi,
             };
         }
-        if self.opts.lights == LightSelection::Tree {
+        if selection == LightSelection::Tree {
             // Each shaded lane's light from its shading point, lane by lane (the scalar path's
             // `choose_light`); the other lanes sample nothing.
-            let xi_c = number(2);
+            let xi_c = number(RenderScene::LIGHT_CHOICE_DIMENSION);
             let mut light = [0u32; PACKET_LANES];
             let mut rows = [[0.0f32; PACKET_LANES]; 9];
             let mut m = shading.active;
@@ -147,7 +125,7 @@ impl<'a> Context<'a> {
                     xi_c[k],
                 );
                 light[k] = j as u32;
-                for (r, v) in light_row(&rs.lights[j].0, kp).into_iter().enumerate() {
+                for (r, v) in rs.lights[j].row(kp).into_iter().enumerate() {
                     rows[r][k] = v;
                 }
             }
@@ -160,7 +138,8 @@ impl<'a> Context<'a> {
             };
         }
         // Each lane's light, its K/p and segment, all lanes at once.
-        let (light, rows) = rs.choice.pick_rows(&number(2), &self.light_rows);
+        let xi_c = number(RenderScene::LIGHT_CHOICE_DIMENSION);
+        let (light, rows) = rs.choice.pick_rows(&xi_c, &self.light_rows);
         LightLanes {
             uniform: None,
             light,
@@ -180,10 +159,10 @@ impl<'a> Context<'a> {
     ) -> LineProblems<PACKET_LANES> {
         let (begin, end) = match lights.uniform {
             Some(j) => {
-                let segment = &self.rs.lights[j].0;
+                let segment = self.rs.lights[j].segment();
                 (splat3(segment.begin), splat3(segment.end))
             }
-            None => (*lights.row3(1), *lights.row3(2)),
+            None => (*lights.row3(ROW_BEGIN), *lights.row3(ROW_END)),
         };
         LineProblems {
             begin,

@@ -55,6 +55,7 @@
 use crate::bvh::PACKET;
 use crate::film::Welford;
 use crate::frame::{metadata, pixel_entries, render_in_tiles};
+use crate::light::LightRow;
 use crate::method::Method;
 use crate::options::{check_options, window, Cylinders, RenderError, RenderOptions};
 use crate::render_scene::RenderScene;
@@ -68,7 +69,7 @@ use linlight_sampling::Technique;
 use linlight_simd::{dispatch, get3, set3, Aligned, Isa, Kernel, PACKET_LANES};
 
 use contributions::{glossy_contributions, lambert_contributions};
-use lights::{light_rows, LightRow};
+use lights::light_rows;
 use primary::{primary_kernel, Packet, Primary};
 use shading::{shading_points, ShadingLanes};
 use shadow::shadow_rays;
@@ -325,12 +326,9 @@ impl<'a> Context<'a> {
             }
             let mut rng =
                 CounterRng::camera_sample(self.opts.seed, pass, packet.index[k], packet.sample[k]);
-            let used = 2 + if radiance.shaded >> k & 1 == 1 {
-                let per_light = 1 + (radiance.two_per_light >> k & 1) as usize;
-                rs.light_numbers(self.opts.lights, 1, per_light)
-            } else {
-                0
-            };
+            let shaded = radiance.shaded >> k & 1 == 1;
+            let per_light = 1 + (radiance.two_per_light >> k & 1) as usize;
+            let used = rs.camera_sample_numbers(self.opts.lights, 1, shaded.then_some(per_light));
             for _ in 0..used {
                 rng.next_u32();
             }

@@ -126,7 +126,8 @@ impl Context<'_> {
     #[inline(always)]
     pub(super) fn kept_blocks(&self) -> usize {
         let rs = self.rs;
-        let blocks = (2 + rs.light_numbers(self.opts.lights, 1, self.per_light)).div_ceil(4);
+        let numbers = rs.camera_sample_numbers(self.opts.lights, 1, Some(self.per_light));
+        let blocks = numbers.div_ceil(4);
         blocks.min(MAX_BLOCKS)
     }
 }

@@ -5,7 +5,7 @@ use super::lights::LightLanes;
 use super::shading::ShadingLanes;
 use super::shadow::shadow_rays_along;
 use super::{Context, Lanes3};
-use crate::hooks::{LightSampling, Ltc, SceneBsdf};
+use crate::hooks::{Ltc, SceneBsdf};
 use crate::render_scene::RenderScene;
 use crate::shading::{single_contribution, single_sample, TwoTechniqueLight};
 use glam::Vec3;
@@ -54,10 +54,9 @@ impl<'a> Context<'a> {
                 while m != 0 {
                     let k = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    let (segment, k_light) = lights.of(self.rs, k);
+                    let (light, k_light) = lights.of(self.rs, k);
                     let (p, n) = (get3(&shading.p, k), get3(&shading.n, k));
-                    let Some(sampler) = LightSampling::prepare(&self.technique, segment, p, n)
-                    else {
+                    let Some(sampler) = light.sampler(&self.technique, p, n) else {
                         continue;
                     };
                     let Some(s) = single_sample(&sampler, n, xi[k]) else {
@@ -79,8 +78,9 @@ impl<'a> Context<'a> {
                     let Some(point) = &shading.glossy[k] else {
                         continue;
                     };
-                    let (segment, k_light) = lights.of(self.rs, k);
-                    let Some(light) = TwoTechniqueLight::prepare(&Ltc, point, segment) else {
+                    let (light, k_light) = lights.of(self.rs, k);
+                    let Some(light) = TwoTechniqueLight::prepare(&Ltc, point, light.segment())
+                    else {
                         continue;
                     };
                     let eval = |w: Vec3| point.eval(&SceneBsdf, w);

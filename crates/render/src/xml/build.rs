@@ -88,6 +88,23 @@ pub(super) fn plugin_type(e: &Elem) -> Result<&str, SceneError> {
     }
 }
 
+/// Warns of each light whose radius exceeds [`FAT_TUBE`] × its length.
+fn warn_of_fat_tubes(scene: &mut Scene) {
+    for l in &scene.lights {
+        let length = (l.end - l.begin).length();
+        if l.radius > FAT_TUBE * length {
+            scene.warnings.push(format!(
+                "{}: cylinder radius {} is more than {FAT_TUBE} × its length {length}: the \
+                 exact samplers stay unbiased, but the section density of the default \
+                 technique follows the projected solid angle poorly beyond the open ends \
+                 (more noise there), and the line limit (--cylinders line) is far from this \
+                 tube (docs/cylinders.md)",
+                l.location, l.radius
+            ));
+        }
+    }
+}
+
 impl<'a> Builder<'a> {
     pub fn new(tree: &'a TreeBuilder) -> Builder<'a> {
         Builder {
@@ -226,10 +243,47 @@ impl<'a> Builder<'a> {
     pub fn scene(&mut self, root: &Rc<Elem>) -> Result<Scene, SceneError> {
         root.check_attrs(&[])?;
         let p = self.props(root)?;
+        self.top_level_objects(root, &p);
+        let sensor = self.the_sensor(root, &p);
+        let integrator = self.the_integrator(root, &p);
+        let mut shapes = Vec::new();
+        let mut lights = Vec::new();
+        let shape_elems = p.objects("shape");
+        let meshes = self.read_meshes(&shape_elems);
+        for ((s, _), mesh) in shape_elems.iter().zip(meshes) {
+            match self.shape(s, mesh) {
+                Ok(Built::Shape(sh)) => shapes.push(sh),
+                Ok(Built::Light(l)) => lights.push(l),
+                Err(e) => self.errors.push(e),
+            }
+        }
+        let finished = p.finish();
+        self.keep(finished);
+        if let Some(e) = SceneError::collect(std::mem::take(&mut self.errors)) {
+            return Err(e);
+        }
+        let (Some(sensor), Some(integrator)) = (sensor, integrator) else {
+            unreachable!("a missing sensor or integrator left an error");
+        };
+        let mut scene = Scene {
+            sensor,
+            integrator,
+            shapes,
+            lights,
+            sha256: String::new(),
+            warnings: std::mem::take(&mut self.warnings),
+        };
+        warn_of_fat_tubes(&mut scene);
+        Ok(scene)
+    }
+
+    /// Judges the top-level objects of `root` (properties `p`) that are not sensor,
+    /// integrator or shape: an unreferenced texture, volume, medium, phase, spectrum or BSDF
+    /// is ignored with a warning (its content cannot matter; a referenced one is judged where
+    /// it is used), and a top-level emitter is an error.
+    fn top_level_objects(&mut self, root: &Elem, p: &Props) {
         let referenced = referenced_ids(root);
         let is_used = |e: &Elem| e.attr("id").is_some_and(|id| referenced.contains(id));
-        // Objects only a reference can use: an unreferenced one is ignored with a warning (as
-        // its content cannot matter); a referenced one is judged where it is used.
         for tag in ["texture", "volume", "medium", "phase", "spectrum"] {
             for (o, _) in p.objects(tag) {
                 if !is_used(&o) {
@@ -258,20 +312,21 @@ impl<'a> Builder<'a> {
                 continue; // built (and judged) by the shapes that reference it
             }
             let before = self.warnings.len();
-            match self.bsdf(&b) {
-                Ok(_) => {}
-                Err(e) => {
-                    self.warnings.truncate(before);
-                    self.warnings.push(format!(
-                        "{}: {} is not referenced by anything; ignored (linlight could not \
-                         render it: {})",
-                        b.loc,
-                        b.describe(),
-                        e.message
-                    ));
-                }
+            if let Err(e) = self.bsdf(&b) {
+                self.warnings.truncate(before);
+                self.warnings.push(format!(
+                    "{}: {} is not referenced by anything; ignored (linlight could not render \
+                     it: {})",
+                    b.loc,
+                    b.describe(),
+                    e.message
+                ));
             }
         }
+    }
+
+    /// The scene's one sensor (`None` after recording an error).
+    fn the_sensor(&mut self, root: &Elem, p: &Props) -> Option<Sensor> {
         let sensors = p.objects("sensor");
         if sensors.len() > 1 {
             self.errors.push(SceneError::new(
@@ -280,7 +335,11 @@ impl<'a> Builder<'a> {
             ));
         }
         let sensor = self.sensor(sensors.first().map(|s| &*s.0), &root.loc);
-        let sensor = self.keep(sensor);
+        self.keep(sensor)
+    }
+
+    /// The scene's one integrator (`None` after recording an error).
+    fn the_integrator(&mut self, root: &Elem, p: &Props) -> Option<Integrator> {
         let integrators = p.objects("integrator");
         if integrators.len() > 1 {
             self.errors.push(SceneError::new(
@@ -288,7 +347,7 @@ impl<'a> Builder<'a> {
                 "only one integrator is supported",
             ));
         }
-        let integrator = match integrators.first() {
+        match integrators.first() {
             None => self.keep(err(
                 &root.loc,
                 "the scene has no integrator; Mitsuba's default is 'path', which is not \
@@ -299,48 +358,7 @@ impl<'a> Builder<'a> {
                 let i = self.integrator(integ);
                 self.keep(i)
             }
-        };
-        let mut shapes = Vec::new();
-        let mut lights = Vec::new();
-        let shape_elems = p.objects("shape");
-        let meshes = self.read_meshes(&shape_elems);
-        for ((s, _), mesh) in shape_elems.iter().zip(meshes) {
-            match self.shape(s, mesh) {
-                Ok(Built::Shape(sh)) => shapes.push(sh),
-                Ok(Built::Light(l)) => lights.push(l),
-                Err(e) => self.errors.push(e),
-            }
         }
-        let finished = p.finish();
-        self.keep(finished);
-        if let Some(e) = SceneError::collect(std::mem::take(&mut self.errors)) {
-            return Err(e);
-        }
-        let (Some(sensor), Some(integrator)) = (sensor, integrator) else {
-            unreachable!("a missing sensor or integrator left an error");
-        };
-        let mut scene = Scene {
-            sensor,
-            integrator,
-            shapes,
-            lights,
-            sha256: String::new(),
-            warnings: std::mem::take(&mut self.warnings),
-        };
-        for l in &scene.lights {
-            let length = (l.end - l.begin).length();
-            if l.radius > FAT_TUBE * length {
-                scene.warnings.push(format!(
-                    "{}: cylinder radius {} is more than {FAT_TUBE} × its length {length}: the \
-                     exact samplers stay unbiased, but the section density of the default \
-                     technique follows the projected solid angle poorly beyond the open ends \
-                     (more noise there), and the line limit (--cylinders line) is far from \
-                     this tube (docs/cylinders.md)",
-                    l.location, l.radius
-                ));
-            }
-        }
-        Ok(scene)
     }
 
     fn sensor(

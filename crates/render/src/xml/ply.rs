@@ -205,6 +205,9 @@ pub fn declared_faces(path: &std::path::Path) -> Result<u64, String> {
         .sum())
 }
 
+/// The triangle mesh of a PLY file (`data`: the whole file): positions, per-vertex normals
+/// (when the vertices have nx, ny, nz and `face_normals` is off) and the faces fanned into
+/// triangles.
 pub fn parse_ply(data: &[u8], face_normals: bool) -> Result<RawMesh, String> {
     let (format, elems, body_start) = parse_header(data)?;
     let mut body = Body {
@@ -212,135 +215,36 @@ pub fn parse_ply(data: &[u8], face_normals: bool) -> Result<RawMesh, String> {
         pos: 0,
         format,
     };
-    let mut positions: Vec<DVec3> = Vec::new();
+    let mut mesh = RawMesh {
+        positions: Vec::new(),
+        normals: None,
+        triangles: Vec::new(),
+    };
     let mut normals: Vec<DVec3> = Vec::new();
     let mut has_normals = false;
-    let mut tris: Vec<[u32; 3]> = Vec::new();
     let mut n_vertices = None;
     let mut saw_faces = false;
-
     for e in &elems {
-        let find = |n: &str| {
-            e.props
-                .iter()
-                .position(|p| matches!(p, Property::Scalar(m, _) if m == n))
-        };
         // Cap the reservation by what the file could possibly hold.
         let cap = e.count.min(data.len());
         match e.name.as_str() {
             "vertex" => {
-                let idx = [find("x"), find("y"), find("z")];
-                if idx.iter().any(Option::is_none) {
-                    return Err("vertex element lacks x, y or z".into());
-                }
-                let nidx = [find("nx"), find("ny"), find("nz")];
-                has_normals = !face_normals && nidx.iter().all(Option::is_some);
-                positions.reserve(cap);
-                let mut vals = vec![0.0; e.props.len()];
-                for vertex in 0..e.count {
-                    for (k, p) in e.props.iter().enumerate() {
-                        vals[k] = match p {
-                            Property::Scalar(_, t) => body.read(*t)?,
-                            Property::List(_, ct, it) => {
-                                let n = body.read(*ct)?;
-                                for _ in 0..list_len(n)? {
-                                    body.read(*it)?;
-                                }
-                                0.0
-                            }
-                        };
-                    }
-                    let p = DVec3::new(
-                        vals[idx[0].unwrap()],
-                        vals[idx[1].unwrap()],
-                        vals[idx[2].unwrap()],
-                    );
-                    if !p.is_finite() {
-                        return Err(format!(
-                            "vertex {vertex} of {} has a non-finite position ({}, {}, {}) \
-                             (counted from 0)",
-                            e.count, p.x, p.y, p.z
-                        ));
-                    }
-                    positions.push(p);
-                    if has_normals {
-                        let n = DVec3::new(
-                            vals[nidx[0].unwrap()],
-                            vals[nidx[1].unwrap()],
-                            vals[nidx[2].unwrap()],
-                        );
-                        normals.push(n);
-                    }
-                }
+                has_normals = !face_normals && e.has_normals();
+                mesh.positions.reserve(cap);
+                let normals = has_normals.then_some(&mut normals);
+                read_vertices(&mut body, e, &mut mesh.positions, normals)?;
                 n_vertices = Some(e.count);
             }
             "face" => {
-                let li = e.props.iter().position(|p| {
-                    matches!(p, Property::List(n, _, _) if n == "vertex_indices" || n == "vertex_index")
-                });
-                let Some(li) = li else {
-                    return Err("face element lacks vertex_indices/vertex_index".into());
-                };
                 let Some(nv) = n_vertices else {
                     return Err("face element before vertex element".into());
                 };
-                tris.reserve(cap);
-                let mut corners: Vec<u32> = Vec::new();
-                for _ in 0..e.count {
-                    for (k, p) in e.props.iter().enumerate() {
-                        match p {
-                            Property::Scalar(_, t) => {
-                                body.read(*t)?;
-                            }
-                            Property::List(_, ct, it) => {
-                                let n = list_len(body.read(*ct)?)?;
-                                corners.clear();
-                                for _ in 0..n {
-                                    let i = body.read(*it)?;
-                                    if k == li {
-                                        if !(i >= 0.0 && i.fract() == 0.0 && i < nv as f64) {
-                                            return Err(format!(
-                                                "face refers to invalid vertex {i}"
-                                            ));
-                                        }
-                                        corners.push(i as u32);
-                                    }
-                                }
-                                if k == li {
-                                    if corners.len() < 3 {
-                                        return Err(format!(
-                                            "face with {} vertices",
-                                            corners.len()
-                                        ));
-                                    }
-                                    for j in 2..corners.len() {
-                                        tris.push([corners[0], corners[j - 1], corners[j]]);
-                                    }
-                                }
-                            }
-                        }
-                    }
-                }
+                mesh.triangles.reserve(cap);
+                read_faces(&mut body, e, nv, &mut mesh.triangles)?;
                 saw_faces = true;
             }
             _ if e.props.is_empty() => {} // nothing to read, however large the count
-            _ => {
-                for _ in 0..e.count {
-                    for p in &e.props {
-                        match p {
-                            Property::Scalar(_, t) => {
-                                body.read(*t)?;
-                            }
-                            Property::List(_, ct, it) => {
-                                let n = list_len(body.read(*ct)?)?;
-                                for _ in 0..n {
-                                    body.read(*it)?;
-                                }
-                            }
-                        }
-                    }
-                }
-            }
+            _ => skip_element(&mut body, e)?,
         }
     }
     if n_vertices.is_none() {
@@ -352,11 +256,130 @@ pub fn parse_ply(data: &[u8], face_normals: bool) -> Result<RawMesh, String> {
     if !body.at_end() {
         return Err("invalid file -- trailing content".into());
     }
-    Ok(RawMesh {
-        positions,
-        normals: has_normals.then_some(normals),
-        triangles: tris,
-    })
+    mesh.normals = has_normals.then_some(normals);
+    Ok(mesh)
+}
+
+impl Element {
+    /// The index of scalar property `name`.
+    fn scalar(&self, name: &str) -> Option<usize> {
+        (self.props.iter()).position(|p| matches!(p, Property::Scalar(m, _) if m == name))
+    }
+
+    /// Whether the element has the scalar properties nx, ny and nz.
+    fn has_normals(&self) -> bool {
+        ["nx", "ny", "nz"].iter().all(|n| self.scalar(n).is_some())
+    }
+}
+
+/// Reads the vertex element `e`: each vertex's position into `positions` (an error when one
+/// is not finite or x, y or z is missing), and its normal into `normals` when given (the
+/// caller has checked that nx, ny and nz exist).
+fn read_vertices(
+    body: &mut Body,
+    e: &Element,
+    positions: &mut Vec<DVec3>,
+    mut normals: Option<&mut Vec<DVec3>>,
+) -> Result<(), String> {
+    let (Some(x), Some(y), Some(z)) = (e.scalar("x"), e.scalar("y"), e.scalar("z")) else {
+        return Err("vertex element lacks x, y or z".into());
+    };
+    let nidx = [e.scalar("nx"), e.scalar("ny"), e.scalar("nz")].map(Option::unwrap_or_default);
+    let mut vals = vec![0.0; e.props.len()];
+    for vertex in 0..e.count {
+        for (k, p) in e.props.iter().enumerate() {
+            vals[k] = match p {
+                Property::Scalar(_, t) => body.read(*t)?,
+                Property::List(_, ct, it) => {
+                    let n = body.read(*ct)?;
+                    for _ in 0..list_len(n)? {
+                        body.read(*it)?;
+                    }
+                    0.0
+                }
+            };
+        }
+        let p = DVec3::new(vals[x], vals[y], vals[z]);
+        if !p.is_finite() {
+            return Err(format!(
+                "vertex {vertex} of {} has a non-finite position ({}, {}, {}) (counted from 0)",
+                e.count, p.x, p.y, p.z
+            ));
+        }
+        positions.push(p);
+        if let Some(normals) = normals.as_deref_mut() {
+            normals.push(DVec3::new(vals[nidx[0]], vals[nidx[1]], vals[nidx[2]]));
+        }
+    }
+    Ok(())
+}
+
+/// Reads the face element `e` (vertex indices below `nv`) and fans each face into
+/// `triangles`.
+fn read_faces(
+    body: &mut Body,
+    e: &Element,
+    nv: usize,
+    triangles: &mut Vec<[u32; 3]>,
+) -> Result<(), String> {
+    let li = e.props.iter().position(
+        |p| matches!(p, Property::List(n, _, _) if n == "vertex_indices" || n == "vertex_index"),
+    );
+    let Some(li) = li else {
+        return Err("face element lacks vertex_indices/vertex_index".into());
+    };
+    let mut corners: Vec<u32> = Vec::new();
+    for _ in 0..e.count {
+        for (k, p) in e.props.iter().enumerate() {
+            match p {
+                Property::Scalar(_, t) => {
+                    body.read(*t)?;
+                }
+                Property::List(_, ct, it) => {
+                    let n = list_len(body.read(*ct)?)?;
+                    corners.clear();
+                    for _ in 0..n {
+                        let i = body.read(*it)?;
+                        if k == li {
+                            if !(i >= 0.0 && i.fract() == 0.0 && i < nv as f64) {
+                                return Err(format!("face refers to invalid vertex {i}"));
+                            }
+                            corners.push(i as u32);
+                        }
+                    }
+                    if k == li {
+                        if corners.len() < 3 {
+                            return Err(format!("face with {} vertices", corners.len()));
+                        }
+                        for j in 2..corners.len() {
+                            triangles.push([corners[0], corners[j - 1], corners[j]]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Reads past an element the mesh does not use.
+fn skip_element(body: &mut Body, e: &Element) -> Result<(), String> {
+    for _ in 0..e.count {
+        for p in &e.props {
+            match p {
+                Property::Scalar(_, t) => {
+                    body.read(*t)?;
+                }
+                Property::List(_, ct, it) => {
+                    let n = list_len(body.read(*ct)?)?;
+                    for _ in 0..n {
+                        body.read(*it)?;
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 fn list_len(n: f64) -> Result<usize, String> {
