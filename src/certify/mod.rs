@@ -754,20 +754,65 @@ fn run_plan(
     let plan = shard::plan(&chosen, &scene_subjects);
     // This shard's subjects of each scene (all of them without --shard).
     let mine = shard_subjects(opts, &scene_subjects);
-    let first_shard = opts.shard.is_none_or(|s| s.runs_suite());
-    let run_suite = opts.sampler_suite && first_shard;
     let live_renders = usize::from(opts.oracle == Oracle::Live)
         * mine.iter().filter(|subjects| !subjects.is_empty()).count();
     events(Event::Plan {
         steps: mine.iter().map(Vec::len).sum::<usize>() + live_renders,
     });
+    let done = run_stages(opts, &cfg, events, &chosen, &mine)?;
+    let cpu = cpu::process_seconds()
+        .zip(cpu_started)
+        .zip(loading_cpu)
+        .zip(done.suite_cpu)
+        .map(|(((end, start), loading), (suite, kernels))| CpuTimes {
+            process: end - start,
+            loading,
+            sampler_suite: suite,
+            gpu_kernels: kernels,
+            scenes: done
+                .scenes
+                .iter()
+                .filter_map(|s| s.cpu)
+                .fold(StageCpu::default(), |a, b| a + b),
+        });
+    let report = Report {
+        elapsed_seconds: started.elapsed().as_secs_f64(),
+        cpu,
+        plan,
+        ..report_of(opts, (m, &cfg), done)
+    };
+    if let Some(dir) = &opts.report_dir {
+        report::write_report(dir, &report)?;
+        report_html::write(dir, &report)?;
+    }
+    Ok(report)
+}
 
-    // The sampler suite (then the shader kernels' certification, on the first shard) runs
-    // alongside the renders, each stage group on a pool of its own with as many threads as the
-    // caller's: the system fills each one's serial stretches (a suite subject's first
-    // configuration, a render's last tiles, the comparisons) with the other's work, and each
-    // pool's threads' CPU clocks give that group's CPU-s. Neither result depends on the
-    // number of threads.
+/// What [`run_stages`] returns: the suite's and the kernels' results with their CPU-s, and the
+/// scenes' reports.
+struct Stages {
+    sampler_suite: Option<SuiteSummary>,
+    gpu_kernels: Option<GpuSummary>,
+    /// CPU-s of the sampler suite and of the shader kernels (None: not measured).
+    suite_cpu: Option<(f64, f64)>,
+    scenes: Vec<SceneReport>,
+}
+
+/// The sampler suite (then the shader kernels' certification, on the first shard) alongside
+/// the renders of `mine` (each chosen scene's subjects), each stage group on a pool of its own
+/// with as many threads as the caller's: the system fills each one's serial stretches (a suite
+/// subject's first configuration, a render's last tiles, the comparisons) with the other's
+/// work, and each pool's threads' CPU clocks give that group's CPU-s. Neither result depends on
+/// the number of threads.
+fn run_stages(
+    opts: &Options,
+    cfg: &CompareConfig,
+    events: &(dyn Fn(Event) + Sync),
+    chosen: &[ReferencedScene],
+    mine: &[Vec<&dyn Subject>],
+) -> Result<Stages, Unusable> {
+    let first_shard = opts.shard.is_none_or(|s| s.runs_suite());
+    let run_suite = opts.sampler_suite && first_shard;
     let threads = rayon::current_num_threads();
     let pool = |what: &str| ClockedPool::new(threads).map_err(|e| Unusable(format!("{what}: {e}")));
     let suite_pool = pool("sampler suite")?;
@@ -795,19 +840,19 @@ fn run_plan(
     };
     let run = SceneRun {
         opts,
-        cfg: &cfg,
+        cfg,
         events,
         pool: &render_pool,
     };
     let render_all = || -> Result<Vec<SceneReport>, Unusable> {
         chosen
             .iter()
-            .zip(&mine)
+            .zip(mine)
             .filter(|(_, subjects)| !subjects.is_empty())
             .map(|(s, subjects)| run.scene(s, subjects))
             .collect()
     };
-    let ((sampler_suite, gpu_kernels, suite_cpu), scene_reports) = std::thread::scope(|scope| {
+    let ((sampler_suite, gpu_kernels, suite_cpu), scenes) = std::thread::scope(|scope| {
         let suite = scope.spawn(|| suite_pool.install(suite));
         let scenes = render_pool.install(render_all);
         let suite = suite
@@ -815,24 +860,23 @@ fn run_plan(
             .unwrap_or_else(|p| std::panic::resume_unwind(p));
         (suite, scenes)
     });
-    let scene_reports = scene_reports?;
-    let cpu = cpu::process_seconds()
-        .zip(cpu_started)
-        .zip(loading_cpu)
-        .zip(suite_cpu)
-        .map(|(((end, start), loading), (suite, kernels))| CpuTimes {
-            process: end - start,
-            loading,
-            sampler_suite: suite,
-            gpu_kernels: kernels,
-            scenes: scene_reports
-                .iter()
-                .filter_map(|s| s.cpu)
-                .fold(StageCpu::default(), |a, b| a + b),
-        });
+    Ok(Stages {
+        sampler_suite,
+        gpu_kernels,
+        suite_cpu,
+        scenes: scenes?,
+    })
+}
 
-    let verdict = overall_verdict(sampler_suite.as_ref(), gpu_kernels.as_ref(), &scene_reports);
-    let report = Report {
+/// The report of a run of `opts` from its stages' results, with the Šidák split `(m, cfg)`; its
+/// times, CPU-s and plan are the caller's to fill in.
+fn report_of(opts: &Options, (m, cfg): (usize, &CompareConfig), done: Stages) -> Report {
+    let verdict = overall_verdict(
+        done.sampler_suite.as_ref(),
+        done.gpu_kernels.as_ref(),
+        &done.scenes,
+    );
+    Report {
         passed: verdict == Verdict::Consistent,
         verdict,
         oracle: opts.oracle,
@@ -844,24 +888,19 @@ fn run_plan(
         budget_rule: opts.budget,
         seed: opts.seed,
         threads: rayon::current_num_threads(),
-        sampler_suite,
-        gpu_kernels,
-        scenes: scene_reports,
-        elapsed_seconds: started.elapsed().as_secs_f64(),
-        cpu,
+        sampler_suite: done.sampler_suite,
+        gpu_kernels: done.gpu_kernels,
+        scenes: done.scenes,
+        elapsed_seconds: 0.0,
+        cpu: None,
         calibration: std::fs::read_to_string(opts.root.join("docs/calibration.json"))
             .ok()
             .and_then(|t| serde_json::from_str(&t).ok()),
-        plan,
+        plan: Vec::new(),
         shard: opts.shard,
         tool_version: shard::TOOL_VERSION.into(),
         content_sha256: None,
-    };
-    if let Some(dir) = &opts.report_dir {
-        report::write_report(dir, &report)?;
-        report_html::write(dir, &report)?;
     }
-    Ok(report)
 }
 
 /// Per scene: its subjects (`per_scene`'s defaults, or the plan's list), then its blue-noise

@@ -116,32 +116,68 @@ pub fn run(args: Args) -> ExitCode {
     if !args.merge.is_empty() {
         return merge(&args);
     }
-    let mut methods: Vec<Method> = Vec::new();
-    let mut tubes: Vec<ExactTubes> = Vec::new();
-    for name in &args.techniques {
-        if name.trim().starts_with("exact:") {
-            match name.trim().parse::<ExactTubes>() {
-                Ok(t) => tubes.push(t),
-                Err(e) => return unusable(e),
-            }
-            continue;
-        }
-        match name.trim().parse::<Method>() {
-            Ok(m) if !m.is_unbiased() => {
-                return unusable(format!(
-                    "the {m} technique is biased by design and is not certified"
-                ))
-            }
-            Ok(m) => methods.push(m),
-            Err(e) => return unusable(e),
-        }
-    }
+    let (methods, tubes) = match parse_techniques(&args.techniques) {
+        Ok(parsed) => parsed,
+        Err(e) => return unusable(e),
+    };
     // No --techniques: each scene's default subjects (certify::matrix).
     let subjects: Vec<&dyn Subject> = methods
         .iter()
         .map(|m| m as &dyn Subject)
         .chain(tubes.iter().map(|t| t as &dyn Subject))
         .collect();
+    let opts = options(&args, &methods);
+    let pool = match outputs::thread_pool(args.threads) {
+        Ok(p) => p,
+        Err(e) => return unusable(e),
+    };
+    if let Err(e) = check_outputs(&args) {
+        return unusable(e);
+    }
+    let progress = Progress::new(args.quiet);
+    let events = |e: Event| progress.event(e);
+    let result = pool.install(|| {
+        if subjects.is_empty() {
+            certify::run_default(&opts, &events)
+        } else {
+            certify::run(&opts, &subjects, &events)
+        }
+    });
+    progress.bar.finish_and_clear();
+    let report = match result {
+        Ok(r) => r,
+        Err(e) => return unusable(e),
+    };
+    if !args.quiet {
+        println!();
+    }
+    finish(&args, &report)
+}
+
+/// `--techniques`: the line methods and the exact-tube subjects; an error for an unknown name
+/// or a technique biased by design.
+fn parse_techniques(names: &[String]) -> Result<(Vec<Method>, Vec<ExactTubes>), String> {
+    let mut methods: Vec<Method> = Vec::new();
+    let mut tubes: Vec<ExactTubes> = Vec::new();
+    for name in names {
+        if name.trim().starts_with("exact:") {
+            tubes.push(name.trim().parse::<ExactTubes>()?);
+            continue;
+        }
+        match name.trim().parse::<Method>()? {
+            m if !m.is_unbiased() => {
+                return Err(format!(
+                    "the {m} technique is biased by design and is not certified"
+                ))
+            }
+            m => methods.push(m),
+        }
+    }
+    Ok((methods, tubes))
+}
+
+/// The certification's options from the command line (`methods`: those of `--techniques`).
+fn options(args: &Args, methods: &[Method]) -> Options {
     let mut opts = Options::new(&args.root);
     if args.scenes_dir != std::path::Path::new(DEFAULT_SCENES_DIR) {
         // Another directory is certified alone, as a family of its own.
@@ -165,98 +201,92 @@ pub fn run(args: Args) -> ExitCode {
         opts.budget = BudgetRule::parity();
     }
     opts.shard = args.shard;
+    opts
+}
 
-    let pool = match outputs::thread_pool(args.threads) {
-        Ok(p) => p,
-        Err(e) => return unusable(e),
-    };
-    // Outputs are checked before anything runs (the report directory is created here).
-    if let Err(e) = outputs::check_dir_writable(&args.report_dir) {
-        return unusable(e);
-    }
+/// The outputs are checked before anything runs (the report directory is created here).
+fn check_outputs(args: &Args) -> Result<(), String> {
+    outputs::check_dir_writable(&args.report_dir)?;
     if let Some(path) = &args.json {
         let inside = ["report.json", "report.md", "report.html"].map(|f| args.report_dir.join(f));
         let named: Vec<(&str, &std::path::Path)> = inside
             .iter()
             .map(|p| ("report written by certify", p.as_path()))
             .collect();
-        if let Err(e) =
-            outputs::check_not_input(path, &named).and_then(|_| outputs::check_writable(path))
-        {
-            return unusable(format!("--json: {e}"));
+        outputs::check_not_input(path, &named)
+            .and_then(|_| outputs::check_writable(path))
+            .map_err(|e| format!("--json: {e}"))?;
+    }
+    Ok(())
+}
+
+/// The progress bar (on a terminal, unless `--quiet`) and the lines printed as the run goes.
+struct Progress {
+    bar: ProgressBar,
+    /// The current step's label.
+    label: Mutex<String>,
+    /// Whether the table's header was printed (before the first row).
+    header_printed: Mutex<bool>,
+    quiet: bool,
+}
+
+impl Progress {
+    fn new(quiet: bool) -> Self {
+        let bar = if !quiet && std::io::stderr().is_terminal() {
+            ProgressBar::new(0)
+        } else {
+            ProgressBar::hidden()
+        };
+        bar.set_style(
+            ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {wide_msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        Self {
+            bar,
+            label: Mutex::new(String::new()),
+            header_printed: Mutex::new(false),
+            quiet,
         }
     }
 
-    let bar = if !args.quiet && std::io::stderr().is_terminal() {
-        ProgressBar::new(0)
-    } else {
-        ProgressBar::hidden()
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed_precise} {wide_msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let label = Mutex::new(String::new());
-    let header_printed = Mutex::new(false);
-    let quiet = args.quiet;
-    let events = |e: Event| match e {
-        Event::Plan { steps } => bar.set_length(steps as u64),
-        Event::Step { label: l } => {
-            if let Ok(mut g) = label.lock() {
-                if !g.is_empty() {
-                    bar.inc(1);
-                }
-                *g = l.clone();
-            }
-            bar.set_message(l);
-        }
-        Event::Tiles { done, total } => {
-            if let Ok(g) = label.lock() {
-                let pct = 100.0 * done as f64 / total.max(1) as f64;
-                bar.set_message(format!("{} ({pct:.0} %)", *g));
-            }
-        }
-        Event::SuiteDone(s) => {
-            if !quiet {
-                bar.suspend(|| {
-                    println!(
-                        "sampler suite: {} ({:.1} s)",
-                        if s.passed { "PASS" } else { "FAIL" },
-                        s.elapsed_seconds
-                    )
-                });
-            }
-        }
-        Event::RowDone(row) => {
-            if !quiet {
-                bar.suspend(|| {
-                    if let Ok(mut h) = header_printed.lock() {
-                        if !*h {
-                            println!("{}", report::table_header());
-                            *h = true;
-                        }
+    fn event(&self, e: Event) {
+        let bar = &self.bar;
+        match e {
+            Event::Plan { steps } => bar.set_length(steps as u64),
+            Event::Step { label: l } => {
+                if let Ok(mut g) = self.label.lock() {
+                    if !g.is_empty() {
+                        bar.inc(1);
                     }
-                    println!("{}", report::row_line(row));
-                });
+                    *g = l.clone();
+                }
+                bar.set_message(l);
             }
+            Event::Tiles { done, total } => {
+                if let Ok(g) = self.label.lock() {
+                    let pct = 100.0 * done as f64 / total.max(1) as f64;
+                    bar.set_message(format!("{} ({pct:.0} %)", *g));
+                }
+            }
+            Event::SuiteDone(s) if !self.quiet => bar.suspend(|| {
+                println!(
+                    "sampler suite: {} ({:.1} s)",
+                    if s.passed { "PASS" } else { "FAIL" },
+                    s.elapsed_seconds
+                )
+            }),
+            Event::RowDone(row) if !self.quiet => bar.suspend(|| {
+                if let Ok(mut h) = self.header_printed.lock() {
+                    if !*h {
+                        println!("{}", report::table_header());
+                        *h = true;
+                    }
+                }
+                println!("{}", report::row_line(row));
+            }),
+            Event::SuiteDone(_) | Event::RowDone(_) => {}
         }
-    };
-    let result = pool.install(|| {
-        if subjects.is_empty() {
-            certify::run_default(&opts, &events)
-        } else {
-            certify::run(&opts, &subjects, &events)
-        }
-    });
-    bar.finish_and_clear();
-    let report = match result {
-        Ok(r) => r,
-        Err(e) => return unusable(e),
-    };
-    if !quiet {
-        println!();
     }
-    finish(&args, &report)
 }
 
 /// Summary, `--json` and the exit code of a finished (or merged) certification.

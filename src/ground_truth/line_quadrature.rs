@@ -31,6 +31,7 @@
 use glam::DVec3;
 use linlight_quadrature::{Adaptive, GaussLegendre};
 use linlight_render::scene::Bsdf;
+use std::sync::LazyLock;
 
 /// Initial panels of equal subtended angle on the part of the segment above the horizon.
 pub const PANELS: usize = 8;
@@ -111,6 +112,16 @@ fn equal_angle_edges(sp: &QuadraturePoint, p0: DVec3, u: DVec3, a: f64, b: f64) 
     edges
 }
 
+/// The adaptive rule of [`unshadowed_line_integral`] and its [`NODES`]-point Gauss–Legendre
+/// rule, built once: the exact image integrates ~10⁵ segments, and finding the nodes costs as
+/// much as a short integral.
+static RULES: LazyLock<(Adaptive, GaussLegendre)> = LazyLock::new(|| {
+    let mut q = Adaptive::new(NODES, RELATIVE_ERROR);
+    q.noise = 1e-13; // f64 integrand
+    q.max_evaluations = 100_000;
+    (q, GaussLegendre::new(NODES))
+});
+
 /// ∫ f(v, ω)·max(0, n·ω) dΩ_R over the segment [p0, p1] seen from `sp`, per RGB channel (the
 /// reflected radiance for K = 1). Zero when the segment is degenerate or entirely below the
 /// horizon. Also returns whether every channel met the error target.
@@ -140,13 +151,10 @@ pub fn unshadowed_line_integral(
         // eval includes max(0, n·ω) (zero below the horizon).
         bsdf.eval(sp.v_local, sp.local(w)) * (2.0 * u.cross(w).length() / r2)
     };
-    let mut q = Adaptive::new(NODES, RELATIVE_ERROR);
-    q.noise = 1e-13; // f64 integrand
-    q.max_evaluations = 100_000;
+    let (q, gl) = &*RULES;
     // The channel sum drives the refinement; every channel is then integrated on the final
     // panels with the same rule (one BSDF evaluation per node for all three).
     let r = q.integrate_partition(&edges, &mut |t| integrand(t).element_sum());
-    let gl = GaussLegendre::new(NODES);
     let mut sum = DVec3::ZERO;
     for [a, b] in &r.panels {
         let m = 0.5 * (a + b);
