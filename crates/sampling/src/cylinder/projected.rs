@@ -119,7 +119,8 @@ fn slice_of(view: &CylinderView, h: f64, nt: f64) -> Option<PsaCore<f64>> {
         return None;
     }
     // sin Δ > 0: a non-empty interval (Δ < π, both ends in (−π/2, π/2)).
-    if !(hi.0 * lo.1 - hi.1 * lo.0 > 0.0) {
+    let sin_width = hi.0 * lo.1 - hi.1 * lo.0;
+    if sin_width.is_nan() || sin_width <= 0.0 {
         return None;
     }
     let sh = 0.5 * ((hi.0 - lo.0) * (hi.0 - lo.0) + (hi.1 - lo.1) * (hi.1 - lo.1)).sqrt();
@@ -280,7 +281,8 @@ impl CylinderSampler for CylinderProjected {
         let (dc, dw, du) = (dir.dot(v.c), dir.dot(v.w), dir.dot(v.u));
         let horizontal = (dc * dc + dw * dw).sqrt();
         let alpha = atan2_f64(dw, dc);
-        if !(horizontal > 0.0) || alpha.is_nan() || alpha.abs() > v.alpha_max {
+        // A NaN component makes α NaN.
+        if horizontal <= 0.0 || alpha.is_nan() || alpha.abs() > v.alpha_max {
             return None;
         }
         let (sin, cos) = (dw / horizontal, dc / horizontal);
