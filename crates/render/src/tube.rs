@@ -221,11 +221,11 @@ impl PreparedTube {
         let (view, technique) = (&self.view, &self.technique);
         let mut out = [None, None];
         // The emitter sample.
-        if let Some((dir, p_e)) = technique.sample_with_pdf(xi) {
-            let w = dir.as_vec3();
+        if let Some(sample) = technique.sample_toward(xi) {
+            let (p_e, w) = (sample.pdf, sample.dir.as_vec3());
             let cos = n.dot(w);
             if p_e > 0.0 && p_e.is_finite() && cos > 0.0 {
-                if let Some(dist) = distance_to_side(view, dir) {
+                if let Some(dist) = distance_f32(sample.distance) {
                     let f = eval(w);
                     if f != Vec3::ZERO {
                         let denominator = if mis {
@@ -252,14 +252,17 @@ impl PreparedTube {
             return out;
         }
         let w = dir.as_vec3();
-        let Some(dist) = distance_to_side(view, dir) else {
+        let Some((p_e, dist)) = technique.pdf_toward(dir) else {
+            return out;
+        };
+        let Some(dist) = distance_f32(dist) else {
             return out;
         };
         let f = eval(w);
         if f == Vec3::ZERO {
             return out;
         }
-        let p_e = technique.pdf(dir) as f32;
+        let p_e = p_e as f32;
         out[1] = Some(TubeCandidate {
             w,
             dist,
@@ -334,12 +337,10 @@ fn misses_in_azimuth(view: &CylinderView, dir: DVec3) -> bool {
     dc < 0.0 || (dc == 0.0 && dw != 0.0) || dw.abs() * tangent > 2.0 * r * dc
 }
 
-/// Distance from the view's point along unit `dir` to the visible side; `None` if `dir` misses
-/// it.
+/// A distance along a direction to the visible side in f32; `None` unless positive and finite.
 #[inline]
-fn distance_to_side(view: &CylinderView, dir: DVec3) -> Option<f32> {
-    let (_, phi, h) = view.hit(dir)?;
-    let dist = (h / phi.cos()) as f32;
+fn distance_f32(distance: f64) -> Option<f32> {
+    let dist = distance as f32;
     (dist > 0.0 && dist.is_finite()).then_some(dist)
 }
 
@@ -554,10 +555,10 @@ mod tests {
         for i in 0..2000u32 {
             let mut rng = CounterRng::camera_sample(5, 0, i, 0);
             let xi = [rng.next_f32(), rng.next_f32()];
-            let Some((dir, _)) = technique.sample_with_pdf(xi) else {
+            let Some(sample) = technique.sample_toward(xi) else {
                 continue;
             };
-            let dist = distance_to_side(&view, dir).unwrap();
+            let (dir, dist) = (sample.dir, sample.distance as f32);
             let ray = crate::ray_offset::shadow_ray_to(&sp, x + dist * dir.as_vec3()).unwrap();
             grazing += t.prim.intersect(&ray).is_some() as u32;
             assert!(!tubes.occluded(&ray, 0), "sample {i} blocked");

@@ -324,6 +324,35 @@ impl<T: Real> PsaCore<T> {
     /// [`Self::new`] without a branch: the core and whether `new` returns it.
     #[inline(always)]
     pub(crate) fn new_lane(ns: T, nt: T, s_b: T, c_b: T, width: T, p0: T, p1: T) -> (Self, bool) {
+        let half = (width * T::HALF).sin_cos();
+        Self::half_lane(ns, nt, (s_b, c_b), width, half, (p0, p1))
+    }
+
+    /// [`Self::new`] given (sin, cos) of Δ/2 (`half`, which the caller may know without a
+    /// sin/cos, consistent with Δ), the begin's (sin φ_b, cos φ_b) and (p0, p1).
+    #[inline]
+    pub fn with_half_width(
+        ns: T,
+        nt: T,
+        begin: (T, T),
+        width: T,
+        half: (T, T),
+        p: (T, T),
+    ) -> Option<Self> {
+        let (core, valid) = Self::half_lane(ns, nt, begin, width, half, p);
+        valid.then_some(core)
+    }
+
+    /// [`Self::new_lane`] given (sin, cos) of Δ/2.
+    #[inline(always)]
+    fn half_lane(
+        ns: T,
+        nt: T,
+        (s_b, c_b): (T, T),
+        width: T,
+        (sh, ch): (T, T),
+        (p0, p1): (T, T),
+    ) -> (Self, bool) {
         let mut core = Self {
             ns,
             nt,
@@ -336,7 +365,6 @@ impl<T: Real> PsaCore<T> {
             p1,
             total: T::ZERO,
         };
-        let (sh, ch) = (width * T::HALF).sin_cos();
         core.delta_s = T::TWO * core.rotate(sh, ch).1 * sh;
         let (a, b) = core.delta_c_parts(width, sh, ch);
         core.total = a + b;

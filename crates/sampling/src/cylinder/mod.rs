@@ -155,7 +155,7 @@ impl CylinderView {
 
     /// [`Self::h`] from sin α and cos α.
     #[inline]
-    fn h_of(&self, sin_alpha: f64, cos_alpha: f64) -> f64 {
+    pub(crate) fn h_of(&self, sin_alpha: f64, cos_alpha: f64) -> f64 {
         let (r, rho) = (self.radius, self.rho);
         let p = rho * sin_alpha.abs();
         let k = ((r - p).max(0.0) * (r + p)).sqrt();
@@ -294,6 +294,15 @@ pub struct SliceAt {
     pub n_t: f64,
 }
 
+/// A sample of a cylinder technique: the unit direction toward the visible side, its density
+/// per steradian and the distance from the shading point along it to the side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CylinderSample {
+    pub dir: DVec3,
+    pub pdf: f64,
+    pub distance: f64,
+}
+
 /// A technique prepared for one cylinder at one shading point: the triad of the line samplers
 /// (sample, pdf, inverse) on the two-dimensional primary sample space.
 pub trait CylinderSampler {
@@ -304,6 +313,26 @@ pub trait CylinderSampler {
 
     /// Density per steradian of any direction (0 where the technique does not sample).
     fn pdf(&self, dir: DVec3) -> f64;
+
+    /// [`Self::sample_with_pdf`] with the distance from x along the direction to the visible
+    /// side (`None` also where the rounded direction misses the side).
+    fn sample_toward(&self, xi: [f32; 2]) -> Option<CylinderSample> {
+        let (dir, pdf) = self.sample_with_pdf(xi)?;
+        let (_, phi, h) = self.view().hit(dir)?;
+        Some(CylinderSample {
+            dir,
+            pdf,
+            distance: h / phi.cos(),
+        })
+    }
+
+    /// For a unit direction that hits the visible side: its density per steradian ([`Self::pdf`],
+    /// 0 where the technique does not sample) and the distance from x along it to the side;
+    /// `None` where it misses the side ([`CylinderView::hit`]).
+    fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
+        let (_, phi, h) = self.view().hit(dir)?;
+        Some((self.pdf(dir), h / phi.cos()))
+    }
 
     /// The primary sample that maps to `dir`, where the technique has a closed-form inverse.
     fn inverse(&self, _dir: DVec3) -> Option<[f64; 2]> {
@@ -386,6 +415,12 @@ impl CylinderSampler for PreparedCylinder {
     }
     fn pdf(&self, dir: DVec3) -> f64 {
         dispatch!(self, s => s.pdf(dir))
+    }
+    fn sample_toward(&self, xi: [f32; 2]) -> Option<CylinderSample> {
+        dispatch!(self, s => s.sample_toward(xi))
+    }
+    fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
+        dispatch!(self, s => s.pdf_toward(dir))
     }
     fn inverse(&self, dir: DVec3) -> Option<[f64; 2]> {
         dispatch!(self, s => s.inverse(dir))

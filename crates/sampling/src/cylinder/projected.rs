@@ -28,8 +28,9 @@
 //!
 //! Inverse: ξ₁ = the section's CDF at α, ξ₂ = the slice's exact CDF at φ.
 
-use super::{clamp_xi, CylinderSampler, CylinderView, SliceAt};
+use super::{clamp_xi, CylinderSample, CylinderSampler, CylinderView, SliceAt};
 use crate::projected_solid_angle::{PsaCore, DEFAULT_ITERATIONS};
+use crate::trig::atan2_f64;
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -75,23 +76,92 @@ fn slice_interval(view: &CylinderView, h: f64, nt: f64) -> Option<(f64, f64, f64
     (hi > lo).then_some((lo, hi, nt))
 }
 
-/// The slice's line-sampler core: the interval from φ_lo and T(α) = `core.total`.
+/// The slice's line-sampler core: the interval from φ_lo and T(α) = `core.total` (from the
+/// angles; for the inverse and reference values, [`slice_of`] on the sampler's paths).
 #[inline]
 pub(crate) fn slice_core(view: &CylinderView, alpha: f64, h: f64) -> Option<(PsaCore<f64>, f64)> {
-    slice_core_nt(view, h, view.n_t(alpha))
-}
-
-/// [`slice_core`] of a slice whose h and n_t are known ([`CylinderView::slice_at`]).
-#[inline]
-fn slice_core_nt(view: &CylinderView, h: f64, nt: f64) -> Option<(PsaCore<f64>, f64)> {
-    let (lo, hi, nt) = slice_interval(view, h, nt)?;
+    let (lo, hi, nt) = slice_interval(view, h, view.n_t(alpha))?;
     let (s, c) = lo.sin_cos();
     Some((PsaCore::with_frame_values(view.n_u, nt, s, c, hi - lo)?, lo))
+}
+
+/// The live slice with h(α) = `h` and n_t = n·ĉ_α: its line-sampler core on the interval of
+/// [`slice_interval`], formed from the unit vectors (sin φ, cos φ) of the ends and of the
+/// horizon, e = (a or b, h)/|·| and (−n_t, n_s)·sgn n_s/|·|, rather than from their angles: the
+/// only transcendental call is the atan2 of Δ/2 = atan2(|e_hi − e_lo|, |e_hi + e_lo|) (both
+/// sums of squares: no cancellation), whose sin and cos are those lengths halved; it is
+/// [`atan2_f64`] (relative error ≤ 3e-11: the interval's length is off by that much, and the
+/// density stays the exact one of the interval sampled). `None` if the horizon-clipped
+/// interval is empty.
+#[inline]
+fn slice_of(view: &CylinderView, h: f64, nt: f64) -> Option<PsaCore<f64>> {
+    let ns = view.n_u;
+    let unit = |e: f64| {
+        let l = (e * e + h * h).sqrt();
+        (e / l, h / l)
+    };
+    let (mut lo, mut hi) = (unit(view.a), unit(view.b));
+    // n·ω(φ) = n_s sin φ + n_t cos φ vanishes at the horizon (cos φ ≥ 0); it is positive above
+    // it for n_s > 0, below it for n_s < 0. There n·ω = 0 and d(n·ω)/dφ = |(n_s, n_t)|.
+    let mut begin_on_horizon = None;
+    if ns != 0.0 {
+        let norm = (ns * ns + nt * nt).sqrt();
+        let horizon = (-nt * ns.signum() / norm, ns.abs() / norm);
+        if ns > 0.0 {
+            if ns * lo.0 + nt * lo.1 < 0.0 {
+                lo = horizon;
+                begin_on_horizon = Some(norm);
+            }
+        } else if ns * hi.0 + nt * hi.1 < 0.0 {
+            hi = horizon;
+        }
+    } else if nt.is_nan() || nt <= 0.0 {
+        return None;
+    }
+    // sin Δ > 0: a non-empty interval (Δ < π, both ends in (−π/2, π/2)).
+    let sin_width = hi.0 * lo.1 - hi.1 * lo.0;
+    if sin_width.is_nan() || sin_width <= 0.0 {
+        return None;
+    }
+    let sh = 0.5 * ((hi.0 - lo.0) * (hi.0 - lo.0) + (hi.1 - lo.1) * (hi.1 - lo.1)).sqrt();
+    let ch = 0.5 * ((hi.0 + lo.0) * (hi.0 + lo.0) + (hi.1 + lo.1) * (hi.1 + lo.1)).sqrt();
+    let width = 2.0 * atan2_f64(sh, ch);
+    let p = match begin_on_horizon {
+        Some(norm) => (0.0, norm),
+        None => (ns.mul_add(lo.0, nt * lo.1), ns.mul_add(lo.1, -nt * lo.0)),
+    };
+    PsaCore::with_half_width(ns, nt, lo, width, (sh, ch), p)
 }
 
 /// T(α): twice the projected solid angle per unit azimuth of the slice at α.
 pub(crate) fn slice_total(view: &CylinderView, alpha: f64, h: f64) -> Option<f64> {
     slice_core(view, alpha, h).map(|(core, _)| core.total)
+}
+
+/// The section density's nodes (α_k, sin α_k, cos α_k, h(α_k)) at the surface angles
+/// θ_k = −θ_max + k θ_max/2: the silhouettes α = ±α_max (sin α = R/ρ, h = √(ρ² − R²)), the
+/// point nearest x (h = ρ − R) and θ = ±θ_max/2, whose sin and cos follow from cos θ_max = R/ρ
+/// by the half-angle formulas (one atan2 for the five nodes).
+fn section_nodes(v: &CylinderView) -> [(f64, f64, f64, f64); SECTION_NODES] {
+    const _: () = assert!(
+        SECTION_NODES == 5,
+        "the nodes are at θ_max·(−1, −½, 0, ½, 1)"
+    );
+    let (r, rho) = (v.radius, v.rho);
+    let tangent = ((rho - r) * (rho + r)).sqrt();
+    let cos_half = (0.5 * (1.0 + r / rho)).sqrt();
+    let sin_half = 0.5 * (tangent / rho) / cos_half;
+    let (hx, hy) = (rho - r * cos_half, r * sin_half);
+    let h_half = (hx * hx + hy * hy).sqrt();
+    let alpha_half = atan2_f64(hy, hx);
+    let (sin_max, cos_max) = (r / rho, tangent / rho);
+    [
+        (-v.alpha_max, -sin_max, cos_max, tangent),
+        (-alpha_half, -hy / h_half, hx / h_half, h_half),
+        (0.0, 0.0, 1.0, rho - r),
+        (alpha_half, hy / h_half, hx / h_half, h_half),
+        (v.alpha_max, sin_max, cos_max, tangent),
+    ]
 }
 
 impl CylinderProjected {
@@ -102,19 +172,13 @@ impl CylinderProjected {
     /// With a given number of Halley steps of the line sampler (the paper's is 2).
     pub fn with_iterations(view: &CylinderView, iterations: u32) -> Option<Self> {
         let v = view;
-        let step = 2.0 * v.theta_max / (SECTION_NODES - 1) as f64;
         let mut m = [0.0; SECTION_NODES];
-        let mut alpha = [0.0; SECTION_NODES];
-        for k in 0..SECTION_NODES {
-            // The ends exactly at ±α_max (the silhouette).
-            alpha[k] = match k {
-                0 => -v.alpha_max,
-                k if k == SECTION_NODES - 1 => v.alpha_max,
-                k => v.alpha_of_theta(-v.theta_max + k as f64 * step).0,
-            };
-            let at = v.slice_at(alpha[k]);
-            m[k] = slice_core_nt(v, at.h, at.n_t).map_or(0.0, |(core, _)| core.total);
+        let nodes = section_nodes(v);
+        for (mk, &(_, sin, cos, h)) in m.iter_mut().zip(&nodes) {
+            let nt = cos * v.n_c + sin * v.n_w;
+            *mk = slice_of(v, h, nt).map_or(0.0, |core| core.total);
         }
+        let alpha = nodes.map(|node| node.0);
         let mean = m.iter().sum::<f64>() / SECTION_NODES as f64;
         // All nodes dead (a sliver above the horizon between them at most): uniform in θ.
         let floor = if mean > 0.0 { FLOOR * mean } else { 1.0 };
@@ -186,32 +250,58 @@ impl CylinderProjected {
 
 impl CylinderSampler for CylinderProjected {
     fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
-        let v = &self.view;
-        let alpha = self.alpha_of_xi(clamp_xi(xi[0]));
-        let at: SliceAt = v.slice_at(alpha);
-        let (core, lo) = slice_core_nt(v, at.h, at.n_t)?;
-        let tau = core.solve(clamp_xi(xi[1]), self.iterations);
-        let phi = lo + tau;
-        let dir = v.direction_at(&at, phi);
-        // n·ω of the slice's core at τ (accurate near a clipped end), not the rounded n·dir.
-        let (_, _, n_dot_w) = core.at(tau);
-        let p = self.azimuth_density(alpha) * 2.0 * n_dot_w.max(0.0) / core.total;
-        (p > 0.0 && p.is_finite()).then_some((dir, p))
+        self.sample_toward(xi).map(|s| (s.dir, s.pdf))
     }
 
     fn pdf(&self, dir: DVec3) -> f64 {
+        self.pdf_toward(dir).map_or(0.0, |(p, _)| p)
+    }
+
+    /// The sample, its density and distance from the slice's own values: (sin φ, cos φ, n·ω)
+    /// at the sample from the line sampler's solve (n·ω accurate near a clipped end, not the
+    /// rounded n·dir), the distance h/cos φ.
+    fn sample_toward(&self, xi: [f32; 2]) -> Option<CylinderSample> {
         let v = &self.view;
-        let Some((alpha, phi, h)) = v.hit(dir) else {
-            return 0.0;
-        };
-        let Some((core, lo)) = slice_core(v, alpha, h) else {
-            return 0.0;
-        };
-        if !(phi >= lo && phi <= lo + core.width) {
-            return 0.0;
+        let alpha = self.alpha_of_xi(clamp_xi(xi[0]));
+        let at: SliceAt = v.slice_at(alpha);
+        let core = slice_of(v, at.h, at.n_t)?;
+        let (_, (s, t, n_dot_w)) = core.solve_with_values(clamp_xi(xi[1]), self.iterations);
+        let dir = t * (at.cos * v.c + at.sin * v.w) + s * v.u;
+        let pdf = self.azimuth_density(alpha) * 2.0 * n_dot_w.max(0.0) / core.total;
+        let distance = at.h / t;
+        (pdf > 0.0 && pdf.is_finite() && distance > 0.0 && distance.is_finite())
+            .then_some(CylinderSample { dir, pdf, distance })
+    }
+
+    /// The hit from the direction's components along ĉ, w and u: the azimuth's atan2 (for q)
+    /// and otherwise sines and cosines as ratios, the ends compared as sin φ with
+    /// e/√(e² + h²); n·ω = n·dir/|dir|.
+    fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
+        let v = &self.view;
+        let (dc, dw, du) = (dir.dot(v.c), dir.dot(v.w), dir.dot(v.u));
+        let horizontal = (dc * dc + dw * dw).sqrt();
+        let alpha = atan2_f64(dw, dc);
+        // A NaN component makes α NaN.
+        if horizontal <= 0.0 || alpha.is_nan() || alpha.abs() > v.alpha_max {
+            return None;
         }
-        let (_, _, n_dot_w) = core.at(phi - lo);
-        self.azimuth_density(alpha) * 2.0 * n_dot_w.max(0.0) / core.total
+        let (sin, cos) = (dw / horizontal, dc / horizontal);
+        let h = v.h_of(sin, cos);
+        let length = (horizontal * horizontal + du * du).sqrt();
+        let s = du / length;
+        let end = |e: f64| e / (e * e + h * h).sqrt();
+        if !(s >= end(v.a) && s <= end(v.b)) {
+            return None;
+        }
+        let distance = h * length / horizontal;
+        let p = match slice_of(v, h, cos * v.n_c + sin * v.n_w) {
+            Some(core) => {
+                let n_dot_w = v.n.dot(dir) / length;
+                self.azimuth_density(alpha) * 2.0 * n_dot_w.max(0.0) / core.total
+            }
+            None => 0.0,
+        };
+        Some((p, distance))
     }
 
     fn inverse(&self, dir: DVec3) -> Option<[f64; 2]> {
