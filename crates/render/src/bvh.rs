@@ -222,9 +222,9 @@ pub const PACKET: usize = 16;
 /// meets (many-meshes, 2.3 M triangles: ~30× the cost per shadow ray of ray-by-ray box tests;
 /// camera rays on ladder-4m: 6.5×), while on a small tree (the committed scenes, at most a few
 /// hundred nodes) it is the cheaper test. Larger trees test ray by ray the boxes that the
-/// intervals of a coherent packet do not reject (every box of an incoherent one): on the
-/// generated ladder (64², one light sample) the interval pre-test saves 6 % (10 k triangles)
-/// to 2 % (1 M) of the instructions per sample (AVX2 kernels), images unchanged.
+/// intervals of a coherent packet do not reject (every box of an incoherent one); both tests
+/// are conservative, so the hits are those of the ray-by-ray walk (docs/performance.md has the
+/// measurements).
 const INTERVAL_NODES: usize = 1024;
 
 /// A subtree that at most this many rays of a packet walk on a large tree enter is walked ray
