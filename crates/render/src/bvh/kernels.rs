@@ -1,11 +1,12 @@
 //! The lane arithmetic of the packet walks, once per vector extension: the packet set-up
 //! (reciprocal directions, direction-sign masks, the fourteen bounds of the packet's intervals),
-//! the ray-by-ray box test of one child box, the triangle test of all 16 lanes and the
-//! closest-hit update. [`Portable`] is plain Rust the compiler vectorises (the target's
-//! baseline); [`Avx2`] (two 8-lane registers) and [`Avx512`] (one 16-lane register, mask
-//! registers for the lane masks) are written with `std::arch` intrinsics, because the compiler
-//! packed the portable code's independent reductions into SSE insert/shuffle chains and zeroed
-//! the packet with a `memset` (docs/performance.md, "Packet walks in intrinsics").
+//! the ray-by-ray box test of one child box (planes per lane, or a coherent packet's common
+//! planes), the triangle test of all 16 lanes and the closest-hit update. [`Portable`] is plain
+//! Rust the compiler vectorises (the target's baseline); [`Avx2`] (two 8-lane registers) and
+//! [`Avx512`] (one 16-lane register, mask registers for the lane masks) are written with
+//! `std::arch` intrinsics, because the compiler packed the portable code's independent
+//! reductions into SSE insert/shuffle chains and zeroed the packet with a `memset`
+//! (docs/performance.md, "Packet walks in intrinsics").
 //!
 //! Every kernel computes each lane's triangle test with the scalar test's operations in the
 //! scalar test's order (`shapes::intersect_triangle_lane`: no FMA, a true division), so the
