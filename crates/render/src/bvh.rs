@@ -480,19 +480,22 @@ impl<'a> RayPacket<'a> {
         }
     }
 
-    /// Per child of `node`: the rays of `mask` that may meet its box and their smallest entry
-    /// distance (for the whole packet by intervals, ray by ray, or ray by ray for the boxes
-    /// the intervals do not reject: both tests are conservative, so is their conjunction).
+    /// Per child of `node`: the rays of `mask` that may meet its box and a lower bound of
+    /// their entry distances (for the whole packet by intervals, ray by ray, or ray by ray for
+    /// the boxes the intervals do not reject: both tests are conservative, so is their
+    /// conjunction).
     #[inline(always)]
     fn children<K: Kernel>(&self, node: &Node, mask: u32) -> [(u32, f32); WIDTH] {
         let mut out = [(0u32, f32::INFINITY); WIDTH];
         if self.coherent {
             let (t0, hit) = self.interval_hits(node);
             if self.rays_too {
+                // The interval entry t0 bounds every ray's entry from below: it orders the
+                // children and culls pending ones (`still_hit`) as the rays' own minimum
+                // would, a little less tightly, without its horizontal minimum per box.
                 for (lane, o) in out.iter_mut().enumerate() {
                     if hit >> lane & 1 == 1 {
-                        let (hits, entry) = K::box_hits(self, node, lane);
-                        *o = (hits & mask, entry);
+                        *o = (K::box_mask_coherent(self, node, lane) & mask, t0[lane]);
                     }
                 }
             } else {
@@ -517,6 +520,8 @@ impl<'a> RayPacket<'a> {
             0
         } else if self.coherent && !self.rays_too {
             mask
+        } else if self.coherent {
+            mask & K::box_mask_coherent(self, node, lane)
         } else {
             mask & K::box_hits(self, node, lane).0
         }

@@ -1,11 +1,12 @@
 //! The lane arithmetic of the packet walks, once per vector extension: the packet set-up
 //! (reciprocal directions, direction-sign masks, the fourteen bounds of the packet's intervals),
-//! the ray-by-ray box test of one child box, the triangle test of all 16 lanes and the
-//! closest-hit update. [`Portable`] is plain Rust the compiler vectorises (the target's
-//! baseline); [`Avx2`] (two 8-lane registers) and [`Avx512`] (one 16-lane register, mask
-//! registers for the lane masks) are written with `std::arch` intrinsics, because the compiler
-//! packed the portable code's independent reductions into SSE insert/shuffle chains and zeroed
-//! the packet with a `memset` (docs/performance.md, "Packet walks in intrinsics").
+//! the ray-by-ray box test of one child box (planes per lane, or a coherent packet's common
+//! planes), the triangle test of all 16 lanes and the closest-hit update. [`Portable`] is plain
+//! Rust the compiler vectorises (the target's baseline); [`Avx2`] (two 8-lane registers) and
+//! [`Avx512`] (one 16-lane register, mask registers for the lane masks) are written with
+//! `std::arch` intrinsics, because the compiler packed the portable code's independent
+//! reductions into SSE insert/shuffle chains and zeroed the packet with a `memset`
+//! (docs/performance.md, "Packet walks in intrinsics").
 //!
 //! Every kernel computes each lane's triangle test with the scalar test's operations in the
 //! scalar test's order (`shapes::intersect_triangle_lane`: no FMA, a true division), so the
@@ -30,6 +31,10 @@ pub(super) trait Kernel {
     /// — the conservative slab test of `RayBoxes::hits` (a NaN slab distance leaves the
     /// interval unchanged); and the smallest entry distance of the rays that hit (+∞ if none).
     fn box_hits(p: &RayPacket, node: &Node, lane: usize) -> (u32, f32);
+    /// [`Kernel::box_hits`]' bits on the packet's rays for a coherent packet (`p.coherent`):
+    /// the near and far planes by the packet's common direction signs, one pair per axis for
+    /// all lanes instead of a pick per lane; the same arithmetic, so the same bits.
+    fn box_mask_coherent(p: &RayPacket, node: &Node, lane: usize) -> u32;
     /// The triangle (v0, e1, e2) against every lane with the intervals (t_min, t_max).
     fn triangle(
         lanes: &RayLanes,
@@ -180,6 +185,11 @@ impl Kernel for Portable {
     }
 
     #[inline(always)]
+    fn box_mask_coherent(p: &RayPacket, node: &Node, lane: usize) -> u32 {
+        Self::box_hits(p, node, lane).0
+    }
+
+    #[inline(always)]
     fn triangle(
         lanes: &RayLanes,
         t_min: &[f32; PACKET],
@@ -293,6 +303,10 @@ mod x86 {
                 #[inline(always)]
                 fn box_hits(p: &RayPacket, node: &Node, lane: usize) -> (u32, f32) {
                     unsafe { $m::box_hits(p, node, lane) }
+                }
+                #[inline(always)]
+                fn box_mask_coherent(p: &RayPacket, node: &Node, lane: usize) -> u32 {
+                    unsafe { $m::box_mask_coherent(p, node, lane) }
                 }
                 #[inline(always)]
                 fn triangle(
@@ -496,6 +510,27 @@ mod x86 {
             let hit = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(t0, t1);
             let entry = hmin(_mm512_mask_mov_ps(splat(f32::INFINITY), hit, t0));
             (hit as u32, entry)
+        }
+
+        #[inline]
+        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        pub(super) fn box_mask_coherent(p: &RayPacket, node: &Node, lane: usize) -> u32 {
+            let mut t0 = ld(&p.t_min);
+            let mut t1 = ld(&p.t_max);
+            for a in 0..3 {
+                let s = p.sign[a] & 1;
+                let near_plane = splat(node.b[s][a][lane]);
+                let far_plane = splat(node.b[s ^ 1][a][lane]);
+                let (o, inv) = (ld(&p.lanes.o[a]), ld(&p.inv[a]));
+                let near = _mm512_mul_ps(_mm512_sub_ps(near_plane, o), inv);
+                let far = _mm512_mul_ps(
+                    _mm512_mul_ps(_mm512_sub_ps(far_plane, o), inv),
+                    splat(FAR_SCALE),
+                );
+                t0 = _mm512_max_ps(near, t0);
+                t1 = _mm512_min_ps(far, t1);
+            }
+            _mm512_cmp_ps_mask::<_CMP_LE_OQ>(t0, t1) as u32
         }
 
         #[inline]
@@ -828,6 +863,31 @@ mod x86 {
                 entry = _mm256_min_ps(entry, _mm256_blendv_ps(splat(f32::INFINITY), t0, hit));
             }
             (mask, hmin(entry))
+        }
+
+        #[inline]
+        #[target_feature(enable = "avx2,fma")]
+        pub(super) fn box_mask_coherent(p: &RayPacket, node: &Node, lane: usize) -> u32 {
+            let mut mask = 0u32;
+            for h in 0..2 {
+                let mut t0 = ld(&p.t_min, h);
+                let mut t1 = ld(&p.t_max, h);
+                for a in 0..3 {
+                    let s = p.sign[a] & 1;
+                    let near_plane = splat(node.b[s][a][lane]);
+                    let far_plane = splat(node.b[s ^ 1][a][lane]);
+                    let (o, inv) = (ld(&p.lanes.o[a], h), ld(&p.inv[a], h));
+                    let near = _mm256_mul_ps(_mm256_sub_ps(near_plane, o), inv);
+                    let far = _mm256_mul_ps(
+                        _mm256_mul_ps(_mm256_sub_ps(far_plane, o), inv),
+                        splat(FAR_SCALE),
+                    );
+                    t0 = _mm256_max_ps(near, t0);
+                    t1 = _mm256_min_ps(far, t1);
+                }
+                mask |= bits(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) << (8 * h);
+            }
+            mask
         }
 
         #[inline]
@@ -1198,6 +1258,13 @@ mod tests {
                 let (pm, pe) = Portable::box_hits(&p, &node, lane);
                 let (qm, qe) = K::box_hits(&q, &node, lane);
                 assert_eq!((pm & active, pe), (qm & active, qe), "lane {lane}");
+                if p.coherent {
+                    let (pc, qc) = (
+                        Portable::box_mask_coherent(&p, &node, lane),
+                        K::box_mask_coherent(&q, &node, lane),
+                    );
+                    assert_eq!((pc & active, qc & active), (pm & active, pm & active));
+                }
             }
             let mut best = [PacketHits {
                 t: [0.0; PACKET],
