@@ -212,6 +212,14 @@ impl CylinderLtc {
         self.section.density(alpha)
     }
 
+    /// The azimuth measure the samples carry at α: q(α) · [(1 − β) [M(α) > 0] + β [T(α) > 0]]
+    /// (∫ p dΩ is its integral over α: a slice without mass in a branch yields no sample there).
+    pub fn live_mass(&self, alpha: f64) -> f64 {
+        let s = self.slice(alpha);
+        let b = self.defensive;
+        s.q * ((1.0 - b) * s.ltc.is_some() as u8 as f64 + b * s.projected.is_some() as u8 as f64)
+    }
+
     /// The slice at azimuth α (|α| ≤ α_max).
     pub fn slice(&self, alpha: f64) -> LtcSlice {
         self.slice_from(self.view.slice_at(alpha))
