@@ -238,6 +238,25 @@ mod tests {
         }
     }
 
+    /// `ltc` joins the finite-tube subjects on the glossy scene only.
+    #[test]
+    fn ltc_is_a_subject_of_the_glossy_finite_tube_scene_only() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references/finite-tubes");
+        for (name, glossy) in [
+            ("finite-tube-diffuse", false),
+            ("finite-tube-glossy", true),
+            ("finite-tube-contact", false),
+        ] {
+            let scene = linlight_render::xml::load_scene(&dir.join(format!("{name}.xml")), &[])
+                .expect(name);
+            let subjects = finite_subjects(&scene);
+            assert_eq!(subjects.contains(&FINITE_GLOSSY_SUBJECT), glossy, "{name}");
+            assert_eq!(default_comparisons(name, &scene, true), 5 + glossy as usize);
+        }
+        assert_eq!(FINITE_GLOSSY_SUBJECT.name(), "exact:ltc:mis=balance");
+        assert_eq!("exact:ltc".parse::<ExactTubes>(), Ok(FINITE_GLOSSY_SUBJECT));
+    }
+
     #[test]
     fn exact_tube_subjects_are_named_as_they_parse() {
         for s in FINITE_SUBJECTS {

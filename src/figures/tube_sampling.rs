@@ -43,7 +43,7 @@ pub const SCENES: [(&str, &str); 3] = [
 ];
 
 /// The methods of a row: the emitter technique and whether a BSDF-side sample joins it.
-pub const METHODS: [(CylinderTechnique, bool); 8] = [
+pub const METHODS: [(CylinderTechnique, bool); 10] = [
     (CylinderTechnique::Area, false),
     (CylinderTechnique::Area, true),
     (CylinderTechnique::SolidAngle, false),
@@ -52,6 +52,8 @@ pub const METHODS: [(CylinderTechnique, bool); 8] = [
     (CylinderTechnique::Gamito, true),
     (CylinderTechnique::Projected, false),
     (CylinderTechnique::Projected, true),
+    (CylinderTechnique::Ltc, false),
+    (CylinderTechnique::Ltc, true),
 ];
 
 /// Film side: the references' size.
