@@ -12,10 +12,15 @@
 //! point; the minimum of 31 passes over the points), and the time to equal error relative to
 //! area: variance × time.
 //!
+//! `ltc` gets the floor's LTC lobe from the renderer's table look-up (once per point, not
+//! timed, as the renderer makes it once per shading point); on a Lambertian floor it is ours.
+//!
 //! Run: `cargo run --release --example cylinder_scenes` (about 20 s).
 
-use glam::{DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec3};
 use linlight_render::camera::Camera;
+use linlight_render::hooks::SceneBsdf;
+use linlight_render::shading::ShadingPoint;
 use linlight_render::xml::load_scene;
 use linlight_sampling::cylinder::{Cylinder, CylinderSampler, CylinderTechnique, CylinderView};
 use linlight_sampling::rng::Pcg32;
@@ -71,9 +76,21 @@ fn main() {
         }
         // f(v, ω)·(n·ω)⁺ in the floor's frame (z = n), channel-averaged.
         let integrand = |p: &Point, dir: DVec3| bsdf.eval(p.v, dir).element_sum() / 3.0;
+        let techniques = CylinderTechnique::ALL;
+        // The floor's glossy lobe per point (frame, LTC matrix; `None` on a Lambertian floor):
+        // the renderer's look-up, made once per point outside the timings.
+        let lobes: Vec<Option<(DMat3, DMat3)>> = points
+            .iter()
+            .map(|p| {
+                let (x, v) = (p.x.as_vec3(), p.v.as_vec3());
+                ShadingPoint::new(&SceneBsdf, bsdf, x, Vec3::Z, v)
+                    .ltc_lobe(&SceneBsdf)
+                    .map(|(f, a)| (f.as_dmat3(), a.as_dmat3()))
+            })
+            .collect();
         let mut rows = Vec::new();
         let mut moments = Vec::new();
-        for (t, technique) in CylinderTechnique::ALL.iter().enumerate() {
+        for (t, technique) in techniques.iter().enumerate() {
             let (mut var_sum, mut mean_sum, mut second_sum, mut count) = (0.0, 0.0, 0.0, 0usize);
             let mut per_point = Vec::new();
             for (k, p) in points.iter().enumerate() {
@@ -82,7 +99,7 @@ fn main() {
                 let Some(view) = CylinderView::new(&cylinder, p.x, DVec3::Z) else {
                     continue;
                 };
-                let Some(prepared) = technique.prepare(&view) else {
+                let Some(prepared) = technique.prepare_with_lobe(&view, lobes[k]) else {
                     continue;
                 };
                 let draws = (0..SAMPLES)
@@ -115,14 +132,14 @@ fn main() {
         // shared machine).
         let mut best = vec![f64::INFINITY; rows.len()];
         for pass in 0..TIMING_PASSES {
-            for (t, technique) in CylinderTechnique::ALL.iter().enumerate() {
+            for (t, technique) in techniques.iter().enumerate() {
                 let mut rng = Pcg32::new(99 + pass as u64, t as u64);
                 let mut acc = 0.0;
                 let start = Instant::now();
-                for p in &points {
+                for (p, lobe) in points.iter().zip(&lobes) {
                     let xi = [rng.next_f32(), rng.next_f32()];
                     if let Some((dir, pdf)) = CylinderView::new(&cylinder, p.x, DVec3::Z)
-                        .and_then(|view| technique.prepare(&view))
+                        .and_then(|view| technique.prepare_with_lobe(&view, *lobe))
                         .and_then(|s| s.sample_with_pdf(xi))
                     {
                         acc += dir.z / pdf;

@@ -388,7 +388,7 @@ fn finite_tube_techniques_agree_with_mitsuba_and_ours_has_the_least_variance() {
     let rows = fig["rows"]
         .as_array()
         .expect("tube-sampling.json has no rows");
-    assert_eq!(rows.len(), 3 * 9, "{rows:?}");
+    assert_eq!(rows.len(), 3 * 11, "{rows:?}");
     for r in rows {
         let (d, e) = (
             r["difference_vs_reference"].as_f64().unwrap(),

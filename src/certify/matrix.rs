@@ -15,7 +15,8 @@
 //! - The finite-tube family ([`super::scenes::FINITE_TUBES_DIR`]): scenes whose tubes have a
 //!   radius the R → 0 limit cannot ignore. They are rendered as the cylinders they are
 //!   (`--cylinders exact`) by [`FINITE_SUBJECTS`]: every cylinder technique with MIS (balance)
-//!   and ours without MIS; the line techniques do not apply to them.
+//!   and ours without MIS, and on glossy scenes ours with the lobe's LTC
+//!   ([`FINITE_GLOSSY_SUBJECT`]); the line techniques do not apply to them.
 
 use super::Subject;
 use linlight_imagefile::Image;
@@ -83,7 +84,7 @@ fn glossy_only_subjects() -> Vec<Box<dyn Subject>> {
 
 /// A render of the scene's tubes as the cylinders they are (`linlight render --cylinders exact
 /// --cylinder-technique T --cylinder-mis balance|off`), named `exact:T:mis=balance|off`
-/// (T: `projected`, `solid-angle`, `gamito`, `area`). The method of the certify options is left
+/// (T: `projected`, `ltc`, `solid-angle`, `gamito`, `area`). The method of the certify options is left
 /// as it is: it samples only lights of zero radius, which the finite-tube scenes do not have.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ExactTubes(pub TubeSampling);
@@ -112,6 +113,24 @@ pub const FINITE_SUBJECTS: [ExactTubes; 5] = [
         mis: false,
     }),
 ];
+
+/// The finite-tube subject of glossy scenes only: ours with the glossy lobe's LTC
+/// (`exact:ltc:mis=balance`). On a Lambertian scene `ltc` renders the images of
+/// `exact:projected:mis=balance` bit for bit (A = identity), so it is not repeated there.
+pub const FINITE_GLOSSY_SUBJECT: ExactTubes = ExactTubes(TubeSampling {
+    technique: CylinderTechnique::Ltc,
+    mis: true,
+});
+
+/// The finite-tube subjects of `scene`: [`FINITE_SUBJECTS`], and on a glossy scene
+/// [`FINITE_GLOSSY_SUBJECT`].
+pub fn finite_subjects(scene: &Scene) -> Vec<ExactTubes> {
+    let mut v = FINITE_SUBJECTS.to_vec();
+    if is_glossy(scene) {
+        v.push(FINITE_GLOSSY_SUBJECT);
+    }
+    v
+}
 
 impl ExactTubes {
     /// The render options of this subject from certify's.
@@ -173,7 +192,7 @@ impl Subject for ExactTubes {
 /// of the finite-tube family.
 pub fn default_subjects(scene: &Scene, exact_tubes: bool) -> Vec<Box<dyn Subject>> {
     if exact_tubes {
-        return FINITE_SUBJECTS
+        return finite_subjects(scene)
             .into_iter()
             .map(|s| Box::new(s) as Box<dyn Subject>)
             .collect();
@@ -192,7 +211,7 @@ pub fn default_subjects(scene: &Scene, exact_tubes: bool) -> Vec<Box<dyn Subject
 /// finite-tube family).
 pub fn default_comparisons(name: &str, scene: &Scene, exact_tubes: bool) -> usize {
     if exact_tubes {
-        return FINITE_SUBJECTS.len();
+        return finite_subjects(scene).len();
     }
     let oracles = 1 + usize::from(has_exact_oracle(name));
     let subjects = Technique::UNBIASED.len()
@@ -217,6 +236,25 @@ mod tests {
             assert_eq!(m.name(), name);
             assert!(m.is_unbiased());
         }
+    }
+
+    /// `ltc` joins the finite-tube subjects on the glossy scene only.
+    #[test]
+    fn ltc_is_a_subject_of_the_glossy_finite_tube_scene_only() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("references/finite-tubes");
+        for (name, glossy) in [
+            ("finite-tube-diffuse", false),
+            ("finite-tube-glossy", true),
+            ("finite-tube-contact", false),
+        ] {
+            let scene = linlight_render::xml::load_scene(&dir.join(format!("{name}.xml")), &[])
+                .expect(name);
+            let subjects = finite_subjects(&scene);
+            assert_eq!(subjects.contains(&FINITE_GLOSSY_SUBJECT), glossy, "{name}");
+            assert_eq!(default_comparisons(name, &scene, true), 5 + glossy as usize);
+        }
+        assert_eq!(FINITE_GLOSSY_SUBJECT.name(), "exact:ltc:mis=balance");
+        assert_eq!("exact:ltc".parse::<ExactTubes>(), Ok(FINITE_GLOSSY_SUBJECT));
     }
 
     #[test]

@@ -204,11 +204,13 @@ mod tests {
                 "cylinder-area",
                 "cylinder-solid-angle",
                 "cylinder-ours",
-                "cylinder-gamito"
+                "cylinder-gamito",
+                "cylinder-ltc",
+                "cylinder-ltc-identity"
             ]
         );
         let passed: Vec<bool> = t.iter().map(|r| r.passed).collect();
-        assert_eq!(passed, [false, true, true, false]);
+        assert_eq!(passed, [false, true, true, false, true, true]);
         assert_eq!(t[0].failing_configs, 1);
         assert_eq!(t[0].worst_p_value, Some(1e-9));
         assert_eq!(c.len(), 1);

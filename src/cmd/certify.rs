@@ -62,9 +62,10 @@ pub struct Args {
     oracle: OracleArg,
     /// Comma-separated methods: technique names, `ltc`, `mis` (clamped optimal, v = 0.5) or
     /// `mis:HEURISTIC` (balance, power, weighted, clamped-optimal=v); on the finite-tube scenes
-    /// `exact:T[:mis=balance|off]` (T: projected, solid-angle, gamito, area) [default: every
-    /// unbiased technique; on glossy scenes also ltc and mis with every heuristic, v in
-    /// {0, 0.5, 1}; on the finite-tube scenes every T with MIS and projected without].
+    /// `exact:T[:mis=balance|off]` (T: projected, ltc, solid-angle, gamito, area) [default:
+    /// every unbiased technique; on glossy scenes also ltc and mis with every heuristic, v in
+    /// {0, 0.5, 1}; on the finite-tube scenes every T but ltc with MIS and projected without,
+    /// on the glossy one also ltc with MIS].
     #[arg(long, value_name = "LIST", value_delimiter = ',')]
     techniques: Vec<String>,
     /// Worker threads [default: all cores; at most 4 per core, or 64].

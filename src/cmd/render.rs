@@ -105,11 +105,12 @@ pub struct Args {
     /// Cylinders with an area emitter: exact (the tube of radius R) or line (the R → 0 limit).
     #[arg(long, default_value = "exact", value_name = "exact|line")]
     cylinders: String,
-    /// Emitter technique of exact cylinders: projected (ours), solid-angle, gamito or area.
+    /// Emitter technique of exact cylinders: projected (ours), ltc (ours with the glossy
+    /// lobe's LTC; projected on diffuse surfaces), solid-angle, gamito or area.
     #[arg(
         long,
         default_value = "projected",
-        value_name = "projected|solid-angle|gamito|area"
+        value_name = "projected|ltc|solid-angle|gamito|area"
     )]
     cylinder_technique: String,
     /// Combination of exact cylinders' emitter sample with a BSDF-side sample: balance or off.

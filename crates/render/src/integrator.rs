@@ -37,6 +37,7 @@ use crate::shapes::Ray;
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
+use linlight_sampling::cylinder::CylinderTechnique;
 use linlight_sampling::noise::{NoiseSource, SampleStream};
 
 /// Σ estimate(j, light, K, iterations, rng) over the lights of the light samples: every light
@@ -191,6 +192,11 @@ fn tube_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         None => point.eval(pieces.bsdf, w),
     };
     let tubes = &scene.tubes;
+    // The glossy lobe, looked up only for the technique that uses it.
+    let lobe = match lambert {
+        None if tubes.sampling.technique == CylinderTechnique::Ltc => point.ltc_lobe(pieces.bsdf),
+        _ => None,
+    };
     // The scene's full BVH: the shadow culling assumes targets on the light's segment.
     let visible = |j: usize| {
         move |w: Vec3, dist: f32| {
@@ -238,6 +244,7 @@ fn tube_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             tubes.sampling,
             sp,
             n,
+            lobe,
             k / tube.radius,
             samples,
             rng,

@@ -91,7 +91,7 @@ impl Cylinders {
 }
 
 /// The cylinder technique of a `--cylinder-technique` name: `area`, `solid-angle`, `gamito`,
-/// `projected` (with or without the `cylinder-` prefix).
+/// `projected`, `ltc` (with or without the `cylinder-` prefix).
 pub fn cylinder_technique(name: &str) -> Result<CylinderTechnique, String> {
     let bare = name.strip_prefix("cylinder-").unwrap_or(name);
     CylinderTechnique::ALL
@@ -99,8 +99,8 @@ pub fn cylinder_technique(name: &str) -> Result<CylinderTechnique, String> {
         .find(|t| t.name().strip_prefix("cylinder-") == Some(bare))
         .ok_or_else(|| {
             format!(
-                "unknown cylinder technique '{name}' (expected projected, solid-angle, gamito \
-                 or area)"
+                "unknown cylinder technique '{name}' (expected projected, ltc, solid-angle, \
+                 gamito or area)"
             )
         })
 }

@@ -138,6 +138,21 @@ impl<'a> ShadingPoint<'a> {
         self.frame.z_axis
     }
 
+    /// The shading frame and the GGX LTC table's A of the specular lobe (the look-up of
+    /// [`ShadingPoint::new`], made here if this point was built without it); `None` without a
+    /// specular lobe. For the tube technique `ltc` (`crate::tube`).
+    pub fn ltc_lobe<B: BsdfModel>(&self, model: &B) -> Option<(Mat3, Mat3)> {
+        let a = if self.summarised {
+            self.ltc.map(|(a, _)| a)
+        } else {
+            model
+                .lobes(self.bsdf, self.v)
+                .specular
+                .map(|s| GgxLtcTable::ggx().lookup(s.alpha as f32, self.v.z as f32).0)
+        };
+        a.map(|a| (self.frame, a))
+    }
+
     /// f(v, ω)·cos θ for a unit world direction ω (v and ω in the frame are f32 values, so
     /// [`SceneBsdf`](crate::hooks::SceneBsdf) evaluates exactly what the packet renderer's
     /// f32 lanes do).

@@ -1,13 +1,14 @@
 //! Cost of one light sample from a finite cylinder per technique: view + prepare + sample +
 //! pdf of the sample (`pdf`, as MIS with a BSDF sample needs it), single-threaded, on the same
 //! 1024 pseudo-random configurations (Pcg32, fixed seed) for every technique; the line
-//! technique (projected solid angle on the axis, the R → 0 model) for scale.
+//! technique (projected solid angle on the axis, the R → 0 model) for scale. `cylinder-ltc`
+//! has a glossy LTC lobe (a fixed isotropic A in a frame around n); the others ignore it.
 //!
 //! Run: `cargo bench -p linlight-sampling --bench cylinder -- --quick`
 //! (the plain timing loop and the ratios are printed at the end of every `--bench` run).
 
 use criterion::{black_box, Criterion, Throughput};
-use glam::{DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec3};
 use linlight_sampling::cylinder::{Cylinder, CylinderSampler, CylinderTechnique, CylinderView};
 use linlight_sampling::rng::Pcg32;
 use linlight_sampling::{LineSampler, Segment, Technique};
@@ -20,6 +21,17 @@ struct Configuration {
     x: DVec3,
     n: DVec3,
     xi: [f32; 2],
+    /// Shading frame (columns x̂, ŷ, n) of the LTC lobe.
+    frame: DMat3,
+}
+
+/// A glossy lobe's LTC matrix (isotropic form, rows [[a, 0, b], [0, c, 0], [d, 0, 1]]).
+fn glossy_lobe() -> DMat3 {
+    DMat3::from_cols(
+        DVec3::new(0.3, 0.0, -0.05),
+        DVec3::new(0.0, 0.35, 0.0),
+        DVec3::new(0.1, 0.0, 1.0),
+    )
 }
 
 /// Axes in a box around the shading point's upper hemisphere (as the line techniques' bench),
@@ -41,7 +53,15 @@ fn configurations() -> Vec<Configuration> {
         if CylinderView::new(&cylinder, x, n).is_none() {
             continue;
         }
-        out.push(Configuration { cylinder, x, n, xi });
+        let (t, b) = n.any_orthonormal_pair();
+        let frame = DMat3::from_cols(t, b, n);
+        out.push(Configuration {
+            cylinder,
+            x,
+            n,
+            xi,
+            frame,
+        });
     }
     out
 }
@@ -54,7 +74,7 @@ fn pass(technique: CylinderTechnique, configurations: &[Configuration]) -> f64 {
         let Some(view) = CylinderView::new(&c.cylinder, c.x, c.n) else {
             continue;
         };
-        if let Some(s) = technique.prepare(&view) {
+        if let Some(s) = technique.prepare_with_lobe(&view, Some((c.frame, glossy_lobe()))) {
             if let Some((dir, p)) = s.sample_with_pdf(c.xi) {
                 acc += p + s.pdf(dir);
             }
@@ -138,7 +158,8 @@ fn main() {
         ("cylinder-projected / cylinder-solid-angle", 2, 1),
         ("cylinder-projected / cylinder-gamito", 2, 3),
         ("cylinder-projected / cylinder-area", 2, 0),
-        ("cylinder-projected / line projected-solid-angle", 2, 4),
+        ("cylinder-projected / line projected-solid-angle", 2, 5),
+        ("cylinder-ltc / cylinder-projected", 4, 2),
     ] {
         let (med, min) = ratio(a, b);
         println!("  ratio {label}: {med:.3} (median)  {min:.3} (minimum)");

@@ -18,20 +18,30 @@
 //! - cross-density: Gamito's sampler and the uniform solid-angle sampler are both uniform on
 //!   the side's solid angle: each one's density on the other's samples agrees within 1e-9.
 //!
+//! The LTC technique ([`CylinderLtc`]) is certified with the GGX table's A for
+//! [`LTC_ROUGHNESS`] (view mirrored about n from the tube's middle) and with A = identity,
+//! its irradiance check with the LTC lobe D as the integrand (truth: the closed-form slice
+//! masses integrated over α), its bin masses from slices prepared once per θ node, its
+//! Jacobian on the map without the defensive branch.
+//!
 //! Negative controls must be rejected (by at least one check): ours with its pdf × 1.01 (on
 //! every configuration); ours' samples judged by the line density (the R → 0 model: every
 //! slice at the axis' distance ρ) on the fat configurations; ours with one Halley step instead
 //! of two where some slice's density vanishes at an end (elsewhere one step is accurate and
 //! the control is only reported); Gamito's samples claiming the bounding rectangle's density
 //! 1/Ω_rect (every configuration); Gamito's sampler with the rectangle not extended past the
-//! ends (the fat configurations; required where the part it never samples is ≥ 1e-3 of Ω).
+//! ends (the fat configurations; required where the part it never samples is ≥ 1e-3 of Ω);
+//! the LTC technique with its pdf × 1.01 and with its slice density per radius p_R in place of
+//! p_R · 2/h (every configuration).
 
 use crate::chi2::pooled_chi_square;
 use crate::quadrature::{Adaptive, GaussLegendre};
+use glam::DMat3;
 use glam::DVec3;
+use linlight_brdf::ltc::GgxLtcTable;
 use linlight_sampling::cylinder::{
-    Cylinder, CylinderArea, CylinderGamito, CylinderProjected, CylinderSampler, CylinderSolidAngle,
-    CylinderView,
+    Cylinder, CylinderArea, CylinderGamito, CylinderLtc, CylinderProjected, CylinderSampler,
+    CylinderSolidAngle, CylinderView,
 };
 use linlight_sampling::rng::Pcg32;
 use rayon::prelude::*;
@@ -219,6 +229,16 @@ impl Grid {
     /// ∫∫ g dΩ over each bin ∩ visible side: Gauss–Legendre in θ, adaptive Gauss–Legendre in
     /// φ (the area density grows like 1/cos²φ toward an end seen nearly along the axis).
     fn masses(&self, v: &CylinderView, g: &dyn Fn(DVec3) -> f64) -> Vec<f64> {
+        self.masses_sliced(v, &|alpha| Box::new(move |phi| g(v.direction(alpha, phi))))
+    }
+
+    /// [`Self::masses`] of a density given per slice: `slice(α)` prepared once per θ node,
+    /// evaluated along φ by the adaptive rule.
+    fn masses_sliced<'a>(
+        &self,
+        v: &CylinderView,
+        slice: &dyn Fn(f64) -> Box<dyn Fn(f64) -> f64 + 'a>,
+    ) -> Vec<f64> {
         let nodes: Vec<(f64, f64)> = GaussLegendre::new(8).points().collect();
         let mut adaptive = Adaptive::new(8, 1e-11);
         adaptive.noise = 1e-13;
@@ -236,9 +256,8 @@ impl Grid {
                 edges.retain(|&e| e >= pa && e <= pb);
                 edges.sort_by(f64::total_cmp);
                 edges.dedup();
-                let r = adaptive.integrate_partition(&edges, &mut |phi: f64| {
-                    g(v.direction(alpha, phi)) * phi.cos()
-                });
+                let g = slice(alpha);
+                let r = adaptive.integrate_partition(&edges, &mut |phi: f64| g(phi) * phi.cos());
                 for (k, part) in r.parts.iter().enumerate() {
                     let mid = 0.5 * (edges[k] + edges[k + 1]);
                     let j = Self::index(self.phi, mid).expect("inside the grid");
@@ -282,15 +301,40 @@ impl CylinderSampler for LineDensity {
     }
 }
 
-/// Ours with its pdf × 1.01.
-struct Scaled(CylinderProjected);
+/// A technique with its pdf × 1.01.
+struct Scaled<S>(S);
 
-impl CylinderSampler for Scaled {
+impl<S: CylinderSampler> CylinderSampler for Scaled<S> {
     fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
         self.0.sample_with_pdf(xi).map(|(d, p)| (d, 1.01 * p))
     }
     fn pdf(&self, dir: DVec3) -> f64 {
         1.01 * self.0.pdf(dir)
+    }
+    fn view(&self) -> &CylinderView {
+        self.0.view()
+    }
+}
+
+/// The LTC technique's samples with the slice density per radius p_R in place of p_R · 2/h:
+/// the composed density without the conversion from the line's measure to ds.
+struct PerRadius(CylinderLtc);
+
+impl PerRadius {
+    fn factor(&self, dir: DVec3) -> f64 {
+        let v = self.0.view();
+        0.5 * v.h(v.angles(dir).0)
+    }
+}
+
+impl CylinderSampler for PerRadius {
+    fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
+        self.0
+            .sample_with_pdf(xi)
+            .map(|(d, p)| (d, p * self.factor(d)))
+    }
+    fn pdf(&self, dir: DVec3) -> f64 {
+        self.0.pdf(dir) * self.factor(dir)
     }
     fn view(&self) -> &CylinderView {
         self.0.view()
@@ -399,20 +443,41 @@ struct Verdict {
     relative_sd: f64,
 }
 
-/// ∫ p dΩ expected of a correct technique: 1, or for ours the live slices' azimuth measure
-/// ∫ q(α) [T(α) > 0] dα.
-fn expected_total(v: &CylinderView, ours: Option<&CylinderProjected>) -> f64 {
-    let Some(ours) = ours else {
-        return 1.0;
-    };
+/// What a row's technique is judged against: its expected ∫ p dΩ and the integrand of the
+/// irradiance check.
+#[derive(Clone, Copy)]
+enum Judge<'a> {
+    /// ∫ p dΩ = 1; the integrand L (n·ω)⁺.
+    Uniform,
+    /// Ours: ∫ p dΩ = ∫ q(α) [T(α) > 0] dα; the integrand L (n·ω)⁺.
+    Ours(&'a CylinderProjected),
+    /// The LTC technique: ∫ p dΩ = ∫ of its live mass over α; the integrand L·D(ω), D the
+    /// LTC lobe, whose integral is ∫ M(α) dα (closed-form slice masses).
+    Ltc(&'a CylinderLtc),
+}
+
+/// ∫ over the section of `f(α)` dα, in θ (32 panels × 24 nodes).
+fn over_section(v: &CylinderView, panels: usize, f: &dyn Fn(f64) -> f64) -> f64 {
     let gl = GaussLegendre::new(24);
-    let panels = 32;
     let width = 2.0 * v.theta_max / panels as f64;
     let mut m = 0.0;
     for k in 0..panels {
         for (x, wt) in gl.points() {
             let theta = -v.theta_max + width * (k as f64 + 0.5 * (x + 1.0));
             let (alpha, jac) = v.alpha_of_theta(theta);
+            m += 0.5 * width * wt * jac * f(alpha);
+        }
+    }
+    m
+}
+
+/// ∫ p dΩ expected of a correct technique: 1, for ours the live slices' azimuth measure
+/// ∫ q(α) [T(α) > 0] dα, for the LTC technique that of its two branches.
+fn expected_total(v: &CylinderView, judge: Judge) -> f64 {
+    match judge {
+        Judge::Uniform => 1.0,
+        Judge::Ltc(ltc) => over_section(v, 32, &|alpha| ltc.live_mass(alpha)),
+        Judge::Ours(ours) => over_section(v, 32, &|alpha| {
             let (pa, pb) = v.phi_range(v.h(alpha));
             let hz = horizon(v, alpha);
             let live = if v.n_u > 0.0 {
@@ -423,19 +488,37 @@ fn expected_total(v: &CylinderView, ours: Option<&CylinderProjected>) -> f64 {
                 v.n_t(alpha) > 0.0
             };
             if live {
-                m += 0.5 * width * wt * jac * ours.azimuth_density(alpha);
+                ours.azimuth_density(alpha)
+            } else {
+                0.0
             }
-        }
+        }),
     }
-    m
 }
 
-fn certify(s: &dyn CylinderSampler, seed: u64, ours: Option<&CylinderProjected>) -> Verdict {
+/// The row's checks; `sliced`: the LTC technique whose bin masses come from its prepared
+/// slices (the technique itself, not a control wrapping it).
+fn certify(
+    s: &dyn CylinderSampler,
+    seed: u64,
+    judge: Judge,
+    sliced: Option<&CylinderLtc>,
+) -> Verdict {
     let v = s.view();
     let grid = Grid::of(v);
-    let mass = grid.masses(v, &|d| s.pdf(d));
+    let mass = match sliced {
+        Some(ltc) => grid.masses_sliced(v, &|alpha| {
+            let slice = ltc.slice(alpha);
+            Box::new(move |phi| slice.density(ltc, phi))
+        }),
+        None => grid.masses(v, &|d| s.pdf(d)),
+    };
     let total: f64 = mass.iter().sum();
-    let normalisation_error = (total - expected_total(v, ours)).abs();
+    let normalisation_error = (total - expected_total(v, judge)).abs();
+    let integrand = |dir: DVec3| match judge {
+        Judge::Ltc(ltc) => ltc.lobe_density(dir),
+        _ => dir.dot(v.n).max(0.0),
+    };
     let mut counts = vec![0u64; BINS * BINS + 1];
     let mut outside = 0;
     let mut rng = Pcg32::new(seed, 11);
@@ -445,7 +528,7 @@ fn certify(s: &dyn CylinderSampler, seed: u64, ours: Option<&CylinderProjected>)
         match s.sample_with_pdf(xi) {
             None => counts[BINS * BINS] += 1,
             Some((dir, p)) => {
-                let e = RADIANCE * dir.dot(v.n).max(0.0) / p;
+                let e = RADIANCE * integrand(dir) / p;
                 sum += e;
                 sum2 += e * e;
                 match grid.bin(v, dir) {
@@ -463,7 +546,11 @@ fn certify(s: &dyn CylinderSampler, seed: u64, ours: Option<&CylinderProjected>)
     }
     let mean = sum / N as f64;
     let se = ((sum2 / N as f64 - mean * mean).max(0.0) / (N as f64 - 1.0)).sqrt();
-    let truth = RADIANCE * v.projected_solid_angle_quadrature(64, &gl24());
+    let truth = RADIANCE
+        * match judge {
+            Judge::Ltc(ltc) => over_section(v, 64, &|alpha| ltc.slice_lobe_mass(alpha)),
+            _ => v.projected_solid_angle_quadrature(64, &gl24()),
+        };
     let irradiance_z = (mean - truth).abs() / (se + 1e-9 * truth / 4.0);
     Verdict {
         p_value: chi.p_value,
@@ -562,7 +649,34 @@ pub struct CylinderReport {
 }
 
 /// The technique names, in the order of the rows of each configuration.
-pub const TECHNIQUES: [&str; 4] = ["area", "solid-angle", "ours", "gamito"];
+pub const TECHNIQUES: [&str; 6] = [
+    "area",
+    "solid-angle",
+    "ours",
+    "gamito",
+    "ltc",
+    "ltc-identity",
+];
+
+/// GGX roughness of the suite's glossy LTC lobe (that of `finite-tube-glossy`).
+pub const LTC_ROUGHNESS: f32 = 0.25;
+
+/// The glossy lobe at a configuration: the table's A for [`LTC_ROUGHNESS`] and the view
+/// direction that mirrors the direction to the tube's middle about n (raised to n·v ≥ 0.3),
+/// and its shading frame (x̂ toward the view, ŷ = n × x̂, n).
+fn glossy_lobe(v: &CylinderView) -> (DMat3, DMat3) {
+    let n = v.n;
+    let d = (v.rho * v.c + 0.5 * (v.a + v.b) * v.u).normalize();
+    let mirror = 2.0 * n.dot(d) * n - d;
+    let tangent = mirror - n.dot(mirror) * n;
+    let wi = (tangent + n.dot(mirror).max(0.3) * n).normalize();
+    let x = tangent
+        .try_normalize()
+        .unwrap_or_else(|| n.any_orthonormal_vector());
+    let frame = DMat3::from_cols(x, n.cross(x), n);
+    let (a, _) = GgxLtcTable::ggx().lookup(LTC_ROUGHNESS, n.dot(wi) as f32);
+    (frame, a.as_dmat3())
+}
 
 /// Runs the suite (configurations in parallel; deterministic: fixed seeds per row).
 pub fn run() -> CylinderReport {
@@ -615,17 +729,38 @@ fn config_rows(
     let gamito = CylinderGamito::new(v).expect("Gamito on the suite's configuration");
     let uniform = CylinderSolidAngle::new(v).expect("solid angle on the suite's configuration");
     let area = CylinderArea::new(v).expect("area on the suite's configuration");
-    let samplers: [(&str, &dyn CylinderSampler, Option<&CylinderProjected>); 4] = [
-        ("area", &area, None),
-        ("solid-angle", &uniform, None),
-        ("ours", &ours, Some(&ours)),
-        ("gamito", &gamito, None),
+    let (frame, a) = glossy_lobe(v);
+    let ltc = CylinderLtc::new(v, frame, a).expect("LTC on the suite's configuration");
+    let identity =
+        CylinderLtc::new(v, frame, DMat3::IDENTITY).expect("LTC (identity) on the configuration");
+    let samplers: [(&str, &dyn CylinderSampler, Judge, Option<&CylinderLtc>); 6] = [
+        ("area", &area, Judge::Uniform, None),
+        ("solid-angle", &uniform, Judge::Uniform, None),
+        ("ours", &ours, Judge::Ours(&ours), None),
+        ("gamito", &gamito, Judge::Uniform, None),
+        ("ltc", &ltc, Judge::Ltc(&ltc), Some(&ltc)),
+        (
+            "ltc-identity",
+            &identity,
+            Judge::Ltc(&identity),
+            Some(&identity),
+        ),
     ];
     let mut rows = Vec::new();
-    for (t, (name, s, q)) in samplers.iter().enumerate() {
-        let r = certify(*s, 1000 + 10 * k as u64 + t as u64, *q);
-        // Rejection samplers have no smooth map to differentiate.
-        let jac = (!matches!(*name, "solid-angle" | "gamito")).then(|| jacobian_error(*s));
+    for (t, (name, s, judge, sliced)) in samplers.iter().enumerate() {
+        let r = certify(*s, 1000 + 10 * k as u64 + t as u64, *judge, *sliced);
+        // Rejection samplers have no smooth map to differentiate; the LTC technique's map is
+        // differentiated without its defensive branch (β = 0: the LTC slice sampler alone),
+        // the mixture's map being piecewise in ξ₁.
+        let jac = match *name {
+            "solid-angle" | "gamito" => None,
+            "ltc" | "ltc-identity" => {
+                let a = if *name == "ltc" { a } else { DMat3::IDENTITY };
+                let pure = CylinderLtc::with_options(v, frame, a, 0.0, 2).expect("β = 0");
+                Some(jacobian_error(&pure))
+            }
+            _ => Some(jacobian_error(*s)),
+        };
         let passed = r.p_value >= alpha_c
             && r.outside == 0
             && r.normalisation_error < 1e-6
@@ -662,11 +797,20 @@ fn config_rows(
         controls.push(("line density", Box::new(LineDensity(ours))));
         controls.push(("gamito unextended", Box::new(UnextendedRectangle(gamito))));
     }
+    controls.push(("ltc pdf x 1.01", Box::new(Scaled(ltc))));
+    controls.push(("ltc per radius", Box::new(PerRadius(ltc))));
     let mut control_rows = Vec::new();
     for (t, (name, s)) in controls.iter().enumerate() {
-        // Gamito's controls are judged as uniform samplers (total mass 1).
-        let of = (!name.starts_with("gamito")).then_some(&ours);
-        let r = certify(s.as_ref(), 5000 + 10 * k as u64 + t as u64, of);
+        // Gamito's controls are judged as uniform samplers (total mass 1), the LTC ones as
+        // the LTC technique.
+        let judge = if name.starts_with("gamito") {
+            Judge::Uniform
+        } else if name.starts_with("ltc") {
+            Judge::Ltc(&ltc)
+        } else {
+            Judge::Ours(&ours)
+        };
+        let r = certify(s.as_ref(), 5000 + 10 * k as u64 + t as u64, judge, None);
         let rejected = r.p_value < alpha_c
             || r.outside > 0
             || r.normalisation_error >= 1e-6

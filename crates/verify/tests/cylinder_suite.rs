@@ -10,7 +10,8 @@ fn cylinder_samplers_certified_and_controls_rejected() {
     let r = cylinder_suite::run();
     cylinder_suite::print(&r);
     assert_eq!(r.samples, 400_000);
-    assert_eq!(r.techniques.len(), 4 * r.cross_density.len());
+    assert_eq!(r.techniques.len(), 6 * r.cross_density.len());
+    assert_eq!(r.statistical_tests, 48);
     assert!(r.cross_density.len() >= 8);
     let failed: Vec<String> = r
         .techniques
@@ -39,6 +40,8 @@ fn cylinder_samplers_certified_and_controls_rejected() {
         "line density",
         "gamito 1/Omega_rect",
         "gamito unextended",
+        "ltc pdf x 1.01",
+        "ltc per radius",
     ] {
         let n = r
             .negative_controls

@@ -317,7 +317,7 @@ def render(
     scene's), ``passes``, ``seed`` (default the scene's), ``technique`` (``mis``, ``ltc`` or a
     technique name), ``noise`` (white, blue, blue-jittered), ``mis`` (heuristic of
     ``technique="mis"``), ``light_samples``, ``lights`` (every, one, tree), ``cylinders`` (exact,
-    line), ``cylinder_technique`` (projected, solid-angle, gamito, area), ``cylinder_mis``
+    line), ``cylinder_technique`` (projected, ltc, solid-angle, gamito, area), ``cylinder_mis``
     (balance, off), ``threads`` and
     ``defines`` (the scene's ``$name`` defaults, as ``-D``). The scene's warnings are issued as
     Python warnings. The same options give the same image as the command (bit for bit).

@@ -203,7 +203,7 @@ fn exact_tubes_equal_the_scalar_path() {
             }
         }
     }
-    assert_eq!(renders, 5 * (4 * 2 + 3 * 2));
+    assert_eq!(renders, 6 * (4 * 2 + 3 * 2));
 }
 
 /// Exact tubes take the packets only with every light a tube and one light sample; a scene

@@ -23,6 +23,7 @@ use crate::bvh::{PacketHits, RayLanes};
 use crate::hooks::SceneBsdf;
 use crate::tube::PreparedTube;
 use glam::Vec3;
+use linlight_sampling::cylinder::CylinderTechnique;
 use linlight_simd::{get3, set3, PACKET_LANES};
 
 impl Context<'_> {
@@ -90,12 +91,18 @@ impl Context<'_> {
                 let j = lights.light[k] as usize;
                 let Some(tube) = tubes.get(j) else { continue };
                 let (p, n) = (get3(&shading.p, k), get3(&shading.n, k));
-                let Some(prepared) = PreparedTube::new(tube, sampling, p, n) else {
+                let glossy = shading.glossy[k].as_ref();
+                let lobe = match glossy {
+                    Some(point) if sampling.technique == CylinderTechnique::Ltc => {
+                        point.ltc_lobe(&SceneBsdf)
+                    }
+                    _ => None,
+                };
+                let Some(prepared) = PreparedTube::new(tube, sampling, p, n, lobe) else {
                     continue;
                 };
                 // k is K (or K/p_j): L = k/R.
                 let radiance = get3(lights.k(), k) / tube.radius;
-                let glossy = shading.glossy[k].as_ref();
                 let f = get3(&shading.lambert, k);
                 let eval = |w: Vec3| match glossy {
                     Some(point) => point.eval(&SceneBsdf, w),

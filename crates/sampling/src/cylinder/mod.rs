@@ -27,15 +27,17 @@
 
 pub mod area;
 pub mod gamito;
+pub mod ltc;
 pub mod projected;
 pub mod solid_angle;
 
 pub use area::CylinderArea;
 pub use gamito::CylinderGamito;
+pub use ltc::{CylinderLtc, LtcSlice};
 pub use projected::CylinderProjected;
 pub use solid_angle::CylinderSolidAngle;
 
-use glam::{DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec3};
 
 /// A finite open cylinder (no caps): axis from `p0` to `p1`, radius `radius`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -355,14 +357,19 @@ pub enum CylinderTechnique {
     /// Uniform in solid angle by Gamito's construction: a bounding spherical rectangle and
     /// rejection.
     Gamito,
+    /// The azimuth across the section fitted to the LTC mass of the slices, the elevation by
+    /// the paper's LTC line sampler ([`CylinderLtc`]); [`Self::Projected`] where the surface
+    /// has no LTC lobe ([`Self::prepare`]).
+    Ltc,
 }
 
 impl CylinderTechnique {
-    pub const ALL: [CylinderTechnique; 4] = [
+    pub const ALL: [CylinderTechnique; 5] = [
         CylinderTechnique::Area,
         CylinderTechnique::SolidAngle,
         CylinderTechnique::Projected,
         CylinderTechnique::Gamito,
+        CylinderTechnique::Ltc,
     ];
 
     pub fn name(self) -> &'static str {
@@ -371,10 +378,24 @@ impl CylinderTechnique {
             CylinderTechnique::SolidAngle => "cylinder-solid-angle",
             CylinderTechnique::Projected => "cylinder-projected",
             CylinderTechnique::Gamito => "cylinder-gamito",
+            CylinderTechnique::Ltc => "cylinder-ltc",
         }
     }
 
+    /// The technique for a surface without an LTC lobe (A = identity: [`Self::Ltc`] is
+    /// [`Self::Projected`], the same distribution).
     pub fn prepare(self, view: &CylinderView) -> Option<PreparedCylinder> {
+        self.prepare_with_lobe(view, None)
+    }
+
+    /// The technique for a surface whose glossy lobe has the LTC matrix `a` in the shading
+    /// frame `frame` (columns x̂, ŷ, n; `None`: no lobe). Only [`Self::Ltc`] uses it; where
+    /// [`CylinderLtc::new`] refuses A it is [`Self::Projected`].
+    pub fn prepare_with_lobe(
+        self,
+        view: &CylinderView,
+        lobe: Option<(DMat3, DMat3)>,
+    ) -> Option<PreparedCylinder> {
         Some(match self {
             CylinderTechnique::Area => PreparedCylinder::Area(CylinderArea::new(view)?),
             CylinderTechnique::SolidAngle => {
@@ -384,6 +405,10 @@ impl CylinderTechnique {
                 PreparedCylinder::Projected(CylinderProjected::new(view)?)
             }
             CylinderTechnique::Gamito => PreparedCylinder::Gamito(CylinderGamito::new(view)?),
+            CylinderTechnique::Ltc => match lobe.and_then(|(f, a)| CylinderLtc::new(view, f, a)) {
+                Some(ltc) => PreparedCylinder::Ltc(ltc),
+                None => PreparedCylinder::Projected(CylinderProjected::new(view)?),
+            },
         })
     }
 }
@@ -396,6 +421,7 @@ pub enum PreparedCylinder {
     SolidAngle(Box<CylinderSolidAngle>),
     Projected(CylinderProjected),
     Gamito(CylinderGamito),
+    Ltc(CylinderLtc),
 }
 
 macro_rules! dispatch {
@@ -405,6 +431,7 @@ macro_rules! dispatch {
             PreparedCylinder::SolidAngle($s) => $e,
             PreparedCylinder::Projected($s) => $e,
             PreparedCylinder::Gamito($s) => $e,
+            PreparedCylinder::Ltc($s) => $e,
         }
     };
 }

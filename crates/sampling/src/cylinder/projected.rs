@@ -43,12 +43,20 @@ pub const FLOOR: f64 = 0.1;
 #[derive(Clone, Copy, Debug)]
 pub struct CylinderProjected {
     view: CylinderView,
+    section: Section,
+    iterations: u32,
+}
+
+/// The section's piecewise-linear density q(α) = g(α)/G: g the linear interpolant of node
+/// values m_k (plus the floor) at the azimuths α_k of [`section_nodes`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Section {
+    alpha_max: f64,
     /// The nodes α_k = α(θ_k), θ_k = −θ_max + k Δθ, and g there.
     alpha: [f64; SECTION_NODES],
     g: [f64; SECTION_NODES],
     /// Cumulative trapezoid areas of g (the last is G).
     cumulative: [f64; SECTION_NODES - 1],
-    iterations: u32,
 }
 
 /// The horizon-clipped elevation interval [φ_lo, φ_hi] of the slice with h(α) and
@@ -94,7 +102,7 @@ pub(crate) fn slice_core(view: &CylinderView, alpha: f64, h: f64) -> Option<(Psa
 /// density stays the exact one of the interval sampled). `None` if the horizon-clipped
 /// interval is empty.
 #[inline]
-fn slice_of(view: &CylinderView, h: f64, nt: f64) -> Option<PsaCore<f64>> {
+pub(crate) fn slice_of(view: &CylinderView, h: f64, nt: f64) -> Option<PsaCore<f64>> {
     let ns = view.n_u;
     let unit = |e: f64| {
         let l = (e * e + h * h).sqrt();
@@ -142,7 +150,7 @@ pub(crate) fn slice_total(view: &CylinderView, alpha: f64, h: f64) -> Option<f64
 /// θ_k = −θ_max + k θ_max/2: the silhouettes α = ±α_max (sin α = R/ρ, h = √(ρ² − R²)), the
 /// point nearest x (h = ρ − R) and θ = ±θ_max/2, whose sin and cos follow from cos θ_max = R/ρ
 /// by the half-angle formulas (one atan2 for the five nodes).
-fn section_nodes(v: &CylinderView) -> [(f64, f64, f64, f64); SECTION_NODES] {
+pub(crate) fn section_nodes(v: &CylinderView) -> [(f64, f64, f64, f64); SECTION_NODES] {
     const _: () = assert!(
         SECTION_NODES == 5,
         "the nodes are at θ_max·(−1, −½, 0, ½, 1)"
@@ -172,12 +180,32 @@ impl CylinderProjected {
     /// With a given number of Halley steps of the line sampler (the paper's is 2).
     pub fn with_iterations(view: &CylinderView, iterations: u32) -> Option<Self> {
         let v = view;
-        let mut m = [0.0; SECTION_NODES];
         let nodes = section_nodes(v);
-        for (mk, &(_, sin, cos, h)) in m.iter_mut().zip(&nodes) {
+        let m = nodes.map(|(_, sin, cos, h)| {
             let nt = cos * v.n_c + sin * v.n_w;
-            *mk = slice_of(v, h, nt).map_or(0.0, |core| core.total);
-        }
+            slice_of(v, h, nt).map_or(0.0, |core| core.total)
+        });
+        Some(Self {
+            view: *view,
+            section: Section::new(v, &nodes, m)?,
+            iterations,
+        })
+    }
+
+    /// q(α): density of the azimuth of the sampled slice (per unit α; 0 off the section).
+    pub fn azimuth_density(&self, alpha: f64) -> f64 {
+        self.section.density(alpha)
+    }
+}
+
+impl Section {
+    /// From the values `m` of the slices at the `nodes` of [`section_nodes`]; `None` if G is
+    /// not finite and positive.
+    pub(crate) fn new(
+        v: &CylinderView,
+        nodes: &[(f64, f64, f64, f64); SECTION_NODES],
+        m: [f64; SECTION_NODES],
+    ) -> Option<Self> {
         let alpha = nodes.map(|node| node.0);
         let mean = m.iter().sum::<f64>() / SECTION_NODES as f64;
         // All nodes dead (a sliver above the horizon between them at most): uniform in θ.
@@ -190,11 +218,10 @@ impl CylinderProjected {
             cumulative[k] = area;
         }
         (area.is_finite() && area > 0.0).then_some(Self {
-            view: *view,
+            alpha_max: v.alpha_max,
             alpha,
             g,
             cumulative,
-            iterations,
         })
     }
 
@@ -209,9 +236,9 @@ impl CylinderProjected {
         (k, ((alpha - self.alpha[k]) / width).clamp(0.0, 1.0))
     }
 
-    /// q(α): density of the azimuth of the sampled slice (per unit α; 0 off the section).
-    pub fn azimuth_density(&self, alpha: f64) -> f64 {
-        if alpha.is_nan() || alpha.abs() > self.view.alpha_max {
+    /// q(α) (per unit α; 0 off the section).
+    pub(crate) fn density(&self, alpha: f64) -> f64 {
+        if alpha.is_nan() || alpha.abs() > self.alpha_max {
             return 0.0;
         }
         let (k, x) = self.locate(alpha);
@@ -219,7 +246,7 @@ impl CylinderProjected {
     }
 
     /// α for ξ ∈ [0, 1]: the interval by its area, then the linear density's CDF inverted.
-    fn alpha_of_xi(&self, xi: f64) -> f64 {
+    pub(crate) fn alpha_of_xi(&self, xi: f64) -> f64 {
         let total = self.cumulative[SECTION_NODES - 2];
         let target = xi * total;
         let mut k = 0;
@@ -234,11 +261,11 @@ impl CylinderProjected {
         let (g0, g1) = (self.g[k], self.g[k + 1]);
         let disc = (g0 * g0 + 2.0 * (g1 - g0) * y).max(0.0);
         let x = (2.0 * y / (g0 + disc.sqrt())).clamp(0.0, 1.0);
-        (self.alpha[k] + x * width).clamp(-self.view.alpha_max, self.view.alpha_max)
+        (self.alpha[k] + x * width).clamp(-self.alpha_max, self.alpha_max)
     }
 
     /// The section's CDF at α (inverse of [`Self::alpha_of_xi`]).
-    fn xi_of_alpha(&self, alpha: f64) -> f64 {
+    pub(crate) fn xi_of_alpha(&self, alpha: f64) -> f64 {
         let (k, x) = self.locate(alpha);
         let start = if k == 0 { 0.0 } else { self.cumulative[k - 1] };
         let (g0, g1) = (self.g[k], self.g[k + 1]);
@@ -262,7 +289,7 @@ impl CylinderSampler for CylinderProjected {
     /// rounded n·dir), the distance h/cos φ.
     fn sample_toward(&self, xi: [f32; 2]) -> Option<CylinderSample> {
         let v = &self.view;
-        let alpha = self.alpha_of_xi(clamp_xi(xi[0]));
+        let alpha = self.section.alpha_of_xi(clamp_xi(xi[0]));
         let at: SliceAt = v.slice_at(alpha);
         let core = slice_of(v, at.h, at.n_t)?;
         let (_, (s, t, n_dot_w)) = core.solve_with_values(clamp_xi(xi[1]), self.iterations);
@@ -308,7 +335,7 @@ impl CylinderSampler for CylinderProjected {
         let v = &self.view;
         let (alpha, phi, h) = v.hit(dir)?;
         let (core, lo) = slice_core(v, alpha, h)?;
-        Some([self.xi_of_alpha(alpha), core.cdf(phi - lo)])
+        Some([self.section.xi_of_alpha(alpha), core.cdf(phi - lo)])
     }
 
     fn view(&self) -> &CylinderView {
