@@ -1102,7 +1102,8 @@ impl SceneRun<'_> {
             plan.pilot_seconds += seconds;
             // Every light of the scene per light sample (`--lights every`); fewer (`one`,
             // `tree`) cost less, so the model errs towards one light sample.
-            if BudgetRule::light_samples_pay(&budget, &b, n, s.scene.lights.len()) {
+            let (lights, exact) = (s.scene.lights.len(), subject.exact_tubes());
+            if BudgetRule::light_samples_pay(&budget, &b, n, lights, exact) {
                 (plan.budget, plan.pixel_spp, plan.light_samples) = (b, p, n);
             }
         }
