@@ -55,6 +55,22 @@ pub enum Target {
     Parity { quantile: f64 },
 }
 
+/// K: what a camera sample costs besides its light samples (ray, shading point, BSDF and
+/// sampler preparation), in light samples of one light, on the scalar path where certify takes
+/// several light samples (scenes without a Lambertian surface; the packet renderer takes one),
+/// with the tubes as lines. A camera sample of N light samples of L lights each then costs
+/// (K + N·L)/(K + L) camera samples of one light sample. Measured there (callgrind,
+/// instructions per camera sample at N = 1 and 8): K = 2.4 for area sampling, 2.1 for Hart's
+/// linear and for solid angle on `glossy-conductor-sharp` (one light), 2.6 for area sampling
+/// on `glossy-principled` (two lights: K/L = 1.3); the model takes the smallest, rounded down,
+/// so that it never understates the cost of N light samples.
+pub const CAMERA_SAMPLE_IN_LIGHT_SAMPLES: f64 = 2.0;
+
+/// K of [`CAMERA_SAMPLE_IN_LIGHT_SAMPLES`] for exact tubes (`--cylinders exact`), whose light
+/// samples cost more: measured on `finite-tube-glossy` with MIS (balance), K = 0.36 for area
+/// sampling of the cylinder, 4.8 for solid angle; the smallest, rounded down.
+pub const CAMERA_SAMPLE_IN_EXACT_TUBE_SAMPLES: f64 = 0.25;
+
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BudgetRule {
     pub pilot_spp: u32,
@@ -131,12 +147,27 @@ impl BudgetRule {
     }
 
     /// Whether the budget `at_n` (N light samples per camera sample) costs less than `at_one`
-    /// (one), with a camera sample of N light samples costing (1 + N)/2 camera samples of one —
-    /// a conservative model: measured on the scalar glossy path, 1.9 at N = 4 and 3.0 at N = 8
-    /// (the model says 2.5 and 4.5). Compares the mean samples per pixel (per-tile budgets).
-    pub fn light_samples_pay(at_one: &Budget, at_n: &Budget, n: u32) -> bool {
+    /// (one), a camera sample of N light samples of `lights` lights each costing
+    /// (K + N·L)/(K + L) camera samples of one (K = [`CAMERA_SAMPLE_IN_LIGHT_SAMPLES`], or
+    /// [`CAMERA_SAMPLE_IN_EXACT_TUBE_SAMPLES`] for `exact_tubes`; L = `lights` at least 1, and
+    /// L larger than the lights a light sample takes overstates the cost of N). Compares the
+    /// mean samples per pixel (per-tile budgets).
+    pub fn light_samples_pay(
+        at_one: &Budget,
+        at_n: &Budget,
+        n: u32,
+        lights: usize,
+        exact_tubes: bool,
+    ) -> bool {
         let cost = |b: &Budget| b.pixel_spp_mean.max(b.spp as f64);
-        cost(at_n) * (1.0 + n as f64) / 2.0 < cost(at_one)
+        let k = if exact_tubes {
+            CAMERA_SAMPLE_IN_EXACT_TUBE_SAMPLES
+        } else {
+            CAMERA_SAMPLE_IN_LIGHT_SAMPLES
+        };
+        let l = lights.max(1) as f64;
+        // cost(at_n)·(K + N·L)/(K + L) < cost(at_one), without the rounding of the quotient.
+        cost(at_n) * (k + n as f64 * l) < cost(at_one) * (k + l)
     }
 
     /// One sentence for reports.

@@ -1100,7 +1100,10 @@ impl SceneRun<'_> {
             };
             let (b, p, seconds) = planned(&rule, &trial)?;
             plan.pilot_seconds += seconds;
-            if BudgetRule::light_samples_pay(&budget, &b, n) {
+            // Every light of the scene per light sample (`--lights every`); fewer (`one`,
+            // `tree`) cost less, so the model errs towards one light sample.
+            let (lights, exact) = (s.scene.lights.len(), subject.exact_tubes());
+            if BudgetRule::light_samples_pay(&budget, &b, n, lights, exact) {
                 (plan.budget, plan.pixel_spp, plan.light_samples) = (b, p, n);
             }
         }

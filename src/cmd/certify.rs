@@ -18,7 +18,7 @@ use std::sync::Mutex;
 pub const AFTER_HELP: &str = "\
 Examples:
   linlight certify                          everything: sampler suite + every scene × technique
-                                            (13–17 CPU-minutes, 6.5–9 min on 2 quiet cores)
+                                            (12–17 CPU-minutes, 6.5–9 min on 2 quiet cores)
   linlight certify --full                   the exhaustive budget (as precise as the reference
                                             in 99 % of the pixels; 5× the samples and more)
   linlight certify --scenes 'floor-*' --techniques projected-solid-angle,li2018

@@ -514,6 +514,7 @@ impl<const N: usize> PreparedBatch<N> {
             n_dot_c: self.n_dot_c[i],
             ns: self.n_dot_u[i],
             max_iterations: MAX_ITERATIONS,
+            at_start: None,
         }
     }
 }

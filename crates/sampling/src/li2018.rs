@@ -40,13 +40,25 @@ pub struct Li2018 {
     pub(crate) n_dot_c: f32,
     pub(crate) ns: f32,
     pub(crate) max_iterations: u32,
+    /// The residual's CDF value and slope at the first iterate, the bracket's midpoint, which
+    /// is the same for every ξ ([`Self::prepare`] computes them once; `None` in the lanes of
+    /// [`crate::batch`], which evaluate every step). Equal bit for bit to what [`Self::step`]
+    /// computes there, so the samples do not depend on whether they are present.
+    pub(crate) at_start: Option<(f32, f32)>,
 }
 
 impl Li2018 {
     /// The exact sampler's support, density and CDF ([`ProjectedSolidAngle::prepare`]: the same
     /// inputs rejected, the normal scaled by a power of two, not normalised).
     pub fn prepare(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
-        ProjectedSolidAngle::prepare(segment, x, n).map(Self::on_exact)
+        ProjectedSolidAngle::prepare(segment, x, n).map(|exact| {
+            let li = Self::on_exact(exact);
+            let l = li.start_state().l;
+            Self {
+                at_start: Some((li.exact.cdf_of_l_with(l, atan2_f64), li.slope(l))),
+                ..li
+            }
+        })
     }
 
     /// Around a prepared exact sampler: the slope's coefficients of the sampler's (scaled)
@@ -60,6 +72,7 @@ impl Li2018 {
             ns,
             exact,
             max_iterations: MAX_ITERATIONS,
+            at_start: None,
         }
     }
 
@@ -78,7 +91,10 @@ impl Li2018 {
         let xi = clamp_xi(xi);
         let mut state = self.start_state();
         for k in 0..self.max_iterations {
-            state = self.step(state, xi, atan2_f64);
+            state = match self.at_start {
+                Some((cdf, slope)) if k == 0 => self.step_at(state, xi, cdf, slope),
+                _ => self.step(state, xi, atan2_f64),
+            };
             if state.done {
                 return (state.l, k);
             }
@@ -104,16 +120,27 @@ impl Li2018 {
     /// step leaves the bracket. `atan2` as in [`ProjectedSolidAngle::cdf_of_l_with`].
     #[inline(always)]
     pub(crate) fn step(&self, s: LiState, xi: f32, atan2: impl Fn(f64, f64) -> f64) -> LiState {
+        let cdf = self.exact.cdf_of_l_with(s.l, atan2);
+        self.step_at(s, xi, cdf, self.slope(s.l))
+    }
+
+    /// F'(l)/total = 2d(n·c + l n_s)/(r⁴ |n| Ω⊥_R) for the sampler's scaled (not unit) n:
+    /// total = F(l_e) − F(l_b) = |n|·Ω⊥_R, and `inv_psa` = 1/(|n| Ω⊥_R) of the same n.
+    #[inline(always)]
+    fn slope(&self, l: f32) -> f32 {
         let d = self.exact.support().d;
+        let r2 = l * l + d * d;
+        2.0 * d * (self.n_dot_c + l * self.ns) / (r2 * r2) * self.exact.inv_psa
+    }
+
+    /// [`Self::step`] with the CDF (in units of the total) and its slope at `s.l` given.
+    #[inline(always)]
+    fn step_at(&self, s: LiState, xi: f32, cdf: f32, slope: f32) -> LiState {
         let l = s.l;
-        let g = self.exact.cdf_of_l_with(l, atan2) - xi; // in units of the total
+        let g = cdf - xi;
         let converged = g.abs() < TOLERANCE;
         let lo = if g < 0.0 { l } else { s.lo };
         let hi = if g < 0.0 { s.hi } else { l };
-        // F'(l)/total = 2d(n·c + l n_s)/(r⁴ |n| Ω⊥_R) for the sampler's scaled (not unit) n:
-        // total = F(l_e) − F(l_b) = |n|·Ω⊥_R, and `inv_psa` = 1/(|n| Ω⊥_R) of the same n.
-        let r2 = l * l + d * d;
-        let slope = 2.0 * d * (self.n_dot_c + l * self.ns) / (r2 * r2) * self.exact.inv_psa;
         let newton = l - g / slope;
         let next = if newton > lo && newton < hi {
             newton
@@ -247,6 +274,25 @@ mod tests {
                         );
                     }
                 }
+            }
+        }
+    }
+
+    /// The first step's CDF value and slope computed once by `prepare` give bit for bit the
+    /// samples and iteration counts of evaluating them in the step.
+    #[test]
+    fn start_values_change_no_sample() {
+        for (seg, x, n) in configs() {
+            let li = Li2018::prepare(&seg, x, n).unwrap();
+            assert!(li.at_start.is_some());
+            let evaluated = Li2018 {
+                at_start: None,
+                ..li
+            };
+            for i in 0..=4096 {
+                let xi = i as f32 / 4096.0;
+                let ((l, k), (l0, k0)) = (li.sample_l(xi), evaluated.sample_l(xi));
+                assert_eq!((l.to_bits(), k), (l0.to_bits(), k0), "{seg:?} ξ = {xi}");
             }
         }
     }

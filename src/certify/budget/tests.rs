@@ -366,27 +366,40 @@ fn light_samples_leave_min_spp_camera_samples() {
     assert_eq!(read.max_light_samples, 1);
 }
 
-/// N light samples are kept only when their budget, at (1 + N)/2 the cost per camera sample,
-/// costs less than one light sample's: not where the pixel footprint's variance dominates.
+/// N light samples are kept only when their budget, at (2 + N·L)/(2 + L) the cost per camera
+/// sample with L lights, costs less than one light sample's: not where the pixel footprint's
+/// variance dominates.
 #[test]
 fn light_samples_are_kept_only_where_they_pay() {
+    assert_eq!(CAMERA_SAMPLE_IN_LIGHT_SAMPLES, 2.0);
+    assert_eq!(CAMERA_SAMPLE_IN_EXACT_TUBE_SAMPLES, 0.25);
     let at = |mean: f64| {
         let mut b = budget_of(false);
         (b.spp, b.pixel_spp_mean) = (256, mean);
         b
     };
-    let one = at(27_776.0);
-    // Light-sample variance only: N = 8 needs 1/8 of the camera samples (cost 4.5/8).
-    assert!(BudgetRule::light_samples_pay(&one, &at(3_472.0), 8));
-    // Half of the variance from the pixel footprint: 8 light samples cut it to 9/16 (cost 5/2).
-    assert!(!BudgetRule::light_samples_pay(&one, &at(15_624.0), 8));
-    // Break-even at N = 2: 1.5 × the camera samples' cost (operands exact in f64:
-    // 18 000 × 1.5 = 27 000).
-    let even = at(27_000.0);
-    assert!(!BudgetRule::light_samples_pay(&even, &at(18_000.0), 2));
-    assert!(BudgetRule::light_samples_pay(
-        &even,
-        &at(18_000.0 - 64.0),
-        2
-    ));
+    // Whether N light samples of L lights at a mean of `mean` spp pay against `one`.
+    let pays = |one: f64, mean: f64, n: u32, lights: usize, exact_tubes: bool| {
+        BudgetRule::light_samples_pay(&at(one), &at(mean), n, lights, exact_tubes)
+    };
+    let one = 27_776.0;
+    // Light-sample variance only: N = 8 needs 1/8 of the camera samples (cost 10/3 / 8).
+    assert!(pays(one, 3_472.0, 8, 1, false));
+    // Half of the variance from the pixel footprint: 8 light samples cut it to 9/16 (cost 15/8).
+    assert!(!pays(one, 15_624.0, 8, 1, false));
+    // A sixth of it: 8 light samples cut it to 13/48 (cost 0.90; (1 + N)/2 would say 1.22).
+    assert!(pays(one, 7_523.0, 8, 1, false));
+    // Break-even at N = 2: 4/3 × the camera samples' cost (operands exact in f64:
+    // 20 250 × 4 = 27 000 × 3).
+    assert!(!pays(27_000.0, 20_250.0, 2, 1, false));
+    assert!(pays(27_000.0, 20_250.0 - 64.0, 2, 1, false));
+    // Two lights: (2 + 8·2)/(2 + 2) = 4.5 at N = 8, where the sixth above does not pay, and
+    // no lights count as one.
+    assert!(!pays(one, 7_523.0, 8, 2, false));
+    assert!(pays(one, 3_472.0, 8, 2, false));
+    assert!(pays(one, 7_523.0, 8, 0, false));
+    // Exact tubes: (1/4 + 8)/(1/4 + 1) = 6.6 at N = 8: light-sample variance only pays, the
+    // sixth does not.
+    assert!(pays(one, 3_472.0, 8, 1, true));
+    assert!(!pays(one, 7_523.0, 8, 1, true));
 }
