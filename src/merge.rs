@@ -176,84 +176,94 @@ pub fn merge(images: &[&Image]) -> Result<Image, String> {
         let s = u[0].1;
         u.iter().all(|&(_, x)| (x - s).abs() <= 1e-9 * s)
     });
-    let mut out = Image::new(first.width, first.height);
     match same_units {
-        Some(u) => {
-            let n: Vec<f64> = u.iter().map(|&(n, _)| n as f64).collect();
-            let total: f64 = n.iter().sum();
-            for p in 0..out.mean.len() {
-                for c in 0..3 {
-                    let mean = images
-                        .iter()
-                        .zip(&n)
-                        .map(|(i, ni)| ni * i.mean[p][c] as f64)
-                        .sum::<f64>()
-                        / total;
-                    let ss: f64 = images
-                        .iter()
-                        .zip(&n)
-                        .map(|(i, ni)| {
-                            let d = i.mean[p][c] as f64 - mean;
-                            (ni - 1.0) * ni * i.var[p][c] as f64 + ni * d * d
-                        })
-                        .sum();
-                    out.mean[p][c] = mean as f32;
-                    out.var[p][c] = if total > 1.0 {
-                        (ss / ((total - 1.0) * total)) as f32
-                    } else {
-                        0.0
-                    };
-                }
-            }
-            let unit_spp = u[0].1;
-            let passes = if unit_spp == 1.0 && images.iter().all(|i| i.meta.passes <= 1) {
-                1
-            } else {
-                total as u64
-            };
-            out.meta = merged_meta(images, total - 1.0, passes);
-        }
-        None => {
-            if let Some(i) = images.iter().find(|i| !(i.meta.dof > 0.0)) {
-                return Err(format!(
-                    "an image with dof {} has no variance estimate to merge",
-                    i.meta.dof
-                ));
-            }
-            let spp_total: f64 = images.iter().map(|i| i.meta.spp as f64).sum();
-            if !(spp_total > 0.0) {
-                return Err("the images do not record their spp".into());
-            }
-            let w: Vec<f64> = images
+        Some(u) => Ok(merge_units(images, u)),
+        None => merge_by_spp(images),
+    }
+}
+
+/// Images whose units (passes, or samples of single-pass images) hold the same spp: the
+/// pooled mean and the variance of the mean over all `Σ n` units (dof Σ n − 1).
+fn merge_units(images: &[&Image], u: &[(u64, f64)]) -> Image {
+    let mut out = Image::new(images[0].width, images[0].height);
+    let n: Vec<f64> = u.iter().map(|&(n, _)| n as f64).collect();
+    let total: f64 = n.iter().sum();
+    for p in 0..out.mean.len() {
+        for c in 0..3 {
+            let mean = images
                 .iter()
-                .map(|i| i.meta.spp as f64 / spp_total)
-                .collect();
-            let mut dof = f64::INFINITY;
-            for p in 0..out.mean.len() {
-                for c in 0..3 {
-                    let mut mean = 0.0;
-                    let mut var = 0.0;
-                    let mut ws = 0.0;
-                    for (i, wi) in images.iter().zip(&w) {
-                        let t = wi * wi * i.var[p][c] as f64;
-                        mean += wi * i.mean[p][c] as f64;
-                        var += t;
-                        ws += t * t / i.meta.dof;
-                    }
-                    out.mean[p][c] = mean as f32;
-                    out.var[p][c] = var as f32;
-                    if var > 0.0 && ws > 0.0 {
-                        dof = dof.min(var * var / ws);
-                    }
-                }
-            }
-            if !dof.is_finite() {
-                dof = images.iter().map(|i| i.meta.dof).sum();
-            }
-            let passes = images.iter().map(|i| i.meta.passes.max(1)).sum();
-            out.meta = merged_meta(images, dof, passes);
+                .zip(&n)
+                .map(|(i, ni)| ni * i.mean[p][c] as f64)
+                .sum::<f64>()
+                / total;
+            let ss: f64 = images
+                .iter()
+                .zip(&n)
+                .map(|(i, ni)| {
+                    let d = i.mean[p][c] as f64 - mean;
+                    (ni - 1.0) * ni * i.var[p][c] as f64 + ni * d * d
+                })
+                .sum();
+            out.mean[p][c] = mean as f32;
+            out.var[p][c] = if total > 1.0 {
+                (ss / ((total - 1.0) * total)) as f32
+            } else {
+                0.0
+            };
         }
     }
+    let unit_spp = u[0].1;
+    let passes = if unit_spp == 1.0 && images.iter().all(|i| i.meta.passes <= 1) {
+        1
+    } else {
+        total as u64
+    };
+    out.meta = merged_meta(images, total - 1.0, passes);
+    out
+}
+
+/// Images of different unit sizes: the means weighted by spp, the variance of that weighted
+/// mean, and its dof by Welch–Satterthwaite (the smallest over pixels and channels).
+fn merge_by_spp(images: &[&Image]) -> Result<Image, String> {
+    if let Some(i) = images.iter().find(|i| !(i.meta.dof > 0.0)) {
+        return Err(format!(
+            "an image with dof {} has no variance estimate to merge",
+            i.meta.dof
+        ));
+    }
+    let spp_total: f64 = images.iter().map(|i| i.meta.spp as f64).sum();
+    if !(spp_total > 0.0) {
+        return Err("the images do not record their spp".into());
+    }
+    let w: Vec<f64> = images
+        .iter()
+        .map(|i| i.meta.spp as f64 / spp_total)
+        .collect();
+    let mut out = Image::new(images[0].width, images[0].height);
+    let mut dof = f64::INFINITY;
+    for p in 0..out.mean.len() {
+        for c in 0..3 {
+            let mut mean = 0.0;
+            let mut var = 0.0;
+            let mut ws = 0.0;
+            for (i, wi) in images.iter().zip(&w) {
+                let t = wi * wi * i.var[p][c] as f64;
+                mean += wi * i.mean[p][c] as f64;
+                var += t;
+                ws += t * t / i.meta.dof;
+            }
+            out.mean[p][c] = mean as f32;
+            out.var[p][c] = var as f32;
+            if var > 0.0 && ws > 0.0 {
+                dof = dof.min(var * var / ws);
+            }
+        }
+    }
+    if !dof.is_finite() {
+        dof = images.iter().map(|i| i.meta.dof).sum();
+    }
+    let passes = images.iter().map(|i| i.meta.passes.max(1)).sum();
+    out.meta = merged_meta(images, dof, passes);
     Ok(out)
 }
 

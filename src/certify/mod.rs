@@ -1119,54 +1119,22 @@ impl SceneRun<'_> {
         exact: Option<&Image>,
         cpu: &mut Option<StageCpu>,
     ) -> Result<Vec<Row>, Unusable> {
-        let (opts, events) = (self.opts, self.events);
         let name = subject.name();
-        events(Event::Step {
+        (self.events)(Event::Step {
             label: format!("{}: {name}", s.name),
         });
-        let base = RenderOptions {
-            spp: opts.budget.pilot_spp.max(2),
-            passes: 1,
-            seed: pilot_seed(opts.seed),
-            method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
-            light_samples: 1,
-            // Every light (`linlight render`'s default); the choice of one light is
-            // certified by the renders of `LIGHT_SELECTION_RENDERS`.
-            lights: LightSelection::Every,
-            noise: Default::default(),
-            // The committed scenes' thin tubes as lines (their allowances assume the limit).
-            cylinders: linlight_render::Cylinders::Line,
-        };
-        let Planned {
-            budget,
-            pixel_spp,
-            light_samples,
-            pilot_seconds,
-        } = self.stage(
+        let base = pilot_options(self.opts);
+        let planned = self.stage(
             cpu,
             |c| &mut c.pilots,
             || self.plan(s, subject, reference, &base),
         )?;
-        let tiles = |done: usize, total: usize| events(Event::Tiles { done, total });
         let t = Instant::now();
         let mut image = self
             .stage(
                 cpu,
                 |c| &mut c.renders,
-                || {
-                    planned::render(
-                        &|scene, o, p| subject.render(scene, o, p),
-                        &s.scene,
-                        &RenderOptions {
-                            spp: budget.spp,
-                            seed: opts.seed,
-                            light_samples,
-                            ..base
-                        },
-                        pixel_spp.as_deref(),
-                        &tiles,
-                    )
-                },
+                || self.render_planned(s, subject, &base, &planned),
             )
             .map_err(|e| render_error(&s.name, &name, e))?;
         let render_seconds = t.elapsed().as_secs_f64();
@@ -1180,40 +1148,94 @@ impl SceneRun<'_> {
             |c| &mut c.comparisons,
             || {
                 let mut rows = Vec::new();
-                for (oracle_name, b) in oracles {
-                    let cmp = compare(&image, b, self.cfg).map_err(|e| {
-                        Unusable(format!(
-                            "cannot compare {} / {name} with the {oracle_name} image: {e}",
-                            s.name
-                        ))
-                    })?;
-                    let (rel_diff, rel_ci, worst_tile_p) = summarise(&cmp);
-                    let mut row = Row {
-                        scene: s.name.clone(),
-                        subject: name.clone(),
-                        oracle: oracle_name.to_string(),
-                        verdict: cmp.verdict,
-                        budget,
-                        light_samples,
-                        seed: opts.seed,
-                        pilot_seconds,
-                        render_seconds,
-                        precision: budget::precision(&image, b),
-                        rel_diff,
-                        rel_ci,
-                        worst_tile_p,
-                        files: Vec::new(),
-                        comparison: cmp,
-                    };
-                    if let Some(dir) = &opts.report_dir {
-                        row.files = report::write_row_images(dir, &row, &image, b)?;
-                    }
-                    events(Event::RowDone(&row));
-                    rows.push(row);
+                for oracle in oracles {
+                    rows.push(self.row(s, &name, (&image, render_seconds), oracle, &planned)?);
                 }
                 Ok(rows)
             },
         )
+    }
+
+    /// The subject's render of `s` with its planned budget, at certify's seed.
+    fn render_planned(
+        &self,
+        s: &ReferencedScene,
+        subject: &dyn Subject,
+        base: &RenderOptions,
+        planned: &Planned,
+    ) -> Result<Image, RenderError> {
+        let tiles = |done: usize, total: usize| (self.events)(Event::Tiles { done, total });
+        planned::render(
+            &|scene, o, p| subject.render(scene, o, p),
+            &s.scene,
+            &RenderOptions {
+                spp: planned.budget.spp,
+                seed: self.opts.seed,
+                light_samples: planned.light_samples,
+                ..*base
+            },
+            planned.pixel_spp.as_deref(),
+            &tiles,
+        )
+    }
+
+    /// The row of `image` (subject `name` on `s`, rendered in `render_seconds`) compared with
+    /// one oracle's image `b`, its images written to the report directory if there is one.
+    fn row(
+        &self,
+        s: &ReferencedScene,
+        name: &str,
+        (image, render_seconds): (&Image, f64),
+        (oracle_name, b): (&str, &Image),
+        planned: &Planned,
+    ) -> Result<Row, Unusable> {
+        let cmp = compare(image, b, self.cfg).map_err(|e| {
+            Unusable(format!(
+                "cannot compare {} / {name} with the {oracle_name} image: {e}",
+                s.name
+            ))
+        })?;
+        let (rel_diff, rel_ci, worst_tile_p) = summarise(&cmp);
+        let mut row = Row {
+            scene: s.name.clone(),
+            subject: name.to_string(),
+            oracle: oracle_name.to_string(),
+            verdict: cmp.verdict,
+            budget: planned.budget,
+            light_samples: planned.light_samples,
+            seed: self.opts.seed,
+            pilot_seconds: planned.pilot_seconds,
+            render_seconds,
+            precision: budget::precision(image, b),
+            rel_diff,
+            rel_ci,
+            worst_tile_p,
+            files: Vec::new(),
+            comparison: cmp,
+        };
+        if let Some(dir) = &self.opts.report_dir {
+            row.files = report::write_row_images(dir, &row, image, b)?;
+        }
+        (self.events)(Event::RowDone(&row));
+        Ok(row)
+    }
+}
+
+/// The options of a subject's pilot renders (the subject replaces the method; the render
+/// keeps the rest with its own spp, seed and light samples).
+fn pilot_options(opts: &Options) -> RenderOptions {
+    RenderOptions {
+        spp: opts.budget.pilot_spp.max(2),
+        passes: 1,
+        seed: pilot_seed(opts.seed),
+        method: Technique::ProjectedSolidAngle.into(), // replaced by the subject
+        light_samples: 1,
+        // Every light (`linlight render`'s default); the choice of one light is
+        // certified by the renders of `LIGHT_SELECTION_RENDERS`.
+        lights: LightSelection::Every,
+        noise: Default::default(),
+        // The committed scenes' thin tubes as lines (their allowances assume the limit).
+        cylinders: linlight_render::Cylinders::Line,
     }
 }
 

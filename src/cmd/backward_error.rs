@@ -2,7 +2,7 @@
 //! inversion of technique 8 over its parameter space, per iteration count, in f32 and f64.
 use linlight_sampling::backward_error::{sweep, Case, SweepConfig, SweepRow};
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(clap::Args)]
@@ -57,33 +57,51 @@ fn row_json(r: &SweepRow) -> serde_json::Value {
 }
 
 pub fn run(args: Args) -> ExitCode {
-    // An unusable --json is reported before the sweep runs, not after it.
+    let cfg = match sweep_config(&args) {
+        Ok(cfg) => cfg,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let rows = sweep(&cfg);
+    print_table(&cfg, &rows);
     if let Some(path) = &args.json {
-        if let Err(e) = linlight::outputs::check_writable(path) {
-            eprintln!("error: --json: {e}");
+        if let Err(e) = write_json(path, &cfg, &rows) {
+            eprintln!("error: {e}");
             return ExitCode::from(2);
         }
     }
+    ExitCode::SUCCESS
+}
+
+/// The sweep the arguments ask for; an unusable `--json` is reported here, before the sweep
+/// runs, not after it.
+fn sweep_config(args: &Args) -> Result<SweepConfig, String> {
+    if let Some(path) = &args.json {
+        linlight::outputs::check_writable(path).map_err(|e| format!("--json: {e}"))?;
+    }
     let iterations = match args.iterations {
         Some(n) if n == 0 || n > 16 => {
-            eprintln!("error: --iterations must be in 1..=16 (got {n})");
-            return ExitCode::from(2);
+            return Err(format!("--iterations must be in 1..=16 (got {n})"))
         }
         Some(n) => vec![n],
         None => vec![1, 2, 3],
     };
     if args.normals == 0 || args.xi_per_interval == 0 {
-        eprintln!("error: --normals and --xi-per-interval must be positive");
-        return ExitCode::from(2);
+        return Err("--normals and --xi-per-interval must be positive".to_string());
     }
-    let cfg = SweepConfig {
+    Ok(SweepConfig {
         iterations,
         normals: args.normals,
         xi_per_interval: args.xi_per_interval,
         seed: args.seed,
-    };
-    let rows = sweep(&cfg);
+    })
+}
 
+/// The sweep's settings, the worst errors per iteration count and precision, and where each
+/// worst case (outside the guard band) lies.
+fn print_table(cfg: &SweepConfig, rows: &[SweepRow]) {
     println!(
         "Backward error |C(s_sampled) − C*| / (C(s_e) − C(s_b)) in units of ξ (evaluated in f64)"
     );
@@ -100,7 +118,7 @@ pub fn run(args: Args) -> ExitCode {
         "{:>5}  {:>4}  {:>12}  {:>12}  {:>14}  {:>15}  paper / reference",
         "iter", "prec", "excl. guard", "incl. guard", "excl., w≥1e-2", "excl., near end"
     );
-    for r in &rows {
+    for r in rows {
         println!(
             "{:>5}  {:>4}  {:>12.3e}  {:>12.3e}  {:>14.3e}  {:>15.3e}  {}",
             r.iterations,
@@ -113,7 +131,7 @@ pub fn run(args: Args) -> ExitCode {
         );
     }
     println!();
-    for r in &rows {
+    for r in rows {
         let c = &r.worst_case;
         println!(
             "worst excl. guard, {} it, {}: n = ({:.4}, {:.4}), φ_b = {:.6}, width = {:.1e}, ξ = {:.7}",
@@ -126,26 +144,19 @@ pub fn run(args: Args) -> ExitCode {
             c.xi
         );
     }
-    if let Some(path) = &args.json {
-        let doc = json!({
-            "measure": "backward error in units of xi, evaluated in f64",
-            "normals": cfg.normals + 13,
-            "xi_per_interval": cfg.xi_per_interval,
-            "seed": cfg.seed,
-            "guard": linlight_sampling::projected_solid_angle::XI_GUARD,
-            "rows": rows.iter().map(row_json).collect::<Vec<_>>(),
-        });
-        let text = match serde_json::to_string_pretty(&doc) {
-            Ok(t) => t,
-            Err(e) => {
-                eprintln!("error: cannot serialise JSON: {e}");
-                return ExitCode::from(2);
-            }
-        };
-        if let Err(e) = linlight::outputs::write_file(path, text + "\n") {
-            eprintln!("error: {e}");
-            return ExitCode::from(2);
-        }
-    }
-    ExitCode::SUCCESS
+}
+
+/// The table and the worst cases as JSON at `path`.
+fn write_json(path: &Path, cfg: &SweepConfig, rows: &[SweepRow]) -> Result<(), String> {
+    let doc = json!({
+        "measure": "backward error in units of xi, evaluated in f64",
+        "normals": cfg.normals + 13,
+        "xi_per_interval": cfg.xi_per_interval,
+        "seed": cfg.seed,
+        "guard": linlight_sampling::projected_solid_angle::XI_GUARD,
+        "rows": rows.iter().map(row_json).collect::<Vec<_>>(),
+    });
+    let text =
+        serde_json::to_string_pretty(&doc).map_err(|e| format!("cannot serialise JSON: {e}"))?;
+    linlight::outputs::write_file(path, text + "\n")
 }

@@ -195,8 +195,19 @@ fn p_str(p: Option<f64>) -> String {
     p.map_or_else(|| "-".to_string(), |p| format!("{p:.2e}"))
 }
 
-/// The short human-readable verdict table.
+/// The short human-readable verdict table: the header, one row per channel, the pixel
+/// classes, then the findings and the verdict.
 fn table(cmp: &Comparison, args: &Args, a: &Image, b: &Image) -> String {
+    let mut s = table_header(cmp, args);
+    s += &channel_rows(cmp);
+    s += &pixel_classes_line(cmp);
+    s += &findings(cmp, a, b);
+    s += &format!("verdict: {}\n", cmp.verdict.label());
+    s
+}
+
+/// The two lines that name the images, their sizes and the test settings.
+fn table_header(cmp: &Comparison, args: &Args) -> String {
     let spp = |n: u64| {
         if n == 0 {
             "unknown".to_string()
@@ -224,7 +235,13 @@ fn table(cmp: &Comparison, args: &Args, a: &Image, b: &Image) -> String {
         100.0 * (1.0 - cmp.alpha_equivalence),
         cmp.config.tile
     );
-    s += &format!(
+    s
+}
+
+/// The column heads and one row per channel: global difference and its CI, worst tile,
+/// per-pixel χ² and the largest |z|.
+fn channel_rows(cmp: &Comparison) -> String {
+    let mut s = format!(
         "{:<3} {:>9} {:>22} {:>9} {:>9} {:>12} {:>9} {:>7} {:>12}\n",
         "ch", "rel.diff", "CI", "global p", "tile p", "tile at px", "Σz² p", "max|z|", "at"
     );
@@ -260,8 +277,13 @@ fn table(cmp: &Comparison, args: &Args, a: &Image, b: &Image) -> String {
             at
         );
     }
+    s
+}
+
+/// How many pixel-channels were tested, and why the others were left out.
+fn pixel_classes_line(cmp: &Comparison) -> String {
     let k = &cmp.pixel_classes;
-    s += &format!(
+    format!(
         "pixel-channels: {} tested, {} of them undersampled (n < {}·CV², variance floored); \
          left out of the pixel tests: {} zero sample variance (rule-of-three bound), \
          {} heavy-tailed (A {}, B {}), {} near a light–surface contact; \
@@ -275,7 +297,13 @@ fn table(cmp: &Comparison, args: &Args, a: &Image, b: &Image) -> String {
         k.heavy_tail_b,
         k.contact,
         k.zero_variance_agree
-    );
+    )
+}
+
+/// Contact pixels, error metrics, failed and unshown tests, the worst tile and the
+/// precision advice.
+fn findings(cmp: &Comparison, a: &Image, b: &Image) -> String {
+    let mut s = String::new();
     if !cmp.contact_pixels.is_empty() {
         let worst = cmp
             .channels
@@ -314,7 +342,6 @@ fn table(cmp: &Comparison, args: &Args, a: &Image, b: &Image) -> String {
     if let Some(h) = &cmp.precision {
         s += &format!("precision: {}\n", precision_advice(h, a, b));
     }
-    s += &format!("verdict: {}\n", cmp.verdict.label());
     s
 }
 

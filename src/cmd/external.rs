@@ -3,11 +3,11 @@
 //! one; 2 if it could not be certified (no protocol, crash, hang, wrong counts).
 
 use super::suite_tables::{print_failures, print_techniques, write_json};
-use linlight::external::ExternalSampler;
+use linlight::external::{ExternalSampler, Hello, Traffic};
 use linlight_sampling::Technique;
 use linlight_verify::configs::ltc_table_configs;
 use linlight_verify::subjects::{certified, ltc, technique, SamplerUnderTest};
-use linlight_verify::suite::{run_suite_as, Outcome};
+use linlight_verify::suite::{run_suite_as, Outcome, SuiteReport};
 use linlight_verify::Settings;
 use std::path::Path;
 use std::process::ExitCode;
@@ -44,32 +44,11 @@ pub fn run(command: &str, timeout: Duration, settings: &Settings, json: Option<&
         Err(e) => return fail(&e),
     };
     let hello = sampler.hello().clone();
-    let Some(reference) = reference(&hello.technique, hello.version) else {
-        return fail(&format!(
-            "external sampler `{command}`: its hello names technique \"{}\"; known: {}",
-            hello.technique,
-            reference_names()
-        ));
-    };
     let traffic = sampler.traffic();
-    let name = hello
-        .name
-        .clone()
-        .unwrap_or_else(|| format!("external-{}", hello.technique));
-    let subject = reference.answered_by(
-        name,
-        format!(
-            "`{command}` (protocol v{}), judged against {}{}",
-            hello.version,
-            hello.technique,
-            if hello.inverse {
-                ", reports its inverse"
-            } else {
-                ""
-            }
-        ),
-        Box::new(sampler),
-    );
+    let subject = match subject(command, sampler) {
+        Ok(s) => s,
+        Err(e) => return fail(&e),
+    };
     // The ξ of linlight's own sampler of the technique (`linlight samplers` at the same seed).
     let index = certified()
         .iter()
@@ -84,6 +63,58 @@ pub fn run(command: &str, timeout: Duration, settings: &Settings, json: Option<&
     debug_assert!(t.configs.iter().all(|r| r.outcome != Outcome::SourceFailed));
 
     let traffic = *traffic.lock().unwrap_or_else(|e| e.into_inner());
+    print_settings(command, &hello, settings, &report);
+    print_traffic(&traffic);
+    println!();
+    print_techniques(&report.techniques);
+    print_failures(&report.techniques);
+    println!();
+    print_verdict(&report);
+    if let Some(path) = json {
+        if write_json(path, &report) != ExitCode::SUCCESS {
+            return ExitCode::from(2);
+        }
+    }
+    if report.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
+
+/// The subject under test: the reference technique the program's hello names, answered by the
+/// program; an error when the hello names no known technique.
+fn subject(command: &str, sampler: ExternalSampler) -> Result<SamplerUnderTest, String> {
+    let hello = sampler.hello().clone();
+    let Some(reference) = reference(&hello.technique, hello.version) else {
+        return Err(format!(
+            "external sampler `{command}`: its hello names technique \"{}\"; known: {}",
+            hello.technique,
+            reference_names()
+        ));
+    };
+    let name = hello
+        .name
+        .clone()
+        .unwrap_or_else(|| format!("external-{}", hello.technique));
+    Ok(reference.answered_by(
+        name,
+        format!(
+            "`{command}` (protocol v{}), judged against {}{}",
+            hello.version,
+            hello.technique,
+            if hello.inverse {
+                ", reports its inverse"
+            } else {
+                ""
+            }
+        ),
+        Box::new(sampler),
+    ))
+}
+
+/// The first line: technique, configurations, sample count and the corrected test level.
+fn print_settings(command: &str, hello: &Hello, settings: &Settings, report: &SuiteReport) {
     println!(
         "external sampler `{command}`: technique {}{}, {} configurations, N = {} samples each, \
          χ² on {} φ-cells and on {} cells of equal probability, α = {} over m = {} tests → α_c = \
@@ -94,7 +125,7 @@ pub fn run(command: &str, timeout: Duration, settings: &Settings, json: Option<&
         } else {
             ""
         },
-        t.configs.len(),
+        report.techniques[0].configs.len(),
         settings.samples,
         settings.bins,
         settings.coarse_cells,
@@ -103,6 +134,10 @@ pub fn run(command: &str, timeout: Duration, settings: &Settings, json: Option<&
         report.alpha_per_test,
         report.z_threshold
     );
+}
+
+/// Requests and answers of the protocol, with their wall times.
+fn print_traffic(traffic: &Traffic) {
     println!(
         "protocol: {} requests; {} samples answered in {:.1} s ({:.3e} samples/s), {} densities \
          in {:.1} s (wall time from request to answer, the program's work included)",
@@ -113,10 +148,11 @@ pub fn run(command: &str, timeout: Duration, settings: &Settings, json: Option<&
         traffic.densities,
         traffic.pdf_seconds
     );
-    println!();
-    print_techniques(&report.techniques);
-    print_failures(&report.techniques);
-    println!();
+}
+
+/// PASS or FAIL, the time, and the failing configurations counted by check.
+fn print_verdict(report: &SuiteReport) {
+    let t = &report.techniques[0];
     println!(
         "{} in {:.1} s: {} of {} configurations failing{}",
         if report.passed { "PASS" } else { "FAIL" },
@@ -134,14 +170,4 @@ pub fn run(command: &str, timeout: Duration, settings: &Settings, json: Option<&
             format!(" ({})", checks.join(" "))
         }
     );
-    if let Some(path) = json {
-        if write_json(path, &report) != ExitCode::SUCCESS {
-            return ExitCode::from(2);
-        }
-    }
-    if report.passed {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
-    }
 }

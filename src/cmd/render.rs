@@ -575,6 +575,45 @@ fn write(args: &Args, req: &Request, plan: &Plan, r: Rendered) -> Result<(), Str
             .extra
             .insert("finite_radius_effect".into(), effects);
     }
+    warn_about_pixels(&image);
+    let outs = &req.outs;
+    if let Some(p) = &outs.preview {
+        image
+            .write_preview_png_with_exposure(p, args.exposure)
+            .map_err(|e| e.to_string())?;
+    }
+    // The EXR writer consumes the image (a lower memory peak); what the summary needs first.
+    let summary = Summary {
+        width: image.width,
+        height: image.height,
+        spp: image.meta.spp,
+        passes: image.meta.passes,
+        contacts: image.meta.extra.get("contacts").cloned(),
+        build_seconds,
+        render_seconds,
+    };
+    match outs.format {
+        ImageFormat::Exr => image.into_exr_file(&outs.out),
+        ImageFormat::Png => {
+            warn(format!(
+                "{} is a tone-mapped preview: the variance is not saved (use .exr for compare, \
+                 merge and info)",
+                outs.out.display()
+            ));
+            image.write_preview_png_with_exposure(&outs.out, args.exposure)
+        }
+    }
+    // The image writer's messages already name the file.
+    .map_err(|e| e.to_string())?;
+    if !args.quiet {
+        print_summary(&outs.out, plan, &notes, &summary);
+    }
+    Ok(())
+}
+
+/// Warnings about light samples dropped as non-finite and pixels of negative mean, with
+/// Mitsuba's message for such samples.
+fn warn_about_pixels(image: &Image) {
     if let Some(n) = image.meta.extra.get("nonfinite_dropped") {
         warn(format!(
             "{n} light samples were not finite (NaN or infinite) and were counted as 0; Mitsuba \
@@ -592,62 +631,51 @@ fn write(args: &Args, req: &Request, plan: &Plan, r: Rendered) -> Result<(), Str
              scene); Mitsuba warns \"Invalid sample value\" for such samples"
         ));
     }
-    let outs = &req.outs;
-    if let Some(p) = &outs.preview {
-        image
-            .write_preview_png_with_exposure(p, args.exposure)
-            .map_err(|e| e.to_string())?;
+}
+
+/// What the summary of a written image reports, taken before the image is consumed.
+struct Summary {
+    width: usize,
+    height: usize,
+    spp: u64,
+    passes: u64,
+    contacts: Option<String>,
+    build_seconds: f64,
+    render_seconds: f64,
+}
+
+/// The renderer's notes, the contacts, what was written and the time of each step.
+fn print_summary(out: &Path, plan: &Plan, notes: &[String], s: &Summary) {
+    for n in notes {
+        eprintln!("{n}");
     }
-    // The EXR writer consumes the image (a lower memory peak); what the summary needs first.
-    let (width, height, spp, passes) =
-        (image.width, image.height, image.meta.spp, image.meta.passes);
-    let contacts = image.meta.extra.get("contacts").cloned();
-    match outs.format {
-        ImageFormat::Exr => image.into_exr_file(&outs.out),
-        ImageFormat::Png => {
-            warn(format!(
-                "{} is a tone-mapped preview: the variance is not saved (use .exr for compare, \
-                 merge and info)",
-                outs.out.display()
-            ));
-            image.write_preview_png_with_exposure(&outs.out, args.exposure)
-        }
+    if let Some(c) = &s.contacts {
+        eprintln!("light–surface contacts (tested apart by compare): {c}");
     }
-    // The image writer's messages already name the file.
-    .map_err(|e| e.to_string())?;
-    if !args.quiet {
-        for n in &notes {
-            eprintln!("{n}");
-        }
-        if let Some(c) = contacts {
-            eprintln!("light–surface contacts (tested apart by compare): {c}");
-        }
-        let o = &plan.opts;
-        eprintln!(
-            "wrote {} ({}x{}, {} spp in {} pass(es), {}, {} light sample(s), lights {}, {} \
-             noise)",
-            outs.out.display(),
-            width,
-            height,
-            spp,
-            passes,
-            o.method,
-            o.light_samples,
-            o.lights,
-            o.noise,
-        );
-        eprintln!(
-            "{}",
-            timing(
-                plan.load_seconds,
-                build_seconds,
-                render_seconds,
-                width * height,
-                spp
-            )
-        );
-    }
-    Ok(())
+    let o = &plan.opts;
+    eprintln!(
+        "wrote {} ({}x{}, {} spp in {} pass(es), {}, {} light sample(s), lights {}, {} \
+         noise)",
+        out.display(),
+        s.width,
+        s.height,
+        s.spp,
+        s.passes,
+        o.method,
+        o.light_samples,
+        o.lights,
+        o.noise,
+    );
+    eprintln!(
+        "{}",
+        timing(
+            plan.load_seconds,
+            s.build_seconds,
+            s.render_seconds,
+            s.width * s.height,
+            s.spp
+        )
+    );
 }
 
 /// The summary's times: load, build and render apart, and the rate of the render alone.

@@ -8,7 +8,7 @@
 //! one, 2 if it could not be certified (did not speak the protocol, crashed, hung).
 
 use super::suite_tables::{print_controls, print_failures, print_techniques, write_json};
-use linlight_verify::cylinder_suite;
+use linlight_verify::cylinder_suite::{self, CylinderReport};
 use linlight_verify::subjects::{certified, negative_controls, tilt_power_controls};
 use linlight_verify::suite::{run_suite_at, Check, SubjectReport, SuiteReport};
 use linlight_verify::{run_suite, Settings};
@@ -198,7 +198,32 @@ fn tilt_power(settings: &Settings, json: Option<&Path>) -> ExitCode {
 /// The certification: the line samplers' suite, then the cylinder suite; exit 0 when both pass.
 fn certification(settings: &Settings, json: Option<&Path>) -> ExitCode {
     let report: SuiteReport = run_suite(&certified(), &negative_controls(), settings);
+    print_line_suite(&report, settings);
+    let cylinders = cylinder_suite::run();
+    cylinder_suite::print(&cylinders);
+    let passed = report.passed && cylinders.passed;
+    println!();
+    println!(
+        "{} in {:.1} s: techniques failing: [{}]; negative controls not rejected: [{}]",
+        if passed { "PASS" } else { "FAIL" },
+        report.elapsed_seconds + cylinders.elapsed_seconds,
+        techniques_failed(&report, &cylinders).join(", "),
+        controls_not_rejected(&report, &cylinders).join(", ")
+    );
+    if let Some(path) = json {
+        if write_certification_json(path, &report, &cylinders, passed) != ExitCode::SUCCESS {
+            return ExitCode::from(2);
+        }
+    }
+    if passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
 
+/// The line suite's settings line, its techniques, negative controls and failures.
+fn print_line_suite(report: &SuiteReport, settings: &Settings) {
     println!(
         "sampler suite: {} configurations ({} random + edge cases) + {} of the fitted LTC table, \
          N = {} samples, χ² on {} φ-cells and on {} cells of equal probability, α = {} over m = \
@@ -220,74 +245,71 @@ fn certification(settings: &Settings, json: Option<&Path>) -> ExitCode {
     print_controls(&report.negative_controls);
     print_failures(&report.techniques);
     println!();
-    let cylinders = cylinder_suite::run();
-    cylinder_suite::print(&cylinders);
-    let mut controls_not_rejected: Vec<String> = report
-        .negative_controls
-        .iter()
-        .filter(|c| !c.passed)
-        .map(|c| c.name.clone())
-        .collect();
-    controls_not_rejected.extend(
-        cylinders
-            .negative_controls
-            .iter()
-            .filter(|c| c.required && !c.rejected)
-            .map(|c| format!("cylinder {} ({})", c.control, c.config)),
-    );
-    let mut techniques_failed: Vec<String> = report
+}
+
+/// The techniques (line and cylinder) and cylinder cross-density checks that failed.
+fn techniques_failed(report: &SuiteReport, cylinders: &CylinderReport) -> Vec<String> {
+    let mut failed: Vec<String> = report
         .techniques
         .iter()
         .filter(|t| !t.passed)
         .map(|t| t.name.clone())
         .collect();
-    techniques_failed.extend(
+    failed.extend(
         cylinders
             .techniques
             .iter()
             .filter(|t| !t.passed)
             .map(|t| format!("cylinder-{} ({})", t.technique, t.config)),
     );
-    techniques_failed.extend(
+    failed.extend(
         cylinders
             .cross_density
             .iter()
             .filter(|x| !x.passed)
             .map(|x| format!("cylinder-gamito cross-density ({})", x.config)),
     );
-    let passed = report.passed && cylinders.passed;
-    println!();
-    println!(
-        "{} in {:.1} s: techniques failing: [{}]; negative controls not rejected: [{}]",
-        if passed { "PASS" } else { "FAIL" },
-        report.elapsed_seconds + cylinders.elapsed_seconds,
-        techniques_failed.join(", "),
-        controls_not_rejected.join(", ")
-    );
+    failed
+}
 
-    if let Some(path) = json {
-        // The line suite's report with the cylinder suite's under "cylinders"; "passed" is both.
-        let mut value = match serde_json::to_value(&report) {
-            Ok(v) => v,
-            Err(e) => {
-                eprintln!("error: cannot write {}: {e}", path.display());
-                return ExitCode::from(2);
-            }
-        };
-        if let Some(object) = value.as_object_mut() {
-            object.insert(
-                "cylinders".to_string(),
-                serde_json::to_value(&cylinders).unwrap_or(serde_json::Value::Null),
-            );
-            object.insert("passed".to_string(), serde_json::Value::Bool(passed));
-        }
-        if write_json(path, &value) != ExitCode::SUCCESS {
+/// The negative controls (line, and the required cylinder ones) that were not rejected.
+fn controls_not_rejected(report: &SuiteReport, cylinders: &CylinderReport) -> Vec<String> {
+    let mut kept: Vec<String> = report
+        .negative_controls
+        .iter()
+        .filter(|c| !c.passed)
+        .map(|c| c.name.clone())
+        .collect();
+    kept.extend(
+        cylinders
+            .negative_controls
+            .iter()
+            .filter(|c| c.required && !c.rejected)
+            .map(|c| format!("cylinder {} ({})", c.control, c.config)),
+    );
+    kept
+}
+
+/// The line suite's report with the cylinder suite's under "cylinders"; "passed" is both.
+fn write_certification_json(
+    path: &Path,
+    report: &SuiteReport,
+    cylinders: &CylinderReport,
+    passed: bool,
+) -> ExitCode {
+    let mut value = match serde_json::to_value(report) {
+        Ok(v) => v,
+        Err(e) => {
+            eprintln!("error: cannot write {}: {e}", path.display());
             return ExitCode::from(2);
         }
+    };
+    if let Some(object) = value.as_object_mut() {
+        object.insert(
+            "cylinders".to_string(),
+            serde_json::to_value(cylinders).unwrap_or(serde_json::Value::Null),
+        );
+        object.insert("passed".to_string(), serde_json::Value::Bool(passed));
     }
-    if passed {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
-    }
+    write_json(path, &value)
 }

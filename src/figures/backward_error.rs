@@ -33,85 +33,24 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let noise = NoiseSource::new(Noise::Blue, ctx.opts.seed, 1);
     let width = scene.sensor.film.width;
     let zoom = (256 / res as usize).max(1);
-    let mut items_raw = Vec::new();
-    let mut items_weighted = Vec::new();
-    let mut numbers = Vec::new();
-    let mut files = Vec::new();
-    let mut csv_rows = Vec::new();
+    let mut out = Outputs::default();
     for k in 1..=3u32 {
-        let IterationMaps {
-            raw,
-            weighted,
-            worst,
-            worst_w,
-            worst_out,
-            above,
-            counted,
-        } = iteration_maps(&hits, &lights, &noise, (width, res), scale, k);
-        files.push(ctx.write_png(&format!("backward-error-{k}-iterations"), &raw)?);
-        files.push(ctx.write_png(
-            &format!("backward-error-{k}-iterations-weighted"),
-            &weighted,
-        )?);
-        items_raw.push(picture(
-            &enlarge(&raw, zoom),
-            1,
-            &format!("{k} iteration(s), raw: worst {}", num(worst)),
-        ));
-        items_weighted.push(picture(
-            &enlarge(&weighted, zoom),
-            1,
-            &format!("{k} iteration(s), × contribution: worst {}", num(worst_w)),
-        ));
-        numbers.push(
-            json!({"iterations": k, "worst": worst, "worst_outside_guard": worst_out, "worst_weighted": worst_w,
-            "pixels": counted, "pixels_above_1e-5": above}),
-        );
-        csv_rows.push(vec![
-            k.to_string(),
-            format!("{worst}"),
-            format!("{worst_out}"),
-            format!("{worst_w}"),
-            counted.to_string(),
-            above.to_string(),
-        ]);
+        let maps = iteration_maps(&hits, &lights, &noise, (width, res), scale, k);
+        out.add(ctx, k, &maps, zoom)?;
         ctx.progress(k as f64 / 4.0);
     }
     let (cfg, sweep_rows) = f32_sweep(ctx.opts.quick);
     ctx.progress(1.0);
-    files.push(ctx.write_text(
-        "backward-error.csv",
-        &csv(
-            &[
-                "iterations",
-                "worst_raw",
-                "worst_raw_outside_guard",
-                "worst_weighted",
-                "pixels",
-                "pixels_above_1e-5",
-            ],
-            &csv_rows,
-        ),
-    )?);
-    let legend = colour_bar(
-        &log_colour_bar(256, LO, HI),
-        &["1e-7", "1e-6", "1e-5", "1e-4", "1e-3", "1e-2"].map(String::from),
-    );
-    let sweep_table = sweep_table(&sweep_rows);
-    let body = format!(
-        "<h3>Raw backward error |e| (units of ξ)</h3>{}<h3>Weighted by the pixel's contribution</h3>{}<p>Colour map (log10, clamped; grey-blue: no light or nothing hit):</p>{legend}<p>The worst over the parameter space (f32 sampler, sweep of <code>linlight backward-error</code>, {} normals × sub-intervals × {} ξ):</p>{sweep_table}",
-        row(&items_raw),
-        row(&items_weighted),
-        cfg.normals,
-        cfg.xi_per_interval
-    );
-    let (caption, summary_html) = caption_and_summary(&numbers, &sweep_rows, res);
+    let csv_file = ctx.write_text("backward-error.csv", &csv(&CSV_HEADER, &out.csv_rows))?;
+    out.files.push(csv_file);
+    let body = body_html(&out, &cfg, &sweep_rows);
+    let (caption, summary_html) = caption_and_summary(&out.numbers, &sweep_rows, res);
     Ok(Section {
         caption,
         body,
-        files,
+        files: out.files,
         numbers: json!({
-            "image": numbers,
+            "image": out.numbers,
             "sweep": sweep_rows.iter().map(|r| json!({"iterations": r.iterations,
                 "worst_excluding_guard": r.worst_outside_guard,
                 "worst_including_guard": r.worst_including_guard, "problems": r.samples})).collect::<Vec<_>>(),
@@ -120,6 +59,79 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         }),
         ..Default::default()
     })
+}
+
+/// The columns of backward-error.csv.
+const CSV_HEADER: [&str; 6] = [
+    "iterations",
+    "worst_raw",
+    "worst_raw_outside_guard",
+    "worst_weighted",
+    "pixels",
+    "pixels_above_1e-5",
+];
+
+/// What the maps of each iteration count add to the figure: pictures, numbers, CSV rows and
+/// the files written.
+#[derive(Default)]
+struct Outputs {
+    items_raw: Vec<String>,
+    items_weighted: Vec<String>,
+    numbers: Vec<serde_json::Value>,
+    files: Vec<String>,
+    csv_rows: Vec<Vec<String>>,
+}
+
+impl Outputs {
+    /// The maps of `k` iterations: both PNGs written, both pictures (enlarged `zoom` times),
+    /// their numbers and CSV row.
+    fn add(&mut self, ctx: &Ctx, k: u32, m: &IterationMaps, zoom: usize) -> Result<(), String> {
+        self.files
+            .push(ctx.write_png(&format!("backward-error-{k}-iterations"), &m.raw)?);
+        self.files.push(ctx.write_png(
+            &format!("backward-error-{k}-iterations-weighted"),
+            &m.weighted,
+        )?);
+        self.items_raw.push(picture(
+            &enlarge(&m.raw, zoom),
+            1,
+            &format!("{k} iteration(s), raw: worst {}", num(m.worst)),
+        ));
+        self.items_weighted.push(picture(
+            &enlarge(&m.weighted, zoom),
+            1,
+            &format!("{k} iteration(s), × contribution: worst {}", num(m.worst_w)),
+        ));
+        self.numbers.push(
+            json!({"iterations": k, "worst": m.worst, "worst_outside_guard": m.worst_out, "worst_weighted": m.worst_w,
+            "pixels": m.counted, "pixels_above_1e-5": m.above}),
+        );
+        self.csv_rows.push(vec![
+            k.to_string(),
+            format!("{}", m.worst),
+            format!("{}", m.worst_out),
+            format!("{}", m.worst_w),
+            m.counted.to_string(),
+            m.above.to_string(),
+        ]);
+        Ok(())
+    }
+}
+
+/// The figure's body: both rows of maps, the colour bar and the parameter-space sweep.
+fn body_html(out: &Outputs, cfg: &SweepConfig, sweep_rows: &[SweepRow]) -> String {
+    let legend = colour_bar(
+        &log_colour_bar(256, LO, HI),
+        &["1e-7", "1e-6", "1e-5", "1e-4", "1e-3", "1e-2"].map(String::from),
+    );
+    let sweep_table = sweep_table(sweep_rows);
+    format!(
+        "<h3>Raw backward error |e| (units of ξ)</h3>{}<h3>Weighted by the pixel's contribution</h3>{}<p>Colour map (log10, clamped; grey-blue: no light or nothing hit):</p>{legend}<p>The worst over the parameter space (f32 sampler, sweep of <code>linlight backward-error</code>, {} normals × sub-intervals × {} ξ):</p>{sweep_table}",
+        row(&out.items_raw),
+        row(&out.items_weighted),
+        cfg.normals,
+        cfg.xi_per_interval
+    )
 }
 
 /// The backward-error maps of `k` Halley iterations over the pixels' hit points.

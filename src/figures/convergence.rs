@@ -312,10 +312,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let overrides = vec![("res", "64".to_string())];
     let (reference, what) = ctx.reference(SCENE, &overrides)?;
     let scene = ctx.scene(SCENE, &overrides)?;
-    let mut spps = vec![1u32];
-    while *spps.last().unwrap() < ctx.settings.max_spp {
-        spps.push(spps.last().unwrap() * 2);
-    }
+    let spps = spp_ladder(ctx.settings.max_spp);
     let techniques: Vec<(String, Method)> = Technique::UNBIASED
         .into_iter()
         .map(|t| (t.name().to_string(), t.into()))
@@ -328,8 +325,71 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let mut curves = curves(ctx, &scene, &reference, &techniques, &spps, &|i| {
         ctx.progress(i as f64 / steps)
     })?;
-    let (mitsuba, mitsuba_source) = mitsuba_curve(ctx, &reference)?;
+    let (mitsuba_source, mitsuba_file) = add_mitsuba_curve(ctx, &reference, &mut curves)?;
     ctx.progress((techniques.len() + 1) as f64 / steps);
+    let base = techniques.len() + 1;
+    let (glossy, glossy_what) = glossy_curves(ctx, &glossy_list, &spps, &|i| {
+        ctx.progress((base + i) as f64 / steps)
+    })?;
+    ctx.progress(1.0);
+
+    let [(svg_spp, f_spp), (svg_time, f_time)] = plots(ctx, "convergence", "Cornell box", &curves)?;
+    let [(gsvg_spp, gf_spp), (gsvg_time, gf_time)] =
+        plots(ctx, "convergence-mis", "glossy-blend", &glossy)?;
+    let mut files = vec![f_spp, f_time, gf_spp, gf_time, mitsuba_file];
+    files.push(write_csv(ctx, &curves, &glossy)?);
+    let (rows, slopes) = slope_rows(&curves);
+    let (grows, gslopes) = slope_rows(&glossy);
+    let (slope_table, glossy_table) = (table(&SLOPE_HEADER, &rows), table(&SLOPE_HEADER, &grows));
+    let body = format!(
+        "{}{slope_table}<h3 id=\"mis-heuristics\">Glossy shading: one curve per MIS heuristic</h3>{}{glossy_table}",
+        row(&[plot(&svg_spp), plot(&svg_time)]),
+        row(&[plot(&gsvg_spp), plot(&gsvg_time)]),
+    );
+    let floor = reference_mse(&reference).sqrt();
+    let caption = caption(
+        ctx,
+        (&what, &mitsuba_source, &glossy_what),
+        floor,
+        (&slopes, &gslopes),
+        &glossy,
+    );
+    let summary_html = format!(
+        "<p>Convergence slopes (log RMSE over log spp; −½ expected), Cornell box:</p>{slope_table}\
+         <p>Glossy shading, one curve per MIS heuristic (<code>{GLOSSY}</code>, against the exact image):</p>{glossy_table}"
+    );
+    Ok(Section {
+        caption,
+        body,
+        files,
+        numbers: numbers_json(
+            (&what, &mitsuba_source, &glossy_what),
+            floor,
+            (&curves, &glossy),
+            (slopes, gslopes),
+            summary_html,
+        ),
+        ..Default::default()
+    })
+}
+
+/// 1, 2, 4, … up to the first power of two ≥ `max_spp`.
+fn spp_ladder(max_spp: u32) -> Vec<u32> {
+    let mut spps = vec![1u32];
+    while *spps.last().unwrap() < max_spp {
+        spps.push(spps.last().unwrap() * 2);
+    }
+    spps
+}
+
+/// Mitsuba's curve (live or committed), written to mitsuba-convergence.json and appended to
+/// `curves`; where it comes from, and the file.
+fn add_mitsuba_curve(
+    ctx: &Ctx,
+    reference: &Image,
+    curves: &mut Curves,
+) -> Result<(String, String), String> {
+    let (mitsuba, mitsuba_source) = mitsuba_curve(ctx, reference)?;
     let mitsuba_file = ctx.write_text(
         "mitsuba-convergence.json",
         &serde_json::to_string_pretty(
@@ -342,9 +402,38 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         "mitsuba:area".into(),
         mitsuba,
     ));
+    Ok((mitsuba_source, mitsuba_file))
+}
 
-    // Glossy shading, one curve per MIS heuristic, against the exact image (variance 0: the
-    // RMSE has no floor, so the slopes are those of the estimators alone).
+/// The figure's numbers: references, every curve's points and fitted slopes.
+fn numbers_json(
+    (what, mitsuba_source, glossy_what): (&str, &str, &str),
+    floor: f64,
+    (curves, glossy): (&Curves, &Curves),
+    (slopes, gslopes): (Vec<serde_json::Value>, Vec<serde_json::Value>),
+    summary_html: String,
+) -> serde_json::Value {
+    json!({
+        "reference": what, "reference_rmse_floor": floor,
+        "curves": curves.iter().map(|(n, m, p)| json!({"curve": n, "method": m, "points": p})).collect::<Vec<_>>(),
+        "slopes": slopes, "mitsuba_source": mitsuba_source,
+        "glossy": {
+            "scene": GLOSSY, "res": GLOSSY_RES, "reference": glossy_what,
+            "curves": glossy.iter().map(|(n, m, p)| json!({"curve": n, "method": m, "points": p})).collect::<Vec<_>>(),
+            "slopes": gslopes,
+        },
+        "summary_html": summary_html,
+    })
+}
+
+/// Glossy shading, one curve per MIS heuristic, against the exact image (variance 0: the
+/// RMSE has no floor, so the slopes are those of the estimators alone); with what that image is.
+fn glossy_curves(
+    ctx: &Ctx,
+    methods: &[(String, Method)],
+    spps: &[u32],
+    progress: &dyn Fn(usize),
+) -> Result<(Curves, String), String> {
     let glossy_overrides = vec![("res", GLOSSY_RES.to_string())];
     let glossy_scene = ctx.scene(GLOSSY, &glossy_overrides)?;
     let exact = crate::certify::closed_form::image(&glossy_scene, EXACT_SUBSAMPLES)?
@@ -354,21 +443,19 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
          variance 0; what <code>linlight unshadowed</code> writes and <code>linlight certify</code> tests against)",
         crate::certify::closed_form::oracle_name(&exact)
     );
-    let base = techniques.len() + 1;
-    let glossy = self::curves(ctx, &glossy_scene, &exact, &glossy_list, &spps, &|i| {
-        ctx.progress((base + i) as f64 / steps)
-    })?;
-    ctx.progress(1.0);
+    let glossy = curves(ctx, &glossy_scene, &exact, methods, spps, progress)?;
+    Ok((glossy, glossy_what))
+}
 
-    let [(svg_spp, f_spp), (svg_time, f_time)] = plots(ctx, "convergence", "Cornell box", &curves)?;
-    let [(gsvg_spp, gf_spp), (gsvg_time, gf_time)] =
-        plots(ctx, "convergence-mis", "glossy-blend", &glossy)?;
-    let mut files = vec![f_spp, f_time, gf_spp, gf_time, mitsuba_file];
-    files.push(write_csv(ctx, &curves, &glossy)?);
-    let (rows, slopes) = slope_rows(&curves);
-    let (grows, gslopes) = slope_rows(&glossy);
-    let slope_table = table(&SLOPE_HEADER, &rows);
-    let glossy_table = table(&SLOPE_HEADER, &grows);
+/// What the figure shows, its settings (`what`: the Cornell reference, Mitsuba's curve's
+/// source, the glossy reference), the fitted slopes and the glossy RMSE at the largest spp.
+fn caption(
+    ctx: &Ctx,
+    (what, mitsuba_source, glossy_what): (&str, &str, &str),
+    floor: f64,
+    (slopes, gslopes): (&[serde_json::Value], &[serde_json::Value]),
+    glossy: &Curves,
+) -> String {
     let at = |label: &str| -> f64 {
         glossy
             .iter()
@@ -377,16 +464,8 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             .map_or(f64::NAN, |p| p.rmse)
     };
     let (psa_last, mis_last) = (at("PSA only"), at("MIS clamped optimal v=0.5"));
-    let body = format!(
-        "{}{}<h3 id=\"mis-heuristics\">Glossy shading: one curve per MIS heuristic</h3>{}{}",
-        row(&[plot(&svg_spp), plot(&svg_time)]),
-        slope_table,
-        row(&[plot(&gsvg_spp), plot(&gsvg_time)]),
-        glossy_table
-    );
-    let floor = reference_mse(&reference).sqrt();
     let max_spp = ctx.settings.max_spp;
-    let caption = format!(
+    format!(
         "What it shows: every unbiased technique converges at the Monte Carlo rate (slope −½ of log RMSE over \
          log spp); the techniques differ by a constant factor, which is their variance, and at equal time by \
          variance × cost. Settings: the Cornell box at 64×64 (the size of its committed reference), white noise, \
@@ -398,32 +477,11 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
          Fitted slopes: {}. At {max_spp} spp, MIS clamped optimal (v = 0.5) has RMSE {} against PSA only's {} \
          (ratio {}; MIS takes twice the light samples per spp: the time plot compares at equal cost).",
         num(floor),
-        slope_list(&slopes),
-        slope_list(&gslopes),
+        slope_list(slopes),
+        slope_list(gslopes),
         num(mis_last),
         num(psa_last),
         num(mis_last / psa_last),
         r = GLOSSY_RES,
-    );
-    let summary_html = format!(
-        "<p>Convergence slopes (log RMSE over log spp; −½ expected), Cornell box:</p>{slope_table}\
-         <p>Glossy shading, one curve per MIS heuristic (<code>{GLOSSY}</code>, against the exact image):</p>{glossy_table}"
-    );
-    Ok(Section {
-        caption,
-        body,
-        files,
-        numbers: json!({
-            "reference": what, "reference_rmse_floor": floor,
-            "curves": curves.iter().map(|(n, m, p)| json!({"curve": n, "method": m, "points": p})).collect::<Vec<_>>(),
-            "slopes": slopes, "mitsuba_source": mitsuba_source,
-            "glossy": {
-                "scene": GLOSSY, "res": GLOSSY_RES, "reference": glossy_what,
-                "curves": glossy.iter().map(|(n, m, p)| json!({"curve": n, "method": m, "points": p})).collect::<Vec<_>>(),
-                "slopes": gslopes,
-            },
-            "summary_html": summary_html,
-        }),
-        ..Default::default()
-    })
+    )
 }

@@ -163,48 +163,131 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let it = iteration_counts(&hits, &segs, &source, samples, width, res);
     ctx.progress(0.3);
     let (li_ns, psa_ns) = cost_per_sample(ctx, &hits, &segs, &it.xis);
-    let stats = |v: &[f64]| {
-        let mut v = v.to_vec();
-        let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
-        (
-            mean,
-            percentile(&mut v, 0.05),
-            percentile(&mut v, 0.5),
-            percentile(&mut v, 0.95),
-            percentile(&mut v, 0.999),
-        )
-    };
-    let (li_s, psa_s) = (stats(&li_ns), stats(&psa_ns));
-    let Iterations {
-        counts,
-        map,
-        total,
-        ran_out_pixels,
-        ..
-    } = it;
-    let mean_iterations = counts
-        .iter()
-        .enumerate()
-        .map(|(k, &c)| k as f64 * c as f64)
-        .sum::<f64>()
-        / total.max(1) as f64;
-    let ran_out = counts[LIMIT as usize];
+    let (li_s, psa_s) = (Spread::of(&li_ns), Spread::of(&psa_ns));
     let svg = histogram(
         "Li et al. 2018: Newton/bisection iterations per sample",
         "iterations until |CDF − ξ| < 1e-5 (20 = ran out)",
         "samples",
         0,
-        &counts,
+        &it.counts,
         PALETTE[0],
     )?;
-    let mut files = vec![ctx.write_text("newton-iterations.svg", &svg)?];
-    files.push(ctx.write_png("newton-li-iterations-map", &map)?);
+    let files = write_files(ctx, &svg, &it)?;
+    let body = body_html(&svg, &it.map, res, &li_s, &psa_s);
+    let Iterations {
+        counts,
+        total,
+        ran_out_pixels,
+        ..
+    } = it;
+    let mean_iterations = mean_of_histogram(&counts, total);
+    let ran_out = counts[LIMIT as usize];
+    Ok(Section {
+        caption: caption(
+            res,
+            samples,
+            total,
+            mean_iterations,
+            ran_out,
+            ran_out_pixels,
+            &li_s,
+            &psa_s,
+        ),
+        body,
+        files,
+        numbers: json!({
+            "samples": total, "iteration_histogram": counts, "mean_iterations": mean_iterations,
+            "ran_out_samples": ran_out, "ran_out_pixels": ran_out_pixels,
+            "li_ns_per_sample": li_s.json(),
+            "psa_ns_per_sample": psa_s.json(),
+        }),
+        ..Default::default()
+    })
+}
+
+/// The histogram and the map side by side, then the table of costs per sample.
+fn body_html(svg: &str, map: &Rgb8, res: u32, li_s: &Spread, psa_s: &Spread) -> String {
+    let zoom = (256 / res as usize).max(1);
+    format!(
+        "{}{}{}",
+        row(&[
+            plot(svg),
+            picture(
+                &enlarge(map, zoom),
+                1,
+                "mean iterations of Li et al. per pixel (white 0 → dark red ≥ 10); green: some sample ran out of its 20 iterations"
+            ),
+        ]),
+        "<p>Cost per sample (prepare + sample + pdf, one thread), ns, over pixels:</p>",
+        table(
+            &["sampler", "mean", "5 %", "median", "95 %", "99.9 %"],
+            &[
+                li_s.cells("Li et al. 2018"),
+                psa_s.cells("projected solid angle (ours, 2 Halley steps)")
+            ]
+        )
+    )
+}
+
+/// The mean iteration count of a histogram of `total` samples (bin k: k iterations).
+fn mean_of_histogram(counts: &[u64], total: u64) -> f64 {
+    counts
+        .iter()
+        .enumerate()
+        .map(|(k, &c)| k as f64 * c as f64)
+        .sum::<f64>()
+        / total.max(1) as f64
+}
+
+/// The mean and percentiles of the cost per sample over pixels (ns).
+struct Spread {
+    mean: f64,
+    p5: f64,
+    median: f64,
+    p95: f64,
+    p999: f64,
+}
+
+impl Spread {
+    fn of(v: &[f64]) -> Self {
+        let mut v = v.to_vec();
+        let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+        Self {
+            mean,
+            p5: percentile(&mut v, 0.05),
+            median: percentile(&mut v, 0.5),
+            p95: percentile(&mut v, 0.95),
+            p999: percentile(&mut v, 0.999),
+        }
+    }
+
+    /// A table row: the sampler's name, then mean, 5 %, median, 95 % and 99.9 %.
+    fn cells(&self, name: &str) -> Vec<String> {
+        vec![
+            name.to_string(),
+            num(self.mean),
+            num(self.p5),
+            num(self.median),
+            num(self.p95),
+            num(self.p999),
+        ]
+    }
+
+    fn json(&self) -> serde_json::Value {
+        json!({"mean": self.mean, "p5": self.p5, "median": self.median, "p95": self.p95, "p99.9": self.p999})
+    }
+}
+
+/// The histogram (SVG), the per-pixel map (PNG) and the histogram's CSV.
+fn write_files(ctx: &Ctx, svg: &str, it: &Iterations) -> Result<Vec<String>, String> {
+    let mut files = vec![ctx.write_text("newton-iterations.svg", svg)?];
+    files.push(ctx.write_png("newton-li-iterations-map", &it.map)?);
     files.push(
         ctx.write_text(
             "newton-iterations.csv",
             &csv(
                 &["iterations", "samples"],
-                &counts
+                &it.counts
                     .iter()
                     .enumerate()
                     .map(|(k, c)| vec![k.to_string(), c.to_string()])
@@ -212,39 +295,22 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             ),
         )?,
     );
-    let cost_rows = vec![
-        vec![
-            "Li et al. 2018".to_string(),
-            num(li_s.0),
-            num(li_s.1),
-            num(li_s.2),
-            num(li_s.3),
-            num(li_s.4),
-        ],
-        vec![
-            "projected solid angle (ours, 2 Halley steps)".to_string(),
-            num(psa_s.0),
-            num(psa_s.1),
-            num(psa_s.2),
-            num(psa_s.3),
-            num(psa_s.4),
-        ],
-    ];
-    let zoom = (256 / res as usize).max(1);
-    let body = format!(
-        "{}{}{}",
-        row(&[
-            plot(&svg),
-            picture(
-                &enlarge(&map, zoom),
-                1,
-                "mean iterations of Li et al. per pixel (white 0 → dark red ≥ 10); green: some sample ran out of its 20 iterations"
-            ),
-        ]),
-        "<p>Cost per sample (prepare + sample + pdf, one thread), ns, over pixels:</p>",
-        table(&["sampler", "mean", "5 %", "median", "95 %", "99.9 %"], &cost_rows)
-    );
-    let caption = format!(
+    Ok(files)
+}
+
+/// What the figure shows, its settings, and the iterations and costs measured.
+#[allow(clippy::too_many_arguments)]
+fn caption(
+    res: u32,
+    samples: u32,
+    total: u64,
+    mean_iterations: f64,
+    ran_out: u64,
+    ran_out_pixels: usize,
+    li_s: &Spread,
+    psa_s: &Spread,
+) -> String {
+    format!(
         "What it shows: Newton's method converges fast when it converges, but its iteration count varies with the \
          sample, so its cost per sample varies (bad for a GPU warp, which waits for its slowest lane) and it has to \
          stop somewhere. Li et al. 2018 stop after 20 iterations; ours always takes two Halley steps. Settings: the \
@@ -255,24 +321,12 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
          ({}–{}); Li et al. / ours = {} (median).",
         num(mean_iterations),
         num(100.0 * ran_out as f64 / total.max(1) as f64),
-        num(li_s.2),
-        num(li_s.1),
-        num(li_s.3),
-        num(psa_s.2),
-        num(psa_s.1),
-        num(psa_s.3),
-        num(li_s.2 / psa_s.2),
-    );
-    Ok(Section {
-        caption,
-        body,
-        files,
-        numbers: json!({
-            "samples": total, "iteration_histogram": counts, "mean_iterations": mean_iterations,
-            "ran_out_samples": ran_out, "ran_out_pixels": ran_out_pixels,
-            "li_ns_per_sample": {"mean": li_s.0, "p5": li_s.1, "median": li_s.2, "p95": li_s.3, "p99.9": li_s.4},
-            "psa_ns_per_sample": {"mean": psa_s.0, "p5": psa_s.1, "median": psa_s.2, "p95": psa_s.3, "p99.9": psa_s.4},
-        }),
-        ..Default::default()
-    })
+        num(li_s.median),
+        num(li_s.p5),
+        num(li_s.p95),
+        num(psa_s.median),
+        num(psa_s.p5),
+        num(psa_s.p95),
+        num(li_s.median / psa_s.median),
+    )
 }

@@ -5,6 +5,8 @@
 use super::imaging::{enlarge, low_pass_rmse, rmse, tone, white_scale};
 use super::page::{num, picture, row, table};
 use super::{csv, Ctx, Section};
+use linlight_imagefile::Image;
+use linlight_render::scene::Scene;
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use serde_json::json;
@@ -21,57 +23,104 @@ const SCENES: [(&str, &str); 2] = [("room", "figures/room"), ("floor-tube", "flo
 
 pub fn make(ctx: &Ctx) -> Result<Section, String> {
     let res = ctx.settings.res;
-    let zoom = (256 / res as usize).max(1);
-    let technique = Technique::ProjectedSolidAngle;
-    let mut body = String::new();
-    let mut numbers = Vec::new();
-    let mut rows = Vec::new();
-    let mut files = Vec::new();
+    let mut out = Outputs::default();
     let mut references = Vec::new();
-    let total = (SCENES.len() * COUNTS.len() * Noise::ALL.len()) as f64;
-    let mut done = 0.0;
-    for (label, file) in SCENES {
+    for (i, (label, file)) in SCENES.into_iter().enumerate() {
         let rel = format!("references/scenes/{file}.xml");
         let overrides = vec![("res", res.to_string())];
         let (reference, what) = ctx.reference(&rel, &overrides)?;
         references.push(format!("{label}: {what}"));
         let scene = ctx.scene(&rel, &overrides)?;
-        let scale = white_scale(&reference);
-        body.push_str(&format!("<h3>{label}</h3>"));
+        out.body.push_str(&format!("<h3>{label}</h3>"));
+        out.scene(ctx, label, &scene, &reference, i)?;
+    }
+    out.files.push(ctx.write_text(
+        "noise.csv",
+        &csv(
+            &["scene", "noise", "spp", "rmse", "low_pass_rmse"],
+            &out.rows,
+        ),
+    )?);
+    out.body.push_str(&rows_table(&out.rows));
+    let caption = caption(ctx, &references, &out.numbers);
+    Ok(Section {
+        caption,
+        body: out.body,
+        files: out.files,
+        numbers: json!({ "references": references, "low_pass_sigma_px": LOW_PASS_SIGMA, "renders": out.numbers }),
+        ..Default::default()
+    })
+}
+
+/// The figure as it is built: HTML body, CSV rows, numbers and files written.
+#[derive(Default)]
+struct Outputs {
+    body: String,
+    rows: Vec<Vec<String>>,
+    numbers: Vec<serde_json::Value>,
+    files: Vec<String>,
+}
+
+impl Outputs {
+    /// Scene number `i` (`label`) rendered at each count of [`COUNTS`] with each noise: one
+    /// picture row per count, one CSV row and number per render.
+    fn scene(
+        &mut self,
+        ctx: &Ctx,
+        label: &str,
+        scene: &Scene,
+        reference: &Image,
+        i: usize,
+    ) -> Result<(), String> {
+        let res = ctx.settings.res;
+        let zoom = (256 / res as usize).max(1);
+        let scale = white_scale(reference);
+        let total = (SCENES.len() * COUNTS.len() * Noise::ALL.len()) as f64;
+        let mut done = (i * COUNTS.len() * Noise::ALL.len()) as f64;
         for n in COUNTS {
             let mut items = Vec::new();
             for noise in Noise::ALL {
-                let r = ctx.render(&scene, technique, noise, n, 1, ctx.opts.seed)?;
+                let r = ctx.render(
+                    scene,
+                    Technique::ProjectedSolidAngle,
+                    noise,
+                    n,
+                    1,
+                    ctx.opts.seed,
+                )?;
                 done += 1.0;
                 ctx.progress(done / total);
                 let (e, lp) = (
-                    rmse(&r.image, &reference),
-                    low_pass_rmse(&r.image, &reference, LOW_PASS_SIGMA),
+                    rmse(&r.image, reference),
+                    low_pass_rmse(&r.image, reference, LOW_PASS_SIGMA),
                 );
                 let pic = tone(&r.image, scale);
-                files.push(ctx.write_png(&format!("noise-{label}-{}-{n}spp", noise.name()), &pic)?);
+                self.files
+                    .push(ctx.write_png(&format!("noise-{label}-{}-{n}spp", noise.name()), &pic)?);
                 items.push(picture(
                     &enlarge(&pic, zoom),
                     1,
                     &format!("{noise}, N = {n}: RMSE {}, low-pass {}", num(e), num(lp)),
                 ));
-                rows.push(vec![
+                self.rows.push(vec![
                     label.to_string(),
                     noise.name().to_string(),
                     n.to_string(),
                     format!("{e}"),
                     format!("{lp}"),
                 ]);
-                numbers.push(json!({"scene": label, "noise": noise.name(), "spp": n, "rmse": e, "low_pass_rmse": lp}));
+                self.numbers.push(json!({"scene": label, "noise": noise.name(), "spp": n, "rmse": e, "low_pass_rmse": lp}));
             }
-            body.push_str(&format!("<h4>N = {n}</h4>{}", row(&items)));
+            self.body
+                .push_str(&format!("<h4>N = {n}</h4>{}", row(&items)));
         }
+        Ok(())
     }
-    files.push(ctx.write_text(
-        "noise.csv",
-        &csv(&["scene", "noise", "spp", "rmse", "low_pass_rmse"], &rows),
-    )?);
-    body.push_str(&table(
+}
+
+/// The table of every render's RMSE and low-pass RMSE.
+fn rows_table(rows: &[Vec<String>]) -> String {
+    table(
         &["scene", "noise", "N", "RMSE", "low-pass RMSE"],
         &rows
             .iter()
@@ -85,7 +134,12 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
                 ]
             })
             .collect::<Vec<_>>(),
-    ));
+    )
+}
+
+/// What the figure shows, its settings and the measured low-pass RMSE of every render.
+fn caption(ctx: &Ctx, references: &[String], numbers: &[serde_json::Value]) -> String {
+    let res = ctx.settings.res;
     let get = |scene: &str, noise: Noise, n: u32| {
         numbers
             .iter()
@@ -106,7 +160,7 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
             })
         })
         .collect();
-    let caption = format!(
+    format!(
         "What it shows: the same estimator with three sources of primary samples. Blue noise (void-and-cluster \
          dither arrays generated in-project, a random toroidal shift per pass) gives each pixel the same \
          distribution as white noise — the RMSE barely changes — but arranges the errors of neighbouring pixels \
@@ -123,12 +177,5 @@ pub fn make(ctx: &Ctx) -> Result<Section, String> {
         ctx.opts.seed,
         references.join("; "),
         measured.join("; "),
-    );
-    Ok(Section {
-        caption,
-        body,
-        files,
-        numbers: json!({ "references": references, "low_pass_sigma_px": LOW_PASS_SIGMA, "renders": numbers }),
-        ..Default::default()
-    })
+    )
 }

@@ -237,7 +237,7 @@ fn rough_conductor(c: &RoughConductor, v: DVec3, l: DVec3) -> DVec3 {
     conductor_fresnel(c, cos_vh) * rgb(c.specular_reflectance) * lobe
 }
 
-/// `Bsdf::eval` before the lanes: recursive, one direction pair at a time.
+/// `Bsdf::eval` in its scalar form: recursive, one direction pair at a time.
 fn eval(bsdf: &Bsdf, v: DVec3, l: DVec3) -> DVec3 {
     match bsdf {
         Bsdf::Diffuse { reflectance } => {
@@ -272,7 +272,7 @@ fn leaves(bsdf: &Bsdf) -> Vec<&Bsdf> {
     }
 }
 
-/// `Blend::weight` (now shared with the f32 path) is the f64 clamp of the file's f32 weight.
+/// `Blend::weight` (shared with the f32 path) is the f64 clamp of the file's f32 weight.
 #[test]
 fn blend_weight_equals_the_f64_clamp() {
     for w in [

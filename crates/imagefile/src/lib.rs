@@ -152,6 +152,157 @@ const EXR_STANDARD_KEYS: [&str; 49] = [
     "software",
 ];
 
+/// An OpenEXR file as the exr crate reads it: every layer, every channel, flat samples.
+type ExrFile = exr::image::Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
+/// One layer of an [`ExrFile`].
+type ExrLayer = Layer<AnyChannels<FlatSamples>>;
+
+/// The OpenEXR file at `path`: an I/O error when it cannot be read, a format error when it is
+/// not OpenEXR.
+fn read_exr(path: &Path) -> Result<ExrFile, ImageError> {
+    exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| match e {
+            exr::error::Error::Io(io) => {
+                ImageError::Io(format!("cannot read {}: {io}", path.display()))
+            }
+            other => ImageError::Format(format!(
+                "{} is not a readable OpenEXR file: {other}",
+                path.display()
+            )),
+        })
+}
+
+/// The layer holding the mean: a single part is expected, but the first part with an `R`
+/// channel is taken. `ctx` names the file in an error.
+fn mean_layer<'a>(
+    layers: &'a [ExrLayer],
+    ctx: &impl Fn(String) -> ImageError,
+) -> Result<&'a ExrLayer, ImageError> {
+    layers
+        .iter()
+        .find(|l| l.channel_data.list.iter().any(|c| c.name.eq("R")))
+        .ok_or_else(|| {
+            let names: Vec<String> = layers
+                .iter()
+                .flat_map(|l| l.channel_data.list.iter().map(|c| c.name.to_string()))
+                .collect();
+            ctx(format!("missing channel R (found: {})", names.join(", ")))
+        })
+}
+
+/// The channels of the mean's layer, each read as `width × height` full-resolution values;
+/// `ctx` names the file in an error.
+struct LayerChannels<'a, F: Fn(String) -> ImageError> {
+    layer: &'a ExrLayer,
+    ctx: &'a F,
+    width: usize,
+    height: usize,
+}
+
+impl<F: Fn(String) -> ImageError> LayerChannels<'_, F> {
+    fn has(&self, name: &str) -> bool {
+        self.layer.channel_data.list.iter().any(|c| c.name.eq(name))
+    }
+
+    /// The names of the layer's channels, for an error message.
+    fn found(&self) -> String {
+        self.layer
+            .channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The channel `name` as f32 (half and u32 samples converted): present, not subsampled,
+    /// one value per pixel.
+    fn channel(&self, name: &str) -> Result<Vec<f32>, ImageError> {
+        let (ctx, width, height) = (self.ctx, self.width, self.height);
+        let n = width * height;
+        let ch = self
+            .layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.eq(name))
+            .ok_or_else(|| ctx(format!("missing channel {name} (found: {})", self.found())))?;
+        if ch.sampling.x() != 1 || ch.sampling.y() != 1 {
+            return Err(ctx(format!("channel {name} is subsampled")));
+        }
+        let values: Vec<f32> = match &ch.sample_data {
+            FlatSamples::F32(v) => v.clone(),
+            FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
+            FlatSamples::U32(v) => v.iter().map(|&u| u as f32).collect(),
+        };
+        if values.len() != n {
+            return Err(ctx(format!(
+                "channel {name} holds {} values, expected {width}×{height} = {n}",
+                values.len()
+            )));
+        }
+        Ok(values)
+    }
+
+    /// The three tail channels, or None when there are none; an error when only some are there.
+    fn tail(&self) -> Result<Option<Vec<[f32; 3]>>, ImageError> {
+        match TAIL_CHANNELS.iter().filter(|c| self.has(c)).count() {
+            0 => Ok(None),
+            3 => {
+                let mut tail = vec![[0.0f32; 3]; self.width * self.height];
+                for (c, name) in TAIL_CHANNELS.iter().enumerate() {
+                    for (t, x) in tail.iter_mut().zip(self.channel(name)?) {
+                        t[c] = x;
+                    }
+                }
+                Ok(Some(tail))
+            }
+            _ => Err((self.ctx)(format!(
+                "the tail channels come as a set of three ({}), found: {}",
+                TAIL_CHANNELS.join(", "),
+                self.found()
+            ))),
+        }
+    }
+
+    /// The per-pixel sample counts, or None when the file has no such channel; u32 samples
+    /// as they are, float samples rounded and clamped at 0.
+    fn pixel_spp(&self) -> Result<Option<Vec<u32>>, ImageError> {
+        if !self.has(SPP_CHANNEL) {
+            return Ok(None);
+        }
+        let n = self.width * self.height;
+        let spp: Vec<u32> = match &self
+            .layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.eq(SPP_CHANNEL))
+            .map(|c| &c.sample_data)
+        {
+            Some(FlatSamples::U32(v)) => v.clone(),
+            _ => self
+                .channel(SPP_CHANNEL)?
+                .into_iter()
+                .map(|x| x.max(0.0).round() as u32)
+                .collect(),
+        };
+        if spp.len() != n {
+            return Err((self.ctx)(format!(
+                "channel {SPP_CHANNEL} holds {} values, expected {n}",
+                spp.len()
+            )));
+        }
+        Ok(Some(spp))
+    }
+}
+
 impl Image {
     pub fn new(width: usize, height: usize) -> Self {
         Self {
@@ -280,128 +431,31 @@ impl Image {
     /// [`Image::read_unchecked`] refusing an image that needs more than `max_bytes` of memory.
     pub fn read_unchecked_within(path: &Path, max_bytes: u64) -> Result<Self, ImageError> {
         check_claimed_size(path, max_bytes)?;
-        let file = exr::prelude::read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .all_channels()
-            .all_layers()
-            .all_attributes()
-            .from_file(path)
-            .map_err(|e| match e {
-                exr::error::Error::Io(io) => {
-                    ImageError::Io(format!("cannot read {}: {io}", path.display()))
-                }
-                other => ImageError::Format(format!(
-                    "{} is not a readable OpenEXR file: {other}",
-                    path.display()
-                )),
-            })?;
+        let file = read_exr(path)?;
         let ctx = |msg: String| ImageError::Format(format!("{}: {msg}", path.display()));
-
-        // Single part expected; be lenient and take the first part that holds a mean.
-        let layer = file
-            .layer_data
-            .iter()
-            .find(|l| l.channel_data.list.iter().any(|c| c.name.eq("R")))
-            .ok_or_else(|| {
-                let names: Vec<String> = file
-                    .layer_data
-                    .iter()
-                    .flat_map(|l| l.channel_data.list.iter().map(|c| c.name.to_string()))
-                    .collect();
-                ctx(format!("missing channel R (found: {})", names.join(", ")))
-            })?;
-
+        let layer = mean_layer(&file.layer_data, &ctx)?;
         let (width, height) = (layer.size.x(), layer.size.y());
         let n = width * height;
         if n == 0 {
             return Err(ctx(format!("image has zero size ({width}×{height})")));
         }
-        let found = || {
-            layer
-                .channel_data
-                .list
-                .iter()
-                .map(|c| c.name.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
+        let channels = LayerChannels {
+            layer,
+            ctx: &ctx,
+            width,
+            height,
         };
-        let channel = |name: &str| -> Result<Vec<f32>, ImageError> {
-            let ch = layer
-                .channel_data
-                .list
-                .iter()
-                .find(|c| c.name.eq(name))
-                .ok_or_else(|| ctx(format!("missing channel {name} (found: {})", found())))?;
-            if ch.sampling.x() != 1 || ch.sampling.y() != 1 {
-                return Err(ctx(format!("channel {name} is subsampled")));
-            }
-            let values: Vec<f32> = match &ch.sample_data {
-                FlatSamples::F32(v) => v.clone(),
-                FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
-                FlatSamples::U32(v) => v.iter().map(|&u| u as f32).collect(),
-            };
-            if values.len() != n {
-                return Err(ctx(format!(
-                    "channel {name} holds {} values, expected {width}×{height} = {n}",
-                    values.len()
-                )));
-            }
-            Ok(values)
-        };
-
         let mut img = Image::new(width, height);
         for c in 0..3 {
-            let m = channel(MEAN_CHANNELS[c])?;
-            let v = channel(VAR_CHANNELS[c])?;
+            let m = channels.channel(MEAN_CHANNELS[c])?;
+            let v = channels.channel(VAR_CHANNELS[c])?;
             for i in 0..n {
                 img.mean[i][c] = m[i];
                 img.var[i][c] = v[i];
             }
         }
-        let has = |name: &str| layer.channel_data.list.iter().any(|c| c.name.eq(name));
-        match TAIL_CHANNELS.iter().filter(|c| has(c)).count() {
-            0 => {}
-            3 => {
-                let mut tail = vec![[0.0f32; 3]; n];
-                for (c, name) in TAIL_CHANNELS.iter().enumerate() {
-                    for (t, x) in tail.iter_mut().zip(channel(name)?) {
-                        t[c] = x;
-                    }
-                }
-                img.tail = Some(tail);
-            }
-            _ => {
-                return Err(ctx(format!(
-                    "the tail channels come as a set of three ({}), found: {}",
-                    TAIL_CHANNELS.join(", "),
-                    found()
-                )))
-            }
-        }
-        if has(SPP_CHANNEL) {
-            let spp: Vec<u32> = match &layer
-                .channel_data
-                .list
-                .iter()
-                .find(|c| c.name.eq(SPP_CHANNEL))
-                .map(|c| &c.sample_data)
-            {
-                Some(FlatSamples::U32(v)) => v.clone(),
-                _ => channel(SPP_CHANNEL)?
-                    .into_iter()
-                    .map(|x| x.max(0.0).round() as u32)
-                    .collect(),
-            };
-            if spp.len() != n {
-                return Err(ctx(format!(
-                    "channel {SPP_CHANNEL} holds {} values, expected {n}",
-                    spp.len()
-                )));
-            }
-            img.pixel_spp = Some(spp);
-        }
-
+        img.tail = channels.tail()?;
+        img.pixel_spp = channels.pixel_spp()?;
         img.read_attributes(&layer.attributes, &ctx)?;
         Ok(img)
     }

@@ -33,7 +33,7 @@ use crate::ray_offset::shadow_ray_to;
 use crate::render_scene::{reflecting_normal, RenderScene};
 use crate::scene::{Rgb, Scene};
 use crate::shading::{estimate_resolved, single_technique, ShadingPoint};
-use crate::shapes::Ray;
+use crate::shapes::{Hit, Ray, SurfacePoint};
 use crate::visible_line::PixelLine;
 use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
@@ -81,17 +81,8 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
 ) -> Rgb {
     let hit = scene.bvh.intersect(ray);
     if scene.tubes.camera_sees {
-        // A tube in front of the first surface: its radiance seen from outside, black inside.
-        // With `hide_emitters` camera rays pass through tubes, as in Mitsuba's `direct`.
-        let mut front = *ray;
-        if let Some(h) = &hit {
-            front.t_max = h.t;
-        }
-        if let Some((_, j, outside)) = scene.tubes.closest(&front) {
-            return match scene.tubes.get(j) {
-                Some(t) if outside && scene.tubes.camera_sees => t.radiance.to_array(),
-                _ => [0.0; 3],
-            };
+        if let Some(rgb) = tube_in_front(scene, ray, hit.as_ref()) {
+            return rgb;
         }
     }
     let Some(hit) = hit else {
@@ -105,67 +96,117 @@ pub fn radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     let Some(n) = reflecting_normal(bsdf, sp.ns, wi) else {
         return [0.0; 3];
     };
-    let mut dropped = 0u32;
-    let mut total;
-    // Shadow rays toward light j walk its culled shadow BVH (same answers as `scene.bvh`).
-    let sp = &sp;
-    let visible = |j: usize| {
-        move |w: Vec3, dist: f32| {
-            shadow_ray_to(sp, sp.p + dist * w)
-                .is_some_and(|shadow| !scene.shadows.occluded(&scene.bvh, j, &shadow))
-        }
-    };
-    let light_samples = opts.light_samples;
-    let one = scene.chooses_one(opts.lights);
     if scene.tubes.any() {
-        return tube_radiance(scene, opts, pieces, bsdf, shape, sp, n, wi, rng).to_array();
+        return tube_radiance(scene, opts, pieces, bsdf, shape, &sp, n, wi, rng).to_array();
     }
-    match scene.lambert[shape] {
-        Some(f) => {
-            // K·(ρ/π)·cos θ/p(ω), p per radius (dΩ_R).
-            total =
-                sum_over_light_samples(scene, opts, (sp.p, n), rng, |j, light, k, samples, rng| {
-                    single_technique(
-                        light.sampler(pieces.technique, sp.p, n).as_ref(),
-                        n,
-                        samples,
-                        rng,
-                        &mut visible(j),
-                        |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
-                        &mut dropped,
-                    )
-                });
-            if light_samples > 1 {
-                total /= light_samples as f32;
-            }
-        }
+    let mut dropped = 0u32;
+    let total = match scene.lambert[shape] {
+        Some(f) => lambertian_radiance(scene, opts, pieces.technique, f, &sp, n, rng, &mut dropped),
         None => {
             let point = ShadingPoint::for_method(pieces.bsdf, opts.method, bsdf, sp.p, n, wi);
-            // `every`: each light's estimate is its iterations' mean; `one`: the mean of the
-            // light samples is taken here.
-            total =
-                sum_over_light_samples(scene, opts, (sp.p, n), rng, |j, light, k, samples, rng| {
-                    estimate_resolved(
-                        pieces,
-                        opts.method,
-                        &point,
-                        light.segment(),
-                        k,
-                        samples,
-                        rng,
-                        &mut visible(j),
-                        &mut dropped,
-                    )
-                });
-            if one && light_samples > 1 {
-                total /= light_samples as f32;
-            }
+            glossy_radiance(scene, opts, pieces, &point, &sp, n, rng, &mut dropped)
         }
-    }
+    };
     if dropped > 0 {
         scene.dropped.add_many(dropped as u64);
     }
     total.to_array()
+}
+
+/// The radiance of a tube the camera ray meets in front of the first surface `hit`: its
+/// radiance seen from outside, black inside; None when the ray meets no tube first. With
+/// `hide_emitters` camera rays pass through tubes, as in Mitsuba's `direct`.
+#[inline(always)]
+fn tube_in_front(scene: &RenderScene, ray: &Ray, hit: Option<&Hit>) -> Option<Rgb> {
+    let mut front = *ray;
+    if let Some(h) = hit {
+        front.t_max = h.t;
+    }
+    let (_, j, outside) = scene.tubes.closest(&front)?;
+    Some(match scene.tubes.get(j) {
+        Some(t) if outside && scene.tubes.camera_sees => t.radiance.to_array(),
+        _ => [0.0; 3],
+    })
+}
+
+/// Whether the point at distance `dist` along `w` from `sp` is visible: the shadow ray toward
+/// light j walks its culled shadow BVH (same answers as `scene.bvh`).
+#[inline(always)]
+fn visible_toward<'a>(
+    scene: &'a RenderScene,
+    sp: &'a SurfacePoint,
+    j: usize,
+) -> impl FnMut(Vec3, f32) -> bool + 'a {
+    move |w: Vec3, dist: f32| {
+        shadow_ray_to(sp, sp.p + dist * w)
+            .is_some_and(|shadow| !scene.shadows.occluded(&scene.bvh, j, &shadow))
+    }
+}
+
+/// The fast path of a Lambertian surface (f = ρ/π): K·f·cos θ/p(ω) by one technique, p per
+/// radius (dΩ_R); the mean over the light samples.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn lambertian_radiance<T: LightSampling>(
+    scene: &RenderScene,
+    opts: &RenderOptions,
+    technique: &T,
+    f: Vec3,
+    sp: &SurfacePoint,
+    n: Vec3,
+    rng: &mut SampleStream,
+    dropped: &mut u32,
+) -> Vec3 {
+    let mut total =
+        sum_over_light_samples(scene, opts, (sp.p, n), rng, |j, light, k, samples, rng| {
+            single_technique(
+                light.sampler(technique, sp.p, n).as_ref(),
+                n,
+                samples,
+                rng,
+                &mut visible_toward(scene, sp, j),
+                |_: Vec3, cos: f32, pdf: f32| k * f * (cos / pdf),
+                dropped,
+            )
+        });
+    if opts.light_samples > 1 {
+        total /= opts.light_samples as f32;
+    }
+    total
+}
+
+/// A surface of any other BSDF, by the render's method at `point`. `every`: each light's
+/// estimate is its iterations' mean; `one`: the mean of the light samples is taken here.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn glossy_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &RenderScene,
+    opts: &RenderOptions,
+    pieces: Resolved<T, S, B>,
+    point: &ShadingPoint,
+    sp: &SurfacePoint,
+    n: Vec3,
+    rng: &mut SampleStream,
+    dropped: &mut u32,
+) -> Vec3 {
+    let mut total =
+        sum_over_light_samples(scene, opts, (sp.p, n), rng, |j, light, k, samples, rng| {
+            estimate_resolved(
+                pieces,
+                opts.method,
+                point,
+                light.segment(),
+                k,
+                samples,
+                rng,
+                &mut visible_toward(scene, sp, j),
+                dropped,
+            )
+        });
+    if scene.chooses_one(opts.lights) && opts.light_samples > 1 {
+        total /= opts.light_samples as f32;
+    }
+    total
 }
 
 /// The light reflected at `sp` (reflecting normal `n`, toward `wi`) when some lights are exact
@@ -179,7 +220,7 @@ fn tube_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     pieces: Resolved<T, S, B>,
     bsdf: &crate::scene::Bsdf,
     shape: usize,
-    sp: &crate::shapes::SurfacePoint,
+    sp: &SurfacePoint,
     n: Vec3,
     wi: Vec3,
     rng: &mut SampleStream,

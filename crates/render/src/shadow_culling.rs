@@ -371,9 +371,9 @@ impl ShadowCulling {
         for l in lights {
             let ends = (l.segment.begin.as_dvec3(), l.segment.end.as_dvec3());
             let (culled_index, groups) = culled_by(ends, &candidates, &extent);
-            // Measured (callgrind, docs/performance.md): culling 4 of 15 triangles
-            // (glossy-principled) saves less in the walk than the guard costs; a third or more
-            // (cornell-tube 14 of 34, the floors) pays.
+            // A light gets a culled set only when it drops at least a third of the finite
+            // primitives: below that the guard test of every shadow ray costs more than the
+            // shorter walk saves (instructions per sample, docs/performance.md).
             if culled_index.is_empty() || 3 * culled_index.len() < finite.len() {
                 out.light_set.push(None);
                 continue;

@@ -104,8 +104,8 @@ fn z_scores(img: &Image, cam: &Camera, seg: &Segment, bias: f64) -> Vec<f64> {
 /// Power: a 3 % error of the expectation must be rejected by the same test.
 /// Each technique is tested at its own α = 0.01. Calibration (seeds 100–299, counter-based
 /// streams): 1, 2 and 2 of 200 renders exceed the bound for clipped solid angle, projected solid
-/// angle and Li 2018; pooled z has mean 0.00 and variance 1.00. Seed 11 was one of those 1 %
-/// for clipped solid angle, hence seed 12.
+/// angle and Li 2018; pooled z has mean 0.00 and variance 1.00. The test's seed is 12 (seed 11
+/// is one of clipped solid angle's 1 % beyond the bound).
 #[test]
 fn floor_matches_closed_form() {
     for t in [

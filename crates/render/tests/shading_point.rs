@@ -495,9 +495,10 @@ impl Uniforms for Fixed {
 /// one-iteration estimate with the LTC sample at the first or last lattice point (ξ_s = 0 or
 /// 1 − 2⁻²⁴; ξ_d = 0.5, on the complement's side or not) weighs 2⁻²⁴ in the expectation: it
 /// must not add more than 1e-3 of the point's value to it, i.e. stay below 2²⁴·10⁻³ ≈ 1.7·10⁴
-/// times the quadrature value. With the sample for ξ = 0 on the support's edge (density = f32
-/// rounding noise) it was 7.7·10⁴ times here (2.3·10⁵ at the same point in the render, whose
-/// shading point is not at the origin); on the √ξ law of the rest of the tail it is ~500.
+/// times the quadrature value. With the sample for ξ = 0 placed on the support's edge (density
+/// = f32 rounding noise) it would be 7.7·10⁴ times here (2.3·10⁵ at the same point in the
+/// render, whose shading point is not at the origin); on the √ξ law of the rest of the tail it
+/// is ~500.
 #[test]
 fn ltc_alone_is_bounded_at_the_lattice_ends() {
     let x = Vec3::new(-1.311_127_3, -0.081_670_165, 0.0);

@@ -422,7 +422,7 @@ mod tests {
         }
     }
 
-    /// Power of the battery: the scheme this module replaced — one PCG32 per pixel, all with the
+    /// Power of the battery: a per-pixel scheme with correlated streams — one PCG32 per pixel, all with the
     /// same state (seed and pass hashed by SplitMix64) and the pixel index as stream increment —
     /// fails the pair test for pixels two apart (χ² ≈ 19 000 on 4095 dof).
     #[test]

@@ -105,6 +105,121 @@ fn warn_of_fat_tubes(scene: &mut Scene) {
     }
 }
 
+/// The attribute `attr` of `c`, which it must have.
+fn required_attr(c: &Elem, attr: &str) -> Result<String, SceneError> {
+    match c.attr(attr) {
+        Some(v) => Ok(v.to_string()),
+        None => err(&c.loc, format!("<{}> needs a '{attr}' attribute", c.tag)),
+    }
+}
+
+/// The value of a `<float>`, `<integer>` or `<boolean>` element.
+fn scalar_value(c: &Elem) -> Result<Value, SceneError> {
+    debug_assert!(matches!(c.tag.as_str(), "float" | "integer" | "boolean"));
+    let v = required_attr(c, "value")?;
+    let what = format!("<{}>", c.tag);
+    Ok(match c.tag.as_str() {
+        "float" => Value::Float(parse_f64(&v, &c.loc, &what)?),
+        "integer" => Value::Integer(parse_i64(&v, &c.loc, &what)?),
+        _ => Value::Boolean(match v.trim().to_ascii_lowercase().as_str() {
+            "true" => true,
+            "false" => false,
+            other => {
+                return err(
+                    &c.loc,
+                    format!("<boolean> value must be true or false (got '{other}')"),
+                )
+            }
+        }),
+    })
+}
+
+/// The colour of an `<rgb>`: one value (grey) or three.
+fn rgb_value(c: &Elem) -> Result<DVec3, SceneError> {
+    let v = required_attr(c, "value")?;
+    let l = parse_list(&v, &c.loc, "<rgb>")?;
+    match l.len() {
+        1 => Ok(DVec3::splat(l[0])),
+        3 => Ok(DVec3::new(l[0], l[1], l[2])),
+        _ => err(&c.loc, format!("<rgb> needs 1 or 3 values (got '{v}')")),
+    }
+}
+
+/// A `<spectrum>`: a typed one is a nested object; otherwise only a constant is supported.
+fn spectrum_property(c: &Rc<Elem>) -> Result<(Option<String>, Value), SceneError> {
+    if c.attr("type").is_some() {
+        return Ok((c.attr("name").map(String::from), Value::Object(c.clone())));
+    }
+    c.check_attrs(&["name", "value", "filename"])?;
+    let v = c.attr("value").unwrap_or("");
+    let toks: Vec<&str> = super::values::tokenize(v);
+    if c.attr("filename").is_some() || toks.len() != 1 || v.contains(':') {
+        return err(
+            &c.loc,
+            "only constant spectra (<spectrum value=\"0.5\"/>) are supported",
+        );
+    }
+    let s = parse_f64(toks[0], &c.loc, "<spectrum>")?;
+    Ok((Some(required_attr(c, "name")?), Value::Spectrum(s)))
+}
+
+/// The warning for a film (or sensor) without a box filter.
+fn no_box_filter_warning(loc: &SourceLocation) -> String {
+    format!(
+        "{loc}: no <rfilter type=\"box\"/>: Mitsuba uses its default gaussian filter \
+         here, this renderer a box filter, so the images will differ slightly"
+    )
+}
+
+/// A film dimension in pixels: the integer property `name` in [0, u32::MAX], or `default`.
+fn film_dim(p: &Props, name: &str, default: i64) -> Result<u32, SceneError> {
+    Ok(p.integer_in(name, 0, u32::MAX as i64)?.unwrap_or(default) as u32)
+}
+
+/// The crop window when any crop_* property is given: non-empty and within the film.
+fn crop_window(
+    p: &Props,
+    width: u32,
+    height: u32,
+    loc: &SourceLocation,
+) -> Result<Option<CropWindow>, SceneError> {
+    let names = [
+        "crop_offset_x",
+        "crop_offset_y",
+        "crop_width",
+        "crop_height",
+    ];
+    let any_crop = names
+        .iter()
+        .map(|n| p.integer(n).map(|v| v.is_some()))
+        .collect::<Result<Vec<_>, _>>()?
+        .contains(&true);
+    if !any_crop {
+        return Ok(None);
+    }
+    let c = CropWindow {
+        offset_x: film_dim(p, "crop_offset_x", 0)?,
+        offset_y: film_dim(p, "crop_offset_y", 0)?,
+        width: film_dim(p, "crop_width", width as i64)?,
+        height: film_dim(p, "crop_height", height as i64)?,
+    };
+    if c.width == 0
+        || c.height == 0
+        || c.offset_x as u64 + c.width as u64 > width as u64
+        || c.offset_y as u64 + c.height as u64 > height as u64
+    {
+        return err(
+            loc,
+            format!(
+                "invalid crop window: offset ({}, {}) + size ({}, {}) must be non-empty \
+                 and within the film ({width}, {height})",
+                c.offset_x, c.offset_y, c.width, c.height
+            ),
+        );
+    }
+    Ok(Some(c))
+}
+
 impl<'a> Builder<'a> {
     pub fn new(tree: &'a TreeBuilder) -> Builder<'a> {
         Builder {
@@ -119,111 +234,74 @@ impl<'a> Builder<'a> {
     pub(super) fn props(&self, e: &Elem) -> Result<Props, SceneError> {
         let mut entries: Vec<Entry> = Vec::new();
         for c in &e.children {
-            let loc = c.loc.clone();
-            let named = |c: &Elem| -> Result<String, SceneError> {
-                match c.attr("name") {
-                    Some(n) => Ok(n.to_string()),
-                    None => err(&c.loc, format!("<{}> needs a 'name' attribute", c.tag)),
-                }
-            };
-            let value_attr = |c: &Elem| -> Result<String, SceneError> {
-                match c.attr("value") {
-                    Some(v) => Ok(v.to_string()),
-                    None => err(&c.loc, format!("<{}> needs a 'value' attribute", c.tag)),
-                }
-            };
-            let what = |c: &Elem| format!("<{}>", c.tag);
-            let (name, value) = match c.tag.as_str() {
-                "float" => {
-                    c.check_attrs(&["name", "value"])?;
-                    let v = parse_f64(&value_attr(c)?, &loc, &what(c))?;
-                    (Some(named(c)?), Value::Float(v))
-                }
-                "integer" => {
-                    c.check_attrs(&["name", "value"])?;
-                    let v = parse_i64(&value_attr(c)?, &loc, &what(c))?;
-                    (Some(named(c)?), Value::Integer(v))
-                }
-                "boolean" => {
-                    c.check_attrs(&["name", "value"])?;
-                    let v = match value_attr(c)?.trim().to_ascii_lowercase().as_str() {
-                        "true" => true,
-                        "false" => false,
-                        other => {
-                            return err(
-                                &loc,
-                                format!("<boolean> value must be true or false (got '{other}')"),
-                            )
-                        }
-                    };
-                    (Some(named(c)?), Value::Boolean(v))
-                }
-                "string" => {
-                    c.check_attrs(&["name", "value"])?;
-                    (Some(named(c)?), Value::String(value_attr(c)?))
-                }
-                "point" | "vector" => {
-                    c.check_attrs(&["name", "value", "x", "y", "z"])?;
-                    (Some(named(c)?), Value::Vec3(parse_xyz(c, 0.0)?))
-                }
-                "rgb" => {
-                    c.check_attrs(&["name", "value"])?;
-                    let v = value_attr(c)?;
-                    let l = parse_list(&v, &loc, "<rgb>")?;
-                    let rgb = match l.len() {
-                        1 => DVec3::splat(l[0]),
-                        3 => DVec3::new(l[0], l[1], l[2]),
-                        _ => return err(&loc, format!("<rgb> needs 1 or 3 values (got '{v}')")),
-                    };
-                    (Some(named(c)?), Value::Rgb(rgb))
-                }
-                "spectrum" => {
-                    if c.attr("type").is_some() {
-                        (c.attr("name").map(String::from), Value::Object(c.clone()))
-                    } else {
-                        c.check_attrs(&["name", "value", "filename"])?;
-                        let v = c.attr("value").unwrap_or("");
-                        let toks: Vec<&str> = super::values::tokenize(v);
-                        if c.attr("filename").is_some() || toks.len() != 1 || v.contains(':') {
-                            return err(
-                                &loc,
-                                "only constant spectra (<spectrum value=\"0.5\"/>) are supported",
-                            );
-                        }
-                        let s = parse_f64(toks[0], &loc, "<spectrum>")?;
-                        (Some(named(c)?), Value::Spectrum(s))
-                    }
-                }
-                "transform" => (Some(named(c)?), Value::Transform(parse_transform(c)?)),
-                "ref" => {
-                    c.check_attrs(&["id", "name"])?;
-                    let Some(id) = c.attr("id") else {
-                        return err(&loc, "<ref> needs an 'id'");
-                    };
-                    let Some(target) = self.tree.ids.get(id) else {
-                        return err(&loc, format!("reference to unknown id '{id}'"));
-                    };
-                    (
-                        c.attr("name").map(String::from),
-                        Value::Object(target.clone()),
-                    )
-                }
-                "translate" | "rotate" | "scale" | "matrix" | "lookat" => {
-                    return err(
-                        &loc,
-                        format!("<{}> can only occur inside a <transform>", c.tag),
-                    )
-                }
-                _ => (c.attr("name").map(String::from), Value::Object(c.clone())),
-            };
+            let (name, value) = self.property(c)?;
             if let Some(n) = &name {
                 if n.starts_with('_') {
-                    return err(&loc, format!("invalid property name '{n}'"));
+                    return err(&c.loc, format!("invalid property name '{n}'"));
                 }
             }
-            entries.push(Props::entry(name, value, loc));
+            entries.push(Props::entry(name, value, c.loc.clone()));
         }
         Props::new(e, entries)
+    }
+
+    /// One property element: its name (None for an unnamed nested object) and value.
+    fn property(&self, c: &Rc<Elem>) -> Result<(Option<String>, Value), SceneError> {
+        let loc = &c.loc;
+        Ok(match c.tag.as_str() {
+            "float" | "integer" | "boolean" => {
+                c.check_attrs(&["name", "value"])?;
+                let v = scalar_value(c)?;
+                (Some(required_attr(c, "name")?), v)
+            }
+            "string" => {
+                c.check_attrs(&["name", "value"])?;
+                (
+                    Some(required_attr(c, "name")?),
+                    Value::String(required_attr(c, "value")?),
+                )
+            }
+            "point" | "vector" => {
+                c.check_attrs(&["name", "value", "x", "y", "z"])?;
+                (
+                    Some(required_attr(c, "name")?),
+                    Value::Vec3(parse_xyz(c, 0.0)?),
+                )
+            }
+            "rgb" => {
+                c.check_attrs(&["name", "value"])?;
+                let rgb = rgb_value(c)?;
+                (Some(required_attr(c, "name")?), Value::Rgb(rgb))
+            }
+            "spectrum" => spectrum_property(c)?,
+            "transform" => (
+                Some(required_attr(c, "name")?),
+                Value::Transform(parse_transform(c)?),
+            ),
+            "ref" => self.ref_property(c)?,
+            "translate" | "rotate" | "scale" | "matrix" | "lookat" => {
+                return err(
+                    loc,
+                    format!("<{}> can only occur inside a <transform>", c.tag),
+                )
+            }
+            _ => (c.attr("name").map(String::from), Value::Object(c.clone())),
+        })
+    }
+
+    /// `<ref id=.../>`: the element the id names, under the ref's name if it has one.
+    fn ref_property(&self, c: &Elem) -> Result<(Option<String>, Value), SceneError> {
+        c.check_attrs(&["id", "name"])?;
+        let Some(id) = c.attr("id") else {
+            return err(&c.loc, "<ref> needs an 'id'");
+        };
+        let Some(target) = self.tree.ids.get(id) else {
+            return err(&c.loc, format!("reference to unknown id '{id}'"));
+        };
+        Ok((
+            c.attr("name").map(String::from),
+            Value::Object(target.clone()),
+        ))
     }
 
     /// The value of `r`, or None with its error kept for the report of the whole scene.
@@ -441,15 +519,11 @@ impl<'a> Builder<'a> {
         })
     }
 
+    /// The `<film>` (an hdrfilm): its size, crop window and box filter; Mitsuba's default
+    /// film, with warnings, when there is none.
     fn film(&mut self, e: Option<&Elem>, sensor_loc: &SourceLocation) -> Result<Film, SceneError> {
-        let no_box = |loc: &SourceLocation| {
-            format!(
-                "{loc}: no <rfilter type=\"box\"/>: Mitsuba uses its default gaussian filter \
-                 here, this renderer a box filter, so the images will differ slightly"
-            )
-        };
         let Some(e) = e else {
-            self.warnings.push(no_box(sensor_loc));
+            self.warnings.push(no_box_filter_warning(sensor_loc));
             self.warnings
                 .push(format!("{sensor_loc}: no <film>: {FLOAT16_NOTE}"));
             return Ok(Film {
@@ -466,55 +540,28 @@ impl<'a> Builder<'a> {
             );
         }
         let p = self.props(e)?;
-        let dim = |name: &str, default: i64| -> Result<u32, SceneError> {
-            Ok(p.integer_in(name, 0, u32::MAX as i64)?.unwrap_or(default) as u32)
-        };
-        let width = dim("width", 768)?;
-        let height = dim("height", 576)?;
+        let width = film_dim(&p, "width", 768)?;
+        let height = film_dim(&p, "height", 576)?;
         if width == 0 || height == 0 {
             return err(&e.loc, format!("film size {width}×{height} is empty"));
         }
-        let names = [
-            "crop_offset_x",
-            "crop_offset_y",
-            "crop_width",
-            "crop_height",
-        ];
-        let any_crop = names
-            .iter()
-            .map(|n| p.integer(n).map(|v| v.is_some()))
-            .collect::<Result<Vec<_>, _>>()?
-            .contains(&true);
-        let crop = if any_crop {
-            let c = CropWindow {
-                offset_x: dim("crop_offset_x", 0)?,
-                offset_y: dim("crop_offset_y", 0)?,
-                width: dim("crop_width", width as i64)?,
-                height: dim("crop_height", height as i64)?,
-            };
-            if c.width == 0
-                || c.height == 0
-                || c.offset_x as u64 + c.width as u64 > width as u64
-                || c.offset_y as u64 + c.height as u64 > height as u64
-            {
-                return err(
-                    &e.loc,
-                    format!(
-                        "invalid crop window: offset ({}, {}) + size ({}, {}) must be non-empty \
-                         and within the film ({width}, {height})",
-                        c.offset_x, c.offset_y, c.width, c.height
-                    ),
-                );
-            }
-            Some(c)
-        } else {
-            None
-        };
+        let crop = crop_window(&p, width, height, &e.loc)?;
         self.output_options(&p, &e.loc)?;
         // The box filter's radius (half a pixel) needs no border: no effect here.
         p.ignore(&["sample_border"]);
+        self.rfilter(&p, &e.loc)?;
+        p.finish()?;
+        Ok(Film {
+            width,
+            height,
+            crop,
+        })
+    }
+
+    /// The film's `<rfilter>`: only a box filter, and a warning when there is none.
+    fn rfilter(&mut self, p: &Props, film_loc: &SourceLocation) -> Result<(), SceneError> {
         match p.object("rfilter")? {
-            None => self.warnings.push(no_box(&e.loc)),
+            None => self.warnings.push(no_box_filter_warning(film_loc)),
             Some(f) => {
                 let ty = plugin_type(&f)?;
                 if ty != "box" {
@@ -531,12 +578,7 @@ impl<'a> Builder<'a> {
                 self.props(&f)?.finish()?;
             }
         }
-        p.finish()?;
-        Ok(Film {
-            width,
-            height,
-            crop,
-        })
+        Ok(())
     }
 
     /// hdrfilm's output options. They change the file Mitsuba writes, not the pixel values:

@@ -25,112 +25,153 @@ pub fn counted_triangles(path: &std::path::Path) -> Result<u64, String> {
 
 /// Parses OBJ text. Errors are "line N: message".
 pub fn parse_obj(text: &str, face_normals: bool) -> Result<RawMesh, String> {
-    let mut v: Vec<DVec3> = Vec::new();
-    let mut vn: Vec<DVec3> = Vec::new();
-    let mut vt_count = 0usize;
-    let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
-    let mut keys: Vec<[u32; 3]> = Vec::new();
-    let mut tris: Vec<[u32; 3]> = Vec::new();
-
+    let mut obj = ObjReader {
+        face_normals,
+        ..ObjReader::default()
+    };
     for (ln, line) in text.lines().enumerate() {
-        let ln = ln + 1;
+        obj.line(ln + 1, line)?;
+    }
+    obj.mesh()
+}
+
+/// What the lines read so far declare: positions, normals, the count of texture coordinates,
+/// the distinct (v, vt, vn) corners in order of first use, and the triangles over them.
+#[derive(Default)]
+struct ObjReader {
+    /// Whether normals are computed per face (then `vn` lines and corner normals are skipped).
+    face_normals: bool,
+    v: Vec<DVec3>,
+    vn: Vec<DVec3>,
+    vt_count: usize,
+    /// The number of each distinct corner (1-based v, vt, vn; 0 where absent).
+    ids: HashMap<[u32; 3], u32>,
+    keys: Vec<[u32; 3]>,
+    tris: Vec<[u32; 3]>,
+}
+
+impl ObjReader {
+    /// Reads line `ln` (1-based) of the file.
+    fn line(&mut self, ln: usize, line: &str) -> Result<(), String> {
         let mut tok = line.split_whitespace();
-        let Some(head) = tok.next() else { continue };
-        let floats = |tok: std::str::SplitWhitespace, n: usize| -> Result<Vec<f64>, String> {
-            let vals: Vec<f64> = tok
-                .take(n)
-                .map(|t| t.parse::<f64>())
-                .collect::<Result<_, _>>()
-                .map_err(|_| format!("line {ln}: could not parse '{}'", line.trim()))?;
-            if vals.len() < n {
-                return Err(format!(
-                    "line {ln}: expected {n} numbers in '{}'",
-                    line.trim()
-                ));
-            }
-            if vals.iter().any(|x| !x.is_finite()) {
-                return Err(format!("line {ln}: non-finite number in '{}'", line.trim()));
-            }
-            Ok(vals)
+        let Some(head) = tok.next() else {
+            return Ok(());
         };
         match head {
             "v" => {
-                let p = floats(tok, 3)?;
-                v.push(DVec3::new(p[0], p[1], p[2]));
+                let p = numbers(tok, 3, ln, line)?;
+                self.v.push(DVec3::new(p[0], p[1], p[2]));
             }
-            "vn" if !face_normals => {
-                let n = floats(tok, 3)?;
-                vn.push(DVec3::new(n[0], n[1], n[2]));
+            "vn" if !self.face_normals => {
+                let n = numbers(tok, 3, ln, line)?;
+                self.vn.push(DVec3::new(n[0], n[1], n[2]));
             }
             "vt" => {
-                floats(tok, 2)?;
-                vt_count += 1;
+                numbers(tok, 2, ln, line)?;
+                self.vt_count += 1;
             }
             "f" => {
                 let mut corners: Vec<u32> = Vec::new();
                 for c in tok {
-                    let mut key = [0u32; 3];
-                    for (slot, part) in c.split('/').enumerate() {
-                        if slot >= 3 {
-                            return Err(format!("line {ln}: malformed face corner '{c}'"));
-                        }
-                        if part.is_empty() {
-                            if slot == 0 {
-                                return Err(format!("line {ln}: malformed face corner '{c}'"));
-                            }
-                            continue;
-                        }
-                        let i: i64 = part
-                            .parse()
-                            .map_err(|_| format!("line {ln}: malformed face corner '{c}'"))?;
-                        if i <= 0 {
-                            return Err(format!(
-                                "line {ln}: index {i} in '{c}' is not supported (indices \
-                                 start at 1; relative indices are not supported)"
-                            ));
-                        }
-                        let (count, what) = match slot {
-                            0 => (v.len(), "vertex"),
-                            1 => (vt_count, "texture coordinate"),
-                            _ => (vn.len(), "normal"),
-                        };
-                        if slot == 2 && face_normals {
-                            continue; // normals are not read at all
-                        }
-                        if i as usize > count {
-                            return Err(format!("line {ln}: reference to invalid {what} {i}"));
-                        }
-                        key[slot] = i as u32;
-                    }
-                    let next = keys.len() as u32;
-                    let id = *ids.entry(key).or_insert_with(|| {
+                    let key = self.corner_key(ln, c)?;
+                    let next = self.keys.len() as u32;
+                    let keys = &mut self.keys;
+                    let id = *self.ids.entry(key).or_insert_with(|| {
                         keys.push(key);
                         next
                     });
                     corners.push(id);
                 }
                 for k in 2..corners.len() {
-                    tris.push([corners[0], corners[k - 1], corners[k]]);
+                    self.tris.push([corners[0], corners[k - 1], corners[k]]);
                 }
             }
             _ => {}
         }
+        Ok(())
     }
 
-    let positions = keys.iter().map(|k| v[k[0] as usize - 1]).collect();
-    let with_n = keys.iter().filter(|k| k[2] != 0).count();
-    let normals = if with_n == 0 {
-        None
-    } else if with_n < keys.len() {
-        return Err("some face corners have normals and others do not".into());
-    } else {
-        Some(keys.iter().map(|k| vn[k[2] as usize - 1]).collect())
-    };
-    Ok(RawMesh {
-        positions,
-        normals,
-        triangles: tris,
-    })
+    /// The (v, vt, vn) indices of face corner `c` ("v", "v/vt", "v//vn" or "v/vt/vn"), each
+    /// within what the lines before declared.
+    fn corner_key(&self, ln: usize, c: &str) -> Result<[u32; 3], String> {
+        let mut key = [0u32; 3];
+        for (slot, part) in c.split('/').enumerate() {
+            if slot >= 3 {
+                return Err(format!("line {ln}: malformed face corner '{c}'"));
+            }
+            if part.is_empty() {
+                if slot == 0 {
+                    return Err(format!("line {ln}: malformed face corner '{c}'"));
+                }
+                continue;
+            }
+            let i: i64 = part
+                .parse()
+                .map_err(|_| format!("line {ln}: malformed face corner '{c}'"))?;
+            if i <= 0 {
+                return Err(format!(
+                    "line {ln}: index {i} in '{c}' is not supported (indices \
+                     start at 1; relative indices are not supported)"
+                ));
+            }
+            let (count, what) = match slot {
+                0 => (self.v.len(), "vertex"),
+                1 => (self.vt_count, "texture coordinate"),
+                _ => (self.vn.len(), "normal"),
+            };
+            if slot == 2 && self.face_normals {
+                continue; // normals are not read at all
+            }
+            if i as usize > count {
+                return Err(format!("line {ln}: reference to invalid {what} {i}"));
+            }
+            key[slot] = i as u32;
+        }
+        Ok(key)
+    }
+
+    /// The mesh: one vertex per distinct corner; normals when every corner has one.
+    fn mesh(self) -> Result<RawMesh, String> {
+        let keys = &self.keys;
+        let positions = keys.iter().map(|k| self.v[k[0] as usize - 1]).collect();
+        let with_n = keys.iter().filter(|k| k[2] != 0).count();
+        let normals = if with_n == 0 {
+            None
+        } else if with_n < keys.len() {
+            return Err("some face corners have normals and others do not".into());
+        } else {
+            Some(keys.iter().map(|k| self.vn[k[2] as usize - 1]).collect())
+        };
+        Ok(RawMesh {
+            positions,
+            normals,
+            triangles: self.tris,
+        })
+    }
+}
+
+/// The first `n` numbers after the head of line `ln`: all parsed, present and finite.
+fn numbers(
+    tok: std::str::SplitWhitespace,
+    n: usize,
+    ln: usize,
+    line: &str,
+) -> Result<Vec<f64>, String> {
+    let vals: Vec<f64> = tok
+        .take(n)
+        .map(|t| t.parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("line {ln}: could not parse '{}'", line.trim()))?;
+    if vals.len() < n {
+        return Err(format!(
+            "line {ln}: expected {n} numbers in '{}'",
+            line.trim()
+        ));
+    }
+    if vals.iter().any(|x| !x.is_finite()) {
+        return Err(format!("line {ln}: non-finite number in '{}'", line.trim()));
+    }
+    Ok(vals)
 }
 
 #[cfg(test)]

@@ -157,6 +157,30 @@ fn pixel_size(scene: &Scene, dist: f64) -> f64 {
 /// points in the surface's plane); and the point values at sample points of every surface
 /// (for lights whose axis meets nothing). The largest in magnitude.
 pub fn effect(scene: &Scene, index: usize, light: &LinearLight) -> Option<RadiusEffect> {
+    let mut best = None;
+    for candidate in beyond_the_ends(scene, index, light) {
+        keep_larger(&mut best, candidate);
+    }
+    for candidate in off_the_axis(scene, index, light) {
+        keep_larger(&mut best, candidate);
+    }
+    best
+}
+
+/// `candidate` in `best` when it is larger in magnitude (or `best` is empty).
+fn keep_larger(best: &mut Option<RadiusEffect>, candidate: RadiusEffect) {
+    if best
+        .as_ref()
+        .is_none_or(|b| candidate.per_pixel > b.per_pixel)
+    {
+        *best = Some(candidate);
+    }
+}
+
+/// At each point where the light's axis, extended beyond an end, first meets a surface: the
+/// ratio of ΔE and E averaged over that pixel's footprint (at least 20 R wide), at most 100 %
+/// darker.
+fn beyond_the_ends(scene: &Scene, index: usize, light: &LinearLight) -> Vec<RadiusEffect> {
     let (p0, p1) = (light.begin.as_dvec3(), light.end.as_dvec3());
     let r = light.radius as f64;
     let a = (p1 - p0).normalize();
@@ -165,7 +189,7 @@ pub fn effect(scene: &Scene, index: usize, light: &LinearLight) -> Option<Radius
         .to_world
         .transform_point3(glam::Vec3::ZERO)
         .as_dvec3();
-    let mut best: Option<RadiusEffect> = None;
+    let mut out = Vec::new();
     for (end, dir) in [(p1, a), (p0, -a)] {
         let Some((t, n)) = first_hit(scene, end, dir) else {
             continue;
@@ -191,17 +215,50 @@ pub fn effect(scene: &Scene, index: usize, light: &LinearLight) -> Option<Radius
         }
         // Mitsuba's irradiance is not negative: at most 100 % darker.
         let signed = (de / e).max(-1.0);
-        if best.as_ref().is_none_or(|b| signed.abs() > b.per_pixel) {
-            best = Some(RadiusEffect {
+        out.push(RadiusEffect {
+            light: index,
+            per_pixel: signed.abs(),
+            at: x,
+            signed,
+        });
+    }
+    out
+}
+
+/// Point values ΔE/E at the surfaces' sample points that lie beside the light (between the
+/// planes through its ends), with the normal turned towards the light's middle.
+fn off_the_axis(scene: &Scene, index: usize, light: &LinearLight) -> Vec<RadiusEffect> {
+    let (p0, p1) = (light.begin.as_dvec3(), light.end.as_dvec3());
+    let r = light.radius as f64;
+    let a = (p1 - p0).normalize();
+    let mid = 0.5 * (p0 + p1);
+    let len = (p1 - p0).length();
+    let mut out = Vec::new();
+    for (x, n) in surface_points(scene, mid)
+        .into_iter()
+        .take(4 * OFF_AXIS_POINTS)
+    {
+        // Beyond an end the pixel means above apply (point values grow without bound there).
+        let along = (x - p0).dot(a);
+        let Some(n) = n.try_normalize().filter(|_| (0.0..=len).contains(&along)) else {
+            continue;
+        };
+        let n = if n.dot(mid - x) < 0.0 { -n } else { n };
+        if let Some(rel) = relative_at(x, n, p0, p1, r) {
+            out.push(RadiusEffect {
                 light: index,
-                per_pixel: signed.abs(),
+                per_pixel: rel.abs(),
                 at: x,
-                signed,
+                signed: rel,
             });
         }
     }
-    // Off the axis: point values at the surfaces' sample points (triangle centroids, sphere
-    // and disk centres), about OFF_AXIS_POINTS per mesh and 4 × OFF_AXIS_POINTS in all.
+    out
+}
+
+/// The surfaces' sample points with an (unnormalised) normal: triangle centroids, about
+/// OFF_AXIS_POINTS per mesh; the point of each sphere facing `towards`; disk centres.
+fn surface_points(scene: &Scene, towards: DVec3) -> Vec<(DVec3, DVec3)> {
     let mut points: Vec<(DVec3, DVec3)> = Vec::new();
     for s in &scene.shapes {
         match &s.geometry {
@@ -216,8 +273,8 @@ pub fn effect(scene: &Scene, index: usize, light: &LinearLight) -> Option<Radius
             }
             Geometry::Sphere { center, radius } => {
                 let c = center.as_dvec3();
-                let towards = (0.5 * (p0 + p1) - c).normalize_or_zero();
-                points.push((c + towards * *radius as f64, towards));
+                let to = (towards - c).normalize_or_zero();
+                points.push((c + to * *radius as f64, to));
             }
             Geometry::Disk { to_world } => {
                 let m = to_world.as_dmat4();
@@ -227,27 +284,7 @@ pub fn effect(scene: &Scene, index: usize, light: &LinearLight) -> Option<Radius
             Geometry::Cylinder { .. } => {}
         }
     }
-    let mid = 0.5 * (p0 + p1);
-    let len = (p1 - p0).length();
-    for (x, n) in points.into_iter().take(4 * OFF_AXIS_POINTS) {
-        // Beyond an end the pixel means above apply (point values grow without bound there).
-        let along = (x - p0).dot(a);
-        let Some(n) = n.try_normalize().filter(|_| (0.0..=len).contains(&along)) else {
-            continue;
-        };
-        let n = if n.dot(mid - x) < 0.0 { -n } else { n };
-        if let Some(rel) = relative_at(x, n, p0, p1, r) {
-            if best.as_ref().is_none_or(|b| rel.abs() > b.per_pixel) {
-                best = Some(RadiusEffect {
-                    light: index,
-                    per_pixel: rel.abs(),
-                    at: x,
-                    signed: rel,
-                });
-            }
-        }
-    }
-    best
+    points
 }
 
 /// Sample points per mesh for the off-axis part of [`effect`].

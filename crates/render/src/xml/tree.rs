@@ -279,58 +279,22 @@ impl TreeBuilder {
         if !node.is_element() {
             return Ok(()); // comments, processing instructions
         }
-        let tag = node.tag_name().name().to_string();
-        let mut attrs = Vec::new();
-        let is_root = node.parent().is_some_and(|p| p.is_root());
-        for a in node.attributes() {
-            if a.name() == "version" && is_root {
-                check_version(a.value(), &loc)?;
-                continue;
+        let mut elem = self.element(node, loc)?;
+        if matches!(elem.tag.as_str(), "default" | "include") {
+            if let Some(ch) = node.children().find(|c| c.is_element()) {
+                return err(
+                    &lines.location(file, ch.range().start),
+                    format!(
+                        "<{}> cannot be nested inside <{}> (it takes attributes only; the \
+                         element would be lost): move it into the plugin it belongs to",
+                        ch.tag_name().name(),
+                        elem.tag
+                    ),
+                );
             }
-            attrs.push((a.name().to_string(), self.substitute(a.value(), &loc)?));
-        }
-        let mut elem = Elem {
-            tag,
-            attrs,
-            children: Vec::new(),
-            loc,
-        };
-        match elem.tag.as_str() {
-            "default" | "include" => {
-                if let Some(ch) = node.children().find(|c| c.is_element()) {
-                    return err(
-                        &lines.location(file, ch.range().start),
-                        format!(
-                            "<{}> cannot be nested inside <{}> (it takes attributes only; the \
-                             element would be lost): move it into the plugin it belongs to",
-                            ch.tag_name().name(),
-                            elem.tag
-                        ),
-                    );
-                }
-            }
-            _ => {}
         }
         match elem.tag.as_str() {
-            "default" => {
-                elem.check_attrs(&["name", "value"])?;
-                let (Some(name), Some(value)) = (elem.attr("name"), elem.attr("value")) else {
-                    return err(&elem.loc, "<default> needs 'name' and 'value'");
-                };
-                if name.is_empty() {
-                    return err(&elem.loc, "<default> name must be non-empty");
-                }
-                // An override of the same name wins, and is *not* thereby used (Mitsuba).
-                if !self.params.iter().any(|p| p.name == name) {
-                    self.params.push(Param {
-                        name: name.to_string(),
-                        value: value.to_string(),
-                        used: true,
-                        is_override: false,
-                    });
-                }
-                return Ok(());
-            }
+            "default" => return self.default(&elem),
             "include" => return self.include(&elem, out),
             t if is_plugin_tag(t) || PROPERTY_TAGS.contains(&t) || TRANSFORM_OPS.contains(&t) => {}
             t => return err(&elem.loc, format!("unsupported element <{t}>")),
@@ -349,18 +313,67 @@ impl TreeBuilder {
             );
         }
         let elem = Rc::new(elem);
-        if is_plugin_tag(&elem.tag) {
-            if let Some(id) = elem.attr("id") {
-                if let Some(prev) = self.ids.get(id) {
-                    return err(
-                        &elem.loc,
-                        format!("duplicate id '{id}' (previous at {})", prev.loc),
-                    );
-                }
-                self.ids.insert(id.to_string(), elem.clone());
-            }
-        }
+        self.register_id(&elem)?;
         out.push(elem);
+        Ok(())
+    }
+
+    /// The element of an XML element node, without its children: its tag and its attributes
+    /// with parameters substituted (the root's `version` is checked and dropped).
+    fn element(&mut self, node: roxmltree::Node, loc: SourceLocation) -> Result<Elem, SceneError> {
+        let tag = node.tag_name().name().to_string();
+        let mut attrs = Vec::new();
+        let is_root = node.parent().is_some_and(|p| p.is_root());
+        for a in node.attributes() {
+            if a.name() == "version" && is_root {
+                check_version(a.value(), &loc)?;
+                continue;
+            }
+            attrs.push((a.name().to_string(), self.substitute(a.value(), &loc)?));
+        }
+        Ok(Elem {
+            tag,
+            attrs,
+            children: Vec::new(),
+            loc,
+        })
+    }
+
+    /// `<default name=... value=.../>`: declares a parameter unless an override of the same
+    /// name exists (which wins, and is *not* thereby used, as in Mitsuba).
+    fn default(&mut self, elem: &Elem) -> Result<(), SceneError> {
+        elem.check_attrs(&["name", "value"])?;
+        let (Some(name), Some(value)) = (elem.attr("name"), elem.attr("value")) else {
+            return err(&elem.loc, "<default> needs 'name' and 'value'");
+        };
+        if name.is_empty() {
+            return err(&elem.loc, "<default> name must be non-empty");
+        }
+        if !self.params.iter().any(|p| p.name == name) {
+            self.params.push(Param {
+                name: name.to_string(),
+                value: value.to_string(),
+                used: true,
+                is_override: false,
+            });
+        }
+        Ok(())
+    }
+
+    /// Records a plugin's `id` for `<ref>`; a second plugin with the same id is an error.
+    fn register_id(&mut self, elem: &Rc<Elem>) -> Result<(), SceneError> {
+        if !is_plugin_tag(&elem.tag) {
+            return Ok(());
+        }
+        if let Some(id) = elem.attr("id") {
+            if let Some(prev) = self.ids.get(id) {
+                return err(
+                    &elem.loc,
+                    format!("duplicate id '{id}' (previous at {})", prev.loc),
+                );
+            }
+            self.ids.insert(id.to_string(), elem.clone());
+        }
         Ok(())
     }
 

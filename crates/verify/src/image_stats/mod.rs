@@ -685,10 +685,77 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
         contact: &contact,
         allowance,
     };
+    let found = test_channels(a, b, &ctx, nu, &levels);
+    let precision = (!found.not_equivalent.is_empty())
+        .then(|| {
+            precision::samples_needed(&found.channels, cfg.tolerance, (a.meta.spp, b.meta.spp))
+        })
+        .flatten();
+    Ok(Comparison {
+        verdict: found.verdict(),
+        failures: found.failures,
+        not_equivalent: found.not_equivalent,
+        precision,
+        width: w,
+        height: h,
+        config: cfg.clone(),
+        tests,
+        alpha_test,
+        alpha_equivalence: levels.alpha_eq,
+        dof_a: nu.0,
+        dof_b: nu.1,
+        spp_a: a.meta.spp,
+        spp_b: b.meta.spp,
+        channels: found.channels,
+        pixel_classes: found.classes,
+        zero_variance: found.zero_variance,
+        contact_pixels: contact_list,
+        contact_allowance: allowance,
+        metrics: error_metrics(a, b),
+        maps: found.maps,
+    })
+}
+
+/// What the tests of every channel found.
+struct ChannelFindings {
+    channels: Vec<ChannelReport>,
+    /// Difference tests that rejected, the zero-variance check first.
+    failures: Vec<Failure>,
+    /// Equivalence intervals that did not show equivalence.
+    not_equivalent: Vec<Failure>,
+    classes: PixelClasses,
+    zero_variance: ZeroVarianceReport,
+    maps: Maps,
+}
+
+impl ChannelFindings {
+    /// DIFFERENT on any failure, else INCONCLUSIVE while equivalence is not shown.
+    fn verdict(&self) -> Verdict {
+        if !self.failures.is_empty() {
+            Verdict::Different
+        } else if !self.not_equivalent.is_empty() {
+            Verdict::Inconclusive
+        } else {
+            Verdict::Consistent
+        }
+    }
+}
+
+/// Scans each channel and runs its global, tile, pixel and contact tests at the levels of
+/// `levels` (difference tests at `levels.alpha_test` each).
+fn test_channels(
+    a: &Image,
+    b: &Image,
+    ctx: &ScanContext,
+    nu: (f64, f64),
+    levels: &GlobalLevels,
+) -> ChannelFindings {
+    let (w, h) = (a.width, a.height);
+    let alpha_test = levels.alpha_test;
     let mut maps = Maps {
         z: vec![[0.0; 3]; w * h],
         state: vec![[PixelState::Tested; 3]; w * h],
-        tiles: grids.regions.iter().map(|r| (*r, [None; 3])).collect(),
+        tiles: ctx.grids.regions.iter().map(|r| (*r, [None; 3])).collect(),
     };
     let mut classes = PixelClasses::default();
     let mut zero = ZeroVarianceTally::new();
@@ -696,9 +763,9 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
     let mut not_equivalent = Vec::new();
     let mut channels = Vec::new();
     for (c, &channel) in CHANNELS.iter().enumerate() {
-        let scan = scan_channel(a, b, c, &ctx, &mut maps, &mut classes, &mut zero);
-        let (global, global_failures) = global_tests(&scan.global, nu, &levels, channel);
-        let tiles = tile_tests(&scan.tiles, &grids, nu, alpha_test, channel);
+        let scan = scan_channel(a, b, c, ctx, &mut maps, &mut classes, &mut zero);
+        let (global, global_failures) = global_tests(&scan.global, nu, levels, channel);
+        let tiles = tile_tests(&scan.tiles, ctx.grids, nu, alpha_test, channel);
         for (tile, p) in maps.tiles.iter_mut().zip(&tiles.p_holm) {
             tile.1[c] = *p;
         }
@@ -725,39 +792,14 @@ pub fn compare(a: &Image, b: &Image, cfg: &CompareConfig) -> Result<Comparison, 
     if let Some(f) = zero.failure() {
         failures.insert(0, f);
     }
-    let verdict = if !failures.is_empty() {
-        Verdict::Different
-    } else if !not_equivalent.is_empty() {
-        Verdict::Inconclusive
-    } else {
-        Verdict::Consistent
-    };
-    let precision = (!not_equivalent.is_empty())
-        .then(|| precision::samples_needed(&channels, cfg.tolerance, (a.meta.spp, b.meta.spp)))
-        .flatten();
-    Ok(Comparison {
-        verdict,
+    ChannelFindings {
+        channels,
         failures,
         not_equivalent,
-        precision,
-        width: w,
-        height: h,
-        config: cfg.clone(),
-        tests,
-        alpha_test,
-        alpha_equivalence: levels.alpha_eq,
-        dof_a: nu.0,
-        dof_b: nu.1,
-        spp_a: a.meta.spp,
-        spp_b: b.meta.spp,
-        channels,
-        pixel_classes: classes,
+        classes,
         zero_variance: zero.report,
-        contact_pixels: contact_list,
-        contact_allowance: allowance,
-        metrics: error_metrics(a, b),
         maps,
-    })
+    }
 }
 
 #[cfg(test)]
