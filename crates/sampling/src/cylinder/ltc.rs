@@ -338,33 +338,12 @@ impl CylinderSampler for CylinderLtc {
             .then_some(CylinderSample { dir, pdf, distance })
     }
 
-    /// The hit as ours' `pdf_toward` (the azimuth's atan2, the rest as ratios), then the slice.
+    /// The hit by [`CylinderView::front_hit`], then the slice's density there.
     fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
-        let v = &self.view;
-        let (dc, dw, du) = (dir.dot(v.c), dir.dot(v.w), dir.dot(v.u));
-        let horizontal = (dc * dc + dw * dw).sqrt();
-        let alpha = atan2_f64(dw, dc);
-        if horizontal <= 0.0 || alpha.is_nan() || alpha.abs() > v.alpha_max {
-            return None;
-        }
-        let (sin, cos) = (dw / horizontal, dc / horizontal);
-        let h = v.h_of(sin, cos);
-        let length = (horizontal * horizontal + du * du).sqrt();
-        let s = du / length;
-        let end = |e: f64| e / (e * e + h * h).sqrt();
-        if !(s >= end(v.a) && s <= end(v.b)) {
-            return None;
-        }
-        let at = SliceAt {
-            alpha,
-            sin,
-            cos,
-            h,
-            n_t: cos * v.n_c + sin * v.n_w,
-        };
-        let slice = self.slice_from(at);
-        let p = slice.density_at(self, s, horizontal / length, v.n.dot(dir) / length);
-        Some((p, h * length / horizontal))
+        let hit = self.view.front_hit(dir)?;
+        let slice = self.slice_from(hit.slice);
+        let p = slice.density_at(self, hit.s, hit.t, hit.n_dot_w);
+        Some((p, hit.distance))
     }
 
     fn view(&self) -> &CylinderView {

@@ -284,6 +284,53 @@ impl CylinderView {
     }
 }
 
+impl CylinderView {
+    /// Where `dir` (any length) meets the front, from its components along ĉ, w and u: the
+    /// azimuth by one atan2, everything else as ratios, the ends compared as sin φ with
+    /// e/√(e² + h²). `None` off the front (also for a NaN component, which makes α NaN).
+    pub(crate) fn front_hit(&self, dir: DVec3) -> Option<FrontHit> {
+        let (dc, dw, du) = (dir.dot(self.c), dir.dot(self.w), dir.dot(self.u));
+        let horizontal = (dc * dc + dw * dw).sqrt();
+        let alpha = crate::trig::atan2_f64(dw, dc);
+        if horizontal <= 0.0 || alpha.is_nan() || alpha.abs() > self.alpha_max {
+            return None;
+        }
+        let (sin, cos) = (dw / horizontal, dc / horizontal);
+        let h = self.h_of(sin, cos);
+        let length = (horizontal * horizontal + du * du).sqrt();
+        let s = du / length;
+        let end = |e: f64| e / (e * e + h * h).sqrt();
+        if !(s >= end(self.a) && s <= end(self.b)) {
+            return None;
+        }
+        let slice = SliceAt {
+            alpha,
+            sin,
+            cos,
+            h,
+            n_t: cos * self.n_c + sin * self.n_w,
+        };
+        Some(FrontHit {
+            slice,
+            s,
+            t: horizontal / length,
+            n_dot_w: self.n.dot(dir) / length,
+            distance: h * length / horizontal,
+        })
+    }
+}
+
+/// A direction's hit on the front ([`CylinderView::front_hit`]): its slice, sin φ and cos φ,
+/// n·ω of the unit direction, and the distance from x to the side.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FrontHit {
+    pub slice: SliceAt,
+    pub s: f64,
+    pub t: f64,
+    pub n_dot_w: f64,
+    pub distance: f64,
+}
+
 /// The values of one azimuth α that the slice there needs ([`CylinderView::slice_at`]).
 #[derive(Clone, Copy, Debug)]
 pub struct SliceAt {

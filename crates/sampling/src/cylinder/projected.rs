@@ -300,35 +300,16 @@ impl CylinderSampler for CylinderProjected {
             .then_some(CylinderSample { dir, pdf, distance })
     }
 
-    /// The hit from the direction's components along ĉ, w and u: the azimuth's atan2 (for q)
-    /// and otherwise sines and cosines as ratios, the ends compared as sin φ with
-    /// e/√(e² + h²); n·ω = n·dir/|dir|.
+    /// The hit by [`CylinderView::front_hit`], then the slice's density there.
     fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
-        let v = &self.view;
-        let (dc, dw, du) = (dir.dot(v.c), dir.dot(v.w), dir.dot(v.u));
-        let horizontal = (dc * dc + dw * dw).sqrt();
-        let alpha = atan2_f64(dw, dc);
-        // A NaN component makes α NaN.
-        if horizontal <= 0.0 || alpha.is_nan() || alpha.abs() > v.alpha_max {
-            return None;
-        }
-        let (sin, cos) = (dw / horizontal, dc / horizontal);
-        let h = v.h_of(sin, cos);
-        let length = (horizontal * horizontal + du * du).sqrt();
-        let s = du / length;
-        let end = |e: f64| e / (e * e + h * h).sqrt();
-        if !(s >= end(v.a) && s <= end(v.b)) {
-            return None;
-        }
-        let distance = h * length / horizontal;
-        let p = match slice_of(v, h, cos * v.n_c + sin * v.n_w) {
+        let hit = self.view.front_hit(dir)?;
+        let p = match slice_of(&self.view, hit.slice.h, hit.slice.n_t) {
             Some(core) => {
-                let n_dot_w = v.n.dot(dir) / length;
-                self.azimuth_density(alpha) * 2.0 * n_dot_w.max(0.0) / core.total
+                self.azimuth_density(hit.slice.alpha) * 2.0 * hit.n_dot_w.max(0.0) / core.total
             }
             None => 0.0,
         };
-        Some((p, distance))
+        Some((p, hit.distance))
     }
 
     fn inverse(&self, dir: DVec3) -> Option<[f64; 2]> {
