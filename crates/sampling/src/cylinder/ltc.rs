@@ -338,7 +338,7 @@ impl CylinderSampler for CylinderLtc {
             .then_some(CylinderSample { dir, pdf, distance })
     }
 
-    /// The hit by [`CylinderView::front_hit`], then the slice's density there.
+    /// The hit by the view's `front_hit`, then the slice's density there.
     fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
         let hit = self.view.front_hit(dir)?;
         let slice = self.slice_from(hit.slice);

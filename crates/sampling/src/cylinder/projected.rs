@@ -300,7 +300,7 @@ impl CylinderSampler for CylinderProjected {
             .then_some(CylinderSample { dir, pdf, distance })
     }
 
-    /// The hit by [`CylinderView::front_hit`], then the slice's density there.
+    /// The hit by the view's `front_hit`, then the slice's density there.
     fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
         let hit = self.view.front_hit(dir)?;
         let p = match slice_of(&self.view, hit.slice.h, hit.slice.n_t) {
