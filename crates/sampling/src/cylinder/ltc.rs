@@ -194,7 +194,7 @@ impl CylinderLtc {
                 sin,
                 cos,
                 h,
-                n_t: cos * view.n_c + sin * view.n_w,
+                n_t: view.n_t_of(sin, cos),
             };
             LtcPart::new(view, &lobe, &at).map_or(0.0, |p| 1.0 / p.scale)
         });
@@ -240,7 +240,8 @@ impl CylinderLtc {
     /// n (0 below it): the lobe this technique follows.
     pub fn lobe_density(&self, dir: DVec3) -> f64 {
         let dir = dir.normalize_or_zero();
-        if self.view.n.dot(dir).is_nan() || self.view.n.dot(dir) <= 0.0 {
+        let n_dot_w = self.view.n.dot(dir);
+        if n_dot_w.is_nan() || n_dot_w <= 0.0 {
             return 0.0;
         }
         let l = &self.lobe;
@@ -333,9 +334,7 @@ impl CylinderSampler for CylinderLtc {
         let at = &slice.at;
         let dir = t * (at.cos * v.c + at.sin * v.w) + s * v.u;
         let pdf = slice.density_at(self, s, t, n_dot_w.max(0.0));
-        let distance = at.h / t;
-        (pdf > 0.0 && pdf.is_finite() && distance > 0.0 && distance.is_finite())
-            .then_some(CylinderSample { dir, pdf, distance })
+        CylinderSample::checked(dir, pdf, at.h / t)
     }
 
     /// The hit by the view's `front_hit`, then the slice's density there.

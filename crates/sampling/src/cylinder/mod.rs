@@ -174,7 +174,7 @@ impl CylinderView {
             sin,
             cos,
             h: self.h_of(sin, cos),
-            n_t: cos * self.n_c + sin * self.n_w,
+            n_t: self.n_t_of(sin, cos),
         }
     }
 
@@ -212,7 +212,13 @@ impl CylinderView {
     #[inline]
     pub fn n_t(&self, alpha: f64) -> f64 {
         let (s, c) = alpha.sin_cos();
-        c * self.n_c + s * self.n_w
+        self.n_t_of(s, c)
+    }
+
+    /// n·ĉ_α from sin α and cos α.
+    #[inline]
+    pub(crate) fn n_t_of(&self, sin_alpha: f64, cos_alpha: f64) -> f64 {
+        cos_alpha * self.n_c + sin_alpha * self.n_w
     }
 
     /// The unit direction (α, φ).
@@ -308,7 +314,7 @@ impl CylinderView {
             sin,
             cos,
             h,
-            n_t: cos * self.n_c + sin * self.n_w,
+            n_t: self.n_t_of(sin, cos),
         };
         Some(FrontHit {
             slice,
@@ -350,6 +356,18 @@ pub struct CylinderSample {
     pub dir: DVec3,
     pub pdf: f64,
     pub distance: f64,
+}
+
+impl CylinderSample {
+    /// The sample if its density and distance are positive and finite (else it contributes
+    /// nothing).
+    pub(crate) fn checked(dir: DVec3, pdf: f64, distance: f64) -> Option<Self> {
+        (pdf > 0.0 && pdf.is_finite() && distance > 0.0 && distance.is_finite()).then_some(Self {
+            dir,
+            pdf,
+            distance,
+        })
+    }
 }
 
 /// A technique prepared for one cylinder at one shading point: the triad of the line samplers

@@ -182,8 +182,7 @@ impl CylinderProjected {
         let v = view;
         let nodes = section_nodes(v);
         let m = nodes.map(|(_, sin, cos, h)| {
-            let nt = cos * v.n_c + sin * v.n_w;
-            slice_of(v, h, nt).map_or(0.0, |core| core.total)
+            slice_of(v, h, v.n_t_of(sin, cos)).map_or(0.0, |core| core.total)
         });
         Some(Self {
             view: *view,
@@ -295,9 +294,7 @@ impl CylinderSampler for CylinderProjected {
         let (_, (s, t, n_dot_w)) = core.solve_with_values(clamp_xi(xi[1]), self.iterations);
         let dir = t * (at.cos * v.c + at.sin * v.w) + s * v.u;
         let pdf = self.azimuth_density(alpha) * 2.0 * n_dot_w.max(0.0) / core.total;
-        let distance = at.h / t;
-        (pdf > 0.0 && pdf.is_finite() && distance > 0.0 && distance.is_finite())
-            .then_some(CylinderSample { dir, pdf, distance })
+        CylinderSample::checked(dir, pdf, at.h / t)
     }
 
     /// The hit by the view's `front_hit`, then the slice's density there.
