@@ -120,6 +120,23 @@ fn collapse(bin: &[BuildNode], root: u32, out: &mut Vec<Node>) -> u32 {
     index
 }
 
+/// The 4-wide tree of the binary tree `bin` (empty when `bin` is), allocated once: a 4-wide
+/// node holds at least one interior node of the binary tree (or is the root leaf), so there
+/// are at most max(1, interior) of them and the pages past the tree's end are never touched.
+/// The vector is shrunk to its length after `bin` is freed (a copy: `Node` is over-aligned
+/// for `realloc`). Grown by pushes, the old and the new allocation would coexist on every
+/// doubling, at the peak memory of a large scene's build.
+fn collapsed(bin: Vec<BuildNode>) -> Vec<Node> {
+    let interior = bin.iter().filter(|n| n.count == 0).count();
+    let mut nodes = Vec::with_capacity(interior.max(1));
+    if !bin.is_empty() {
+        collapse(&bin, 0, &mut nodes);
+    }
+    drop(bin);
+    nodes.shrink_to_fit();
+    nodes
+}
+
 /// What traversal needs to intersect a primitive: triangles with their edges precomputed (same
 /// arithmetic as [`Primitive::intersect`], so the same results bit for bit), everything else
 /// through the primitive itself.
@@ -651,14 +668,14 @@ impl Bvh {
             .collect();
         let mut order: Vec<u32> = (0..items.len() as u32).collect();
         let mut bin = Vec::with_capacity(2 * items.len().max(1));
-        let mut nodes = Vec::new();
         if !items.is_empty() {
             let extent = Extent::of(&items);
             build_node(&mut items, &mut order, 0, 0, extent, &mut bin);
-            collapse(&bin, 0, &mut nodes);
         }
-        drop(bin);
+        // The builder's boxes go before the collapse, which holds the binary and the 4-wide
+        // tree at once (with the primitives, the peak memory of a large scene's build).
         drop(items);
+        let nodes = collapsed(bin);
         let isect: Vec<Isect> = order
             .iter()
             .map(|&i| match prims[i as usize] {
@@ -1743,13 +1760,7 @@ mod tests {
                 glam::Quat::from_axis_angle((r3() - 0.5).normalize_or(Vec3::X), 1.0),
                 r3() * 10.0,
             );
-            let to_local = to_world.inverse();
-            let normal = crate::shapes::transformed_normal(&to_local);
-            prims.push(Primitive::Disk {
-                to_local,
-                normal,
-                shape: 500 + i,
-            });
+            prims.push(Primitive::disk(to_world.inverse(), 500 + i));
         }
         prims.push(Primitive::Cylinder {
             p0: Vec3::splat(1.0),
@@ -1956,12 +1967,7 @@ mod tests {
                 shape: 2000 + i,
             });
             let to_world = glam::Mat4::from_translation(r3() * 10.0);
-            let to_local = to_world.inverse();
-            prims.push(Primitive::Disk {
-                to_local,
-                normal: crate::shapes::transformed_normal(&to_local),
-                shape: 3000 + i,
-            });
+            prims.push(Primitive::disk(to_world.inverse(), 3000 + i));
         }
         let bvh = Bvh::build(prims);
         assert!(bvh.tiny.is_empty());

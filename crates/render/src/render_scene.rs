@@ -11,7 +11,7 @@ use crate::light_tree::LightTree;
 use crate::options::{window, Cylinders, RenderError};
 use crate::scene::{Bsdf, Geometry, Scene};
 use crate::shadow_culling::ShadowCulling;
-use crate::shapes::{transformed_normal, Primitive};
+use crate::shapes::Primitive;
 use crate::tube::Tubes;
 use crate::visible_line::VisibleLines;
 use glam::Vec3;
@@ -242,7 +242,15 @@ impl RenderScene {
 /// an index out of range skipped), and the spheres, disks (with an invertible finite
 /// transform) and cylinders (of positive finite length and non-zero radius).
 fn primitives(scene: &Scene) -> Vec<Primitive> {
-    let mut prims = Vec::new();
+    // Reserved exactly: grown by pushes, the largest allocation of a large scene would be
+    // copied on the way and reserve up to twice its size.
+    let count = (scene.shapes.iter())
+        .map(|s| match &s.geometry {
+            Geometry::Mesh { indices, .. } => indices.len(),
+            _ => 1,
+        })
+        .sum();
+    let mut prims = Vec::with_capacity(count);
     for (i, shape) in scene.shapes.iter().enumerate() {
         let s = i as u32;
         match &shape.geometry {
@@ -253,16 +261,12 @@ fn primitives(scene: &Scene) -> Vec<Primitive> {
             } => {
                 let normals = normals.as_ref().filter(|n| n.len() == positions.len());
                 for tri in indices {
-                    let Some(v) = tri
-                        .iter()
-                        .map(|&k| positions.get(k as usize).copied())
-                        .collect::<Option<Vec<_>>>()
-                    else {
+                    let [Some(a), Some(b), Some(c)] = tri.map(|k| positions.get(k as usize)) else {
                         continue; // out-of-range index (the loader should have rejected it)
                     };
                     let n = normals.map(|n| tri.map(|k| n[k as usize]));
                     prims.push(Primitive::Triangle {
-                        v: [v[0], v[1], v[2]],
+                        v: [*a, *b, *c],
                         n,
                         shape: s,
                     });
@@ -276,13 +280,7 @@ fn primitives(scene: &Scene) -> Vec<Primitive> {
             Geometry::Disk { to_world } => {
                 let det = to_world.determinant();
                 if det != 0.0 && det.is_finite() {
-                    let to_local = to_world.inverse();
-                    let normal = transformed_normal(&to_local);
-                    prims.push(Primitive::Disk {
-                        to_local,
-                        normal,
-                        shape: s,
-                    });
+                    prims.push(Primitive::disk(to_world.inverse(), s));
                 }
             }
             Geometry::Cylinder { p0, p1, radius } => {

@@ -72,10 +72,12 @@ pub enum Primitive {
         radius: f32,
         shape: u32,
     },
-    /// Unit disk of the local xy-plane; `to_local` is the inverse of its to_world (only the
-    /// inverse is stored: it keeps every primitive small, which matters for large meshes).
+    /// Unit disk of the local xy-plane; `to_local` is the inverse of its to_world, its
+    /// columns as [`Mat4::to_cols_array`] (made by [`Primitive::disk`]). Only the inverse is
+    /// stored, and as an array of 4-byte alignment: a 16-byte aligned `Mat4` would pad every
+    /// primitive, triangles included, from 84 to 96 bytes.
     Disk {
-        to_local: Mat4,
+        to_local: [f32; 16],
         normal: Vec3,
         shape: u32,
     },
@@ -101,6 +103,15 @@ pub struct SurfacePoint {
 }
 
 impl Primitive {
+    /// The unit disk of the local xy-plane under the inverse `to_local` of its to_world.
+    pub fn disk(to_local: Mat4, shape: u32) -> Self {
+        Primitive::Disk {
+            to_local: to_local.to_cols_array(),
+            normal: transformed_normal(&to_local),
+            shape,
+        }
+    }
+
     pub fn shape(&self) -> u32 {
         match *self {
             Primitive::Triangle { shape, .. }
@@ -119,7 +130,7 @@ impl Primitive {
                 b.grow(center + Vec3::splat(radius));
             }
             Primitive::Disk { to_local, .. } => {
-                let to_world = to_local.inverse();
+                let to_world = Mat4::from_cols_array(&to_local).inverse();
                 for (x, y) in [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)] {
                     b.grow(to_world.transform_point3(Vec3::new(x, y, 0.0)));
                 }
@@ -155,6 +166,7 @@ impl Primitive {
                 nearest_root(a, half_b, c, ray, |_| true)
             }
             Primitive::Disk { to_local, .. } => {
+                let to_local = Mat4::from_cols_array(&to_local);
                 let o = to_local.transform_point3(ray.o);
                 let d = to_local.transform_vector3(ray.d);
                 let t = -o.z / d.z;
@@ -426,23 +438,27 @@ mod tests {
         assert!((0.2 + 0.1 * t - 0.5).abs() < 1e-4);
     }
 
+    /// The BVH keeps one primitive per triangle, the largest allocation of a large scene:
+    /// 84 bytes, a triangle's vertices, optional normals and shape, and the tag (no padding).
+    #[test]
+    fn primitive_size() {
+        assert_eq!(std::mem::size_of::<Primitive>(), 84);
+    }
+
     #[test]
     fn disk_and_triangle_hits() {
         let to_world =
             Mat4::from_translation(Vec3::new(0.0, 0.0, 2.0)) * Mat4::from_scale(Vec3::splat(0.5));
-        let to_local = to_world.inverse();
-        let normal = transformed_normal(&to_local);
-        let d = Primitive::Disk {
-            to_local,
-            normal,
-            shape: 0,
-        };
+        let d = Primitive::disk(to_world.inverse(), 0);
         assert!(d
             .intersect(&ray(Vec3::new(0.4, 0.0, 0.0), Vec3::Z))
             .is_some());
         assert!(d
             .intersect(&ray(Vec3::new(0.6, 0.0, 0.0), Vec3::Z))
             .is_none());
+        let Primitive::Disk { normal, .. } = d else {
+            unreachable!("Primitive::disk makes a disk")
+        };
         assert_eq!(normal, Vec3::Z);
 
         let tri = Primitive::Triangle {

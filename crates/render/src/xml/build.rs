@@ -788,6 +788,8 @@ impl<'a> Builder<'a> {
             path: self.tree.resolve(&name),
             ply: ty == "ply",
             face_normals,
+            to_world: p.transform("to_world").ok()?.unwrap_or(DMat4::IDENTITY),
+            loc: e.loc.clone(),
         })
     }
 
@@ -908,37 +910,24 @@ impl<'a> Builder<'a> {
         };
         // Only affects texture coordinates, which this renderer does not use.
         p.boolean("flip_tex_coords")?;
-        let path = self.tree.resolve(&name);
         let read = read.unwrap_or_else(|| {
             read_mesh(&MeshJob {
-                path: path.clone(),
+                path: self.tree.resolve(&name),
                 ply: ty == "ply",
                 face_normals,
+                to_world: *m,
+                loc: loc.clone(),
             })
         });
-        let what = ty.to_uppercase();
-        let raw = match read {
-            Ok(raw) => raw,
-            Err(MeshError::Read(io)) => return err(&nloc, format!("cannot read mesh file: {io}")),
-            Err(MeshError::Refused(why)) => return err(loc, why),
-            Err(MeshError::Parse(m)) => {
-                return err(
-                    loc,
-                    format!("error loading {what} file '{}': {m}", path.display()),
-                )
+        match read {
+            Ok((geometry, warning)) => {
+                self.warnings.extend(warning);
+                Ok(geometry)
             }
-        };
-        if raw.triangles.is_empty() {
-            return err(
-                loc,
-                format!(
-                    "{what} file '{}' contains no faces (Mitsuba cannot load an empty mesh \
-                     either)",
-                    path.display()
-                ),
-            );
+            Err(MeshError::Read(io)) => err(&nloc, format!("cannot read mesh file: {io}")),
+            Err(MeshError::Refused(why)) => err(loc, why),
+            Err(MeshError::Built(e)) => Err(e),
         }
-        self.world_mesh(raw, m, face_normals, true, loc)
     }
 
     /// A `cylinder`: a linear light when it has an (area) emitter, else an occluder.
@@ -1032,11 +1021,14 @@ fn sphere(p: &Props, m: &DMat4, loc: &SourceLocation) -> Result<Geometry, SceneE
     })
 }
 
-/// A mesh file to read: its path, format and whether face normals were asked for.
+/// A mesh file to read: its path, format, whether face normals were asked for, and its
+/// shape's to_world and location.
 struct MeshJob {
     path: std::path::PathBuf,
     ply: bool,
     face_normals: bool,
+    to_world: DMat4,
+    loc: SourceLocation,
 }
 
 /// Per job, why the budget refuses it: the triangles of the mesh files up to and including it
@@ -1077,29 +1069,50 @@ fn refusals(jobs: &[Option<MeshJob>], budget: &MeshBudget) -> Vec<Option<String>
         .collect()
 }
 
-/// Why a mesh file gave no mesh: it could not be read, its content was refused, or it was
-/// refused unread (the budget).
+/// Why a mesh file gave no mesh: it could not be read, it was refused unread (the budget),
+/// or its content was refused (the shape's error).
 enum MeshError {
     Read(String),
-    Parse(String),
     Refused(String),
+    Built(SceneError),
 }
 
-type MeshRead = Result<RawMesh, MeshError>;
+/// A mesh file's world-space mesh and its warning, if any.
+type MeshRead = Result<(Geometry, Option<String>), MeshError>;
 
-/// Reads and parses one mesh file (any thread).
+/// Reads, parses and transforms one mesh file (any thread). The thread that parses a mesh
+/// also frees its file and object-space copy: only the world-space mesh outlives the call,
+/// so the memory the parses leave behind is one mesh's, not the whole scene's.
 fn read_mesh(job: &MeshJob) -> MeshRead {
-    let data = linlight_imagefile::input::read_capped(
-        &job.path,
-        linlight_imagefile::input::MAX_BINARY_BYTES,
-    )
-    .map_err(MeshError::Read)?;
-    if job.ply {
-        ply::parse_ply(&data, job.face_normals)
-    } else {
-        obj::parse_obj(&String::from_utf8_lossy(&data), job.face_normals)
+    let what = if job.ply { "PLY" } else { "OBJ" };
+    let refuse =
+        |message: String| MeshError::Built(SceneError::new(Some(job.loc.clone()), message));
+    let raw = {
+        let data = linlight_imagefile::input::read_capped(
+            &job.path,
+            linlight_imagefile::input::MAX_BINARY_BYTES,
+        )
+        .map_err(MeshError::Read)?;
+        if job.ply {
+            ply::parse_ply(&data, job.face_normals)
+        } else {
+            obj::parse_obj(&String::from_utf8_lossy(&data), job.face_normals)
+        }
+        .map_err(|m| {
+            refuse(format!(
+                "error loading {what} file '{}': {m}",
+                job.path.display()
+            ))
+        })?
+    };
+    if raw.triangles.is_empty() {
+        return Err(refuse(format!(
+            "{what} file '{}' contains no faces (Mitsuba cannot load an empty mesh either)",
+            job.path.display()
+        )));
     }
-    .map_err(MeshError::Parse)
+    shapes::world_mesh(raw, &job.to_world, job.face_normals, true, &job.loc)
+        .map_err(MeshError::Built)
 }
 
 /// A limit on the triangles of a scene's mesh files, checked against their PLY headers before

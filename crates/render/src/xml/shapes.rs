@@ -159,10 +159,11 @@ pub fn world_mesh(
     } else {
         None
     };
-    let positions = world
-        .iter()
-        .map(|p| to_f32(*p, loc, "vertex position"))
-        .collect::<Result<Vec<_>, _>>()?;
+    // Reserved exactly (a collect through `Result` would grow by doubling).
+    let mut positions = Vec::with_capacity(world.len());
+    for p in &world {
+        positions.push(to_f32(*p, loc, "vertex position")?);
+    }
     let normals = normals.map(|ns| ns.iter().map(|n| n.as_vec3()).collect());
     Ok((
         Geometry::Mesh {
