@@ -180,7 +180,38 @@ pub fn render(
 /// Fewest samples of the whole-window render whose header [`render`] keeps.
 const HEADER_SPP: u32 = 2;
 
-/// The strips `cells`, each rendered as a crop window at its count, in order.
+/// A render's strips are split so that no crop holds more than this share of their pixel
+/// samples: a crop's tiles are its smallest units of parallel work, and one 8×8 cell at a
+/// count far above the others' would otherwise be the last tile running, on one core.
+const PIECES: usize = 32;
+
+/// `strips` with every strip of more than 1/[`PIECES`] of their pixel samples cut into bands of
+/// rows, each at most that share (a band is at least one row), in order. A pixel's samples do
+/// not depend on the window it is rendered in, so the pasted image is the same.
+fn pieces(strips: &[Strip]) -> Vec<Strip> {
+    let cost = |s: &Strip| s.width * s.height * s.spp as usize;
+    let limit = strips
+        .iter()
+        .map(cost)
+        .sum::<usize>()
+        .div_ceil(PIECES)
+        .max(1);
+    let mut out = Vec::with_capacity(strips.len());
+    for s in strips {
+        let bands = cost(s).div_ceil(limit).clamp(1, s.height);
+        let rows = s.height.div_ceil(bands);
+        for y in (0..s.height).step_by(rows) {
+            out.push(Strip {
+                y: s.y + y,
+                height: rows.min(s.height - y),
+                ..*s
+            });
+        }
+    }
+    out
+}
+
+/// The strips `cells`, rendered as crop windows at their counts ([`pieces`] of them), in order.
 fn render_strips(
     render: &RenderFn,
     scene: &Scene,
@@ -188,7 +219,7 @@ fn render_strips(
     cells: &[Strip],
     tracked: &(dyn Fn(&AtomicUsize, usize) + Sync),
 ) -> Result<Vec<(Strip, Image)>, RenderError> {
-    cells
+    pieces(cells)
         .par_iter()
         .map(|s| {
             let last = AtomicUsize::new(0);
@@ -388,6 +419,36 @@ mod tests {
         let over_base =
             render_over_base(&render_fn, &scene, &opts, &plan, (w, h), &|_, _| {}).unwrap();
         assert_eq!(img, over_base);
+    }
+
+    /// Pieces cover the strips' pixels once each, at their counts, and none holds more than
+    /// 1/PIECES of the samples unless it is one row.
+    #[test]
+    fn pieces_cover_the_strips_and_bound_the_largest() {
+        let (w, h) = (64, 64);
+        let mut plan = vec![256u32; w * h];
+        for y in 16..24 {
+            for x in 40..48 {
+                plan[y * w + x] = 65536;
+            }
+        }
+        let strips = all_strips(&plan, w, h);
+        let pieces = pieces(&strips);
+        let cost = |s: &Strip| s.width * s.height * s.spp as usize;
+        let total: usize = strips.iter().map(cost).sum();
+        assert_eq!(pieces.iter().map(cost).sum::<usize>(), total);
+        let mut seen = vec![0u32; w * h];
+        for p in &pieces {
+            assert!(p.height == 1 || cost(p) <= total.div_ceil(PIECES), "{p:?}");
+            for y in p.y..p.y + p.height {
+                for x in p.x..p.x + p.width {
+                    assert_eq!(seen[y * w + x], 0);
+                    seen[y * w + x] = p.spp;
+                }
+            }
+        }
+        assert_eq!(seen, plan);
+        assert!(pieces.len() > strips.len());
     }
 
     #[test]
