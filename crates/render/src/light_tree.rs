@@ -31,80 +31,113 @@
 use crate::light::Light;
 use glam::Vec3;
 use linlight_sampling::Segment;
+use linlight_simd::Lanes3;
 
 /// Floor of cos θ' in a node's importance (relative to the node's Φ/d²).
 pub const COS_FLOOR: f32 = 1e-4;
 
-/// A node: the box and power of its segments, and either two children or one light (then also
-/// its segment and ‖K‖₁).
-#[derive(Clone, Debug, PartialEq)]
+/// A node as the walk reads it: what its importance needs that does not depend on the shading
+/// point (the sphere around its box, 2Φ or a leaf's ‖K‖₁, a leaf's segment) and its children.
+/// A leaf's children are itself, so a walk that has reached it stays there. One cache line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
 struct Node {
-    lo: Vec3,
-    hi: Vec3,
-    power: f32,
-    /// Children (left, right) for interior nodes; for a leaf `(light, u32::MAX)`.
-    children: (u32, u32),
-    /// A leaf's segment and ‖K‖₁ (unused in interior nodes).
-    segment: Segment,
-    k: f32,
+    /// Centre c and squared radius r² of the sphere around the box.
+    centre: [f32; 3],
+    r2: f32,
+    /// 2Φ for an interior node; −‖K‖₁ for a leaf (its sign bit marks the leaves, −0.0 too).
+    weight: f32,
+    /// A leaf's segment: its begin, axis end − begin, the axis' length L and the floor
+    /// 10⁻¹²·L·L of h² in Ω_R.
+    segment: SegmentBound,
+    /// Children (left, right); (self, self) for a leaf.
+    children: [u32; 2],
+}
+
+/// What Ω_R of a segment needs that does not depend on the shading point.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct SegmentBound {
+    begin: [f32; 3],
+    axis: [f32; 3],
+    length: f32,
+    h2_floor: f32,
 }
 
 impl Node {
     fn is_leaf(&self) -> bool {
-        self.children.1 == u32::MAX
-    }
-
-    /// The node's importance at shading point `x` with unit normal `n` (module documentation):
-    /// cos θ′ (floored at [`COS_FLOOR`]) times 2Φ/d² for an interior node, times ‖K‖₁·Ω_R for a
-    /// leaf; positive and finite.
-    #[inline]
-    fn importance(&self, x: Vec3, n: Vec3) -> f32 {
-        let c = 0.5 * (self.lo + self.hi);
-        let r2 = 0.25 * (self.hi - self.lo).length_squared();
-        let to = c - x;
-        let dist2 = to.length_squared();
-        let cos_bound = if dist2 <= r2 {
-            1.0 // x inside the bounding sphere: every direction may reach it
-        } else {
-            let cos_t = (n.dot(to) / dist2.sqrt()).clamp(-1.0, 1.0);
-            let sin2_b = r2 / dist2;
-            let cos_b = (1.0 - sin2_b).max(0.0).sqrt();
-            if cos_t >= cos_b {
-                1.0 // n inside the cone of the sphere
-            } else {
-                // cos(θ − θ_b) = cos θ cos θ_b + sin θ sin θ_b, for θ > θ_b.
-                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-                cos_t * cos_b + sin_t * sin2_b.sqrt()
-            }
-        };
-        let reach = if self.is_leaf() {
-            self.k * solid_angle_per_radius(&self.segment, x)
-        } else {
-            2.0 * self.power / dist2.max(r2).max(f32::MIN_POSITIVE)
-        };
-        let i = reach * cos_bound.max(COS_FLOOR);
-        if i.is_finite() {
-            i.max(f32::MIN_POSITIVE)
-        } else {
-            f32::MAX
-        }
+        self.weight.is_sign_negative()
     }
 }
 
-/// Ω_R of segment `s` seen from `x`: the solid angle per radius of the thin tube around it,
-/// ∫ 2 sin θ/r² dl = (2/h)·(l₂/√(h² + l₂²) − l₁/√(h² + l₁²)), h the distance from `x` to the
+/// Three coordinates' dot product in glam's order, (a₀b₀ + a₁b₁) + a₂b₂.
+#[inline(always)]
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2])
+}
+
+/// The importance of `node` (a leaf if `leaf`) at shading point `x` with unit normal `n` (module
+/// documentation):
+/// cos θ′ (floored at [`COS_FLOOR`]) times 2Φ/d² for an interior node, times ‖K‖₁·Ω_R for a
+/// leaf; positive and finite. Written without early exits (the walk runs it over lanes at
+/// different nodes, [`NodeLanes`]): the values are those of the branches taken.
+#[inline(always)]
+fn importance(node: &Node, leaf: bool, x: [f32; 3], n: [f32; 3]) -> f32 {
+    let c = node.centre;
+    let r2 = node.r2;
+    let to = [c[0] - x[0], c[1] - x[1], c[2] - x[2]];
+    let dist2 = dot(to, to);
+    let cos_t = (dot(n, to) / dist2.sqrt()).clamp(-1.0, 1.0);
+    let sin2_b = r2 / dist2;
+    let cos_b = (1.0 - sin2_b).max(0.0).sqrt();
+    // cos(θ − θ_b) = cos θ cos θ_b + sin θ sin θ_b, for θ > θ_b.
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let cone = cos_t * cos_b + sin_t * sin2_b.sqrt();
+    // 1 when x is inside the bounding sphere (every direction may reach it) or n inside the
+    // cone of the sphere.
+    let cos_bound = if dist2 <= r2 || cos_t >= cos_b {
+        1.0
+    } else {
+        cone
+    };
+    let reach = if leaf {
+        -node.weight * solid_angle_per_radius(&node.segment, x)
+    } else {
+        node.weight / dist2.max(r2).max(f32::MIN_POSITIVE)
+    };
+    let i = reach * cos_bound.max(COS_FLOOR);
+    if i.is_finite() {
+        i.max(f32::MIN_POSITIVE)
+    } else {
+        f32::MAX
+    }
+}
+
+/// Ω_R of a leaf's segment seen from `x`: the solid angle per radius of the thin tube around
+/// it, ∫ 2 sin θ/r² dl = (2/h)·(l₂/√(h² + l₂²) − l₁/√(h² + l₁²)), h the distance from `x` to the
 /// line and l₁ < l₂ the positions of the ends along it from the foot of the perpendicular.
 /// (Far away it is 2L·sin θ/d², the interior nodes' 2Φ/d² with sin θ ≤ 1.)
-#[inline]
-fn solid_angle_per_radius(s: &Segment, x: Vec3) -> f32 {
-    let axis = s.end - s.begin;
-    let length = axis.length();
-    let a = s.begin - x;
-    let l1 = a.dot(axis) / length;
+#[inline(always)]
+fn solid_angle_per_radius(segment: &SegmentBound, x: [f32; 3]) -> f32 {
+    let (b, axis, length) = (segment.begin, segment.axis, segment.length);
+    let a = [b[0] - x[0], b[1] - x[1], b[2] - x[2]];
+    let l1 = dot(a, axis) / length;
     let l2 = l1 + length;
-    let h2 = (a.length_squared() - l1 * l1).max(1e-12 * length * length);
+    let h2 = (dot(a, a) - l1 * l1).max(segment.h2_floor);
     let h = h2.sqrt();
     2.0 / h * (l2 / (h2 + l2 * l2).sqrt() - l1 / (h2 + l1 * l1).sqrt())
+}
+
+/// One step of the walk down from a node with children importances `il`, `ir`: the
+/// probability p of the left child, and whether ξ `u` goes left, u rescaled to [0, 1) on that
+/// side and the pmf times that side's probability.
+#[inline(always)]
+fn step(il: f32, ir: f32, u: f64, pmf: f64) -> (bool, f64, f64) {
+    let (il, ir) = (il as f64, ir as f64);
+    let p = il / (il + ir);
+    let left = u < p;
+    // Left: u/p ≥ 0, so clamping to [0, 1] is min(·, 1). Right: (u − p)/(1 − p).
+    let (above, share) = if left { (u, p) } else { (u - p, 1.0 - p) };
+    (left, (above / share).clamp(0.0, 1.0), pmf * share)
 }
 
 /// A binary tree over a scene's light segments (see the module documentation). Empty for no
@@ -112,9 +145,14 @@ fn solid_angle_per_radius(s: &Segment, x: Vec3) -> f32 {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LightTree {
     nodes: Vec<Node>,
+    /// Per node: its light (leaves; unused in interior nodes).
+    light: Vec<u32>,
     /// Per light: the choices from the root to its leaf, bit i set = right at depth i, and
     /// the depth.
     trail: Vec<(u64, u32)>,
+    /// The deepest and the shallowest leaf's depths.
+    depth: u32,
+    shallowest: u32,
 }
 
 impl LightTree {
@@ -124,13 +162,18 @@ impl LightTree {
     pub fn new(lights: &[Light]) -> Self {
         let mut tree = Self {
             nodes: Vec::with_capacity(2 * lights.len()),
+            light: Vec::with_capacity(2 * lights.len()),
             trail: vec![(0, 0); lights.len()],
+            depth: 0,
+            shallowest: 0,
         };
         if lights.is_empty() {
             return tree;
         }
         let mut order: Vec<u32> = (0..lights.len() as u32).collect();
         tree.build(lights, &mut order, 0, 0);
+        tree.depth = tree.trail.iter().map(|&(_, d)| d).max().unwrap_or(0);
+        tree.shallowest = tree.trail.iter().map(|&(_, d)| d).min().unwrap_or(0);
         tree
     }
 
@@ -152,20 +195,12 @@ impl LightTree {
         }
         let index = self.nodes.len() as u32;
         let Light { segment, k } = lights[order[0] as usize];
-        self.nodes.push(Node {
-            lo,
-            hi,
-            power: power.max(f32::MIN_POSITIVE),
-            children: (0, u32::MAX),
-            segment,
-            k: k.abs().element_sum(),
-        });
+        self.nodes.push(leaf(lo, hi, &segment, k, index));
+        self.light.push(order[0]);
         // Median splits: depth ≤ ⌈log₂ N⌉ < 64, the bits of a trail.
         debug_assert!(depth < 64);
         if order.len() == 1 {
-            let j = order[0];
-            self.nodes[index as usize].children = (j, u32::MAX);
-            self.trail[j as usize] = (bits, depth);
+            self.trail[order[0] as usize] = (bits, depth);
             return index;
         }
         let axis = (chi - clo).max_position();
@@ -178,7 +213,9 @@ impl LightTree {
         let (left, right) = order.split_at_mut(half);
         let l = self.build(lights, left, depth + 1, bits);
         let r = self.build(lights, right, depth + 1, bits | (1 << depth));
-        self.nodes[index as usize].children = (l, r);
+        let node = &mut self.nodes[index as usize];
+        node.children = [l, r];
+        node.weight = 2.0 * power.max(f32::MIN_POSITIVE);
         index
     }
 
@@ -194,54 +231,205 @@ impl LightTree {
     /// The probability of going left at interior node `node` from (x, n).
     #[inline]
     fn p_left(&self, node: &Node, x: Vec3, n: Vec3) -> f64 {
-        let (l, r) = node.children;
-        let il = self.nodes[l as usize].importance(x, n) as f64;
-        let ir = self.nodes[r as usize].importance(x, n) as f64;
+        let [il, ir] = node.children.map(|c| {
+            let child = &self.nodes[c as usize];
+            importance(child, child.is_leaf(), x.into(), n.into()) as f64
+        });
         il / (il + ir)
     }
 
     /// The light chosen by ξ_c ∈ [0, 1) at shading point `x` with unit normal `n`, and its
-    /// probability p_j(x, n) > 0 (equal to [`Self::pmf`]).
+    /// probability p_j(x, n) > 0 (equal to [`Self::pmf`]): [`Self::sample_lanes`] on one lane.
     #[inline]
     pub fn sample(&self, x: Vec3, n: Vec3, xi: f32) -> (usize, f64) {
+        let lane = |v: Vec3| v.to_array().map(|c| [c]);
+        let (j, pmf) = self.sample_lanes(&lane(x), &lane(n), &[xi]);
+        (j[0] as usize, pmf[0])
+    }
+
+    /// [`Self::sample`] for each lane k of (`x`, `n`, `xi`): the lanes walk down together, one
+    /// level per step, each from its own node, the importances of their children computed over
+    /// the lanes (vector operations; the nodes' fields gathered lane by lane, the leaves'
+    /// segments only at levels that hold leaves); a lane at its leaf stays there. The
+    /// operations of each lane are those of one lane alone: the same lights and pmfs, bit for
+    /// bit.
+    #[inline(always)]
+    pub fn sample_lanes<const L: usize>(
+        &self,
+        x: &Lanes3<f32, L>,
+        n: &Lanes3<f32, L>,
+        xi: &[f32; L],
+    ) -> ([u32; L], [f64; L]) {
         debug_assert!(!self.nodes.is_empty(), "no light to choose");
-        let mut u = (xi as f64).clamp(0.0, 1.0);
-        let mut pmf = 1.0f64;
-        let mut node = &self.nodes[0];
-        while !node.is_leaf() {
-            let p = self.p_left(node, x, n);
-            let (l, r) = node.children;
-            if u < p {
-                u = (u / p).min(1.0);
-                pmf *= p;
-                node = &self.nodes[l as usize];
-            } else {
-                u = ((u - p) / (1.0 - p)).clamp(0.0, 1.0);
-                pmf *= 1.0 - p;
-                node = &self.nodes[r as usize];
+        let mut node = [0u32; L];
+        let mut u = xi.map(|v| (v as f64).clamp(0.0, 1.0));
+        let mut pmf = [1.0f64; L];
+        for level in 0..self.depth {
+            // Children at depth level + 1: leaves among them from the shallowest leaf's depth.
+            let leaves = level + 1 >= self.shallowest;
+            let mut left = [0u32; L];
+            let mut right = [0u32; L];
+            for k in 0..L {
+                [left[k], right[k]] = self.nodes[node[k] as usize].children;
+            }
+            let il = NodeLanes::gather(&self.nodes, &left, leaves).importance(x, n);
+            let ir = NodeLanes::gather(&self.nodes, &right, leaves).importance(x, n);
+            for k in 0..L {
+                let (go_left, u_next, pmf_next) = step(il[k], ir[k], u[k], pmf[k]);
+                // A lane at its leaf (children equal) keeps its numbers.
+                let walks = left[k] != right[k];
+                u[k] = if walks { u_next } else { u[k] };
+                pmf[k] = if walks { pmf_next } else { pmf[k] };
+                node[k] = if go_left { left[k] } else { right[k] };
             }
         }
-        (node.children.0 as usize, pmf)
+        (node.map(|i| self.light[i as usize]), pmf)
     }
 
     /// p_j(x, n): the probability that [`Self::sample`] chooses light `j` at (x, n).
     pub fn pmf(&self, x: Vec3, n: Vec3, j: usize) -> f64 {
         let (bits, depth) = self.trail[j];
         let mut pmf = 1.0f64;
-        let mut node = &self.nodes[0];
+        let mut node = 0;
         for d in 0..depth {
-            let p = self.p_left(node, x, n);
-            let (l, r) = node.children;
+            let p = self.p_left(&self.nodes[node], x, n);
+            let [l, r] = self.nodes[node].children;
             if bits >> d & 1 == 0 {
                 pmf *= p;
-                node = &self.nodes[l as usize];
+                node = l as usize;
             } else {
                 pmf *= 1.0 - p;
-                node = &self.nodes[r as usize];
+                node = r as usize;
             }
         }
-        debug_assert!(node.is_leaf() && node.children.0 as usize == j);
+        debug_assert!(self.nodes[node].is_leaf() && self.light[node] as usize == j);
         pmf
+    }
+}
+
+/// The nodes of L lanes, field by field (what [`importance`] reads), so that it runs over the
+/// lanes as vector operations.
+struct NodeLanes<const L: usize> {
+    centre: Lanes3<f32, L>,
+    r2: [f32; L],
+    weight: [f32; L],
+    /// The leaves' segments, when a lane's node may be a leaf.
+    segment: Option<SegmentLanes<L>>,
+}
+
+/// The [`SegmentBound`]s of L lanes, field by field.
+struct SegmentLanes<const L: usize> {
+    begin: Lanes3<f32, L>,
+    axis: Lanes3<f32, L>,
+    length: [f32; L],
+    h2_floor: [f32; L],
+}
+
+impl<const L: usize> NodeLanes<L> {
+    /// Node `index[k]` of `nodes` in lane k (one node for all when the lanes share it), with
+    /// the leaves' segments when `leaves` (a lane's node may be a leaf).
+    #[inline(always)]
+    fn gather(nodes: &[Node], index: &[u32; L], leaves: bool) -> Self {
+        let mut lanes = Self {
+            centre: [[0.0; L]; 3],
+            r2: [0.0; L],
+            weight: [0.0; L],
+            segment: None,
+        };
+        if index.iter().all(|&i| i == index[0]) {
+            let node = &nodes[index[0] as usize];
+            lanes.centre = node.centre.map(|c| [c; L]);
+            lanes.r2 = [node.r2; L];
+            lanes.weight = [node.weight; L];
+        } else {
+            for (k, &i) in index.iter().enumerate() {
+                let node = &nodes[i as usize];
+                for c in 0..3 {
+                    lanes.centre[c][k] = node.centre[c];
+                }
+                lanes.r2[k] = node.r2;
+                lanes.weight[k] = node.weight;
+            }
+        }
+        if leaves {
+            let mut segment = SegmentLanes {
+                begin: [[0.0; L]; 3],
+                axis: [[0.0; L]; 3],
+                length: [0.0; L],
+                h2_floor: [0.0; L],
+            };
+            for (k, &i) in index.iter().enumerate() {
+                let s = &nodes[i as usize].segment;
+                for c in 0..3 {
+                    segment.begin[c][k] = s.begin[c];
+                    segment.axis[c][k] = s.axis[c];
+                }
+                segment.length[k] = s.length;
+                segment.h2_floor[k] = s.h2_floor;
+            }
+            lanes.segment = Some(segment);
+        }
+        lanes
+    }
+
+    /// Lane k's node (its fields; not its children), with `segment` (zero when None).
+    #[inline(always)]
+    fn node(&self, k: usize, segment: Option<&SegmentLanes<L>>) -> Node {
+        let lane = |v: &Lanes3<f32, L>| [v[0][k], v[1][k], v[2][k]];
+        Node {
+            centre: lane(&self.centre),
+            r2: self.r2[k],
+            weight: self.weight[k],
+            segment: segment.map_or(SegmentBound::default(), |s| SegmentBound {
+                begin: lane(&s.begin),
+                axis: lane(&s.axis),
+                length: s.length[k],
+                h2_floor: s.h2_floor[k],
+            }),
+            children: [0, 0],
+        }
+    }
+
+    /// [`importance`] of each lane's node from the lane's (`x`, `n`); Ω_R only when a lane's
+    /// node may be a leaf.
+    #[inline(always)]
+    fn importance(&self, x: &Lanes3<f32, L>, n: &Lanes3<f32, L>) -> [f32; L] {
+        let mut out = [0.0; L];
+        let lane = |v: &Lanes3<f32, L>, k: usize| [v[0][k], v[1][k], v[2][k]];
+        match &self.segment {
+            None => {
+                for (k, out) in out.iter_mut().enumerate() {
+                    *out = importance(&self.node(k, None), false, lane(x, k), lane(n, k));
+                }
+            }
+            Some(s) => {
+                for (k, out) in out.iter_mut().enumerate() {
+                    let leaf = self.weight[k].is_sign_negative();
+                    *out = importance(&self.node(k, Some(s)), leaf, lane(x, k), lane(n, k));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The leaf of box [`lo`, `hi`], `segment` and K `k` at index `index` (children (index,
+/// index)); the builder makes it interior by setting its children and weight.
+fn leaf(lo: Vec3, hi: Vec3, segment: &Segment, k: Vec3, index: u32) -> Node {
+    let centre = 0.5 * (lo + hi);
+    let axis = segment.end - segment.begin;
+    let length = axis.length();
+    Node {
+        centre: centre.to_array(),
+        r2: 0.25 * (hi - lo).length_squared(),
+        weight: -k.abs().element_sum(),
+        segment: SegmentBound {
+            begin: segment.begin.to_array(),
+            axis: axis.to_array(),
+            length,
+            h2_floor: 1e-12 * length * length,
+        },
+        children: [index, index],
     }
 }
 
@@ -433,6 +621,46 @@ mod tests {
             rejected += 1;
         }
         assert!(rejected >= 10, "only {rejected} cases tested");
+    }
+
+    /// The lanes' walk chooses, lane by lane, the light and pmf of the one-lane walk bit for
+    /// bit (16 lanes of different shading points and ξ, among them lanes without a shading
+    /// point: zero normal and position).
+    #[test]
+    fn lanes_choose_as_one_lane() {
+        let mut rng = Mix(0x1a7e5);
+        for (tree, x0, n0) in cases() {
+            let mut x = [[0.0f32; 16]; 3];
+            let mut n = [[0.0f32; 16]; 3];
+            let xi: [f32; 16] = std::array::from_fn(|_| rng.xi());
+            for k in 1..16 {
+                let (xk, nk) = if k % 2 == 0 {
+                    (x0, n0)
+                } else {
+                    let v = Vec3::new(rng.unit(), rng.unit(), rng.unit());
+                    let d = Vec3::new(rng.unit(), rng.unit(), rng.unit()) - Vec3::splat(0.5);
+                    (
+                        v * 12.0 - Vec3::splat(6.0),
+                        d.try_normalize().unwrap_or(Vec3::Z),
+                    )
+                };
+                for c in 0..3 {
+                    x[c][k] = xk[c];
+                    n[c][k] = nk[c];
+                }
+            }
+            let (light, pmf) = tree.sample_lanes(&x, &n, &xi);
+            for k in 0..16 {
+                let xk = Vec3::new(x[0][k], x[1][k], x[2][k]);
+                let nk = Vec3::new(n[0][k], n[1][k], n[2][k]);
+                let (j, p) = tree.sample(xk, nk, xi[k]);
+                assert_eq!(
+                    (light[k] as usize, pmf[k].to_bits()),
+                    (j, p.to_bits()),
+                    "lane {k}"
+                );
+            }
+        }
     }
 
     /// Near lights are preferred: on the floor under one of 64 equal tubes, that tube is the

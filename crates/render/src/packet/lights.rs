@@ -109,22 +109,20 @@ impl<'a> Context<'a> {
             };
         }
         if selection == LightSelection::Tree {
-            // Each shaded lane's light from its shading point, lane by lane (the scalar path's
-            // `choose_light`); the other lanes sample nothing.
+            // Every lane's light from its shading point, the lanes walking the tree together
+            // (the scalar path's `choose_light` per lane, bit for bit); the lanes without a
+            // shading point sample nothing.
             let xi_c = number(RenderScene::LIGHT_CHOICE_DIMENSION);
+            let (chosen, pmf) = rs.tree.sample_lanes(&shading.p, &shading.n, &xi_c);
             let mut light = [0u32; PACKET_LANES];
             let mut rows = [[0.0f32; PACKET_LANES]; 9];
             let mut m = shading.active;
             while m != 0 {
                 let k = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let (j, kp) = rs.choose_light(
-                    LightSelection::Tree,
-                    get3(&shading.p, k),
-                    get3(&shading.n, k),
-                    xi_c[k],
-                );
-                light[k] = j as u32;
+                let j = chosen[k] as usize;
+                light[k] = chosen[k];
+                let kp = rs.lights[j].k_over_pmf(pmf[k]);
                 for (r, v) in rs.lights[j].row(kp).into_iter().enumerate() {
                     rows[r][k] = v;
                 }
