@@ -264,6 +264,11 @@ pub const PACKET: usize = 16;
 /// measurements).
 const INTERVAL_NODES: usize = 1024;
 
+/// Most 4-wide nodes of a tree whose walks do not prefetch ([`Bvh::prefetch`]): 512 KiB of
+/// nodes. ladder-10k's tree is below it (prefetching cost it 3.3 % more instructions per
+/// sample and 1–9 % more CPU time), ladder-100k's above.
+const PREFETCH_NODES: usize = 4096;
+
 /// A subtree that at most this many rays of a packet walk on a large tree enter is walked ray
 /// by ray (the walk of [`Bvh::occluded`] or [`Bvh::intersect`] from that node): the packet's
 /// box and triangle tests cost all sixteen lanes whatever the number of rays.
@@ -1273,12 +1278,12 @@ impl Bvh {
     /// lines) or a leaf child's primitives (`count` ≥ 1 from `child`). The walks of large
     /// trees are bound by the latency of these loads: started when a node's hit children are
     /// known, they overlap with each other and with the walk of the nearer children. Trees of
-    /// at most [`INTERVAL_NODES`] nodes (128 KiB) stay in the cache: no prefetch, whose
-    /// instructions would be all it adds.
+    /// at most [`PREFETCH_NODES`] nodes stay in the cache: no prefetch, whose instructions
+    /// would be all it adds.
     #[inline(always)]
     fn prefetch(&self, child: u32, count: u32) {
         #[cfg(target_arch = "x86_64")]
-        if self.nodes.len() > INTERVAL_NODES {
+        if self.nodes.len() > PREFETCH_NODES {
             use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
             let (start, end) = if count == 0 {
                 let p = self.nodes.as_ptr().wrapping_add(child as usize) as *const i8;
