@@ -180,6 +180,13 @@ pub struct Bvh {
 /// rounded box test conservative (PBRT's robust ray–box test), so no hit inside a box is lost.
 const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
+/// Bit i set where child i's interval [t0, t1] is not empty (a NaN bound: empty).
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn hit_mask(t0: &[f32; WIDTH], t1: &[f32; WIDTH]) -> u32 {
+    (0..WIDTH).fold(0, |hit, i| hit | ((t0[i] <= t1[i]) as u32) << i)
+}
+
 /// Per-ray constants of the box test.
 struct RayBoxes {
     o: [f32; 3],
@@ -257,11 +264,7 @@ impl RayBoxes {
                     t1[i] = if far < t1[i] { far } else { t1[i] };
                 }
             }
-            let mut hit = 0u32;
-            for i in 0..WIDTH {
-                hit |= ((t0[i] <= t1[i]) as u32) << i;
-            }
-            (t0, hit)
+            (t0, hit_mask(&t0, &t1))
         }
     }
 }
@@ -282,8 +285,8 @@ pub const PACKET: usize = 16;
 const INTERVAL_NODES: usize = 1024;
 
 /// Most 4-wide nodes of a tree whose walks do not prefetch ([`Bvh::prefetch`]): 512 KiB of
-/// nodes. ladder-10k's tree is below it (prefetching cost it 3.3 % more instructions per
-/// sample and 1–9 % more CPU time), ladder-100k's above.
+/// nodes, which stay in the cache, where a prefetch adds only its instructions (ladder-10k's
+/// tree is below, ladder-100k's above; docs/performance.md).
 const PREFETCH_NODES: usize = 4096;
 
 /// A subtree that at most this many rays of a packet walk on a large tree enter is walked ray
@@ -531,11 +534,7 @@ impl<'a> RayPacket<'a> {
                     t1[i] = if far < t1[i] { far } else { t1[i] };
                 }
             }
-            let mut hit = 0u32;
-            for i in 0..WIDTH {
-                hit |= ((t0[i] <= t1[i]) as u32) << i;
-            }
-            (t0, hit)
+            (t0, hit_mask(&t0, &t1))
         }
     }
 
@@ -1299,8 +1298,11 @@ impl Bvh {
     /// would be all it adds.
     #[inline(always)]
     fn prefetch(&self, child: u32, count: u32) {
+        if self.nodes.len() <= PREFETCH_NODES {
+            return;
+        }
         #[cfg(target_arch = "x86_64")]
-        if self.nodes.len() > PREFETCH_NODES {
+        {
             use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
             let (start, end) = if count == 0 {
                 let p = self.nodes.as_ptr().wrapping_add(child as usize) as *const i8;
