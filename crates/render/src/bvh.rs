@@ -2,7 +2,9 @@
 //! surface-area heuristic, collapsed into 4-wide nodes (one ray against four boxes per step),
 //! closest-hit and any-hit traversal, and any-hit for packets of up to 16 rays. Exact: the box
 //! test is conservative, so the closest hit is the one a brute-force loop over all primitives
-//! finds (tests check this).
+//! finds (tests check this), up to the rounding of a triangle's t against its box's computed
+//! entry: a subtree entered beyond the current closest distance is skipped, which on rare
+//! rays skips a hit within rounding of that distance (docs/performance.md, "Large scenes").
 //!
 //! Kept rather than the `obvhs` crate (compressed 8-wide BVH, PLOC build): on the camera and
 //! shadow rays of cornell-tube, mesh-occluder and two-tubes at 256² this tree is faster per
