@@ -98,6 +98,58 @@ pub struct LightChoice {
     thresholds: Vec<u32>,
     /// 1/p_j = 2²⁴/(T_j − T_{j−1}), rounded to f32.
     inverse_probability: Vec<f32>,
+    /// The lookup of [`LightChoice::pick_lanes`]: the lattice cut into equal buckets.
+    buckets: Buckets,
+}
+
+/// The lattice [0, 2²⁴) cut into B = 2^`log2` equal buckets, so that a ξ finds its light from
+/// its bucket's first light and at most `steps` comparisons (each bucket holds at most `steps`
+/// thresholds T_0 … T_{N−2} strictly inside it), whatever the number of lights.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Buckets {
+    log2: u32,
+    /// Per bucket b: the light of ξ = b/B, the number of thresholds T_0 … T_{N−2} ≤ b·2²⁴/B.
+    first: Vec<u32>,
+    /// T_j·2⁻²⁴ (exact in f32) for j < N − 1, then NaN (no ξ is at or above it).
+    threshold: Vec<f32>,
+    steps: u32,
+}
+
+/// The most buckets of a [`Buckets`] (a table of 256 KiB).
+const MAX_BUCKETS_LOG2: u32 = 16;
+
+impl Buckets {
+    /// The buckets for `thresholds` (T_0 < … < T_{N−1} = 2²⁴): B the smallest power of two
+    /// ≥ 2N (at most 2^[`MAX_BUCKETS_LOG2`]), which puts at most one threshold in each bucket
+    /// when the weights are equal.
+    fn new(thresholds: &[u32]) -> Self {
+        let n = thresholds.len();
+        let log2 = (2 * n)
+            .next_power_of_two()
+            .trailing_zeros()
+            .min(MAX_BUCKETS_LOG2);
+        let width = LATTICE >> log2;
+        let inner = &thresholds[..n.saturating_sub(1)];
+        let first: Vec<u32> = (0..1u32 << log2)
+            .map(|b| inner.partition_point(|&t| t <= b * width) as u32)
+            .collect();
+        // Thresholds strictly inside bucket b: (b·w, (b + 1)·w).
+        let steps = (0..1u32 << log2)
+            .map(|b| {
+                let inside = inner.partition_point(|&t| t < (b + 1) * width);
+                inside.saturating_sub(first[b as usize] as usize) as u32
+            })
+            .max()
+            .unwrap_or(0);
+        let mut threshold: Vec<f32> = inner.iter().map(|&t| threshold_f32(t)).collect();
+        threshold.push(f32::NAN);
+        Self {
+            log2,
+            first,
+            threshold,
+            steps,
+        }
+    }
 }
 
 impl LightChoice {
@@ -131,9 +183,11 @@ impl LightChoice {
                 Some((LATTICE as f64 / count as f64) as f32)
             })
             .collect();
+        let buckets = Buckets::new(&thresholds);
         Self {
             thresholds,
             inverse_probability,
+            buckets,
         }
     }
 
@@ -144,22 +198,33 @@ impl LightChoice {
         (j, self.inverse_probability[j])
     }
 
-    /// The light [`pick`](Self::pick) chooses for each ξ of `xi`, without a search: light j is
-    /// the number of thresholds T_0 … T_{N−2} at or below k = ξ·2²⁴ (a loop over lanes per
-    /// threshold, which vectorises).
+    /// The light [`pick`](Self::pick) chooses for each ξ of `xi`: the number of thresholds
+    /// T_0 … T_{N−2} at or below k = ξ·2²⁴, found from ξ's bucket of the lattice (its first
+    /// light, then one comparison per threshold a bucket may hold): with even weights one
+    /// lookup and one comparison, whatever the number of lights.
     ///
     /// Compared in f32, ξ ≥ T·2⁻²⁴: exactly the integer test ⌊ξ·2²⁴⌋ ≥ T for every f32 ξ
-    /// (scaling by 2²⁴ is exact, T ≤ 2²⁴ is an f32, and ⌊y⌋ ≥ T ⇔ y ≥ T for an integer T;
-    /// negative ξ and NaN choose light 0 both ways), without AVX2's costly f32 → u32
-    /// conversion.
+    /// (scaling by 2²⁴ is exact, T ≤ 2²⁴ is an f32, and ⌊y⌋ ≥ T ⇔ y ≥ T for an integer T);
+    /// negative ξ and NaN fall in bucket 0 and choose light 0, ξ ≥ 1 the last bucket and the
+    /// last light, as the integer test does.
     #[inline(always)]
     pub fn pick_lanes<const L: usize>(&self, xi: &[f32; L]) -> [u32; L] {
         debug_assert!(!self.thresholds.is_empty(), "no light to choose");
-        let mut j = [0u32; L];
-        for &t in self.inner_thresholds() {
-            let t = threshold_f32(t);
-            for (j, x) in j.iter_mut().zip(xi) {
-                *j += (*x >= t) as u32;
+        let Buckets {
+            log2,
+            first,
+            threshold,
+            steps,
+        } = &self.buckets;
+        let last_bucket = (first.len() - 1) as f32;
+        let last = threshold.len() - 1;
+        // ⌊ξ·B⌋ in [0, B − 1] (exact: B is a power of two); NaN to 0 by `max`.
+        let scale = (1u32 << log2) as f32;
+        let mut j = xi.map(|x| first[((x * scale).max(0.0).min(last_bucket) as i32) as usize]);
+        for _ in 0..*steps {
+            for (j, &x) in j.iter_mut().zip(xi) {
+                // The NaN after T_{N−2} stops every ξ at light N − 1.
+                *j += (x >= threshold[(*j as usize).min(last)]) as u32;
             }
         }
         j
@@ -179,7 +244,12 @@ impl LightChoice {
         debug_assert_eq!(rows.len(), self.thresholds.len(), "one row per light");
         if rows.len() > SELECT_LIGHTS {
             let light = self.pick_lanes(xi);
-            let values = std::array::from_fn(|c| light.map(|j| rows[j as usize][c]));
+            let mut values = [[0.0; L]; C];
+            for (k, &j) in light.iter().enumerate() {
+                for (values, &v) in values.iter_mut().zip(&rows[j as usize]) {
+                    values[k] = v;
+                }
+            }
             return (light, values);
         }
         let mut light = [0; L];
@@ -296,7 +366,7 @@ mod tests {
     /// The f32 comparison of `pick_lanes` chooses what the integer test ⌊ξ·2²⁴⌋ ≥ T chooses,
     /// for lattice points and any other f32 (off the lattice, ≥ 1, negative, NaN); and
     /// `pick_rows` returns that light and its row, by selects (≤ SELECT_LIGHTS lights) and lane
-    /// by lane (more).
+    /// by lane (more); equal weights need at most one comparison after the bucket's lookup.
     #[test]
     fn pick_rows_gives_the_chosen_light_and_its_row() {
         let integer_pick = |c: &LightChoice, x: f32| {
@@ -306,8 +376,16 @@ mod tests {
                 .filter(|&&t| k >= t)
                 .count() as u32
         };
-        for n in 1..=SELECT_LIGHTS + 3 {
-            let weights: Vec<f32> = (0..n).map(|j| 1.0 + (j * 7 % 5) as f32).collect();
+        // Uneven weights; 64 even ones (one threshold per bucket at most); weights falling
+        // by 2× per light (many thresholds in the last buckets).
+        let uneven = |n: usize| (0..n).map(|j| 1.0 + (j * 7 % 5) as f32).collect::<Vec<_>>();
+        let sets = (1..=SELECT_LIGHTS + 3)
+            .map(uneven)
+            .chain([vec![1.0; 64], (0..40).map(|j| 0.5f32.powi(j)).collect()]);
+        assert!(LightChoice::new(&[1.0; 64]).buckets.steps <= 1);
+        assert!(LightChoice::new(&[1.0; 37]).buckets.steps <= 1);
+        for weights in sets {
+            let n = weights.len();
             let c = LightChoice::new(&weights);
             let rows: Vec<[f32; 3]> = (0..n).map(|j| [j as f32, -(j as f32), 0.5]).collect();
             let mut xs: Vec<f32> = (0..LATTICE)

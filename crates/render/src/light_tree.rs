@@ -336,7 +336,8 @@ impl<const L: usize> NodeLanes<L> {
             weight: [0.0; L],
             segment: None,
         };
-        if index.iter().all(|&i| i == index[0]) {
+        // One node for all lanes: tested without a branch per lane (an OR of XORs).
+        if index.iter().fold(0, |any, &i| any | (i ^ index[0])) == 0 {
             let node = &nodes[index[0] as usize];
             lanes.centre = node.centre.map(|c| [c; L]);
             lanes.r2 = [node.r2; L];
