@@ -572,8 +572,9 @@ fn ray_end(o: Vec3, d: Vec3, t_max: f32) -> Vec3 {
 fn ray_ends(rays: &RayLanes) -> [[f32; PACKET]; 3] {
     let mut e = [[0.0; PACKET]; 3];
     for (a, e) in e.iter_mut().enumerate() {
-        for k in 0..PACKET {
-            e[k] = rays.o[a][k] + rays.t_max[k] * rays.d[a][k];
+        let (o, d) = (&rays.o[a], &rays.d[a]);
+        for (k, e) in e.iter_mut().enumerate() {
+            *e = o[k] + rays.t_max[k] * d[k];
         }
     }
     e
@@ -819,7 +820,7 @@ mod tests {
     ) {
         use crate::shading::single_sample;
         use linlight_sampling::{Segment, Technique};
-        let sh = ShadowCulling::new(&prims, &lines(&[(begin, end)]));
+        let sh = ShadowCulling::new(prims, &lines(&[(begin, end)]));
         assert_eq!(culled_shapes(&sh, 0), vec![0, 1, 2, 3, 4, 5]);
         let segment = Segment::new(begin, end);
         let mut rng = Pcg32::new(0x5eed, 7);
@@ -880,7 +881,7 @@ mod tests {
                     rays += 1;
                     overshoot += (target.y > end.y) as u64;
                     farthest = farthest.max(target.y - end.y);
-                    diffs += (sh.occluded(&full, 0, &ray) != full.occluded(&ray)) as u64;
+                    diffs += (sh.occluded(full, 0, &ray) != full.occluded(&ray)) as u64;
                     if sh.walks_culled(0, &ray) {
                         walked_culled += 1;
                         culled_hits += sh
