@@ -6,7 +6,9 @@
 //! distance h_P(x) = N̂·(x − v₀). P is *culled* for light L when
 //! 1. both ends of L's segment lie at h_P ≥ 2·(g_P + 8uS) + 10⁻³·|L| (the light is strictly on
 //!    the positive side, with the guard margin g_P below, and a margin of 10⁻³ of the segment's
-//!    length for shadow-ray targets that overshoot the segment's end in f32), and
+//!    length for shadow-ray targets that overshoot the segment's end in f32) — or, rule 1′,
+//!    one end does (the light crosses or touches Π_P; N̂ toward the side that holds more of it)
+//!    and the shadow rays' ends are guarded too (below) — and
 //! 2. every point of every primitive of the scene (triangle vertices; the bounding-box corners
 //!    of spheres, disks and cylinders) lies at h_P ≥ −τ, τ = 10⁻⁵·D (D: the diagonal of the
 //!    scene's box grown by 1): shading points lie in the closed positive half-space up to
@@ -25,7 +27,10 @@
 //! otherwise it walks the scene's full BVH. Its end o + t_max·d lies within a few u·S of the
 //! segment from o to a point of L (the ray stops short of its target by SHADOW_EPSILON of its
 //! length; the light's margin covers targets overshooting the segment's end), so both its ends
-//! are at h_P ≥ g_P. Möller–Trumbore
+//! are at h_P ≥ g_P. Under rule 1′ the ray's end ê = o + t_max·d, computed in f32 (within 2u·S of
+//! the exact end: ends lie in the grown box), must pass the same guard, h_P(ê) ≥ g_P + 8uS, so
+//! that the exact end is at h_P ≥ g_P + 6uS; rays toward the light's part beyond Π_P fail it and
+//! walk the full BVH. Möller–Trumbore
 //! ([`crate::shapes::intersect_triangle_edges`], with or without fused multiply-adds) computes
 //! t = num/det with num ≈ (o − v₀)·N, det ≈ −d·N, N = e₁ × e₂, within E_n ≤ 12u·|o − v₀||e₁||e₂|
 //! and E_d ≤ 12u·|e₁||e₂| of their exact values (|d| = 1; a rounded difference, a cross product
@@ -99,6 +104,10 @@ struct ShadowSet {
     /// after): a fixed number, so that the packet guard is straight-line vector code.
     guards: [Guard; MAX_GUARDS],
     used: usize,
+    /// The guard planes of the culled triangles whose plane the light crosses or touches, which
+    /// the *end* of a ray (o + t_max·d) must pass too, the first `ends_used` of them.
+    ends: [Guard; MAX_GUARDS],
+    ends_used: usize,
     /// Indices (into the scene's primitives of finite bounds, in order) and copies of the
     /// culled triangles.
     culled_index: Vec<usize>,
@@ -288,18 +297,22 @@ fn candidates(finite: &[&Primitive], extent: &Extent) -> Vec<Candidate> {
         .collect()
 }
 
+/// A guard plane of [`culled_by`]: the plane, the threshold on h over it, and whether ray
+/// ends must pass it too (rule 1′).
+type Group = (Plane, f64, bool);
+
 /// The candidates the light `a`–`b` culls (indices into the primitives of finite bounds, in
-/// order) and their guard planes: (plane, threshold on h over the group plane), at most
-/// [`MAX_GUARDS`].
+/// order) and their guard planes, at most [`MAX_GUARDS`].
 fn culled_by(
     (a, b): (DVec3, DVec3),
     candidates: &[Candidate],
     extent: &Extent,
-) -> (Vec<usize>, Vec<(Plane, f64)>) {
+) -> (Vec<usize>, Vec<Group>) {
     let mut culled_index = Vec::new();
-    let mut groups: Vec<(Plane, f64)> = Vec::new();
+    let mut groups: Vec<Group> = Vec::new();
     for c in candidates {
-        let (pl, below_ok) = if c.plane.h(a) < 0.0 {
+        // The side that holds more of the light (the side of both ends where rule 1 holds).
+        let (pl, below_ok) = if c.plane.h(a) + c.plane.h(b) < 0.0 {
             (c.plane.flipped(), c.negative)
         } else {
             (c.plane.clone(), c.positive)
@@ -310,6 +323,9 @@ fn culled_by(
         // is nearly along the line.
         let clear = 2.0 * (g + extent.slack) + 1e-3 * (b - a).length();
         let light_clear = pl.h(a) >= clear && pl.h(b) >= clear;
+        // Rule 1′: part of the light clear of the plane, the ray ends guarded too.
+        let ends = !light_clear;
+        let useful = pl.h(a).max(pl.h(b)) >= clear;
         // The group whose plane differs from this one by at most 10⁻⁶·D over the scene box
         // (affine: the maximum is at a corner), or a new one if there is room: a triangle with
         // no guard plane left is kept.
@@ -320,25 +336,29 @@ fn culled_by(
         };
         let group = groups
             .iter()
-            .position(|(q, _)| dev(q) <= 1e-6 * extent.diameter);
+            .position(|(q, _, _)| dev(q) <= 1e-6 * extent.diameter);
         let guarded = group.is_some() || groups.len() < MAX_GUARDS;
-        if !(light_clear && guarded && below_ok) {
+        if !(useful && guarded && below_ok) {
             continue;
         }
         let need = g + extent.slack;
         culled_index.push(c.index);
         match group {
-            Some(k) => groups[k].1 = groups[k].1.max(need + dev(&groups[k].0)),
-            None => groups.push((pl, need)),
+            Some(k) => {
+                groups[k].1 = groups[k].1.max(need + dev(&groups[k].0));
+                groups[k].2 |= ends;
+            }
+            None => groups.push((pl, need, ends)),
         }
     }
     (culled_index, groups)
 }
 
-/// The f32 guards of `groups` ([`Guard::PASS`] after them) for origins of norm ≤ `max_norm`.
-fn guards_of(groups: &[(Plane, f64)], max_norm: f64) -> [Guard; MAX_GUARDS] {
+/// The f32 guards of `groups` ([`Guard::PASS`] after them) for points (ray origins and ends)
+/// of norm ≤ `max_norm`.
+fn guards_of<'a>(groups: impl Iterator<Item = &'a Group>, max_norm: f64) -> [Guard; MAX_GUARDS] {
     let mut guards = [Guard::PASS; MAX_GUARDS];
-    for (g, (q, need)) in guards.iter_mut().zip(groups) {
+    for (g, (q, need, _)) in guards.iter_mut().zip(groups) {
         // h_q(o) = n·o − n·v₀; the f32 n·o is within 7u·max|o| of the exact one (n rounded to
         // f32, three products and two sums).
         let c = q.n.dot(q.v0);
@@ -348,6 +368,12 @@ fn guards_of(groups: &[(Plane, f64)], max_norm: f64) -> [Guard; MAX_GUARDS] {
         };
     }
     guards
+}
+
+/// A light's guards: those of ray origins and those of ray ends, each with its count.
+struct Guards {
+    origins: ([Guard; MAX_GUARDS], usize),
+    ends: ([Guard; MAX_GUARDS], usize),
 }
 
 impl ShadowCulling {
@@ -378,24 +404,30 @@ impl ShadowCulling {
                 out.light_set.push(None);
                 continue;
             }
-            let guards = guards_of(&groups, extent.max_norm);
-            out.add_light(culled_index, guards, groups.len(), &finite);
+            let guards = guards_of(groups.iter(), extent.max_norm);
+            let ends = guards_of(groups.iter().filter(|g| g.2), extent.max_norm);
+            let ends_used = groups.iter().filter(|g| g.2).count();
+            let guards = Guards {
+                origins: (guards, groups.len()),
+                ends: (ends, ends_used),
+            };
+            out.add_light(culled_index, guards, &finite);
         }
         out
     }
 
-    /// Adds a light that culls the primitives `culled_index` of `finite` with the first `used`
-    /// of `guards`: the set of an earlier light with the same culled primitives and guards, or
-    /// a new set.
-    fn add_light(
-        &mut self,
-        culled_index: Vec<usize>,
-        guards: [Guard; MAX_GUARDS],
-        used: usize,
-        finite: &[&Primitive],
-    ) {
-        let same =
-            |t: &ShadowSet| t.culled_index == culled_index && t.used == used && t.guards == guards;
+    /// Adds a light that culls the primitives `culled_index` of `finite` with `guards`: the set
+    /// of an earlier light with the same culled primitives and guards, or a new set.
+    fn add_light(&mut self, culled_index: Vec<usize>, guards: Guards, finite: &[&Primitive]) {
+        let Guards {
+            origins: (guards, used),
+            ends: (ends, ends_used),
+        } = guards;
+        let same = |t: &ShadowSet| {
+            t.culled_index == culled_index
+                && (t.used, t.ends_used) == (used, ends_used)
+                && (t.guards, t.ends) == (guards, ends)
+        };
         if let Some(k) = self.sets.iter().position(same) {
             self.light_set.push(Some(k));
             return;
@@ -416,6 +448,8 @@ impl ShadowCulling {
             bvh: Bvh::build(kept),
             guards,
             used,
+            ends,
+            ends_used,
             culled_index,
             culled,
         });
@@ -434,14 +468,20 @@ impl ShadowCulling {
         self.set(j).map_or(&[], |t| &t.culled)
     }
 
-    /// The guard planes of light `j`'s culled BVH.
+    /// The guard planes of light `j`'s culled BVH (of ray origins; those of ray ends are a
+    /// subset: [`Self::end_guards`]).
     pub fn guards(&self, j: usize) -> &[Guard] {
         self.set(j).map_or(&[], |t| &t.guards[..t.used])
     }
 
-    /// Whether a shadow ray from origin `o` toward light `j` walks the light's culled BVH.
-    pub fn walks_culled(&self, j: usize, o: Vec3) -> bool {
-        self.set(j).is_some_and(|t| passes(&t.guards, o))
+    /// The guard planes that the ends of light `j`'s shadow rays must pass (rule 1′).
+    pub fn end_guards(&self, j: usize) -> &[Guard] {
+        self.set(j).map_or(&[], |t| &t.ends[..t.ends_used])
+    }
+
+    /// Whether shadow ray `ray` toward light `j` walks the light's culled BVH.
+    pub fn walks_culled(&self, j: usize, ray: &Ray) -> bool {
+        self.set(j).is_some_and(|t| t.admits(ray))
     }
 
     /// Whether shadow ray `ray` toward light `j` meets a primitive of the scene: the answer of
@@ -449,7 +489,7 @@ impl ShadowCulling {
     #[inline]
     pub fn occluded(&self, full: &Bvh, j: usize, ray: &Ray) -> bool {
         match self.set(j) {
-            Some(t) if passes(&t.guards, ray.o) => !t.bvh.is_empty() && t.bvh.occluded(ray),
+            Some(t) if t.admits(ray) => !t.bvh.is_empty() && t.bvh.occluded(ray),
             _ => full.occluded(ray),
         }
     }
@@ -493,7 +533,10 @@ impl ShadowCulling {
             if lanes == 0 {
                 continue;
             }
-            let safe = lanes & passes_lanes(&t.guards, t.used, rays);
+            let mut safe = lanes & passes_lanes(&t.guards, t.used, &rays.o);
+            if t.ends_used > 0 && safe != 0 {
+                safe &= passes_lanes(&t.ends, t.ends_used, &ray_ends(rays));
+            }
             if safe != 0 {
                 if !t.bvh.is_empty() {
                     occluded |= t.bvh.occluded_lanes(rays, safe);
@@ -508,7 +551,36 @@ impl ShadowCulling {
     }
 }
 
-/// Whether origin `o` passes every guard.
+impl ShadowSet {
+    /// Whether `ray` may walk this set's BVH: its origin passes every guard, and its end
+    /// o + t_max·d (f32) every end guard.
+    #[inline]
+    fn admits(&self, ray: &Ray) -> bool {
+        passes(&self.guards, ray.o)
+            && (self.ends_used == 0 || passes(&self.ends, ray_end(ray.o, ray.d, ray.t_max)))
+    }
+}
+
+/// The end o + t_max·d of a ray, in f32 (not fused: within 2u·S of the exact end).
+#[inline(always)]
+fn ray_end(o: Vec3, d: Vec3, t_max: f32) -> Vec3 {
+    Vec3::new(o.x + t_max * d.x, o.y + t_max * d.y, o.z + t_max * d.z)
+}
+
+/// [`ray_end`] of every lane.
+#[inline(always)]
+fn ray_ends(rays: &RayLanes) -> [[f32; PACKET]; 3] {
+    let mut e = [[0.0; PACKET]; 3];
+    for (a, e) in e.iter_mut().enumerate() {
+        let (o, d) = (&rays.o[a], &rays.d[a]);
+        for (k, e) in e.iter_mut().enumerate() {
+            *e = o[k] + rays.t_max[k] * d[k];
+        }
+    }
+    e
+}
+
+/// Whether point `o` passes every guard.
 #[inline]
 fn passes(guards: &[Guard; MAX_GUARDS], o: Vec3) -> bool {
     guards
@@ -516,25 +588,26 @@ fn passes(guards: &[Guard; MAX_GUARDS], o: Vec3) -> bool {
         .all(|g| g.n[0] * o.x + g.n[1] * o.y + g.n[2] * o.z >= g.w)
 }
 
-/// The lanes whose origin passes the first `used` guards (the others pass every origin).
+/// The lanes whose point (ray origin or end) passes the first `used` guards (the others pass
+/// every point).
 #[inline(always)]
-fn passes_lanes(guards: &[Guard; MAX_GUARDS], used: usize, rays: &RayLanes) -> u32 {
+fn passes_lanes(guards: &[Guard; MAX_GUARDS], used: usize, points: &[[f32; PACKET]; 3]) -> u32 {
     // A constant number of planes per call: straight-line vector code.
     match used {
         0 => u32::MAX,
-        1 => passes_first::<1>(guards, rays),
-        2 => passes_first::<2>(guards, rays),
-        3 => passes_first::<3>(guards, rays),
-        4 => passes_first::<4>(guards, rays),
-        5 => passes_first::<5>(guards, rays),
-        _ => passes_first::<MAX_GUARDS>(guards, rays),
+        1 => passes_first::<1>(guards, points),
+        2 => passes_first::<2>(guards, points),
+        3 => passes_first::<3>(guards, points),
+        4 => passes_first::<4>(guards, points),
+        5 => passes_first::<5>(guards, points),
+        _ => passes_first::<MAX_GUARDS>(guards, points),
     }
 }
 
-/// The lanes (all [`PACKET`] computed) whose origin passes guards 0..N.
+/// The lanes (all [`PACKET`] computed) whose point passes guards 0..N.
 #[inline(always)]
-fn passes_first<const N: usize>(guards: &[Guard; MAX_GUARDS], rays: &RayLanes) -> u32 {
-    let [ox, oy, oz] = &rays.o;
+fn passes_first<const N: usize>(guards: &[Guard; MAX_GUARDS], points: &[[f32; PACKET]; 3]) -> u32 {
+    let [ox, oy, oz] = points;
     // Lane masks as u32 words (0 or !0): the loop runs on vector registers.
     let mut ok = [u32::MAX; PACKET];
     for g in &guards[..N] {
@@ -626,15 +699,37 @@ mod tests {
     }
 
     #[test]
-    fn a_light_crossing_or_touching_the_plane_keeps_the_triangle() {
+    fn a_light_crossing_or_touching_the_plane_culls_it_with_end_guards() {
         let prims: Vec<Primitive> = floor_z(0.0, 0).into();
         let crossing = (Vec3::new(0.0, 0.0, -0.5), Vec3::new(0.0, 0.0, 0.5));
         let touching = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0));
         let grazing = (Vec3::new(0.0, 0.0, 1e-6), Vec3::new(1.0, 0.0, 1e-6));
         let above = (Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0));
         let c = ShadowCulling::new(&prims, &lines(&[crossing, touching, grazing, above]));
-        assert!(c.culled(0).is_empty() && c.culled(1).is_empty() && c.culled(2).is_empty());
-        assert_eq!(c.culled(3).len(), 2);
+        for j in [0, 1] {
+            assert_eq!(
+                (c.culled(j).len(), c.end_guards(j).len()),
+                (2, 1),
+                "light {j}"
+            );
+        }
+        assert!(c.culled(2).is_empty());
+        assert_eq!((c.culled(3).len(), c.end_guards(3).len()), (2, 0));
+        // From above the floor toward the crossing light's part above it: the culled walk;
+        // toward its part below (through the floor), or to the plane: the full BVH.
+        let full = Bvh::build(prims.clone());
+        let toward = |z: f32| {
+            let o = Vec3::new(0.5, 0.25, 0.25);
+            let d = Vec3::new(0.0, 0.0, z) - o;
+            Ray {
+                o,
+                d: d.normalize(),
+                t_min: 0.0,
+                t_max: d.length() * (1.0 - 1e-3),
+            }
+        };
+        assert!(c.walks_culled(0, &toward(0.4)) && !c.occluded(&full, 0, &toward(0.4)));
+        assert!(!c.walks_culled(0, &toward(-0.4)) && c.occluded(&full, 0, &toward(-0.4)));
     }
 
     #[test]
@@ -653,12 +748,12 @@ mod tests {
             t_max: 1.0 - z,
         };
         // Above the floor: the empty culled set answers without a walk.
-        assert!(c.walks_culled(0, up(0.5).o) && !c.occluded(&full, 0, &up(0.5)));
+        assert!(c.walks_culled(0, &up(0.5)) && !c.occluded(&full, 0, &up(0.5)));
         // Below it (no shading point lies there, but a ray may): the full BVH answers.
-        assert!(!c.walks_culled(0, up(-0.5).o) && c.occluded(&full, 0, &up(-0.5)));
+        assert!(!c.walks_culled(0, &up(-0.5)) && c.occluded(&full, 0, &up(-0.5)));
         // On the plane, within the guard: the full BVH.
-        assert!(!c.walks_culled(0, up(0.0).o));
-        assert!(!c.walks_culled(0, up(1e-5).o));
+        assert!(!c.walks_culled(0, &up(0.0)));
+        assert!(!c.walks_culled(0, &up(1e-5)));
     }
 
     /// The closed box [−1, 1]² × [0, 2] as six quads, shapes 0–5: floor, ceiling, walls
@@ -687,18 +782,18 @@ mod tests {
     /// answers as the full BVH, and no culled triangle reports a hit for a ray that walks the
     /// culled BVH. (Targets overshoot the end by ~10⁻⁶ here, well inside the light's margin; a
     /// `distance_to_line` 0.3 % too long fails the test, the committed-scene test passes it.)
+    /// The same with the light's end on the wall (gap 0), which rule 1′ culls with end guards.
     #[test]
     fn sampler_built_shadow_rays_near_a_wall_the_light_nearly_touches() {
-        use crate::shading::single_sample;
-        use linlight_sampling::{Segment, Technique};
         let prims = closed_box();
         let full = Bvh::build(prims.clone());
         let light = |gap: f32| (Vec3::new(0.0, -0.5, 1.0), Vec3::new(0.0, 1.0 - gap, 1.0));
+        // Culled by rule 1 (no end guard).
         let wall_culled = |gap: f32| {
             let c = ShadowCulling::new(&prims, &lines(&[light(gap)]));
-            c.culled(0).iter().any(|p| p.shape() == 5)
+            c.culled(0).iter().any(|p| p.shape() == 5) && c.end_guards(0).is_empty()
         };
-        // The smallest gap (to a relative 10⁻⁴) at which the wall y = 1 is culled.
+        // The smallest gap (to a relative 10⁻⁴) at which rule 1 culls the wall y = 1.
         let (mut lo, mut hi) = (0.0f32, 0.5f32);
         assert!(!wall_culled(lo) && wall_culled(hi));
         while hi - lo > 1e-4 * hi {
@@ -709,8 +804,23 @@ mod tests {
                 lo = mid;
             }
         }
-        let (begin, end) = light(hi);
-        let sh = ShadowCulling::new(&prims, &lines(&[(begin, end)]));
+        for (gap, rule_1) in [(hi, true), (0.0, false)] {
+            let (begin, end) = light(gap);
+            sampler_built_rays(&prims, &full, (begin, end), rule_1);
+        }
+    }
+
+    /// [`sampler_built_shadow_rays_near_a_wall_the_light_nearly_touches`] for the light
+    /// `begin`–`end`, which culls every wall (by rule 1 alone if `rule_1`).
+    fn sampler_built_rays(
+        prims: &[Primitive],
+        full: &Bvh,
+        (begin, end): (Vec3, Vec3),
+        rule_1: bool,
+    ) {
+        use crate::shading::single_sample;
+        use linlight_sampling::{Segment, Technique};
+        let sh = ShadowCulling::new(prims, &lines(&[(begin, end)]));
         assert_eq!(culled_shapes(&sh, 0), vec![0, 1, 2, 3, 4, 5]);
         let segment = Segment::new(begin, end);
         let mut rng = Pcg32::new(0x5eed, 7);
@@ -771,8 +881,8 @@ mod tests {
                     rays += 1;
                     overshoot += (target.y > end.y) as u64;
                     farthest = farthest.max(target.y - end.y);
-                    diffs += (sh.occluded(&full, 0, &ray) != full.occluded(&ray)) as u64;
-                    if sh.walks_culled(0, ray.o) {
+                    diffs += (sh.occluded(full, 0, &ray) != full.occluded(&ray)) as u64;
+                    if sh.walks_culled(0, &ray) {
                         walked_culled += 1;
                         culled_hits += sh
                             .culled(0)
@@ -784,14 +894,17 @@ mod tests {
             }
         }
         let report = format!(
-            "gap {hi:e}: {rays} rays, {walked_culled} walked the culled BVH, {overshoot} \
+            "light end at y = {}: {rays} rays, {walked_culled} walked the culled BVH, {overshoot} \
              targets beyond the light's end (by up to {farthest:e}); differences {diffs}, culled hits \
-             {culled_hits}"
+             {culled_hits}",
+            end.y
         );
         eprintln!("{report}");
         assert_eq!((diffs, culled_hits), (0, 0), "{report}");
         // Not vacuous: most rays take the culled walk, and targets do overshoot.
-        assert!(walked_culled * 2 > rays && overshoot > 100, "{report}");
+        if rule_1 {
+            assert!(walked_culled * 2 > rays && overshoot > 100, "{report}");
+        }
     }
 
     fn nudge(x: f32, steps: i32) -> f32 {
@@ -922,7 +1035,7 @@ mod tests {
                         rays += 1;
                         let full = bvh.occluded(&ray);
                         diffs += (sh.occluded(bvh, j, &ray) != full) as u64;
-                        if sh.walks_culled(j, ray.o) {
+                        if sh.walks_culled(j, &ray) {
                             walked_culled += 1;
                             culled_hits += sh
                                 .culled(j)

@@ -163,6 +163,8 @@ pub struct HartQuadratic {
     arc: FrameArc,
     /// Bézier control values of p_u, normalised: k0 + k1 + k2 = 3, so ∫₀¹ p_u = 1.
     k: [f32; 3],
+    /// [`newton_start`] of `k`: a function of k alone, formed once here instead of per sample.
+    start: (f64, f64),
     inv_solid_angle: f32,
 }
 
@@ -175,10 +177,12 @@ impl HartQuadratic {
             cosine(&frame, n, s_mid),
             cosine(&frame, n, frame.s_end),
         ];
+        let k = quadratic_coefficients(c);
         Some(Self {
             frame,
             arc,
-            k: quadratic_coefficients(c),
+            k,
+            start: newton_start(k),
             inv_solid_angle,
         })
     }
@@ -216,6 +220,17 @@ fn bezier_cdf(k: [f32; 3], u: f64) -> f64 {
     (k0 * (1.0 - v * v * v) + k1 * u * u * (3.0 - 2.0 * u) + k2 * u * u * u) / 3.0
 }
 
+/// The first iterate of [`quadratic_inverse_cdf`] is the linear warp through the end values
+/// (exact when k1 = (k0 + k2)/2): its normalised end densities (a, b), a + b = 2.
+fn newton_start(k: [f32; 3]) -> (f64, f64) {
+    let (k0, k2) = (k[0] as f64, k[2] as f64);
+    if k0 + k2 > 0.0 {
+        (2.0 * k0 / (k0 + k2), 2.0 * k2 / (k0 + k2))
+    } else {
+        (1.0, 1.0)
+    }
+}
+
 /// u ∈ [0, 1] with ∫₀ᵘ B = ξ (k normalised to sum 3).
 ///
 /// The CDF is a cubic whose cubic (k0 − 2k1 + k2) and quadratic (3(k1 − k0)) coefficients may
@@ -225,7 +240,9 @@ fn bezier_cdf(k: [f32; 3], u: f64) -> f64 {
 /// step that leaves it (or a zero derivative, as at u = 0 when k0 = 0) is replaced by bisection.
 /// Converged to ~1e-12 in u, far below the f32 spacing of the result, so the f32 result is
 /// monotone in ξ. Degenerate cases need no branch: equal k gives a linear CDF (one step).
-fn quadratic_inverse_cdf(k: [f32; 3], xi: f32) -> f32 {
+/// `start` must be [`newton_start`]`(k)`.
+fn quadratic_inverse_cdf(k: [f32; 3], start: (f64, f64), xi: f32) -> f32 {
+    debug_assert_eq!(start, newton_start(k), "start of other control values");
     let xi = xi as f64;
     if xi <= 0.0 {
         return 0.0;
@@ -233,13 +250,7 @@ fn quadratic_inverse_cdf(k: [f32; 3], xi: f32) -> f32 {
     if xi >= 1.0 {
         return 1.0;
     }
-    // Start from the linear warp through the end values (exact when k1 = (k0 + k2)/2).
-    let (k0, k2) = (k[0] as f64, k[2] as f64);
-    let (a, b) = if k0 + k2 > 0.0 {
-        (2.0 * k0 / (k0 + k2), 2.0 * k2 / (k0 + k2))
-    } else {
-        (1.0, 1.0)
-    };
+    let (a, b) = start;
     let mut u = {
         let denom = a + ((1.0 - xi) * a * a + xi * b * b).sqrt();
         if denom > 0.0 {
@@ -277,7 +288,7 @@ fn quadratic_inverse_cdf(k: [f32; 3], xi: f32) -> f32 {
 
 impl LineSampler for HartQuadratic {
     fn sample(&self, xi: f32) -> Vec3 {
-        let u = quadratic_inverse_cdf(self.k, clamp_xi(xi));
+        let u = quadratic_inverse_cdf(self.k, self.start, clamp_xi(xi));
         direction_of_u(&self.frame, &self.arc, u)
     }
 
@@ -298,7 +309,7 @@ impl LineSampler for HartQuadratic {
     }
 
     fn sample_with_pdf(&self, xi: f32) -> (Vec3, f32) {
-        let u = quadratic_inverse_cdf(self.k, clamp_xi(xi));
+        let u = quadratic_inverse_cdf(self.k, self.start, clamp_xi(xi));
         let dir = direction_of_u(&self.frame, &self.arc, u);
         (dir, self.density_u(u) * self.inv_solid_angle)
     }
@@ -489,7 +500,7 @@ mod tests {
             let mut prev = 0.0f32;
             for i in 0..=100_000 {
                 let xi = i as f32 / 100_000.0;
-                let u = quadratic_inverse_cdf(k, xi);
+                let u = quadratic_inverse_cdf(k, newton_start(k), xi);
                 assert!(
                     (0.0..=1.0).contains(&u) && u >= prev,
                     "{k:?} {xi} {u} {prev}"
@@ -500,10 +511,11 @@ mod tests {
                 );
                 prev = u;
             }
-            assert_eq!(quadratic_inverse_cdf(k, 0.0), 0.0);
-            assert_eq!(quadratic_inverse_cdf(k, 1.0), 1.0);
+            assert_eq!(quadratic_inverse_cdf(k, newton_start(k), 0.0), 0.0);
+            assert_eq!(quadratic_inverse_cdf(k, newton_start(k), 1.0), 1.0);
         }
-        let u = quadratic_inverse_cdf([0.0, 0.0, 3.0], 0.125);
+        let k = [0.0, 0.0, 3.0];
+        let u = quadratic_inverse_cdf(k, newton_start(k), 0.125);
         assert!((u - 0.5).abs() < 1e-6);
     }
 

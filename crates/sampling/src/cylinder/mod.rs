@@ -464,7 +464,7 @@ impl CylinderTechnique {
         Some(match self {
             CylinderTechnique::Area => PreparedCylinder::Area(CylinderArea::new(view)?),
             CylinderTechnique::SolidAngle => {
-                PreparedCylinder::SolidAngle(Box::new(CylinderSolidAngle::new(view)?))
+                PreparedCylinder::SolidAngle(CylinderSolidAngle::boxed(view)?)
             }
             CylinderTechnique::Projected => {
                 PreparedCylinder::Projected(CylinderProjected::new(view)?)

@@ -91,12 +91,23 @@ pub(crate) fn solid_angle_of(v: &CylinderView) -> f64 {
 
 impl CylinderSolidAngle {
     pub fn new(view: &CylinderView) -> Option<Self> {
+        Self::boxed(view).map(|s| *s)
+    }
+
+    /// [`Self::new`] built in its heap allocation: the renderer prepares one per shading
+    /// point, and building it on the stack cost a copy of its ~500 bytes into the box.
+    pub fn boxed(view: &CylinderView) -> Option<Box<Self>> {
         let v = view;
-        let mut alpha = [0.0; BANDS];
-        let mut width = [0.0; BANDS];
-        let mut s_lo = [0.0; BANDS];
-        let mut s_hi = [0.0; BANDS];
-        let mut cumulative = [0.0; BANDS];
+        let mut out = Box::new(Self {
+            view: *view,
+            inv_omega: 0.0,
+            alpha: [0.0; BANDS],
+            width: [0.0; BANDS],
+            s_lo: [0.0; BANDS],
+            s_hi: [0.0; BANDS],
+            cumulative: [0.0; BANDS],
+        });
+        let s = &mut *out;
         let step = v.theta_max / BANDS as f64;
         let mut area = 0.0;
         let end = |theta: f64| {
@@ -108,24 +119,17 @@ impl CylinderSolidAngle {
         for k in 0..BANDS {
             let t0 = k as f64 * step;
             let outer = end(t0 + step);
-            alpha[k] = inner.0;
-            width[k] = outer.0 - inner.0;
-            s_lo[k] = inner.1.min(outer.1);
-            s_hi[k] = inner.2.max(outer.2);
-            area += width[k] * (s_hi[k] - s_lo[k]);
-            cumulative[k] = area;
+            s.alpha[k] = inner.0;
+            s.width[k] = outer.0 - inner.0;
+            s.s_lo[k] = inner.1.min(outer.1);
+            s.s_hi[k] = inner.2.max(outer.2);
+            area += s.width[k] * (s.s_hi[k] - s.s_lo[k]);
+            s.cumulative[k] = area;
             inner = outer;
         }
         let inv_omega = 1.0 / solid_angle_of(v);
-        (inv_omega.is_finite() && inv_omega > 0.0 && area > 0.0).then_some(Self {
-            view: *view,
-            inv_omega,
-            alpha,
-            width,
-            s_lo,
-            s_hi,
-            cumulative,
-        })
+        s.inv_omega = inv_omega;
+        (inv_omega.is_finite() && inv_omega > 0.0 && area > 0.0).then_some(out)
     }
 
     /// Solid angle Ω of the visible side.
