@@ -3,7 +3,8 @@
 
 usage: scripts/plot-scaling.py TSV SVG, TSV rows: scene, triangles, linlight and Mitsuba
 M samples per CPU second (medians), as scripts/bench-scenes writes them with PLOT=.
-Log-scaled triangle axis; standard library only.
+Log-scaled triangle axis; the size ladder's rungs (scenes named ladder-*) joined by a line,
+other scenes as points; standard library only.
 """
 import math
 import sys
@@ -40,7 +41,9 @@ def main(tsv, svg):
     ]
     for e in range(lo, hi + 1):
         out.append(f'<text x="{x(10 ** e)}" y="{y(0) + 18}" text-anchor="middle">10^{e}</text>')
-    step = 10 ** math.floor(math.log10(ymax / 2))
+    # The tick step: 1, 2 or 5 × 10^k, the smallest giving at most 8 steps.
+    k = 10 ** math.floor(math.log10(ymax / 8))
+    step = next(m * k for m in (1, 2, 5, 10) if ymax / (m * k) <= 8)
     v = 0.0
     while v <= ymax:
         out.append(f'<text x="{left - 6}" y="{y(v) + 4}" text-anchor="end">{v:g}</text>')
@@ -51,7 +54,8 @@ def main(tsv, svg):
     out.append(f'<text x="18" y="{(top + h - bottom) / 2}" text-anchor="middle" '
                f'transform="rotate(-90 18 {(top + h - bottom) / 2})">M samples per CPU second</text>')
     for i, (name, colour) in enumerate([("linlight", "#d62728"), ("Mitsuba 3", "#1f77b4")]):
-        pts = " ".join(f"{x(r[1]):.1f},{y(r[2 + i]):.1f}" for r in rows)
+        pts = " ".join(f"{x(r[1]):.1f},{y(r[2 + i]):.1f}" for r in rows
+                       if r[0].startswith("ladder-"))
         out.append(f'<polyline points="{pts}" fill="none" stroke="{colour}" stroke-width="2"/>')
         for r in rows:
             out.append(f'<circle cx="{x(r[1]):.1f}" cy="{y(r[2 + i]):.1f}" r="3.5" fill="{colour}">'
