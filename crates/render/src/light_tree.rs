@@ -31,7 +31,12 @@
 use crate::light::Light;
 use glam::Vec3;
 use linlight_sampling::Segment;
-use linlight_simd::Lanes3;
+use linlight_simd::{Isa, Lanes3};
+
+mod levels;
+
+/// The children (left, right) of L lanes' nodes and their fields, lane by lane.
+type Children<const L: usize> = ([u32; L], [u32; L], NodeLanes<L>, NodeLanes<L>);
 
 /// Floor of cos θ' in a node's importance (relative to the node's Φ/d²).
 pub const COS_FLOOR: f32 = 1e-4;
@@ -153,6 +158,10 @@ pub struct LightTree {
     /// The deepest and the shallowest leaf's depths.
     depth: u32,
     shallowest: u32,
+    /// The nodes are in breadth-first order (each depth's nodes contiguous, a node's children
+    /// consecutive). Entry d: depth d's first node and its nodes' fields as tables, for the
+    /// depths from the root down to the first with more than [`levels::MAX_NODES`] nodes.
+    levels: Vec<levels::Level>,
 }
 
 impl LightTree {
@@ -166,6 +175,7 @@ impl LightTree {
             trail: vec![(0, 0); lights.len()],
             depth: 0,
             shallowest: 0,
+            levels: Vec::new(),
         };
         if lights.is_empty() {
             return tree;
@@ -174,7 +184,46 @@ impl LightTree {
         tree.build(lights, &mut order, 0, 0);
         tree.depth = tree.trail.iter().map(|&(_, d)| d).max().unwrap_or(0);
         tree.shallowest = tree.trail.iter().map(|&(_, d)| d).min().unwrap_or(0);
+        tree.breadth_first();
         tree
+    }
+
+    /// Renumbers the nodes (built depth first) in breadth-first order, so that each depth's
+    /// nodes are contiguous and a node's children consecutive, and tabulates the small levels.
+    fn breadth_first(&mut self) {
+        let mut order = vec![0u32];
+        let mut starts = Vec::new();
+        let mut begin = 0;
+        while begin < order.len() {
+            starts.push(begin as u32);
+            let end = order.len();
+            for i in begin..end {
+                let node = &self.nodes[order[i] as usize];
+                if !node.is_leaf() {
+                    order.extend(node.children);
+                }
+            }
+            begin = end;
+        }
+        let mut new_index = vec![0u32; self.nodes.len()];
+        for (new, &old) in order.iter().enumerate() {
+            new_index[old as usize] = new as u32;
+        }
+        let nodes: Vec<Node> = order
+            .iter()
+            .map(|&old| {
+                let mut node = self.nodes[old as usize];
+                node.children = node.children.map(|c| new_index[c as usize]);
+                node
+            })
+            .collect();
+        self.light = order.iter().map(|&old| self.light[old as usize]).collect();
+        self.nodes = nodes;
+        starts.push(self.nodes.len() as u32);
+        self.levels = starts
+            .windows(2)
+            .map_while(|w| levels::Level::new(&self.nodes[w[0] as usize..w[1] as usize], w[0]))
+            .collect();
     }
 
     /// Builds the subtree of `lights[order]` at depth `depth` with trail `bits`; returns its
@@ -243,44 +292,90 @@ impl LightTree {
     #[inline]
     pub fn sample(&self, x: Vec3, n: Vec3, xi: f32) -> (usize, f64) {
         let lane = |v: Vec3| v.to_array().map(|c| [c]);
-        let (j, pmf) = self.sample_lanes(&lane(x), &lane(n), &[xi]);
+        let (j, pmf) = self.sample_lanes(Isa::Baseline, &lane(x), &lane(n), &[xi]);
         (j[0] as usize, pmf[0])
     }
 
     /// [`Self::sample`] for each lane k of (`x`, `n`, `xi`): the lanes walk down together, one
     /// level per step, each from its own node, the importances of their children computed over
-    /// the lanes (vector operations; the nodes' fields gathered lane by lane, the leaves'
-    /// segments only at levels that hold leaves); a lane at its leaf stays there. The
-    /// operations of each lane are those of one lane alone: the same lights and pmfs, bit for
-    /// bit.
+    /// the lanes (vector operations; the leaves' segments only at levels that hold leaves); a
+    /// lane at its leaf stays there. The nodes' fields are gathered lane by lane, or, for 16
+    /// lanes under [`Isa::Avx512`] and levels of at most [`levels::MAX_NODES`] nodes, looked up
+    /// in the level's tables by vector permutes. The operations of each lane are those of one
+    /// lane alone: the same lights and pmfs, bit for bit, whatever `isa`.
     #[inline(always)]
     pub fn sample_lanes<const L: usize>(
         &self,
+        isa: Isa,
         x: &Lanes3<f32, L>,
         n: &Lanes3<f32, L>,
         xi: &[f32; L],
     ) -> ([u32; L], [f64; L]) {
         debug_assert!(!self.nodes.is_empty(), "no light to choose");
+        #[cfg(target_arch = "x86_64")]
+        if L == levels::LANES && isa == Isa::Avx512 && self.levels.len() > 1 && isa.supported() {
+            // SAFETY: L = LANES, so the casts are between identical types; the CPU runs
+            // AVX-512 (just checked).
+            unsafe {
+                let cast =
+                    |v: &Lanes3<f32, L>| &*(v as *const _ as *const Lanes3<f32, { levels::LANES }>);
+                let xi = &*(xi as *const [f32; L] as *const [f32; levels::LANES]);
+                let out = levels::sample(self, cast(x), cast(n), xi);
+                return std::mem::transmute_copy(&out);
+            }
+        }
+        let _ = isa;
+        self.walk(x, n, xi, |_, node, leaves| {
+            self.gather_children(node, leaves)
+        })
+    }
+
+    /// The children (left, right) of each lane's node, and their fields: gathered lane by lane.
+    #[inline(always)]
+    fn gather_children<const L: usize>(&self, node: &[u32; L], leaves: bool) -> Children<L> {
+        let mut left = [0u32; L];
+        let mut right = [0u32; L];
+        for k in 0..L {
+            [left[k], right[k]] = self.nodes[node[k] as usize].children;
+        }
+        let l = NodeLanes::gather(&self.nodes, &left, leaves);
+        let r = NodeLanes::gather(&self.nodes, &right, leaves);
+        (left, right, l, r)
+    }
+
+    /// The walk of [`Self::sample_lanes`], with `children(level, node, leaves)` the children of
+    /// each lane's node at depth `level` and their fields (with the leaves' segments when
+    /// `leaves`). Lanes at a leaf keep their numbers, whatever `children` gives for them.
+    #[inline(always)]
+    fn walk<const L: usize>(
+        &self,
+        x: &Lanes3<f32, L>,
+        n: &Lanes3<f32, L>,
+        xi: &[f32; L],
+        children: impl Fn(usize, &[u32; L], bool) -> Children<L>,
+    ) -> ([u32; L], [f64; L]) {
         let mut node = [0u32; L];
         let mut u = xi.map(|v| (v as f64).clamp(0.0, 1.0));
         let mut pmf = [1.0f64; L];
+        let mut done = [self.nodes[0].is_leaf(); L];
         for level in 0..self.depth {
             // Children at depth level + 1: leaves among them from the shallowest leaf's depth.
             let leaves = level + 1 >= self.shallowest;
-            let mut left = [0u32; L];
-            let mut right = [0u32; L];
-            for k in 0..L {
-                [left[k], right[k]] = self.nodes[node[k] as usize].children;
-            }
-            let il = NodeLanes::gather(&self.nodes, &left, leaves).importance(x, n);
-            let ir = NodeLanes::gather(&self.nodes, &right, leaves).importance(x, n);
+            let (left, right, l, r) = children(level as usize, &node, leaves);
+            let il = l.importance(x, n);
+            let ir = r.importance(x, n);
             for k in 0..L {
                 let (go_left, u_next, pmf_next) = step(il[k], ir[k], u[k], pmf[k]);
-                // A lane at its leaf (children equal) keeps its numbers.
-                let walks = left[k] != right[k];
+                let walks = !done[k];
                 u[k] = if walks { u_next } else { u[k] };
                 pmf[k] = if walks { pmf_next } else { pmf[k] };
-                node[k] = if go_left { left[k] } else { right[k] };
+                let (next, weight) = if go_left {
+                    (left[k], l.weight[k])
+                } else {
+                    (right[k], r.weight[k])
+                };
+                node[k] = if walks { next } else { node[k] };
+                done[k] = done[k] || weight.is_sign_negative();
             }
         }
         (node.map(|i| self.light[i as usize]), pmf)
@@ -626,11 +721,24 @@ mod tests {
 
     /// The lanes' walk chooses, lane by lane, the light and pmf of the one-lane walk bit for
     /// bit (16 lanes of different shading points and ξ, among them lanes without a shading
-    /// point: zero normal and position).
+    /// point: zero normal and position), with every instruction set the CPU runs (AVX-512:
+    /// the level tables; 150 lights also have levels too large for them).
     #[test]
     fn lanes_choose_as_one_lane() {
         let mut rng = Mix(0x1a7e5);
-        for (tree, x0, n0) in cases() {
+        let mut cases = cases();
+        let large = LightTree::new(&random_lights(&mut rng, 150));
+        assert!(large.levels.len() > 1 && large.levels.len() <= large.depth as usize);
+        cases.extend(
+            shading_points(&mut rng)
+                .into_iter()
+                .map(|(x, n)| (large.clone(), x, n)),
+        );
+        for ((tree, x0, n0), isa) in cases
+            .into_iter()
+            .flat_map(|c| Isa::ALL.map(|isa| (c.clone(), isa)))
+            .filter(|(_, isa)| isa.supported())
+        {
             let mut x = [[0.0f32; 16]; 3];
             let mut n = [[0.0f32; 16]; 3];
             let xi: [f32; 16] = std::array::from_fn(|_| rng.xi());
@@ -650,7 +758,7 @@ mod tests {
                     n[c][k] = nk[c];
                 }
             }
-            let (light, pmf) = tree.sample_lanes(&x, &n, &xi);
+            let (light, pmf) = tree.sample_lanes(isa, &x, &n, &xi);
             for k in 0..16 {
                 let xk = Vec3::new(x[0][k], x[1][k], x[2][k]);
                 let nk = Vec3::new(n[0][k], n[1][k], n[2][k]);
@@ -658,7 +766,7 @@ mod tests {
                 assert_eq!(
                     (light[k] as usize, pmf[k].to_bits()),
                     (j, p.to_bits()),
-                    "lane {k}"
+                    "lane {k}, {isa:?}"
                 );
             }
         }

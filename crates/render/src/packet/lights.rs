@@ -113,7 +113,9 @@ impl<'a> Context<'a> {
             // (the scalar path's `choose_light` per lane, bit for bit); the lanes without a
             // shading point sample nothing.
             let xi_c = number(RenderScene::LIGHT_CHOICE_DIMENSION);
-            let (chosen, pmf) = rs.tree.sample_lanes(&shading.p, &shading.n, &xi_c);
+            let (chosen, pmf) = rs
+                .tree
+                .sample_lanes(self.isa, &shading.p, &shading.n, &xi_c);
             let mut light = [0u32; PACKET_LANES];
             let mut rows = [[0.0f32; PACKET_LANES]; 9];
             let mut m = shading.active;
