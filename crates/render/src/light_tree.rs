@@ -369,13 +369,13 @@ impl LightTree {
                 let walks = !done[k];
                 u[k] = if walks { u_next } else { u[k] };
                 pmf[k] = if walks { pmf_next } else { pmf[k] };
-                let (next, weight) = if go_left {
-                    (left[k], l.weight[k])
-                } else {
-                    (right[k], r.weight[k])
-                };
+                // Bitwise selects: written with `if`, the compiler selects the arrays'
+                // addresses and gathers from them.
+                let m = (go_left as u32).wrapping_neg();
+                let next = left[k] & m | right[k] & !m;
+                let weight = l.weight[k].to_bits() & m | r.weight[k].to_bits() & !m;
                 node[k] = if walks { next } else { node[k] };
-                done[k] = done[k] || weight.is_sign_negative();
+                done[k] = done[k] || weight >> 31 != 0;
             }
         }
         (node.map(|i| self.light[i as usize]), pmf)
