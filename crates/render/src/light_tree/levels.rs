@@ -15,7 +15,7 @@ pub(super) const MAX_NODES: usize = 64;
 #[repr(C, align(64))]
 pub(super) struct Level {
     /// centre x, y, z, r², weight; a leaf's segment begin x, y, z, axis x, y, z, length, h²
-    /// floor (zero for interior nodes).
+    /// floor (unused for interior nodes).
     fields: [[f32; MAX_NODES]; FIELDS],
     /// The node's left child (its right one is next; a leaf's is itself).
     left: [u32; MAX_NODES],
