@@ -34,7 +34,7 @@
 //! the bits of ξ (a deterministic function of ξ). No inverse.
 
 use super::solid_angle::GL8;
-use super::{reject_until_accepted, CylinderSampler, CylinderView};
+use super::{reject_until_accepted, CylinderSample, CylinderSampler, CylinderView};
 use glam::DVec3;
 
 /// Most panels per cap segment of [`gamito_solid_angle`]'s quadrature, 8 Gauss–Legendre nodes
@@ -211,22 +211,30 @@ impl CylinderGamito {
 
 impl CylinderSampler for CylinderGamito {
     fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
-        let dir = reject_until_accepted(
+        self.sample_toward(xi).map(|s| (s.dir, s.pdf))
+    }
+
+    fn pdf(&self, dir: DVec3) -> f64 {
+        self.pdf_toward(dir).map_or(0.0, |(p, _)| p)
+    }
+
+    /// The accepted candidate's direction and its distance h/cos φ from the acceptance test's
+    /// own values.
+    fn sample_toward(&self, xi: [f32; 2]) -> Option<CylinderSample> {
+        let (dir, distance) = reject_until_accepted(
             xi,
             0x6a,
             MAX_CANDIDATES,
             |x0, x1| self.candidate(x0, x1),
-            |alpha, s| self.view.front_direction(alpha, s),
+            |(alpha, s)| self.view.front_sample_at(alpha, s),
         )?;
-        Some((dir, self.inv_omega))
+        CylinderSample::checked(dir, self.inv_omega, distance)
     }
 
-    fn pdf(&self, dir: DVec3) -> f64 {
-        if self.view.hit(dir).is_some() {
-            self.inv_omega
-        } else {
-            0.0
-        }
+    /// 1/Ω where the view's `front_hit` meets the side.
+    fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
+        let hit = self.view.front_hit(dir)?;
+        Some((self.inv_omega, hit.distance))
     }
 
     fn view(&self) -> &CylinderView {
