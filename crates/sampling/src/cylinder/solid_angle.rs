@@ -55,11 +55,6 @@ pub struct CylinderSolidAngle {
     cumulative: [f64; BANDS],
 }
 
-#[inline]
-fn s_of(e: f64, h: f64) -> f64 {
-    e / e.hypot(h)
-}
-
 /// sinh and cosh of x ≥ 0 from one `exp_m1` (relative error a few ulps, also for small x).
 #[inline]
 fn sinh_cosh(x: f64) -> (f64, f64) {
@@ -135,17 +130,28 @@ impl CylinderSolidAngle {
             cumulative: [0.0; BANDS],
         });
         let s = &mut *out;
-        let step = v.theta_max / BANDS as f64;
+        let (gap, tangent2) = (v.rho - v.radius, (v.rho - v.radius) * (v.rho + v.radius));
+        let (a2, b2) = (v.a * v.a, v.b * v.b);
+        // A band end: α and s_a, s_b from h² there (the end at θ = 0 is α = 0, h = ρ − R;
+        // at θ_max, α_max and h² = ρ² − R²).
+        let end = |alpha: f64, h2: f64| (alpha, v.a / (a2 + h2).sqrt(), v.b / (b2 + h2).sqrt());
+        // sin θ, cos θ of the interior ends θ_k = k θ_max/BANDS by rotation (error a few ulps),
+        // the front point R(cos θ, sin θ) seen from x at (ρ, 0): α = atan2(R sin θ, ρ − R cos θ).
+        let (sin_step, cos_step) = (v.theta_max / BANDS as f64).sin_cos();
+        let (mut sin_t, mut cos_t) = (0.0, 1.0);
         let mut area = 0.0;
-        let end = |theta: f64| {
-            let (a, _) = v.alpha_of_theta(theta);
-            let h = v.h(a);
-            (a, s_of(v.a, h), s_of(v.b, h))
-        };
-        let mut inner = end(0.0);
+        let mut inner = end(0.0, gap * gap);
         for k in 0..BANDS {
-            let t0 = k as f64 * step;
-            let outer = end(t0 + step);
+            let outer = if k + 1 == BANDS {
+                end(v.alpha_max, tangent2)
+            } else {
+                (sin_t, cos_t) = (
+                    sin_t * cos_step + cos_t * sin_step,
+                    cos_t * cos_step - sin_t * sin_step,
+                );
+                let (hx, hy) = (v.rho - v.radius * cos_t, v.radius * sin_t);
+                end(hy.atan2(hx), hx * hx + hy * hy)
+            };
             s.alpha[k] = inner.0;
             s.width[k] = outer.0 - inner.0;
             s.s_lo[k] = inner.1.min(outer.1);
@@ -229,6 +235,10 @@ mod tests {
     use super::super::test_support::*;
     use super::super::{Cylinder, CylinderView};
     use super::*;
+
+    fn s_of(e: f64, h: f64) -> f64 {
+        e / e.hypot(h)
+    }
 
     /// Ω against a graded reference quadrature, and the envelope's acceptance rate.
     #[test]
