@@ -273,10 +273,9 @@ mod tests {
     /// converted exactly before any of them), so rounding (~1e-16 per operation, ≤ ~1e-14 over
     /// a few hundred terms) is far below the bounds, which are those of the quadratures:
     /// 1e-12 for the decomposition (measured ≤ 7e-13, for the thin tube seen from beyond its
-    /// end, where the uniform sampler's Ω is as far from the reference and within 4e-14 of
-    /// Gamito's: the reference's own error; ≤ 1e-13 elsewhere, x 1e-4 R from a rim included)
-    /// and 1e-9 (the uniform sampler's documented bound; measured ≤ 5.6e-10, at the rim) plus
-    /// 1e-12 between the two Ω's.
+    /// end, the reference's own error there; ≤ 1e-13 elsewhere, x 1e-4 R from a rim included)
+    /// and 1e-9 (the uniform sampler's documented bound; measured ≤ 1.8e-10, a thin tube seen
+    /// from afar on one panel) plus 1e-12 between the two Ω's.
     #[test]
     fn gamito_solid_angle_agrees_with_the_reference_and_with_ours() {
         for (cyl, x, n) in omega_cases() {
