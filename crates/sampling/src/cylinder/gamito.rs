@@ -93,7 +93,7 @@ pub fn gamito_solid_angle(v: &CylinderView) -> f64 {
 /// near the tube: θ = θ_s sinh t with θ_s = min(θ_max, max(ρ − R, e)/R), panels of t of width
 /// ≤ 0.9 (one unless x is within about R θ_max of the tube or of the cap's plane; at most
 /// [`CAP_PANELS`]), 8 Gauss–Legendre nodes each, sinh and cosh of the nodes by the addition
-/// theorems (one sin_cos per node).
+/// theorems, sin and cos of θ/2 by [`crate::trig::sin_cos_quarter`] (arithmetic only).
 pub fn cap_segment(v: &CylinderView, e: f64) -> f64 {
     let (r, rho) = (v.radius, v.rho);
     let gap = rho - r;
@@ -111,7 +111,8 @@ pub fn cap_segment(v: &CylinderView, e: f64) -> f64 {
     let (sm, cm) = (0.5 * theta_max).sin_cos();
     let mut half = 0.0;
     super::solid_angle::for_sinh_nodes(t_max, panels, |sinh, cosh, wt| {
-        let (sh, ch) = (0.5 * theta_s * sinh).sin_cos();
+        // θ/2 < θ_max/2 < π/4.
+        let (sh, ch) = crate::trig::sin_cos_quarter(0.5 * theta_s * sinh);
         let (sin_t, cos_t) = (2.0 * sh * ch, (ch - sh) * (ch + sh));
         let y = r * sin_t;
         let x = gap + 2.0 * r * sh * sh;
