@@ -10,7 +10,7 @@
 //!
 //! Inverse: ξ = ((θ + θ_max)/(2θ_max), (l − a)/(b − a)).
 
-use super::{clamp_xi, CylinderSampler, CylinderView};
+use super::{clamp_xi, CylinderSample, CylinderSampler, CylinderView};
 use glam::DVec3;
 
 #[derive(Clone, Copy, Debug)]
@@ -33,6 +33,15 @@ impl CylinderArea {
 
 impl CylinderSampler for CylinderArea {
     fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
+        self.sample_toward(xi).map(|s| (s.dir, s.pdf))
+    }
+
+    fn pdf(&self, dir: DVec3) -> f64 {
+        self.pdf_toward(dir).map_or(0.0, |(p, _)| p)
+    }
+
+    /// The sample, its density and its distance r = |y − x| from the sampled surface point y.
+    fn sample_toward(&self, xi: [f32; 2]) -> Option<CylinderSample> {
         let v = &self.view;
         let theta = v.theta_max * (2.0 * clamp_xi(xi[0]) - 1.0);
         let (t0, t1) = (clamp_xi(xi[1]), 1.0 - clamp_xi(xi[1]));
@@ -43,23 +52,22 @@ impl CylinderSampler for CylinderArea {
         let r = d.length();
         let facing = v.rho * c - v.radius;
         let p = r * r * r * self.inv_area / facing;
-        (facing > 0.0 && p.is_finite()).then(|| (d / r, p))
+        if !(facing > 0.0 && p.is_finite()) {
+            return None;
+        }
+        CylinderSample::checked(d / r, p, r)
     }
 
-    fn pdf(&self, dir: DVec3) -> f64 {
+    /// The hit by the view's `front_hit` (sin α, h, cos φ and the distance as ratios), then the
+    /// density there.
+    fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
         let v = &self.view;
-        let Some((alpha, phi, h)) = v.hit(dir) else {
-            return 0.0;
-        };
-        let q = v.rho * alpha.sin().abs();
+        let hit = v.front_hit(dir)?;
+        let (h, c) = (hit.slice.h, hit.t);
+        let q = v.rho * hit.slice.sin.abs();
         let k = ((v.radius - q).max(0.0) * (v.radius + q)).sqrt();
-        let c = phi.cos();
         let p = h * h * v.radius * self.inv_area / (c * c * c * k);
-        if p.is_finite() {
-            p
-        } else {
-            0.0
-        }
+        Some((if p.is_finite() { p } else { 0.0 }, hit.distance))
     }
 
     fn inverse(&self, dir: DVec3) -> Option<[f64; 2]> {

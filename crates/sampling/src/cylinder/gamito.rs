@@ -33,8 +33,7 @@
 //! end x looks into). Rejection: the first candidate uses ξ, later ones a PCG32 stream keyed by
 //! the bits of ξ (a deterministic function of ξ). No inverse.
 
-use super::solid_angle::GL8;
-use super::{reject_until_accepted, CylinderSampler, CylinderView};
+use super::{reject_until_accepted, CylinderSample, CylinderSampler, CylinderView};
 use glam::DVec3;
 
 /// Most panels per cap segment of [`gamito_solid_angle`]'s quadrature, 8 Gauss–Legendre nodes
@@ -93,7 +92,8 @@ pub fn gamito_solid_angle(v: &CylinderView) -> f64 {
 /// scale max(ρ − R, e) in Y (the arc's distance from the foot and the height of x), below c
 /// near the tube: θ = θ_s sinh t with θ_s = min(θ_max, max(ρ − R, e)/R), panels of t of width
 /// ≤ 0.9 (one unless x is within about R θ_max of the tube or of the cap's plane; at most
-/// [`CAP_PANELS`]), 8 Gauss–Legendre nodes each.
+/// [`CAP_PANELS`]), 8 Gauss–Legendre nodes each, sinh and cosh of the nodes by the addition
+/// theorems, sin and cos of θ/2 by [`crate::trig::sin_cos_quarter`] (arithmetic only).
 pub fn cap_segment(v: &CylinderView, e: f64) -> f64 {
     let (r, rho) = (v.radius, v.rho);
     let gap = rho - r;
@@ -107,29 +107,21 @@ pub fn cap_segment(v: &CylinderView, e: f64) -> f64 {
     // Panels of width ≤ PANEL_WIDTH in t: one for a shading point far from the tube
     // (t_max ≤ asinh(1)), up to CAP_PANELS close to it.
     let panels = ((t_max / PANEL_WIDTH).ceil() as usize).clamp(1, CAP_PANELS);
-    let panel = t_max / panels as f64;
     // sin, cos of θ_max/2 (cos θ_max = R/ρ): d − X_arc = 2R sin((θ_max + θ)/2) sin((θ_max − θ)/2).
     let (sm, cm) = (0.5 * theta_max).sin_cos();
     let mut half = 0.0;
-    for k in 0..panels {
-        let mid = (k as f64 + 0.5) * panel;
-        for &(node, wt) in &GL8 {
-            for t in [mid - 0.5 * panel * node, mid + 0.5 * panel * node] {
-                let (ep, em) = (t.exp(), (-t).exp());
-                let theta = theta_s * 0.5 * (ep - em);
-                let dtheta = theta_s * 0.5 * (ep + em);
-                let (sh, ch) = (0.5 * theta).sin_cos();
-                let (sin_t, cos_t) = (2.0 * sh * ch, (ch - sh) * (ch + sh));
-                let y = r * sin_t;
-                let x = gap + 2.0 * r * sh * sh;
-                let d_minus_x = 2.0 * r * (sm * ch + cm * sh) * (sm * ch - cm * sh).max(0.0);
-                let q = y * y + e * e;
-                let (sx, sd) = ((x * x + q).sqrt(), (depth * depth + q).sqrt());
-                let f = e * d_minus_x * (depth + x) / ((depth * sx + x * sd) * sd * sx);
-                half += 0.5 * panel * wt * dtheta * r * cos_t * f;
-            }
-        }
-    }
+    super::solid_angle::for_sinh_nodes(t_max, panels, |sinh, cosh, wt| {
+        // θ/2 < θ_max/2 < π/4.
+        let (sh, ch) = crate::trig::sin_cos_quarter(0.5 * theta_s * sinh);
+        let (sin_t, cos_t) = (2.0 * sh * ch, (ch - sh) * (ch + sh));
+        let y = r * sin_t;
+        let x = gap + 2.0 * r * sh * sh;
+        let d_minus_x = 2.0 * r * (sm * ch + cm * sh) * (sm * ch - cm * sh).max(0.0);
+        let q = y * y + e * e;
+        let (sx, sd) = ((x * x + q).sqrt(), (depth * depth + q).sqrt());
+        let f = e * d_minus_x * (depth + x) / ((depth * sx + x * sd) * sd * sx);
+        half += wt * theta_s * cosh * r * cos_t * f;
+    });
     2.0 * half
 }
 
@@ -185,48 +177,69 @@ impl CylinderGamito {
         2.0 * self.g_max
     }
 
-    /// The rectangle's elevation range S_l(α) at azimuth α, for l₀ and l₁.
+    /// The rectangle's elevation range S_l(α) at azimuth α, for l₀ and l₁, from cos α.
     #[inline]
-    fn s_range(&self, alpha: f64) -> (f64, f64) {
-        let c = alpha.cos();
-        let s = |l: f64| l * c / (self.depth.hypot(l * c));
+    fn s_range(&self, cos_alpha: f64) -> (f64, f64) {
+        let d2 = self.depth * self.depth;
+        let s = |l: f64| {
+            let lc = l * cos_alpha;
+            lc / (d2 + lc * lc).sqrt()
+        };
         (s(self.l[0]), s(self.l[1]))
     }
 
-    /// The candidate (α, s) for (ξ₀, ξ₁) ∈ [0, 1]², uniform in the rectangle's solid angle.
+    /// The candidate for (ξ₀, ξ₁) ∈ [0, 1]², uniform in the rectangle's solid angle: α, sin α,
+    /// cos α and s.
     #[inline]
-    fn candidate(&self, x0: f64, x1: f64) -> (f64, f64) {
+    fn candidate(&self, x0: f64, x1: f64) -> [f64; 4] {
         let t = (2.0 * x0 - 1.0) * self.g_max;
         let [a0, a1] = self.a_l;
-        let half = (0.5 * t).sin();
-        let norm = ((a1 - a0) * (a1 - a0) + 4.0 * a0 * a1 * half * half).sqrt();
-        let sign = if a1 * t.cos() - a0 >= 0.0 { 1.0 } else { -1.0 };
+        let (sin_t, cos_t) = t.sin_cos();
+        // sin²(t/2), without cancellation on either side of |t| = π/2.
+        let half2 = if cos_t >= 0.0 {
+            sin_t * sin_t / (2.0 * (1.0 + cos_t))
+        } else {
+            0.5 * (1.0 - cos_t)
+        };
+        let norm = ((a1 - a0) * (a1 - a0) + 4.0 * a0 * a1 * half2).sqrt();
+        let sign = if a1 * cos_t - a0 >= 0.0 { 1.0 } else { -1.0 };
         let sin_max = self.view.radius / self.view.rho;
-        let sigma = (sign * t.sin() / norm).clamp(-sin_max, sin_max);
-        let alpha = sigma.asin();
-        let (s0, s1) = self.s_range(alpha);
-        (alpha, s0 + x1 * (s1 - s0))
+        let sigma = (sign * sin_t / norm).clamp(-sin_max, sin_max);
+        let cos_alpha = ((1.0 - sigma) * (1.0 + sigma)).sqrt();
+        let (s0, s1) = self.s_range(cos_alpha);
+        [sigma.asin(), sigma, cos_alpha, s0 + x1 * (s1 - s0)]
     }
 }
 
 impl CylinderSampler for CylinderGamito {
     fn sample_with_pdf(&self, xi: [f32; 2]) -> Option<(DVec3, f64)> {
-        let dir = reject_until_accepted(
+        self.sample_toward(xi).map(|s| (s.dir, s.pdf))
+    }
+
+    fn pdf(&self, dir: DVec3) -> f64 {
+        self.pdf_toward(dir).map_or(0.0, |(p, _)| p)
+    }
+
+    /// The accepted candidate's direction and its distance h/cos φ from the acceptance test's
+    /// own values.
+    fn sample_toward(&self, xi: [f32; 2]) -> Option<CylinderSample> {
+        let (dir, distance) = reject_until_accepted(
             xi,
             0x6a,
             MAX_CANDIDATES,
             |x0, x1| self.candidate(x0, x1),
-            |alpha, s| self.view.front_direction(alpha, s),
+            |[alpha, sin, cos, s]| {
+                let v = &self.view;
+                (alpha.abs() <= v.alpha_max).then(|| v.front_sample(sin, cos, s))?
+            },
         )?;
-        Some((dir, self.inv_omega))
+        CylinderSample::checked(dir, self.inv_omega, distance)
     }
 
-    fn pdf(&self, dir: DVec3) -> f64 {
-        if self.view.hit(dir).is_some() {
-            self.inv_omega
-        } else {
-            0.0
-        }
+    /// 1/Ω where the view's `front_hit` meets the side.
+    fn pdf_toward(&self, dir: DVec3) -> Option<(f64, f64)> {
+        let hit = self.view.front_hit(dir)?;
+        Some((self.inv_omega, hit.distance))
     }
 
     fn view(&self) -> &CylinderView {
@@ -261,10 +274,9 @@ mod tests {
     /// converted exactly before any of them), so rounding (~1e-16 per operation, ≤ ~1e-14 over
     /// a few hundred terms) is far below the bounds, which are those of the quadratures:
     /// 1e-12 for the decomposition (measured ≤ 7e-13, for the thin tube seen from beyond its
-    /// end, where the uniform sampler's Ω is as far from the reference and within 4e-14 of
-    /// Gamito's: the reference's own error; ≤ 1e-13 elsewhere, x 1e-4 R from a rim included)
-    /// and 1e-9 (the uniform sampler's documented bound; measured ≤ 5.6e-10, at the rim) plus
-    /// 1e-12 between the two Ω's.
+    /// end, the reference's own error there; ≤ 1e-13 elsewhere, x 1e-4 R from a rim included)
+    /// and 1e-9 (the uniform sampler's documented bound; measured ≤ 1.8e-10, a thin tube seen
+    /// from afar on one panel) plus 1e-12 between the two Ω's.
     #[test]
     fn gamito_solid_angle_agrees_with_the_reference_and_with_ours() {
         for (cyl, x, n) in omega_cases() {
@@ -346,7 +358,8 @@ mod tests {
             // G(α(ξ₀)) = (2ξ₀ − 1) G_max.
             for i in 0..=64 {
                 let x0 = i as f64 / 64.0;
-                let (alpha, _) = s.candidate(x0, 0.5);
+                let [alpha, sin, cos, _] = s.candidate(x0, 0.5);
+                assert!((sin - alpha.sin()).abs() <= 1e-15 && (cos - alpha.cos()).abs() <= 1e-15);
                 let [a0, a1] = s.a_l;
                 let g = (a1 * alpha.sin()).asin() - (a0 * alpha.sin()).asin();
                 let want = (2.0 * x0 - 1.0) * s.g_max;
@@ -361,7 +374,7 @@ mod tests {
                 let theta = v.theta_max * (i as f64 / 20.0 - 1.0);
                 let (alpha, _) = v.alpha_of_theta(theta);
                 let (pa, pb) = v.phi_range(v.h(alpha));
-                let (s0, s1) = s.s_range(alpha);
+                let (s0, s1) = s.s_range(alpha.cos());
                 let tol = 1e-12;
                 assert!(pa.sin() >= s0 - tol && pb.sin() <= s1 + tol, "θ {theta}");
             }
@@ -370,7 +383,7 @@ mod tests {
             let mut accepted = 0usize;
             for i in 0..k {
                 for j in 0..k {
-                    let (a, sv) =
+                    let [a, _, _, sv] =
                         s.candidate((i as f64 + 0.5) / k as f64, (j as f64 + 0.5) / k as f64);
                     accepted += s.view.front_direction(a, sv).is_some() as usize;
                 }

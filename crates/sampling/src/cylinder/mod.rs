@@ -189,16 +189,32 @@ impl CylinderView {
     /// (α beyond ±α_max, NaN, or s outside the side's [s_a, s_b] at α).
     #[inline]
     pub fn front_direction(&self, alpha: f64, s: f64) -> Option<DVec3> {
+        self.front_sample_at(alpha, s).map(|(dir, _)| dir)
+    }
+
+    /// [`Self::front_direction`] and the distance h/cos φ from x to the side along it.
+    #[inline]
+    pub(crate) fn front_sample_at(&self, alpha: f64, s: f64) -> Option<(DVec3, f64)> {
         if alpha.is_nan() || alpha.abs() > self.alpha_max {
             return None;
         }
-        let h = self.h(alpha);
-        let (sa, sb) = (self.a / self.a.hypot(h), self.b / self.b.hypot(h));
-        if !(s >= sa && s <= sb) {
+        let (sin, cos) = alpha.sin_cos();
+        self.front_sample(sin, cos, s)
+    }
+
+    /// The direction with azimuth α (|α| ≤ α_max, given by sin α and cos α) and axial sine s
+    /// if it hits the visible side, and the distance h/cos φ from x to the side along it; `None`
+    /// for s outside the side's [s_a, s_b] at α (also NaN). One pass of arithmetic: the ends
+    /// compared as s with e/√(e² + h²), as [`Self::front_hit`] does.
+    #[inline]
+    pub(crate) fn front_sample(&self, sin: f64, cos: f64, s: f64) -> Option<(DVec3, f64)> {
+        let h = self.h_of(sin, cos);
+        let end = |e: f64| e / (e * e + h * h).sqrt();
+        if !(s >= end(self.a) && s <= end(self.b)) {
             return None;
         }
         let t = ((1.0 - s) * (1.0 + s)).max(0.0).sqrt();
-        Some(t * self.c_alpha(alpha) + s * self.u)
+        Some((t * (cos * self.c + sin * self.w) + s * self.u, h / t))
     }
 
     /// ĉ_α = cos α ĉ + sin α w.
@@ -530,24 +546,20 @@ pub(crate) fn clamp_xi(xi: f32) -> f64 {
 
 /// Rejection sampling as a deterministic function of ξ: the first candidate is drawn from ξ,
 /// later ones from a PCG32 stream (`stream`) keyed by ξ's bits, at most `max_candidates` in all.
-/// `candidate` maps two uniforms to a candidate (α, s); `accept` returns its direction or `None`.
-pub(crate) fn reject_until_accepted(
+/// `candidate` maps two uniforms to a candidate `C`; `accept` returns its sample or `None`.
+pub(crate) fn reject_until_accepted<C, T>(
     xi: [f32; 2],
     stream: u64,
     max_candidates: usize,
-    candidate: impl Fn(f64, f64) -> (f64, f64),
-    accept: impl Fn(f64, f64) -> Option<DVec3>,
-) -> Option<DVec3> {
-    let (alpha, s) = candidate(clamp_xi(xi[0]), clamp_xi(xi[1]));
-    if let Some(dir) = accept(alpha, s) {
-        return Some(dir);
+    candidate: impl Fn(f64, f64) -> C,
+    accept: impl Fn(C) -> Option<T>,
+) -> Option<T> {
+    if let Some(sample) = accept(candidate(clamp_xi(xi[0]), clamp_xi(xi[1]))) {
+        return Some(sample);
     }
     let seed = ((xi[0].to_bits() as u64) << 32) | xi[1].to_bits() as u64;
     let mut rng = crate::rng::Pcg32::new(seed, stream);
-    (1..max_candidates).find_map(|_| {
-        let (alpha, s) = candidate(rng.next_f64(), rng.next_f64());
-        accept(alpha, s)
-    })
+    (1..max_candidates).find_map(|_| accept(candidate(rng.next_f64(), rng.next_f64())))
 }
 
 #[cfg(test)]
