@@ -300,7 +300,7 @@ impl LightTree {
     /// level per step, each from its own node, the importances of their children computed over
     /// the lanes (vector operations; the leaves' segments only at levels that hold leaves); a
     /// lane at its leaf stays there. The nodes' fields are gathered lane by lane, or, for 16
-    /// lanes under [`Isa::Avx512`] and levels of at most [`levels::MAX_NODES`] nodes, looked up
+    /// lanes under [`Isa::Avx512`] and levels of at most 64 nodes, looked up
     /// in the level's tables by vector permutes. The operations of each lane are those of one
     /// lane alone: the same lights and pmfs, bit for bit, whatever `isa`.
     #[inline(always)]
