@@ -575,10 +575,11 @@ pub(crate) mod test_support {
 
     /// Ω of the visible side by a reference quadrature independent of the techniques': θ-panels
     /// graded geometrically toward θ = 0 (edges θ_max·2^−k, k ≤ 60), 24 nodes each, of
-    /// (s_b − s_a)·dα/dθ with α(θ) and h from the view.
+    /// (s_b − s_a)·dα/dθ with α(θ) and h from the view; with both ends on one side of x's foot
+    /// (a b > 0), s_b − s_a = h²(b − a)(b + a)/((b r_a + a r_b) r_a r_b), r_e = √(h² + e²),
+    /// which does not cancel far beyond an end.
     pub fn omega_reference(v: &CylinderView) -> f64 {
         let nodes = gauss_legendre(24);
-        let s_of = |e: f64, h: f64| e / e.hypot(h);
         let mut half = 0.0;
         let mut hi = v.theta_max;
         for k in 0..=60 {
@@ -587,7 +588,13 @@ pub(crate) mod test_support {
                 let theta = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x;
                 let (alpha, jac) = v.alpha_of_theta(theta);
                 let h = v.h(alpha);
-                half += 0.5 * (hi - lo) * wt * jac * (s_of(v.b, h) - s_of(v.a, h));
+                let (ra, rb) = (v.a.hypot(h), v.b.hypot(h));
+                let ds = if v.a * v.b > 0.0 {
+                    h * h * (v.b - v.a) * (v.b + v.a) / ((v.b * ra + v.a * rb) * ra * rb)
+                } else {
+                    v.b / rb - v.a / ra
+                };
+                half += 0.5 * (hi - lo) * wt * jac * ds;
             }
             hi = lo;
         }
