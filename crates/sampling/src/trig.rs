@@ -287,6 +287,7 @@ fn sin_cos_libm(x: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::Pcg32;
 
     #[test]
     fn sin_cos_quarter_within_four_ulp() {
@@ -301,7 +302,6 @@ mod tests {
             }
         }
     }
-    use crate::rng::Pcg32;
 
     #[test]
     fn matches_std_atan2() {
