@@ -253,6 +253,24 @@ fn a_glob_matching_nothing_is_unusable_input() {
     );
 }
 
+/// The finite-tube family's directory as `--scenes-dir` would render exact-tube scenes with
+/// the line techniques: refused, with the command that certifies it.
+#[test]
+fn the_finite_tube_directory_as_scenes_dir_is_refused_with_the_way_to_certify_it() {
+    let o = linlight(&[
+        "certify",
+        "--scenes-dir",
+        "references/finite-tubes",
+        "--no-sampler-suite",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--scenes 'finite-tube-*'"),
+        "{}",
+        stderr(&o)
+    );
+}
+
 #[test]
 fn an_unknown_technique_is_unusable_input() {
     let o = linlight(&["certify", "--techniques", "area,nope", "--no-sampler-suite"]);

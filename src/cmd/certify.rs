@@ -101,9 +101,10 @@ pub struct Args {
     root: PathBuf,
     /// Directory of the scenes (`*.xml`), relative to --root; each needs its reference
     /// references/mitsuba/<scene>.exr. By default also the finite-tube family
-    /// (references/finite-tubes, rendered with exact tubes); another DIR is certified alone, as
-    /// a family of its own: references/generated holds the large generated scenes
-    /// (scripts/make-scenes first; docs/generated-scenes.md).
+    /// (references/finite-tubes, rendered with exact tubes; that directory itself is refused:
+    /// --scenes 'finite-tube-*' selects it); another DIR is certified alone, as a family of its
+    /// own: references/generated holds the large generated scenes (scripts/make-scenes first;
+    /// docs/generated-scenes.md).
     #[arg(long, value_name = "DIR", default_value = DEFAULT_SCENES_DIR)]
     scenes_dir: PathBuf,
 }
@@ -127,6 +128,9 @@ pub fn run(args: Args) -> ExitCode {
         .map(|m| m as &dyn Subject)
         .chain(tubes.iter().map(|t| t as &dyn Subject))
         .collect();
+    if let Err(e) = check_scenes_dir(&args) {
+        return unusable(e);
+    }
     let opts = options(&args, &methods);
     let pool = match outputs::thread_pool(args.threads) {
         Ok(p) => p,
@@ -175,6 +179,26 @@ fn parse_techniques(names: &[String]) -> Result<(Vec<Method>, Vec<ExactTubes>), 
         }
     }
     Ok((methods, tubes))
+}
+
+/// `--scenes-dir` naming the finite-tube family's directory: refused with the way to certify
+/// it. Another DIR is certified alone with the line techniques, and these scenes' references
+/// are exact tubes (`certify::scenes::FINITE_TUBES_DIR`).
+fn check_scenes_dir(args: &Args) -> Result<(), String> {
+    let finite = certify::scenes::FINITE_TUBES_DIR;
+    let same = |a: PathBuf, b: PathBuf| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same(args.root.join(&args.scenes_dir), args.root.join(finite)) {
+        return Err(format!(
+            "--scenes-dir {} holds the finite-tube family, which certify renders with exact \
+             tubes alongside the default scenes: drop --scenes-dir (and add --scenes \
+             'finite-tube-*' to certify only them)",
+            args.scenes_dir.display()
+        ));
+    }
+    Ok(())
 }
 
 /// The certification's options from the command line (`methods`: those of `--techniques`).
