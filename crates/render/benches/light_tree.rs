@@ -9,6 +9,7 @@ use glam::Vec3;
 use linlight_render::light::Light;
 use linlight_render::light_choice::LightChoice;
 use linlight_render::light_tree::LightTree;
+use linlight_sampling::rng::Pcg32;
 use linlight_sampling::Segment;
 use linlight_simd::{dispatch, Isa, Kernel};
 use std::hint::black_box;
@@ -26,18 +27,6 @@ struct Packets {
     xi: Vec<[f32; L]>,
 }
 
-/// A SplitMix64 stream of lattice uniforms k·2⁻²⁴.
-struct Mix(u64);
-impl Mix {
-    fn unit(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 40) as f32 * (1.0 / 16_777_216.0)
-    }
-}
-
 fn ceiling() -> Vec<Light> {
     (0..64)
         .map(|i| {
@@ -51,22 +40,22 @@ fn ceiling() -> Vec<Light> {
 }
 
 /// Packets of 4 × 4 neighbouring floor points (a pixel tile), one in four on a desk top.
-fn packets(rng: &mut Mix) -> Packets {
+fn packets(rng: &mut Pcg32) -> Packets {
     let mut p = Packets {
         x: Vec::with_capacity(PACKETS),
         n: Vec::with_capacity(PACKETS),
         xi: Vec::with_capacity(PACKETS),
     };
     for _ in 0..PACKETS {
-        let (cx, cy) = (16.0 * rng.unit() - 8.0, 12.0 * rng.unit() - 6.0);
-        let z = if rng.unit() < 0.25 { 0.75 } else { 0.0 };
+        let (cx, cy) = (16.0 * rng.next_f32() - 8.0, 12.0 * rng.next_f32() - 6.0);
+        let z = if rng.next_f32() < 0.25 { 0.75 } else { 0.0 };
         let mut x = [[0.0; L]; 3];
         let mut xi = [0.0; L];
         for k in 0..L {
             x[0][k] = cx + 0.01 * (k % 4) as f32;
             x[1][k] = cy + 0.01 * (k / 4) as f32;
             x[2][k] = z;
-            xi[k] = rng.unit();
+            xi[k] = rng.next_f32();
         }
         p.x.push(x);
         p.n.push([[0.0; L], [0.0; L], [1.0; L]]);
@@ -122,7 +111,7 @@ fn main() {
     let lights = ceiling();
     let tree = LightTree::new(&lights);
     let choice = LightChoice::new(&vec![1.0; lights.len()]);
-    let p = packets(&mut Mix(1));
+    let p = packets(&mut Pcg32::new(1, 0));
     let (mut t, mut u) = (Vec::new(), Vec::new());
     for _ in 0..ROUNDS {
         t.push(ns_per_lane(|| dispatch(isa, Tree(black_box(&tree), &p))));
