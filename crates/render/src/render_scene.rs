@@ -241,7 +241,7 @@ impl RenderScene {
 /// The primitives of a scene's shapes, in the shapes' order: a mesh's triangles (those with
 /// an index out of range skipped), and the spheres, disks (with an invertible finite
 /// transform) and cylinders (of positive finite length and non-zero radius).
-fn primitives(scene: &Scene) -> Vec<Primitive> {
+pub(crate) fn primitives(scene: &Scene) -> Vec<Primitive> {
     // Reserved exactly: grown by pushes, the largest allocation of a large scene would be
     // copied on the way and reserve up to twice its size.
     let count = (scene.shapes.iter())
