@@ -29,8 +29,10 @@
 //! sum).
 
 use glam::DVec3;
-use linlight_quadrature::{Adaptive, GaussLegendre};
+use linlight_brdf::lanes::Lanes3;
+use linlight_quadrature::{Adaptive, GaussLegendre, BATCH};
 use linlight_render::scene::Bsdf;
+use linlight_simd::{dispatch, Isa, Kernel};
 use std::sync::LazyLock;
 
 /// Initial panels of equal subtended angle on the part of the segment above the horizon.
@@ -140,33 +142,109 @@ pub fn unshadowed_line_integral(
         return (DVec3::ZERO, true);
     };
     let edges = equal_angle_edges(sp, p0, u, a, b);
-    let integrand = |t: f64| -> DVec3 {
-        let q = p0 + t * u - sp.x;
-        let r2 = q.length_squared();
-        if !(r2 > 0.0) {
-            return DVec3::ZERO;
-        }
-        let r = r2.sqrt();
-        let w = q / r;
-        // eval includes max(0, n·ω) (zero below the horizon).
-        bsdf.eval(sp.v_local, sp.local(w)) * (2.0 * u.cross(w).length() / r2)
+    let isa = Isa::detect();
+    let integrand = |ts: &[f64], out: &mut [DVec3]| {
+        let kernel = Integrand {
+            bsdf,
+            sp,
+            p0,
+            u,
+            ts,
+            out,
+        };
+        dispatch(isa, kernel)
     };
     let (q, gl) = &*RULES;
     // The channel sum drives the refinement; every channel is then integrated on the final
     // panels with the same rule (one BSDF evaluation per node for all three).
-    let r = q.integrate_partition(&edges, &mut |t| integrand(t).element_sum());
-    let mut sum = DVec3::ZERO;
+    let mut values = [DVec3::ZERO; BATCH];
+    let r = q.integrate_partition_batch(&edges, &mut |ts, ys| {
+        integrand(ts, &mut values[..ts.len()]);
+        for (y, v) in ys.iter_mut().zip(&values) {
+            *y = v.element_sum();
+        }
+    });
+    let (mut ts, mut sum) = ([0.0; NODES], DVec3::ZERO);
     for [a, b] in &r.panels {
         let m = 0.5 * (a + b);
         for (lo, hi) in [(*a, m), (m, *b)] {
             let (half, mid) = (0.5 * (hi - lo), 0.5 * (lo + hi));
-            for (x, w) in gl.points() {
-                sum += integrand(mid + half * x) * (w * half);
+            for (t, (x, _)) in ts.iter_mut().zip(gl.points()) {
+                *t = mid + half * x;
+            }
+            integrand(&ts, &mut values[..NODES]);
+            for (v, (_, w)) in values.iter().zip(gl.points()) {
+                sum += *v * (w * half);
             }
         }
     }
     (sum, r.converged)
 }
+
+/// [`integrand`] as a kernel of the CPU's widest instruction set (the same bits in every one).
+struct Integrand<'a> {
+    bsdf: &'a Bsdf,
+    sp: &'a QuadraturePoint,
+    p0: DVec3,
+    u: DVec3,
+    ts: &'a [f64],
+    out: &'a mut [DVec3],
+}
+
+impl Kernel for Integrand<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        integrand(self.bsdf, self.sp, self.p0, self.u, self.ts, self.out)
+    }
+}
+
+/// The integrand f(v, ω)·max(0, n·ω)·2|u × ω|/r² at the points p0 + t·u of `ts` (at most
+/// [`BATCH`]), into `out`: the BSDF evaluated [`LANES`] points at a time
+/// (`Bsdf::eval_lanes`, bit for bit `Bsdf::eval` per lane); zero where r = 0.
+#[inline(always)]
+fn integrand(
+    bsdf: &Bsdf,
+    sp: &QuadraturePoint,
+    p0: DVec3,
+    u: DVec3,
+    ts: &[f64],
+    out: &mut [DVec3],
+) {
+    debug_assert!(ts.len() <= BATCH && out.len() == ts.len());
+    for (ts, out) in ts.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        let v: Lanes3<f64, LANES> = std::array::from_fn(|c| [sp.v_local[c]; LANES]);
+        // Lanes past the points and points at r = 0 are evaluated at ω = n (a valid direction)
+        // and not used.
+        let mut l: Lanes3<f64, LANES> = [[0.0; LANES], [0.0; LANES], [1.0; LANES]];
+        let mut scale = [0.0; LANES];
+        let mut at_line = [true; LANES];
+        for (k, t) in ts.iter().enumerate() {
+            let q = p0 + t * u - sp.x;
+            let r2 = q.length_squared();
+            let w = if r2 > 0.0 { q / r2.sqrt() } else { sp.n };
+            let local = sp.local(w);
+            for c in 0..3 {
+                l[c][k] = local[c];
+            }
+            scale[k] = 2.0 * u.cross(w).length() / r2;
+            at_line[k] = !(r2 > 0.0);
+        }
+        // eval includes max(0, n·ω) (zero below the horizon).
+        let f = bsdf.eval_lanes(&v, &l);
+        for (k, out) in out.iter_mut().enumerate() {
+            *out = if at_line[k] {
+                DVec3::ZERO
+            } else {
+                DVec3::new(f[0][k], f[1][k], f[2][k]) * scale[k]
+            };
+        }
+    }
+}
+
+/// Points per BSDF lane call of [`integrand`] (eight f64 lanes fill a 512-bit register).
+const LANES: usize = 8;
+const _: () = assert!(NODES <= BATCH);
 
 #[cfg(test)]
 mod tests {
@@ -233,6 +311,61 @@ mod tests {
         });
         assert!(got.x > 1.0, "the lobe is hit: {}", got.x);
         assert!(((got.x - want) / want).abs() < 1e-8, "{} vs {want}", got.x);
+    }
+
+    /// The integrand's lanes, in every instruction set this CPU runs, give the bits of the
+    /// one-point `Bsdf::eval` formula (what the quadrature integrated before it had lanes),
+    /// on a batch that fills no whole lane group, and zero at r = 0.
+    #[test]
+    fn integrand_lanes_are_the_one_point_evaluation() {
+        let conductor = Bsdf::RoughConductor(RoughConductor {
+            alpha: 0.2,
+            fresnel: ConductorFresnel::One,
+            specular_reflectance: [0.9, 0.6, 0.3],
+        });
+        let sp = QuadraturePoint::new(DVec3::ZERO, DVec3::Z, DVec3::new(0.4, -0.2, 1.0));
+        let (p0, u) = (
+            DVec3::new(-1.0, 0.5, 0.7),
+            DVec3::new(0.8, 0.2, -0.1).normalize(),
+        );
+        let foot = -p0.dot(u); // t of the line's point closest to x
+        let ts: Vec<f64> = (0..13).map(|i| foot + 0.37 * (i as f64 - 6.0)).collect();
+        let mut checked = 0;
+        for bsdf in [lambert(0.5), conductor] {
+            for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
+                let mut out = [DVec3::ONE; 13];
+                let (ts, out) = (&ts[..], &mut out[..]);
+                let (sp, bsdf) = (&sp, &bsdf);
+                dispatch(
+                    isa,
+                    Integrand {
+                        bsdf,
+                        sp,
+                        p0,
+                        u,
+                        ts,
+                        out,
+                    },
+                );
+                for (t, got) in ts.iter().zip(out.iter()) {
+                    let q = p0 + t * u - sp.x;
+                    let w = q / q.length_squared().sqrt();
+                    let want = bsdf.eval(sp.v_local, sp.local(w))
+                        * (2.0 * u.cross(w).length() / q.length_squared());
+                    assert_eq!(
+                        got.to_array().map(f64::to_bits),
+                        want.to_array().map(f64::to_bits)
+                    );
+                    checked += usize::from(want != DVec3::ZERO);
+                }
+            }
+        }
+        assert!(checked > 20, "{checked}");
+        // A node at the shading point itself (r = 0) gives zero, not NaN.
+        let on_line = QuadraturePoint::new(p0 + 0.3 * u, DVec3::Z, DVec3::Z);
+        let mut out = [DVec3::ONE; 1];
+        integrand(&lambert(0.5), &on_line, p0, u, &[0.3], &mut out);
+        assert_eq!(out[0], DVec3::ZERO);
     }
 
     #[test]
