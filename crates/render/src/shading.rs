@@ -34,11 +34,12 @@ use crate::method::Method;
 use glam::{DVec3, Mat3, Vec3};
 use linlight_brdf::ltc::GgxLtcTable;
 use linlight_brdf::{Bsdf, Lobes};
+use linlight_sampling::batch::{LineProblems, PreparedBatch, BATCH_LANES};
 use linlight_sampling::mis::Heuristic;
 use linlight_sampling::noise::Uniforms;
 use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
 use linlight_sampling::{LineSampler, Segment, SpecularSampler};
-use linlight_simd::{get3, set3, splat3};
+use linlight_simd::{get3, set3, splat3, Isa};
 
 /// Smallest diffuse albedo in the diffuse technique weight W_d = max(ρ_d, 0.01)·Ω⊥_R.
 pub const MIN_DIFFUSE_WEIGHT: f32 = 0.01;
@@ -463,10 +464,21 @@ impl<S: SpecularSampler> TwoTechniqueLight<S> {
         combination: Combination,
         (xi_d, xi_s): (f32, f32),
     ) -> [Option<WeightedSample>; 2] {
+        self.weighted_with(combination, self.diffuse.sample_with_pdf(xi_d), xi_s)
+    }
+
+    /// [`Self::weighted`] with the diffuse sample (ω_d, p_d) of ξ_d given (bit for bit
+    /// `self.diffuse.sample_with_pdf(ξ_d)`, e.g. from a batch kernel).
+    #[inline]
+    pub fn weighted_with(
+        &self,
+        combination: Combination,
+        (w, p_d): (Vec3, f32),
+        xi_s: f32,
+    ) -> [Option<WeightedSample>; 2] {
         let mut out = [None, None];
         let diffuse = &self.diffuse;
         // The diffuse sample.
-        let (w, p_d) = diffuse.sample_with_pdf(xi_d);
         if p_d > 0.0 && p_d.is_finite() {
             let weight = match &self.specular {
                 None => Vec3::ONE,
@@ -568,46 +580,107 @@ pub fn two_techniques<S: SpecularSampler>(
     total
 }
 
-/// [`two_techniques`] with the BSDF (`model` at `sp`) evaluated for the samples of up to
-/// [`EVAL_LANES`]/2 iterations in one [`BsdfModel::eval_lanes`] call: per chunk of
-/// iterations, each draws ξ_d, ξ_s and weighs its samples ([`TwoTechniqueLight::weighted`]),
-/// then the BSDF is evaluated on all of them, then the candidates are shadow-tested and added
-/// in the order of [`two_techniques`]. The same numbers, shadow rays, sums and bits.
+/// The diffuse technique of `segment` at `sp` prepared on all [`BATCH_LANES`] lanes of a
+/// batch kernel, whose lane i samples ξ_i bit for bit as the scalar
+/// `ProjectedSolidAngle::sample_with_pdf` ([`linlight_sampling::batch`]); `None` unless every
+/// lane is valid (the scalar sampler then samples).
+#[inline]
+fn diffuse_batch(isa: Isa, segment: &Segment, sp: &ShadingPoint) -> Option<PreparedBatch> {
+    let problems = LineProblems {
+        begin: splat3(segment.begin),
+        end: splat3(segment.end),
+        x: splat3(sp.x),
+        n: splat3(sp.n()),
+        xi: [0.0; BATCH_LANES],
+    };
+    let batch = PreparedBatch::prepare(isa, &problems);
+    (batch.mask == (1 << BATCH_LANES) - 1).then_some(batch)
+}
+
+/// f·cos at `sp` (`model`) of each of the (at most 2·[`BATCH_LANES`]) `weighted` samples,
+/// [`EVAL_LANES`] at a time ([`BsdfModel::eval_lanes`]); zero past them.
+#[inline(always)]
+fn eval_weighted<B: BsdfModel>(
+    model: &B,
+    sp: &ShadingPoint,
+    weighted: &[Option<WeightedSample>],
+) -> [Vec3; 2 * BATCH_LANES] {
+    let mut f_cos = [Vec3::ZERO; 2 * BATCH_LANES];
+    for (chunk, out) in weighted
+        .chunks(EVAL_LANES)
+        .zip(f_cos.chunks_mut(EVAL_LANES))
+    {
+        let mut l = splat3::<EVAL_LANES>(Vec3::Z);
+        for (i, s) in chunk.iter().enumerate() {
+            if let Some(s) = s {
+                set3(&mut l, i, sp.local_f32(s.w));
+            }
+        }
+        let f = model.eval_lanes(sp.bsdf, sp.v, &l, chunk.len());
+        for (i, out) in out.iter_mut().enumerate().take(chunk.len()) {
+            *out = get3(&f, i);
+        }
+    }
+    f_cos
+}
+
+/// [`two_techniques`] in chunks of [`BATCH_LANES`] iterations: each chunk draws its ξ_d, ξ_s
+/// in order, samples the diffuse technique for its ξ_d on the lanes of a batch kernel
+/// (`diffuse_batch`), weighs the samples ([`TwoTechniqueLight::weighted_with`]), evaluates the
+/// BSDF (`model` at `sp`) on them [`EVAL_LANES`] at a time ([`BsdfModel::eval_lanes`]), then
+/// shadow-tests and adds the candidates in the order of [`two_techniques`]. The same numbers,
+/// shadow rays, sums and bits.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn two_techniques_lanes<S: SpecularSampler, B: BsdfModel>(
     light: &TwoTechniqueLight<S>,
     combination: Combination,
-    k: Vec3,
+    (k, segment): (Vec3, &Segment),
     samples: u32,
     rng: &mut impl Uniforms,
     visible: &mut impl FnMut(Vec3, f32) -> bool,
     (model, sp): (&B, &ShadingPoint),
     dropped: &mut u32,
 ) -> Vec3 {
-    const ITERATIONS: usize = EVAL_LANES / 2;
+    let isa = Isa::detect();
+    let batch = diffuse_batch(isa, segment, sp);
     let mut total = Vec3::ZERO;
     let mut left = samples as usize;
     while left > 0 {
-        let chunk = left.min(ITERATIONS);
+        let chunk = left.min(BATCH_LANES);
         left -= chunk;
-        let mut weighted = [None; EVAL_LANES];
-        let mut l = splat3::<EVAL_LANES>(Vec3::Z);
+        let (mut xi_d, mut xi_s) = ([0.0f32; BATCH_LANES], [0.0f32; BATCH_LANES]);
+        for i in 0..chunk {
+            (xi_d[i], xi_s[i]) = (rng.next_f32(), rng.next_f32());
+        }
+        let diffuse: [(Vec3, f32); BATCH_LANES] = match &batch {
+            Some(b) => {
+                let s = b.sample_projected_solid_angle(isa, &xi_d);
+                std::array::from_fn(|i| (get3(&s.dir, i), s.pdf[i]))
+            }
+            None => std::array::from_fn(|i| {
+                if i < chunk {
+                    light.diffuse.sample_with_pdf(xi_d[i])
+                } else {
+                    (Vec3::Z, 0.0)
+                }
+            }),
+        };
+        let mut weighted = [None; 2 * BATCH_LANES];
         let mut len = 0;
-        for _ in 0..chunk {
-            let xi = (rng.next_f32(), rng.next_f32());
-            for s in light.weighted(combination, xi).into_iter().flatten() {
-                set3(&mut l, len, sp.local_f32(s.w));
+        for i in 0..chunk {
+            for s in light
+                .weighted_with(combination, diffuse[i], xi_s[i])
+                .into_iter()
+                .flatten()
+            {
                 weighted[len] = Some(s);
                 len += 1;
             }
         }
-        if len == 0 {
-            continue;
-        }
-        let f_cos = model.eval_lanes(sp.bsdf, sp.v, &l, len);
-        for (i, s) in weighted.iter().enumerate().take(len) {
-            let Some(candidate) = s.and_then(|s| s.candidate(k, get3(&f_cos, i))) else {
+        let f_cos = eval_weighted(model, sp, &weighted[..len]);
+        for (s, &f) in weighted.iter().zip(&f_cos).take(len) {
+            let Some(candidate) = s.and_then(|s| s.candidate(k, f)) else {
                 continue;
             };
             if visible(candidate.w, candidate.dist) {
@@ -693,6 +766,7 @@ pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
                 two_techniques(&light, combination, k, samples, rng, visible, eval, dropped)
             } else {
                 let eval = (pieces.bsdf, sp);
+                let k = (k, segment);
                 two_techniques_lanes(&light, combination, k, samples, rng, visible, eval, dropped)
             }
         }
