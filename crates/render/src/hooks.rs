@@ -31,6 +31,11 @@ use glam::{DVec3, Mat3, Vec3};
 use linlight_brdf::{Bsdf, Lobes};
 use linlight_sampling::ltc::LtcLine;
 use linlight_sampling::{LineSampler, Prepared, Segment, SpecularSampler, Technique};
+use linlight_simd::{dispatch, get3, set3, splat3, Isa, Kernel, Lanes3};
+
+/// Directions of one [`BsdfModel::eval_lanes`] call: eight f32 lanes (an AVX2 register), the
+/// light samples of a camera sample at certify's most (8).
+pub const EVAL_LANES: usize = 8;
 
 /// How the integrator samples a light at a shading point with one technique.
 /// [`Technique`] is the production implementation.
@@ -85,6 +90,27 @@ pub trait BsdfModel: Sync {
     fn eval(&self, bsdf: &Bsdf, v: DVec3, l: DVec3) -> DVec3;
     /// The lobe summary that selects the LTC table entry and the MIS weights.
     fn lobes(&self, bsdf: &Bsdf, v: DVec3) -> Lobes;
+    /// f·cos of the first `len` lanes of `l` (f32 directions in the shading frame) seen from
+    /// `v`: lane k is `eval(bsdf, v, l_k)` rounded to f32, bit for bit; lanes from `len` on
+    /// are unspecified.
+    #[inline]
+    fn eval_lanes(
+        &self,
+        bsdf: &Bsdf,
+        v: DVec3,
+        l: &Lanes3<f32, EVAL_LANES>,
+        len: usize,
+    ) -> Lanes3<f32, EVAL_LANES> {
+        let mut out = [[0.0; EVAL_LANES]; 3];
+        for k in 0..len.min(EVAL_LANES) {
+            set3(
+                &mut out,
+                k,
+                self.eval(bsdf, v, get3(l, k).as_dvec3()).as_vec3(),
+            );
+        }
+        out
+    }
     /// Name recorded in the image metadata (`bsdf_hook`); `None` for the scene's BSDF.
     fn name(&self) -> Option<String> {
         None
@@ -105,6 +131,40 @@ impl BsdfModel for SceneBsdf {
     #[inline]
     fn lobes(&self, bsdf: &Bsdf, v: DVec3) -> Lobes {
         bsdf.lobes(v)
+    }
+    /// [`Bsdf::eval_lanes`] on all lanes, in the SIMD lanes of the CPU's instruction set
+    /// ([`EvalLanes`]); lane k is [`Bsdf::eval_f32`] of lane k, bit for bit.
+    #[inline]
+    fn eval_lanes(
+        &self,
+        bsdf: &Bsdf,
+        v: DVec3,
+        l: &Lanes3<f32, EVAL_LANES>,
+        _len: usize,
+    ) -> Lanes3<f32, EVAL_LANES> {
+        dispatch(
+            Isa::detect(),
+            EvalLanes {
+                bsdf,
+                v: v.as_vec3(),
+                l,
+            },
+        )
+    }
+}
+
+/// The kernel of [`SceneBsdf::eval_lanes`]: `bsdf` seen from `v` toward every lane of `l`.
+pub struct EvalLanes<'a> {
+    pub bsdf: &'a Bsdf,
+    pub v: Vec3,
+    pub l: &'a Lanes3<f32, EVAL_LANES>,
+}
+
+impl Kernel for EvalLanes<'_> {
+    type Output = Lanes3<f32, EVAL_LANES>;
+    #[inline(always)]
+    fn run(self) -> Self::Output {
+        self.bsdf.eval_lanes(&splat3(self.v), self.l)
     }
 }
 

@@ -25,7 +25,9 @@
 
 use crate::film::Welford;
 use crate::frame::{metadata, pixel_entries, render_in_tiles};
-use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
+use crate::hooks::{
+    with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling, EVAL_LANES,
+};
 use crate::light::Light;
 use crate::method::Method;
 use crate::options::{check_options, window, RenderError, RenderOptions};
@@ -39,6 +41,7 @@ use glam::Vec3;
 use linlight_imagefile::{Image, Metadata};
 use linlight_sampling::cylinder::CylinderTechnique;
 use linlight_sampling::noise::{NoiseSource, SampleStream};
+use linlight_simd::{get3, set3, splat3};
 
 /// Σ estimate(j, light, K, iterations, rng) over the lights of the light samples: every light
 /// with its K and `opts.light_samples` iterations, or ([`RenderScene::chooses_one`])
@@ -232,6 +235,15 @@ fn tube_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         Some(f) => f * n.dot(w).max(0.0),
         None => point.eval(pieces.bsdf, w),
     };
+    // f·cos of the glossy BSDF for up to EVAL_LANES directions at once, each lane `eval`'s.
+    let eval_lanes = |w: &[Vec3; EVAL_LANES], len: usize| {
+        let mut l = splat3::<EVAL_LANES>(Vec3::Z);
+        for (k, &w) in w.iter().enumerate().take(len) {
+            set3(&mut l, k, point.local_f32(w));
+        }
+        let f = pieces.bsdf.eval_lanes(bsdf, point.v, &l, len);
+        std::array::from_fn(|k| get3(&f, k))
+    };
     let tubes = &scene.tubes;
     // The glossy lobe, looked up only for the technique that uses it.
     let lobe = match lambert {
@@ -280,19 +292,35 @@ fn tube_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
             return sum;
         };
         // k is K (or K/p_j): L = k/R.
-        let sum = crate::tube::estimate(
-            tube,
-            tubes.sampling,
-            sp,
-            n,
-            lobe,
-            k / tube.radius,
-            samples,
-            rng,
-            &eval,
-            &mut visible(j),
-            &mut dropped,
-        );
+        let sum = if lambert.is_none() && samples > 1 {
+            crate::tube::estimate_lanes(
+                tube,
+                tubes.sampling,
+                sp,
+                n,
+                lobe,
+                k / tube.radius,
+                samples,
+                rng,
+                &eval_lanes,
+                &mut visible(j),
+                &mut dropped,
+            )
+        } else {
+            crate::tube::estimate(
+                tube,
+                tubes.sampling,
+                sp,
+                n,
+                lobe,
+                k / tube.radius,
+                samples,
+                rng,
+                &eval,
+                &mut visible(j),
+                &mut dropped,
+            )
+        };
         if samples > 1 {
             sum / samples as f32
         } else {

@@ -26,16 +26,20 @@
 //! one`; the choice's number ξ_c comes before the light's: [`crate::integrator`],
 //! [`crate::light_choice`]).
 
-use crate::hooks::{with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling};
+use crate::hooks::{
+    with_resolved, BsdfModel, Hooks, LightSampling, Resolved, SpecularSampling, EVAL_LANES,
+};
 pub use crate::method::lambert_technique;
 use crate::method::Method;
 use glam::{DVec3, Mat3, Vec3};
 use linlight_brdf::ltc::GgxLtcTable;
 use linlight_brdf::{Bsdf, Lobes};
+use linlight_sampling::batch::{LineProblems, PreparedBatch, BATCH_LANES};
 use linlight_sampling::mis::Heuristic;
 use linlight_sampling::noise::Uniforms;
 use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
 use linlight_sampling::{LineSampler, Segment, SpecularSampler};
+use linlight_simd::{get3, set3, splat3, Isa};
 
 /// Smallest diffuse albedo in the diffuse technique weight W_d = max(ρ_d, 0.01)·Ω⊥_R.
 pub const MIN_DIFFUSE_WEIGHT: f32 = 0.01;
@@ -165,7 +169,13 @@ impl<'a> ShadingPoint<'a> {
     /// BSDF (f32 values, exactly; the packet renderer's lanes call [`to_local`] too).
     #[inline(always)]
     pub fn local(&self, w: Vec3) -> DVec3 {
-        to_local(self.frame.x_axis, self.frame.y_axis, self.frame.z_axis, w).as_dvec3()
+        self.local_f32(w).as_dvec3()
+    }
+
+    /// [`ShadingPoint::local`] in f32 (the same values).
+    #[inline(always)]
+    pub fn local_f32(&self, w: Vec3) -> Vec3 {
+        to_local(self.frame.x_axis, self.frame.y_axis, self.frame.z_axis, w)
     }
 }
 
@@ -312,6 +322,70 @@ pub fn single_technique<L: LineSampler>(
     total
 }
 
+/// [`single_technique`] at a non-Lambertian shading point with the contribution of
+/// [`single_contribution`], the BSDF evaluated for up to [`EVAL_LANES`] samples in one
+/// [`BsdfModel::eval_lanes`] call: per chunk of iterations, each draws its number and is
+/// shadow-tested in turn, then the visible ones are evaluated together and added in the order
+/// of their iterations. The same numbers, shadow rays, sums and bits as [`single_technique`].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn single_technique_lanes<L: LineSampler, B: BsdfModel>(
+    sampler: Option<&L>,
+    model: &B,
+    sp: &ShadingPoint,
+    k: Vec3,
+    samples: u32,
+    rng: &mut impl Uniforms,
+    visible: &mut impl FnMut(Vec3, f32) -> bool,
+    dropped: &mut u32,
+) -> Vec3 {
+    let mut total = Vec3::ZERO;
+    let Some(sampler) = sampler else {
+        for _ in 0..samples {
+            rng.next_f32();
+        }
+        return total;
+    };
+    let n = sp.n();
+    let mut left = samples as usize;
+    while left > 0 {
+        let chunk = left.min(EVAL_LANES);
+        left -= chunk;
+        // The chunk's samples, then its visible ones in order: directions in the shading
+        // frame, densities.
+        let mut drawn = [None; EVAL_LANES];
+        for s in drawn.iter_mut().take(chunk) {
+            *s = single_sample(sampler, n, rng.next_f32());
+        }
+        let mut l = splat3::<EVAL_LANES>(Vec3::Z);
+        let mut pdf = [1.0f32; EVAL_LANES];
+        let mut len = 0;
+        for SingleSample {
+            w, pdf: p, dist, ..
+        } in drawn.into_iter().take(chunk).flatten()
+        {
+            if visible(w, dist) {
+                set3(&mut l, len, sp.local_f32(w));
+                pdf[len] = p;
+                len += 1;
+            }
+        }
+        if len == 0 {
+            continue;
+        }
+        let f_cos = model.eval_lanes(sp.bsdf, sp.v, &l, len);
+        for (i, &p) in pdf.iter().enumerate().take(len) {
+            let c = contribution(k, get3(&f_cos, i), p);
+            if c.is_finite() {
+                total += c;
+            } else {
+                *dropped += 1;
+            }
+        }
+    }
+    total
+}
+
 /// A sample of the two-technique estimator before visibility: it adds `c` (K·f·w/p, not yet
 /// tested for finiteness) when the line point along `w`, at distance `dist`, is visible.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -374,13 +448,37 @@ impl<S: SpecularSampler> TwoTechniqueLight<S> {
         &self,
         combination: Combination,
         k: Vec3,
-        (xi_d, xi_s): (f32, f32),
+        xi: (f32, f32),
         eval: impl Fn(Vec3) -> Vec3,
     ) -> [Option<Candidate>; 2] {
+        self.weighted(combination, xi)
+            .map(|s| s.and_then(|s| s.candidate(k, eval(s.w))))
+    }
+
+    /// [`Self::candidates`] before the BSDF: the diffuse sample of ξ_d and the specular one of
+    /// ξ_s with their weights and densities, `None` where density, weight or distance rule
+    /// them out.
+    #[inline]
+    pub fn weighted(
+        &self,
+        combination: Combination,
+        (xi_d, xi_s): (f32, f32),
+    ) -> [Option<WeightedSample>; 2] {
+        self.weighted_with(combination, self.diffuse.sample_with_pdf(xi_d), xi_s)
+    }
+
+    /// [`Self::weighted`] with the diffuse sample (ω_d, p_d) of ξ_d given (bit for bit
+    /// `self.diffuse.sample_with_pdf(ξ_d)`, e.g. from a batch kernel).
+    #[inline]
+    pub fn weighted_with(
+        &self,
+        combination: Combination,
+        (w, p_d): (Vec3, f32),
+        xi_s: f32,
+    ) -> [Option<WeightedSample>; 2] {
         let mut out = [None, None];
         let diffuse = &self.diffuse;
         // The diffuse sample.
-        let (w, p_d) = diffuse.sample_with_pdf(xi_d);
         if p_d > 0.0 && p_d.is_finite() {
             let weight = match &self.specular {
                 None => Vec3::ONE,
@@ -391,11 +489,12 @@ impl<S: SpecularSampler> TwoTechniqueLight<S> {
             };
             if weight != Vec3::ZERO {
                 if let Some(dist) = distance_to_line(diffuse, w) {
-                    let f = eval(w);
-                    if f != Vec3::ZERO {
-                        let c = k * f * weight / p_d;
-                        out[0] = Some(Candidate { w, dist, c });
-                    }
+                    out[0] = Some(WeightedSample {
+                        w,
+                        dist,
+                        weight,
+                        pdf: p_d,
+                    });
                 }
             }
         }
@@ -412,15 +511,37 @@ impl<S: SpecularSampler> TwoTechniqueLight<S> {
         if weight == Vec3::ZERO {
             return out;
         }
-        let Some(dist) = distance_to_line(s, w) else {
-            return out;
-        };
-        let f = eval(w);
-        if f != Vec3::ZERO {
-            let c = k * f * weight / p_s;
-            out[1] = Some(Candidate { w, dist, c });
+        if let Some(dist) = distance_to_line(s, w) {
+            out[1] = Some(WeightedSample {
+                w,
+                dist,
+                weight,
+                pdf: p_s,
+            });
         }
         out
+    }
+}
+
+/// A sample of the two-technique estimator before the BSDF: direction, distance to the line,
+/// MIS weight per channel and its technique's density.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WeightedSample {
+    pub w: Vec3,
+    pub dist: f32,
+    pub weight: Vec3,
+    pub pdf: f32,
+}
+
+impl WeightedSample {
+    /// The candidate with f·cos = `f` (K·f·w/p), `None` where f·cos is zero.
+    #[inline(always)]
+    pub fn candidate(&self, k: Vec3, f: Vec3) -> Option<Candidate> {
+        (f != Vec3::ZERO).then(|| Candidate {
+            w: self.w,
+            dist: self.dist,
+            c: k * f * self.weight / self.pdf,
+        })
     }
 }
 
@@ -447,6 +568,121 @@ pub fn two_techniques<S: SpecularSampler>(
             .into_iter()
             .flatten()
         {
+            if visible(candidate.w, candidate.dist) {
+                if candidate.c.is_finite() {
+                    total += candidate.c;
+                } else {
+                    *dropped += 1;
+                }
+            }
+        }
+    }
+    total
+}
+
+/// The diffuse technique of `segment` at `sp` prepared on all [`BATCH_LANES`] lanes of a
+/// batch kernel, whose lane i samples ξ_i bit for bit as the scalar
+/// `ProjectedSolidAngle::sample_with_pdf` ([`linlight_sampling::batch`]); `None` unless every
+/// lane is valid (the scalar sampler then samples).
+#[inline]
+fn diffuse_batch(isa: Isa, segment: &Segment, sp: &ShadingPoint) -> Option<PreparedBatch> {
+    let problems = LineProblems {
+        begin: splat3(segment.begin),
+        end: splat3(segment.end),
+        x: splat3(sp.x),
+        n: splat3(sp.n()),
+        xi: [0.0; BATCH_LANES],
+    };
+    let batch = PreparedBatch::prepare(isa, &problems);
+    (batch.mask == (1 << BATCH_LANES) - 1).then_some(batch)
+}
+
+/// f·cos at `sp` (`model`) of each of the (at most 2·[`BATCH_LANES`]) `weighted` samples,
+/// [`EVAL_LANES`] at a time ([`BsdfModel::eval_lanes`]); zero past them.
+#[inline(always)]
+fn eval_weighted<B: BsdfModel>(
+    model: &B,
+    sp: &ShadingPoint,
+    weighted: &[Option<WeightedSample>],
+) -> [Vec3; 2 * BATCH_LANES] {
+    let mut f_cos = [Vec3::ZERO; 2 * BATCH_LANES];
+    for (chunk, out) in weighted
+        .chunks(EVAL_LANES)
+        .zip(f_cos.chunks_mut(EVAL_LANES))
+    {
+        let mut l = splat3::<EVAL_LANES>(Vec3::Z);
+        for (i, s) in chunk.iter().enumerate() {
+            if let Some(s) = s {
+                set3(&mut l, i, sp.local_f32(s.w));
+            }
+        }
+        let f = model.eval_lanes(sp.bsdf, sp.v, &l, chunk.len());
+        for (i, out) in out.iter_mut().enumerate().take(chunk.len()) {
+            *out = get3(&f, i);
+        }
+    }
+    f_cos
+}
+
+/// [`two_techniques`] in chunks of [`BATCH_LANES`] iterations: each chunk draws its ξ_d, ξ_s
+/// in order, samples the diffuse technique for its ξ_d on the lanes of a batch kernel
+/// (`diffuse_batch`), weighs the samples ([`TwoTechniqueLight::weighted_with`]), evaluates the
+/// BSDF (`model` at `sp`) on them [`EVAL_LANES`] at a time ([`BsdfModel::eval_lanes`]), then
+/// shadow-tests and adds the candidates in the order of [`two_techniques`]. The same numbers,
+/// shadow rays, sums and bits.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn two_techniques_lanes<S: SpecularSampler, B: BsdfModel>(
+    light: &TwoTechniqueLight<S>,
+    combination: Combination,
+    (k, segment): (Vec3, &Segment),
+    samples: u32,
+    rng: &mut impl Uniforms,
+    visible: &mut impl FnMut(Vec3, f32) -> bool,
+    (model, sp): (&B, &ShadingPoint),
+    dropped: &mut u32,
+) -> Vec3 {
+    let isa = Isa::detect();
+    let batch = diffuse_batch(isa, segment, sp);
+    let mut total = Vec3::ZERO;
+    let mut left = samples as usize;
+    while left > 0 {
+        let chunk = left.min(BATCH_LANES);
+        left -= chunk;
+        let (mut xi_d, mut xi_s) = ([0.0f32; BATCH_LANES], [0.0f32; BATCH_LANES]);
+        for i in 0..chunk {
+            (xi_d[i], xi_s[i]) = (rng.next_f32(), rng.next_f32());
+        }
+        let diffuse: [(Vec3, f32); BATCH_LANES] = match &batch {
+            Some(b) => {
+                let s = b.sample_projected_solid_angle(isa, &xi_d);
+                std::array::from_fn(|i| (get3(&s.dir, i), s.pdf[i]))
+            }
+            None => std::array::from_fn(|i| {
+                if i < chunk {
+                    light.diffuse.sample_with_pdf(xi_d[i])
+                } else {
+                    (Vec3::Z, 0.0)
+                }
+            }),
+        };
+        let mut weighted = [None; 2 * BATCH_LANES];
+        let mut len = 0;
+        for i in 0..chunk {
+            for s in light
+                .weighted_with(combination, diffuse[i], xi_s[i])
+                .into_iter()
+                .flatten()
+            {
+                weighted[len] = Some(s);
+                len += 1;
+            }
+        }
+        let f_cos = eval_weighted(model, sp, &weighted[..len]);
+        for (s, &f) in weighted.iter().zip(&f_cos).take(len) {
+            let Some(candidate) = s.and_then(|s| s.candidate(k, f)) else {
+                continue;
+            };
             if visible(candidate.w, candidate.dist) {
                 if candidate.c.is_finite() {
                     total += candidate.c;
@@ -500,13 +736,23 @@ pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     let n = sp.n();
     let eval = |w: Vec3| sp.eval(pieces.bsdf, w);
     let total = match Combination::of(method) {
-        None => single_technique(
+        None if samples == 1 => single_technique(
             pieces.technique.prepare(segment, sp.x, n).as_ref(),
             n,
             samples,
             rng,
             visible,
             |w: Vec3, _cos: f32, pdf: f32| single_contribution(pieces.bsdf, sp, k, w, pdf),
+            dropped,
+        ),
+        None => single_technique_lanes(
+            pieces.technique.prepare(segment, sp.x, n).as_ref(),
+            pieces.bsdf,
+            sp,
+            k,
+            samples,
+            rng,
+            visible,
             dropped,
         ),
         Some(combination) => {
@@ -516,7 +762,13 @@ pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
                 }
                 return Vec3::ZERO;
             };
-            two_techniques(&light, combination, k, samples, rng, visible, eval, dropped)
+            if samples == 1 {
+                two_techniques(&light, combination, k, samples, rng, visible, eval, dropped)
+            } else {
+                let eval = (pieces.bsdf, sp);
+                let k = (k, segment);
+                two_techniques_lanes(&light, combination, k, samples, rng, visible, eval, dropped)
+            }
         }
     };
     total / samples as f32

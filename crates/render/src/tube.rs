@@ -33,6 +33,7 @@
 //! side x faces meets the convex solid cylinder only at that point, but in f32 a ray near the
 //! silhouette can graze it before. Every other tube occludes them.
 
+use crate::hooks::EVAL_LANES;
 use crate::options::{Cylinders, TubeSampling};
 use crate::scene::Scene;
 use crate::shapes::{Primitive, Ray, SurfacePoint};
@@ -228,6 +229,21 @@ impl PreparedTube {
         xi_b: Option<(f32, f32)>,
         eval: &impl Fn(Vec3) -> Vec3,
     ) -> [Option<TubeCandidate>; 2] {
+        self.weighted(mis, n, xi, xi_b)
+            .map(|s| s.and_then(|s| s.candidate(radiance, eval(s.w))))
+    }
+
+    /// [`Self::candidates`] before the BSDF: the emitter sample and the BSDF-side sample with
+    /// the denominators of their contributions, `None` where density, cosine, azimuth or
+    /// distance rule them out.
+    #[inline]
+    pub fn weighted(
+        &self,
+        mis: bool,
+        n: Vec3,
+        xi: [f32; 2],
+        xi_b: Option<(f32, f32)>,
+    ) -> [Option<TubeSample>; 2] {
         let (view, technique) = (&self.view, &self.technique);
         let mut out = [None, None];
         // The emitter sample.
@@ -236,19 +252,16 @@ impl PreparedTube {
             let cos = n.dot(w);
             if p_e > 0.0 && p_e.is_finite() && cos > 0.0 {
                 if let Some(dist) = distance_f32(sample.distance) {
-                    let f = eval(w);
-                    if f != Vec3::ZERO {
-                        let denominator = if mis {
-                            p_e as f32 + cos * std::f32::consts::FRAC_1_PI
-                        } else {
-                            p_e as f32
-                        };
-                        out[0] = Some(TubeCandidate {
-                            w,
-                            dist,
-                            c: radiance * f / denominator,
-                        });
-                    }
+                    let denominator = if mis {
+                        p_e as f32 + cos * std::f32::consts::FRAC_1_PI
+                    } else {
+                        p_e as f32
+                    };
+                    out[0] = Some(TubeSample {
+                        w,
+                        dist,
+                        denominator,
+                    });
                 }
             }
         }
@@ -268,17 +281,33 @@ impl PreparedTube {
         let Some(dist) = distance_f32(dist) else {
             return out;
         };
-        let f = eval(w);
-        if f == Vec3::ZERO {
-            return out;
-        }
-        let p_e = p_e as f32;
-        out[1] = Some(TubeCandidate {
+        out[1] = Some(TubeSample {
             w,
             dist,
-            c: radiance * f / (p_e + p_b),
+            denominator: p_e as f32 + p_b,
         });
         out
+    }
+}
+
+/// A light sample of the tube estimator before the BSDF: direction, distance, and the
+/// denominator of its contribution L·f·cos/denominator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TubeSample {
+    pub w: Vec3,
+    pub dist: f32,
+    pub denominator: f32,
+}
+
+impl TubeSample {
+    /// The candidate with f·cos = `f` (L·f/denominator), `None` where f·cos is zero.
+    #[inline(always)]
+    pub fn candidate(&self, radiance: Vec3, f: Vec3) -> Option<TubeCandidate> {
+        (f != Vec3::ZERO).then(|| TubeCandidate {
+            w: self.w,
+            dist: self.dist,
+            c: radiance * f / self.denominator,
+        })
     }
 }
 
@@ -320,6 +349,79 @@ pub fn estimate(
             .into_iter()
             .flatten()
         {
+            if visible(c.w, c.dist) {
+                if c.c.is_finite() {
+                    total += c.c;
+                } else {
+                    *dropped += 1;
+                }
+            }
+        }
+    }
+    total
+}
+
+/// [`estimate`] with f·cos of up to [`EVAL_LANES`] directions at once: `eval_lanes(ω, len)`
+/// returns f·max(0, n·ω) of the first `len` unit world directions of ω, each bit for bit
+/// `eval` of [`estimate`]. Per chunk of iterations, each draws its numbers and weighs its
+/// samples ([`PreparedTube::weighted`]), then f·cos is evaluated on all of them, then the
+/// candidates are shadow-tested and added in the order of [`estimate`]: the same numbers,
+/// shadow rays, sums and bits.
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_lanes(
+    tube: &Tube,
+    sampling: TubeSampling,
+    sp: &SurfacePoint,
+    n: Vec3,
+    lobe: Option<(Mat3, Mat3)>,
+    radiance: Vec3,
+    samples: u32,
+    rng: &mut impl Uniforms,
+    eval_lanes: &impl Fn(&[Vec3; EVAL_LANES], usize) -> [Vec3; EVAL_LANES],
+    visible: &mut impl FnMut(Vec3, f32) -> bool,
+    dropped: &mut u32,
+) -> Vec3 {
+    let prepared = PreparedTube::new(tube, sampling, sp.p, n, lobe);
+    let iterations = if sampling.mis {
+        EVAL_LANES / 2
+    } else {
+        EVAL_LANES
+    };
+    let mut total = Vec3::ZERO;
+    let mut left = samples as usize;
+    while left > 0 {
+        let chunk = left.min(iterations);
+        left -= chunk;
+        let mut weighted = [None; EVAL_LANES];
+        let mut w = [Vec3::Z; EVAL_LANES];
+        let mut len = 0;
+        for _ in 0..chunk {
+            let xi = [rng.next_f32(), rng.next_f32()];
+            let xi_b = if sampling.mis {
+                Some((rng.next_f32(), rng.next_f32()))
+            } else {
+                None
+            };
+            let Some(prepared) = &prepared else {
+                continue;
+            };
+            for s in prepared
+                .weighted(sampling.mis, n, xi, xi_b)
+                .into_iter()
+                .flatten()
+            {
+                (w[len], weighted[len]) = (s.w, Some(s));
+                len += 1;
+            }
+        }
+        if len == 0 {
+            continue;
+        }
+        let f = eval_lanes(&w, len);
+        for (s, f) in weighted.iter().zip(f).take(len) {
+            let Some(c) = s.and_then(|s| s.candidate(radiance, f)) else {
+                continue;
+            };
             if visible(c.w, c.dist) {
                 if c.c.is_finite() {
                     total += c.c;
