@@ -97,7 +97,7 @@ struct StartTable {
 const MIN_EDGE_GAP: f64 = 1e-12;
 
 /// Cells of the start table per bin.
-const START_CELLS_PER_BIN: usize = 4;
+const START_CELLS_PER_BIN: usize = 16;
 
 /// |(|w| − 1)| ≤ [`DIRECTION_TOLERANCE`] for a finite w, with the square root only near the
 /// bounds: |w|² inside the squared bounds by a relative margin of 1e-9 (far above the rounding
@@ -259,6 +259,7 @@ impl PhiBinning {
     }
 
     /// The bin of a sampled direction.
+    #[inline]
     pub fn lookup(&self, dir: Vec3) -> BinLookup {
         let w = dir.as_dvec3();
         if !w.is_finite()

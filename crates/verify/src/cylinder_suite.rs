@@ -209,19 +209,24 @@ impl Grid {
         (f >= -tol && f <= BINS as f64 + tol).then(|| (f.max(0.0) as usize).min(BINS - 1))
     }
 
-    /// Bin of a direction, `None` outside the visible side.
+    /// Bin of a direction, `None` outside the visible side: its azimuth α within ±α_max, its
+    /// elevation φ within [φ_a, φ_b] = (atan2(a, h), atan2(b, h)) of the slice at α (each up to
+    /// 1e-9 relative), binned by the surface angle θ(α) and φ.
     fn bin(&self, v: &CylinderView, dir: DVec3) -> Option<usize> {
-        let (alpha, phi) = v.angles(dir);
+        let (dc, dw, du) = (dir.dot(v.c), dir.dot(v.w), dir.dot(v.u));
+        let hyp = dc.hypot(dw);
+        // (α, φ) = `v.angles(dir)`.
+        let (alpha, phi) = (dw.atan2(dc), du.atan2(hyp));
         if alpha.abs() > v.alpha_max * (1.0 + 1e-9) {
             return None;
         }
-        let alpha = alpha.clamp(-v.alpha_max, v.alpha_max);
-        let (pa, pb) = v.phi_range(v.h(alpha));
-        let tol = 1e-9 * (pb - pa);
-        if phi < pa - tol || phi > pb + tol {
+        // sin α, cos α and h(α) once: `v.h` and `v.theta_of_alpha` bit for bit.
+        let slice = v.slice_at(alpha.clamp(-v.alpha_max, v.alpha_max));
+        if !within_elevations(v, slice.h, (du, hyp), phi) {
             return None;
         }
-        let i = Self::index(self.theta, v.theta_of_alpha(alpha))?;
+        let theta = (slice.h * slice.sin).atan2(v.rho - slice.h * slice.cos);
+        let i = Self::index(self.theta, theta)?;
         let j = Self::index(self.phi, phi)?;
         Some(i * BINS + j)
     }
@@ -266,6 +271,31 @@ impl Grid {
             }
         }
         out
+    }
+}
+
+/// Whether φ = atan2(du, hyp) (hyp ≥ 0) lies within [φ_a − tol, φ_b + tol], (φ_a, φ_b) =
+/// `v.phi_range(h)`, tol = 1e-9 (φ_b − φ_a): the comparisons of the two atan2 values, decided
+/// without them where φ is more than 1e-6 rad from an end. All three angles lie in [−π/2, π/2]
+/// (hyp, h ≥ 0), so φ − φ_e has the sign of sin(φ − φ_e) = (du·h − e·hyp)/(|(du, hyp)|·|(e, h)|);
+/// where |sin(φ − φ_e)| > 1e-6, far above tol ≤ 4e-9 and the rounding of the atan2 values and of
+/// the cross product (~1e-15), that sign is the comparison's. Otherwise (and for NaN) the atan2
+/// values are compared as they are.
+fn within_elevations(v: &CylinderView, h: f64, (du, hyp): (f64, f64), phi: f64) -> bool {
+    const MARGIN_SQ: f64 = 1e-12;
+    let len_sq = du * du + hyp * hyp;
+    // Sign of φ − φ_e when decided by the margin: Some(true) if φ > φ_e, Some(false) if below.
+    let above = |e: f64| {
+        let cross = du * h - e * hyp;
+        (cross * cross > MARGIN_SQ * len_sq * (e * e + h * h)).then_some(cross > 0.0)
+    };
+    match (above(v.a), above(v.b)) {
+        (Some(past_a), Some(past_b)) => past_a && !past_b,
+        _ => {
+            let (pa, pb) = v.phi_range(h);
+            let tol = 1e-9 * (pb - pa);
+            !(phi < pa - tol || phi > pb + tol)
+        }
     }
 }
 
@@ -886,5 +916,48 @@ pub fn print(r: &CylinderReport) {
             "  {:<20} {:<20} chi2 p {:>9.2e}  norm err {:>8.1e}  irr |z| {:>10.2}  {}",
             c.config, c.control, c.p_value, c.normalisation_error, c.irradiance_z, verdict
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The elevation test decides as the comparison of the atan2 values does: on random
+    /// directions toward every configuration's side and on directions within 1e-5 rad of
+    /// either end's elevation (down to a few ulps) at random azimuths.
+    #[test]
+    fn within_elevations_equals_the_atan2_comparison() {
+        let mut rng = Pcg32::new(5, 9);
+        let mut near = 0;
+        for c in configs() {
+            let v = &c.view;
+            for i in 0..40_000 {
+                let alpha = (2.0 * rng.next_f32() as f64 - 1.0) * v.alpha_max;
+                let slice = v.slice_at(alpha);
+                let (pa, pb) = v.phi_range(slice.h);
+                let phi = match i % 3 {
+                    0 => pa + (pb - pa) * (1.4 * rng.next_f32() as f64 - 0.2),
+                    k => {
+                        let end = if k == 1 { pa } else { pb };
+                        let scale = 10f64.powi(-5 - i % 11);
+                        end + (2.0 * rng.next_f32() as f64 - 1.0) * scale
+                    }
+                };
+                let dir = v.direction(alpha, phi);
+                let (dc, dw, du) = (dir.dot(v.c), dir.dot(v.w), dir.dot(v.u));
+                let (hyp, phi) = (dc.hypot(dw), du.atan2(dc.hypot(dw)));
+                let tol = 1e-9 * (pb - pa);
+                let want = !(phi < pa - tol || phi > pb + tol);
+                assert_eq!(
+                    within_elevations(v, slice.h, (du, hyp), phi),
+                    want,
+                    "{} α {alpha} φ {phi}",
+                    c.name
+                );
+                near += usize::from((phi - pa).abs().min((phi - pb).abs()) < 1e-6);
+            }
+        }
+        assert!(near > 10_000, "{near}");
     }
 }

@@ -124,8 +124,25 @@ const DIRECTION_ANGLE_ROUNDING: f64 = 4.0 * f32::EPSILON as f64;
 /// 1e-3 of the density.
 fn on_line_range(sampler: &dyn LineSampler, binning: &PhiBinning, dir: glam::Vec3) -> (f64, f64) {
     let phi = binning.phi_of(dir);
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for k in [-1.0, 0.0, 1.0] {
+    on_line_range_around(sampler, binning, phi, middle_pdf(sampler, binning, phi))
+}
+
+/// The pdf at φ, the middle of [`on_line_range`]'s three directions (φ + 0·δ: −0 becomes +0 as
+/// there).
+fn middle_pdf(sampler: &dyn LineSampler, binning: &PhiBinning, phi: f64) -> f64 {
+    sampler.pdf(binning.direction(phi + 0.0 * DIRECTION_ANGLE_ROUNDING)) as f64
+}
+
+/// [`on_line_range`] at φ of the sample, given the pdf at φ itself (`middle`). The range starts
+/// empty (NaN values are ignored by `min`/`max`, in any order).
+fn on_line_range_around(
+    sampler: &dyn LineSampler,
+    binning: &PhiBinning,
+    phi: f64,
+    middle: f64,
+) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY.min(middle), f64::NEG_INFINITY.max(middle));
+    for k in [-1.0, 1.0] {
         let q = sampler.pdf(binning.direction(phi + k * DIRECTION_ANGLE_ROUNDING)) as f64;
         lo = lo.min(q);
         hi = hi.max(q);
@@ -384,6 +401,8 @@ struct Bench<'a> {
     two_over_d: f64,
     /// Ω_R of the support.
     support_omega: f64,
+    /// The absolute part of the pdf-consistency tolerance of the sampler's own densities.
+    own_floor: f64,
     /// The unit normal in f64 (+z if the configuration's is degenerate).
     n: glam::DVec3,
 }
@@ -403,6 +422,7 @@ impl<'a> Bench<'a> {
             quad: Adaptive::new(settings.nodes, QUAD_RELATIVE),
             two_over_d,
             support_omega,
+            own_floor: PDF_CONSISTENCY_FLOOR / support_omega,
             n: unit_normal(config.n()).unwrap_or(glam::Vec3::Z).as_dvec3(),
         }
     }
@@ -428,6 +448,41 @@ impl<'a> Bench<'a> {
         } else {
             dev
         }
+    }
+
+    /// [`Self::deviation`] where it may exceed `worst` (what [`Worst::add`] keeps); `None` where
+    /// it is certainly ≤ `worst`, decided without its division and, where it would take the
+    /// on-line range, with one pdf call of the three where that suffices. NaN and a scale that is
+    /// not positive and finite take the full computation.
+    fn deviation_above(
+        &self,
+        reference: &dyn LineSampler,
+        dir: glam::Vec3,
+        (q, q_ref): (f32, f32),
+        floor: f64,
+        worst: f64,
+    ) -> Option<f64> {
+        let (q, q_ref) = (q as f64, q_ref as f64);
+        let scale = PDF_CONSISTENCY_RELATIVE * q.abs().max(q_ref.abs()) + floor;
+        let diff = (q - q_ref).abs();
+        // diff/scale ≤ ½·min(worst, 1)·(1 + 2ε) ≤ min(worst, 1): not above worst, no range.
+        if scale > 0.0 && scale.is_finite() && diff <= 0.5 * worst.min(1.0) * scale {
+            return None;
+        }
+        let dev = diff / scale;
+        if !(dev > 1.0) {
+            return Some(dev);
+        }
+        // The on-line range [lo, hi] holds its middle value v, so max(lo − q, q − hi, 0) ≤
+        // |q − v| (each difference rounded monotonically): |q − v|/scale ≤ worst settles it.
+        let binning = &self.binning;
+        let phi = binning.phi_of(dir);
+        let middle = middle_pdf(reference, binning, phi);
+        if (q - middle).abs() / scale <= worst {
+            return None;
+        }
+        let (lo, hi) = on_line_range_around(reference, binning, phi, middle);
+        Some((lo - q).max(q - hi).max(0.0) / scale)
     }
 }
 
@@ -701,14 +756,19 @@ struct Tallies {
     bad: BadAnswers,
 }
 
-/// Tabulate the samples (in order: the first `round_trips` are round-tripped).
+/// Samples per pass of [`tabulate`]: a chunk is drawn, then binned, then judged sample by
+/// sample, three tight loops instead of one; every tally sees the samples in the same order.
+const CHUNK: usize = 256;
+
+/// Tabulate the samples (in order: the first `round_trips` are round-tripped); `answered`:
+/// the samples are an answer source's (only then are its answers checked as numbers).
 fn tabulate(
     bench: &Bench,
     partner: Option<&Partner>,
     settings: &Settings,
-    samples: impl Iterator<Item = Drawn>,
+    mut samples: impl Iterator<Item = Drawn>,
+    answered: bool,
 ) -> Tallies {
-    let sampler = bench.sampler;
     let mut t = Tallies {
         histogram: Histogram::new(bench.binning.bins()),
         consistency: Worst::new(),
@@ -723,47 +783,74 @@ fn tabulate(
         reported_inverse: RoundTrips::new(),
         bad: BadAnswers::default(),
     };
-    let own_floor = PDF_CONSISTENCY_FLOOR / bench.support_omega;
-    for (i, s) in samples.enumerate() {
-        let Drawn { xi, dir, p, .. } = s;
-        t.histogram.add(&bench.binning, dir);
-        t.bad.add(&s);
-        // p must be the density of a direction on the line that the f32 sample cannot be told
-        // apart from.
-        let p_eval = sampler.pdf(dir);
-        t.consistency.add(
-            bench.deviation(sampler, dir, p, p_eval, own_floor),
-            (p, p_eval),
-        );
-        if let (Some(pt), Some(c)) = (partner, t.cross.as_mut()) {
-            let (q, q_pdf) = ((pt.cross)(dir), pt.sampler.pdf(dir));
-            let dev = bench.deviation(pt.sampler.as_ref(), dir, q, q_pdf, c.floor);
+    let mut chunk: Vec<Drawn> = Vec::with_capacity(CHUNK);
+    let mut first = 0;
+    loop {
+        chunk.clear();
+        chunk.extend(samples.by_ref().take(CHUNK));
+        if chunk.is_empty() {
+            return t;
+        }
+        for s in &chunk {
+            t.histogram.add(&bench.binning, s.dir);
+        }
+        for (j, s) in chunk.iter().enumerate() {
+            if answered {
+                t.bad.add(s);
+            }
+            judge(bench, partner, settings, &mut t, first + j, s);
+        }
+        first += chunk.len();
+    }
+}
+
+/// Sample `i` (`s`) into the tallies other than the histogram.
+fn judge(
+    bench: &Bench,
+    partner: Option<&Partner>,
+    settings: &Settings,
+    t: &mut Tallies,
+    i: usize,
+    s: &Drawn,
+) {
+    let (sampler, own_floor) = (bench.sampler, bench.own_floor);
+    let Drawn { xi, dir, p, .. } = *s;
+    // p must be the density of a direction on the line that the f32 sample cannot be told
+    // apart from.
+    let p_eval = sampler.pdf(dir);
+    let worst = t.consistency.deviation;
+    if let Some(dev) = bench.deviation_above(sampler, dir, (p, p_eval), own_floor, worst) {
+        t.consistency.add(dev, (p, p_eval));
+    }
+    if let (Some(pt), Some(c)) = (partner, t.cross.as_mut()) {
+        let (q, q_pdf) = ((pt.cross)(dir), pt.sampler.pdf(dir));
+        let (reference, worst) = (pt.sampler.as_ref(), c.worst.deviation);
+        if let Some(dev) = bench.deviation_above(reference, dir, (q, q_pdf), c.floor, worst) {
             c.worst.add(dev, (q, q_pdf));
-            if p > 0.0 && p.is_finite() {
-                let w = (q as f64 / (p as f64 + q as f64)).max(0.0);
-                c.balance.add(if w.is_finite() { w } else { 1.0 });
-            }
         }
-        let f = bench.n.dot(dir.as_dvec3()).max(0.0);
         if p > 0.0 && p.is_finite() {
-            t.integral.add(f / p as f64);
-        } else if f > 0.0 && on_line_range(sampler, &bench.binning, dir).0 > own_floor {
-            // A density-0 sample loses its contribution to the estimate. Legitimate only where
-            // the density is 0 at a direction on the line that the f32 sample cannot be told
-            // from (the end of a density that vanishes at a horizon — in cosine space for LTC —
-            // met at ξ within ~1e-5 of 0 or 1, which N = 10⁶ samples reach).
-            t.zero_density_hits += 1;
-        }
-        if i < settings.round_trips {
-            if let Some(xi2) = sampler.inverse(dir) {
-                t.round_trips.add(bench, xi, xi2, p_eval);
-            }
-        }
-        if let Some(xi2) = s.reported_inverse {
-            t.reported_inverse.add(bench, xi, xi2, p_eval);
+            let w = (q as f64 / (p as f64 + q as f64)).max(0.0);
+            c.balance.add(if w.is_finite() { w } else { 1.0 });
         }
     }
-    t
+    let f = bench.n.dot(dir.as_dvec3()).max(0.0);
+    if p > 0.0 && p.is_finite() {
+        t.integral.add(f / p as f64);
+    } else if f > 0.0 && on_line_range(sampler, &bench.binning, dir).0 > own_floor {
+        // A density-0 sample loses its contribution to the estimate. Legitimate only where
+        // the density is 0 at a direction on the line that the f32 sample cannot be told
+        // from (the end of a density that vanishes at a horizon — in cosine space for LTC —
+        // met at ξ within ~1e-5 of 0 or 1, which N = 10⁶ samples reach).
+        t.zero_density_hits += 1;
+    }
+    if i < settings.round_trips {
+        if let Some(xi2) = sampler.inverse(dir) {
+            t.round_trips.add(bench, xi, xi2, p_eval);
+        }
+    }
+    if let Some(xi2) = s.reported_inverse {
+        t.reported_inverse.add(bench, xi, xi2, p_eval);
+    }
 }
 
 /// Every sample is a unit direction toward the line, inside the support.
@@ -1068,11 +1155,13 @@ fn check_sampler(
             partner,
             settings,
             own_samples(sampler, settings, stream),
+            false,
         ),
         Some(source) => {
             let xi = primary_samples(settings, stream);
             let answers = source.sample(config, &xi)?;
-            tabulate(&bench, partner, settings, answered_samples(&xi, &answers))
+            let samples = answered_samples(&xi, &answers);
+            tabulate(&bench, partner, settings, samples, true)
         }
     };
     let round_trip = t.round_trips.test(Check::RoundTrip, out);
@@ -1429,6 +1518,54 @@ mod tests {
         };
         assert!(same(&run_suite_as(&psa(), 1, &settings)));
         assert!(!same(&run_suite_as(&psa(), 0, &settings)));
+    }
+
+    /// `deviation_above` is `None` only where the deviation is ≤ `worst`, and otherwise the
+    /// deviation bit for bit: claimed densities off by 0 to 100 % (and NaN, 0, ∞) at samples and
+    /// at the support's ends, against every kind of running worst.
+    #[test]
+    fn deviation_above_agrees_with_the_deviation() {
+        let config = crate::configs::paper_sanity();
+        let sampler = (technique(Technique::ClippedSolidAngle).prepare)(&config).unwrap();
+        let bench = Bench::new(sampler.as_ref(), &config, &Settings::default());
+        let (phi_b, phi_e) = bench.binning.phi_range();
+        let mut dirs: Vec<glam::Vec3> =
+            (0..200).map(|i| sampler.sample(i as f32 / 199.0)).collect();
+        for k in 0..12 {
+            let delta = 10f64.powi(-k);
+            dirs.push(bench.binning.direction(phi_b + delta * (phi_e - phi_b)));
+            dirs.push(bench.binning.direction(phi_e - delta * (phi_e - phi_b)));
+        }
+        let factors = [0.0, 1e-7, 1e-4, 9e-4, 1.1e-3, 0.01, 1.0, -1.0, f64::NAN];
+        let worsts = [0.0, 1e-3, 0.5, 1.0, 1.5, 1e3, f64::INFINITY];
+        let mut some = 0;
+        for &dir in &dirs {
+            let q_ref = sampler.pdf(dir);
+            for f in factors {
+                let q = (q_ref as f64 * (1.0 + f)) as f32;
+                for q in [q, 0.0, f32::INFINITY] {
+                    for floor in [bench.own_floor, 0.0] {
+                        let d = bench.deviation(sampler.as_ref(), dir, q, q_ref, floor);
+                        for worst in worsts {
+                            match bench.deviation_above(
+                                sampler.as_ref(),
+                                dir,
+                                (q, q_ref),
+                                floor,
+                                worst,
+                            ) {
+                                None => assert!(d <= worst, "{dir} {q} {q_ref} {worst}: {d}"),
+                                Some(x) => {
+                                    some += 1;
+                                    assert_eq!(x.to_bits(), d.to_bits(), "{dir} {q} {q_ref}");
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(some > 1000, "{some}");
     }
 
     #[test]
