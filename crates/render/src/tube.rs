@@ -335,12 +335,7 @@ pub fn estimate(
     let prepared = PreparedTube::new(tube, sampling, sp.p, n, lobe);
     let mut total = Vec3::ZERO;
     for _ in 0..samples {
-        let xi = [rng.next_f32(), rng.next_f32()];
-        let xi_b = if sampling.mis {
-            Some((rng.next_f32(), rng.next_f32()))
-        } else {
-            None
-        };
+        let (xi, xi_b) = iteration_numbers(sampling.mis, rng);
         let Some(prepared) = &prepared else {
             continue;
         };
@@ -396,12 +391,7 @@ pub fn estimate_lanes(
         let mut w = [Vec3::Z; EVAL_LANES];
         let mut len = 0;
         for _ in 0..chunk {
-            let xi = [rng.next_f32(), rng.next_f32()];
-            let xi_b = if sampling.mis {
-                Some((rng.next_f32(), rng.next_f32()))
-            } else {
-                None
-            };
+            let (xi, xi_b) = iteration_numbers(sampling.mis, rng);
             let Some(prepared) = &prepared else {
                 continue;
             };
@@ -432,6 +422,15 @@ pub fn estimate_lanes(
         }
     }
     total
+}
+
+/// One iteration's numbers, in the order every estimator of a tube draws them: ξ of the
+/// light-side sample, then with MIS the BSDF-side pair.
+#[inline(always)]
+fn iteration_numbers(mis: bool, rng: &mut impl Uniforms) -> ([f32; 2], Option<(f32, f32)>) {
+    let xi = [rng.next_f32(), rng.next_f32()];
+    let xi_b = mis.then(|| (rng.next_f32(), rng.next_f32()));
+    (xi, xi_b)
 }
 
 /// Whether `dir` misses the visible side by its azimuth α for certain, without the
