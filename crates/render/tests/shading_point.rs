@@ -550,3 +550,73 @@ fn ltc_alone_is_bounded_at_the_lattice_ends() {
         );
     }
 }
+
+/// With N > 1 light samples per call the scalar path shades in chunks of lanes; its estimate
+/// is the mean of N one-sample calls on the same random stream (the same numbers drawn in the
+/// same order), for every method and single technique, N across the chunk size, with a
+/// visibility test that rejects some samples: bit for bit where an iteration adds one term;
+/// with MIS (two terms per iteration, summed one by one in a call, as a pair by the calls)
+/// within 1e-6 relative per channel.
+#[test]
+fn light_samples_in_chunks_are_one_sample_calls() {
+    let mut methods = methods();
+    methods
+        .extend([Technique::Area, Technique::HartLinear, Technique::Li2018].map(Method::Technique));
+    let visible = |w: Vec3, _: f32| w.x > -0.3;
+    let hooks = Hooks::new();
+    let mut compared = 0;
+    for (i, case) in cases(0xc4a1).iter().enumerate() {
+        let sp = ShadingPoint::new(&hooks.bsdf, &case.bsdf, Vec3::ZERO, N, case.wi);
+        for &method in &methods {
+            for n in [2u32, 3, 8, 9, 13] {
+                let stream = [i as u32, n, 7];
+                let (mut chunked, mut one) =
+                    (CounterRng::new(3, stream), CounterRng::new(3, stream));
+                let (mut dropped_n, mut dropped_1) = (0, 0);
+                let all = estimate_light(
+                    &hooks,
+                    method,
+                    &sp,
+                    &case.segment,
+                    case.k,
+                    n,
+                    &mut chunked,
+                    &mut { visible },
+                    &mut dropped_n,
+                );
+                let mut sum = Vec3::ZERO;
+                for _ in 0..n {
+                    sum += estimate_light(
+                        &hooks,
+                        method,
+                        &sp,
+                        &case.segment,
+                        case.k,
+                        1,
+                        &mut one,
+                        &mut { visible },
+                        &mut dropped_1,
+                    );
+                }
+                let mean = sum / n as f32;
+                let close = match method {
+                    Method::Mis(_) => (all - mean).abs().cmple(mean.abs() * 1e-6).all(),
+                    _ => all == mean,
+                };
+                assert!(
+                    close && dropped_n == dropped_1,
+                    "{} {method} N = {n}: {all:?} vs {mean:?}",
+                    case.name
+                );
+                assert_eq!(
+                    chunked.next_f32(),
+                    one.next_f32(),
+                    "{} {method} N = {n}",
+                    case.name
+                );
+                compared += usize::from(all != Vec3::ZERO);
+            }
+        }
+    }
+    assert!(compared > 500, "{compared}");
+}
