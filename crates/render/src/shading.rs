@@ -299,9 +299,7 @@ pub fn single_technique<L: LineSampler>(
 ) -> Vec3 {
     let mut total = Vec3::ZERO;
     let Some(sampler) = sampler else {
-        for _ in 0..samples {
-            rng.next_f32();
-        }
+        skip_numbers(rng, samples);
         return total;
     };
     for _ in 0..samples {
@@ -313,13 +311,29 @@ pub fn single_technique<L: LineSampler>(
             continue;
         }
         let c = contribution(w, cos, pdf);
-        if c.is_finite() {
-            total += c;
-        } else {
-            *dropped += 1;
-        }
+        add_finite(&mut total, dropped, c);
     }
     total
+}
+
+/// Adds a visible sample's contribution `c` to `total`, or counts it in `dropped` when it is
+/// not finite.
+#[inline(always)]
+pub(crate) fn add_finite(total: &mut Vec3, dropped: &mut u32, c: Vec3) {
+    if c.is_finite() {
+        *total += c;
+    } else {
+        *dropped += 1;
+    }
+}
+
+/// Draws and discards `count` numbers: an estimate that finds nothing to sample consumes the
+/// numbers its iterations would have drawn, so the stream stays aligned.
+#[inline]
+fn skip_numbers(rng: &mut impl Uniforms, count: u32) {
+    for _ in 0..count {
+        rng.next_f32();
+    }
 }
 
 /// [`single_technique`] at a non-Lambertian shading point with the contribution of
@@ -341,9 +355,7 @@ pub fn single_technique_lanes<L: LineSampler, B: BsdfModel>(
 ) -> Vec3 {
     let mut total = Vec3::ZERO;
     let Some(sampler) = sampler else {
-        for _ in 0..samples {
-            rng.next_f32();
-        }
+        skip_numbers(rng, samples);
         return total;
     };
     let n = sp.n();
@@ -376,11 +388,7 @@ pub fn single_technique_lanes<L: LineSampler, B: BsdfModel>(
         let f_cos = model.eval_lanes(sp.bsdf, sp.v, &l, len);
         for (i, &p) in pdf.iter().enumerate().take(len) {
             let c = contribution(k, get3(&f_cos, i), p);
-            if c.is_finite() {
-                total += c;
-            } else {
-                *dropped += 1;
-            }
+            add_finite(&mut total, dropped, c);
         }
     }
     total
@@ -569,11 +577,7 @@ pub fn two_techniques<S: SpecularSampler>(
             .flatten()
         {
             if visible(candidate.w, candidate.dist) {
-                if candidate.c.is_finite() {
-                    total += candidate.c;
-                } else {
-                    *dropped += 1;
-                }
+                add_finite(&mut total, dropped, candidate.c);
             }
         }
     }
@@ -684,11 +688,7 @@ pub fn two_techniques_lanes<S: SpecularSampler, B: BsdfModel>(
                 continue;
             };
             if visible(candidate.w, candidate.dist) {
-                if candidate.c.is_finite() {
-                    total += candidate.c;
-                } else {
-                    *dropped += 1;
-                }
+                add_finite(&mut total, dropped, candidate.c);
             }
         }
     }
@@ -757,9 +757,7 @@ pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         ),
         Some(combination) => {
             let Some(light) = TwoTechniqueLight::prepare(pieces.specular, sp, segment) else {
-                for _ in 0..2 * samples {
-                    rng.next_f32();
-                }
+                skip_numbers(rng, 2 * samples);
                 return Vec3::ZERO;
             };
             if samples == 1 {

@@ -345,11 +345,7 @@ pub fn estimate(
             .flatten()
         {
             if visible(c.w, c.dist) {
-                if c.c.is_finite() {
-                    total += c.c;
-                } else {
-                    *dropped += 1;
-                }
+                crate::shading::add_finite(&mut total, dropped, c.c);
             }
         }
     }
@@ -413,11 +409,7 @@ pub fn estimate_lanes(
                 continue;
             };
             if visible(c.w, c.dist) {
-                if c.c.is_finite() {
-                    total += c.c;
-                } else {
-                    *dropped += 1;
-                }
+                crate::shading::add_finite(&mut total, dropped, c.c);
             }
         }
     }
