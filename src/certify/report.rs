@@ -370,7 +370,7 @@ fn suite_section(suite: &SuiteSummary) -> String {
                 "| {} | {role} | {} | {} | {} | {:.1} s |",
                 r.name,
                 r.verdict,
-                r.failing_configs,
+                r.failing_cell(),
                 p_cell(r.worst_p_value),
                 r.seconds
             );

@@ -392,7 +392,7 @@ fn suite_section(suite: &SuiteSummary) -> String {
                 "<tr><td>{}</td><td>{role}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.1} s</td></tr>",
                 esc(&r.name),
                 esc(&r.verdict),
-                r.failing_configs,
+                r.failing_cell(),
                 fmt_p(r.worst_p_value),
                 r.seconds
             );

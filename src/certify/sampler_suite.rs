@@ -4,7 +4,7 @@
 
 use linlight_verify::cylinder_suite::{self, CylinderReport};
 use linlight_verify::subjects::{certified, negative_controls};
-use linlight_verify::suite::SubjectReport;
+use linlight_verify::suite::{Outcome, SubjectReport};
 use linlight_verify::{run_suite, Settings};
 use serde::{Deserialize, Serialize};
 
@@ -16,8 +16,22 @@ pub struct SuiteRow {
     pub passed: bool,
     pub verdict: String,
     pub failing_configs: usize,
+    /// A negative control whose rejection was decided before its last configuration: the
+    /// configurations it ran (`linlight_verify::Settings::controls_until_decided`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub configurations_run: Option<usize>,
     pub worst_p_value: Option<f64>,
     pub seconds: f64,
+}
+
+impl SuiteRow {
+    /// The failing configurations, and how many ran if not all did.
+    pub fn failing_cell(&self) -> String {
+        match self.configurations_run {
+            Some(run) => format!("{} of {run} run", self.failing_configs),
+            None => self.failing_configs.to_string(),
+        }
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -33,6 +47,11 @@ pub struct SuiteSummary {
 }
 
 fn row(r: &SubjectReport) -> SuiteRow {
+    let skipped = r
+        .configs
+        .iter()
+        .filter(|c| c.outcome == Outcome::Decided)
+        .count();
     SuiteRow {
         name: r.name.clone(),
         passed: r.passed,
@@ -41,6 +60,7 @@ fn row(r: &SubjectReport) -> SuiteRow {
             None => r.verdict.clone(),
         },
         failing_configs: r.failing_configs,
+        configurations_run: (skipped > 0).then(|| r.configs.len() - skipped),
         worst_p_value: r.worst_p_value,
         seconds: r.elapsed_seconds,
     }
@@ -100,6 +120,7 @@ fn cylinder_rows(r: &CylinderReport) -> (Vec<SuiteRow>, Vec<SuiteRow>) {
                 passed: failing == 0,
                 verdict: if failing == 0 { "pass" } else { "FAIL" }.to_string(),
                 failing_configs: failing,
+                configurations_run: None,
                 worst_p_value: rows.iter().map(|t| t.p_value).reduce(f64::min),
                 seconds: per_config * rows.len() as f64,
             }
@@ -130,6 +151,7 @@ fn cylinder_rows(r: &CylinderReport) -> (Vec<SuiteRow>, Vec<SuiteRow>) {
                     format!("NOT rejected on {missed} configuration(s)")
                 },
                 failing_configs: rows.iter().filter(|c| c.rejected).count(),
+                configurations_run: None,
                 worst_p_value: rows.iter().map(|c| c.p_value).reduce(f64::max),
                 seconds: 0.0,
             }

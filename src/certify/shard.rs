@@ -918,6 +918,7 @@ mod tests {
             passed: true,
             verdict: "PASS".into(),
             failing_configs: 0,
+            configurations_run: None,
             worst_p_value: Some(0.3),
             seconds: 1.0,
         };

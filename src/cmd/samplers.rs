@@ -39,6 +39,11 @@ pub struct Args {
     /// configurations rejected per ε. Always exits 0 unless the usage is bad.
     #[arg(long)]
     tilt_power: bool,
+    /// Run each negative control on every configuration, to see the share of configurations
+    /// that reject it (docs/sampler-suite.md). By default a control stops as soon as the
+    /// configurations run so far decide its rejection; its verdict is the same either way.
+    #[arg(long, conflicts_with_all = ["external", "tilt_power"])]
+    full_controls: bool,
     /// Certify an external implementation instead of linlight's samplers: run `sh -c COMMAND`
     /// and send it the suite's batches on its stdin (protocol versions 1 and 2,
     /// docs/external-protocol.md: one JSON line per message, then little-endian f32 arrays).
@@ -139,6 +144,7 @@ fn refuse_ignored_by_gpu(args: &Args) -> Result<(), String> {
         ("--json", args.json.is_some()),
         ("--seed", args.seed.is_some()),
         ("--random-configs", args.random_configs.is_some()),
+        ("--full-controls", args.full_controls),
     ]
     .into_iter()
     .filter_map(|(name, given)| given.then_some(name))
@@ -171,6 +177,7 @@ fn settings(args: &Args) -> Result<Settings, String> {
             .random_configs
             .unwrap_or(Settings::default().random_configs),
         seed: args.seed.unwrap_or(Settings::default().seed),
+        controls_until_decided: !args.full_controls && !args.tilt_power,
         ..Settings::default()
     })
 }

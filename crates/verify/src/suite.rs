@@ -68,6 +68,11 @@ pub struct Settings {
     pub normalisation_tolerance: f64,
     /// Samples per configuration whose inverse round trip is checked.
     pub round_trips: usize,
+    /// A negative control stops after the chunk of configurations from which on its rejection
+    /// is certain (as many rejections as the most configurations it could still test would
+    /// need), its verdict the same as over every configuration; `false` runs every
+    /// configuration (the share rejected, e.g. `--tilt-power`).
+    pub controls_until_decided: bool,
 }
 
 impl Default for Settings {
@@ -82,6 +87,7 @@ impl Default for Settings {
             random_configs: 40,
             normalisation_tolerance: 1e-5,
             round_trips: 2_000,
+            controls_until_decided: true,
         }
     }
 }
@@ -171,6 +177,9 @@ pub enum Outcome {
     Panicked,
     /// Not run because the subject panicked on an earlier configuration.
     NotRun,
+    /// Not run because earlier configurations decided the negative control's rejection
+    /// ([`Settings::controls_until_decided`]).
+    Decided,
     /// The subject's answer source could not answer (crash, hang, not the protocol): nothing
     /// was judged. `linlight samplers` exits 2.
     SourceFailed,
@@ -284,6 +293,12 @@ impl ConfigResult {
     pub fn passed(&self) -> bool {
         self.failures.is_empty()
             && matches!(self.outcome, Outcome::Tested | Outcome::ZeroContribution)
+    }
+
+    /// Ran and did not pass (a configuration skipped as [`Outcome::Decided`] neither passed nor
+    /// failed).
+    pub fn failed(&self) -> bool {
+        !self.passed() && self.outcome != Outcome::Decided
     }
 
     /// Failed a check of the suite (a panic is not a statistical rejection).
@@ -1264,7 +1279,7 @@ fn summarise(
                 .iter()
                 .filter(|r| r.outcome == Outcome::ZeroContribution)
                 .count(),
-            failing: rows.iter().filter(|r| !r.passed()).count(),
+            failing: rows.iter().filter(|r| r.failed()).count(),
             worst_p_value: rows
                 .iter()
                 .filter_map(|r| r.worst_p_value())
@@ -1273,7 +1288,7 @@ fn summarise(
                 .iter()
                 .filter_map(|r| r.normalisation_error)
                 .reduce(f64::max),
-            passed: rows.iter().all(|r| r.passed()),
+            passed: !rows.iter().any(|r| r.failed()),
         });
     }
     let mut failures_by_check = BTreeMap::new();
@@ -1285,7 +1300,7 @@ fn summarise(
             *failures_by_check.entry(c).or_insert(0) += 1;
         }
     }
-    let failing_configs = configs.iter().filter(|r| !r.passed()).count();
+    let failing_configs = configs.iter().filter(|r| r.failed()).count();
     let tested = configs
         .iter()
         .filter(|r| r.outcome == Outcome::Tested)
@@ -1296,9 +1311,12 @@ fn summarise(
         .count();
     let needed = subject.rejection.needed(tested);
     let runnable = panic.is_none()
-        && configs
-            .iter()
-            .all(|r| matches!(r.outcome, Outcome::Tested | Outcome::ZeroContribution));
+        && configs.iter().all(|r| {
+            matches!(
+                r.outcome,
+                Outcome::Tested | Outcome::ZeroContribution | Outcome::Decided
+            )
+        });
     let source_failed = configs.iter().any(|r| r.outcome == Outcome::SourceFailed);
     let (passed, verdict) = match subject.role {
         _ if source_failed => (false, "source failed".to_string()),
@@ -1338,7 +1356,8 @@ fn summarise(
 }
 
 /// Run one subject over all configurations (in parallel). Configuration 0 runs first on its
-/// own: if the subject panics there (unimplemented), the rest are not run.
+/// own: if the subject panics there (unimplemented), the rest are not run. A negative control
+/// runs in chunks until its rejection is decided ([`Settings::controls_until_decided`]).
 pub fn run_subject(
     subject: &SamplerUnderTest,
     subject_index: usize,
@@ -1375,13 +1394,45 @@ fn run_subject_inner(
         return summarise(subject, results, msg);
     }
     let mut results = vec![first];
-    results.par_extend(
-        configs[1..]
+    let run = |range: std::ops::Range<usize>| -> Vec<ConfigResult> {
+        configs[range.clone()]
             .par_iter()
-            .enumerate()
-            .map(|(i, c)| certify_config(subject, c, settings, levels, stream(i + 1))),
-    );
+            .zip(range)
+            .map(|(c, i)| certify_config(subject, c, settings, levels, stream(i)))
+            .collect()
+    };
+    if subject.role == Role::NegativeControl && settings.controls_until_decided {
+        let mut next = 1;
+        while next < configs.len() && !rejection_decided(subject, &results, configs.len()) {
+            let end = (next + CONTROL_CHUNK).min(configs.len());
+            results.extend(run(next..end));
+            next = end;
+        }
+        results.extend(
+            configs[next..]
+                .iter()
+                .map(|c| ConfigResult::new(c, Outcome::Decided)),
+        );
+    } else {
+        results.extend(run(1..configs.len()));
+    }
     summarise(subject, results, None)
+}
+
+/// Configurations a negative control runs between two checks of [`rejection_decided`].
+const CONTROL_CHUNK: usize = 4;
+
+/// Whether `done` (the first of `total` configurations, in order) decide that `control` is
+/// rejected: its required rejections reach what it would need if every configuration not yet
+/// run were tested. The verdict over all `total` is then the same (`needed` grows with
+/// `tested`, and rejections only add up).
+fn rejection_decided(control: &SamplerUnderTest, done: &[ConfigResult], total: usize) -> bool {
+    let tested = done.iter().filter(|r| r.outcome == Outcome::Tested).count();
+    let rejected = done
+        .iter()
+        .filter(|r| r.rejected_as(&control.rejection))
+        .count();
+    rejected >= control.rejection.needed(tested + (total - done.len()))
 }
 
 /// Statistical tests per (certified sampler, configuration) without a partner: fine χ², coarse
@@ -1741,5 +1792,62 @@ mod tests {
         assert!(!r.negative_controls[1].passed);
         assert_eq!(r.negative_controls[1].verdict, "NOT REJECTED");
         assert_eq!(r.negative_controls[1].needed, r.negative_controls[1].tested);
+    }
+    /// A negative control stops once the configurations run decide its rejection, with the
+    /// verdict and, configuration by configuration, the results of a run over every
+    /// configuration; a control that is not rejected runs every configuration.
+    #[test]
+    fn controls_stop_once_decided_with_the_full_verdict() {
+        let full = Settings {
+            samples: 20_000,
+            random_configs: 10,
+            controls_until_decided: false,
+            ..Settings::default()
+        };
+        let early = Settings {
+            controls_until_decided: true,
+            ..full.clone()
+        };
+        let scaled = || subjects::control_scaled_pdf(Technique::ClippedSolidAngle);
+        let controls = || {
+            [
+                scaled(),
+                scaled().rejected_by(Rejection {
+                    by: Vec::new(),
+                    min_share: 0.5,
+                }),
+                scaled().rejected_by(Rejection::by_chi2(1.0)),
+            ]
+        };
+        let all = run_suite(&[], &controls(), &full);
+        let decided = run_suite(&[], &controls(), &early);
+        let json = |r: &ConfigResult| serde_json::to_value(r).unwrap();
+        let mut ran = Vec::new();
+        for (a, b) in all.negative_controls.iter().zip(&decided.negative_controls) {
+            assert_eq!((a.passed, &a.verdict), (b.passed, &b.verdict), "{}", a.name);
+            let n = b
+                .configs
+                .iter()
+                .take_while(|r| r.outcome != Outcome::Decided)
+                .count();
+            assert!(b.configs[n..].iter().all(|r| r.outcome == Outcome::Decided));
+            assert!(a.configs.iter().all(|r| r.outcome != Outcome::Decided));
+            for (x, y) in a.configs.iter().zip(&b.configs[..n]) {
+                assert_eq!(json(x), json(y), "{}", a.name);
+            }
+            ran.push(n);
+        }
+        let total = all.configurations.len();
+        assert!(all.negative_controls[0].passed && ran[0] < total, "{ran:?}");
+        // Half of the configurations rejected: more than half of them run.
+        assert!(
+            all.negative_controls[1].passed && 2 * ran[1] > total,
+            "{ran:?}"
+        );
+        assert!(ran[1] < total, "{ran:?}");
+        assert!(
+            !all.negative_controls[2].passed && ran[2] == total,
+            "{ran:?}"
+        );
     }
 }
