@@ -117,6 +117,22 @@ fn samplers_writes_a_report_consistent_with_its_exit_code() {
         assert!(c["failing_configs"].as_u64().unwrap() > 0);
         assert!(c["rejected_as_required"].as_u64() >= c["needed"].as_u64());
     }
+    // A control stops once its configurations decide its rejection: the rest are `decided`.
+    // Every control here is decided before its last configuration.
+    for c in controls {
+        let outcomes: Vec<&str> = c["configs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["outcome"].as_str().unwrap())
+            .collect();
+        let ran = outcomes.iter().take_while(|o| **o != "decided").count();
+        assert!(ran < outcomes.len(), "{}: {outcomes:?}", c["name"]);
+        assert!(
+            outcomes[ran..].iter().all(|o| *o == "decided"),
+            "{outcomes:?}"
+        );
+    }
     // The self-consistent controls are rejected by χ² alone: nothing else can see them.
     for name in [
         "projected-solid-angle-1-iteration-own-inverse",
@@ -173,6 +189,15 @@ fn samplers_refuses_options_its_mode_ignores() {
         (
             &["--backend", "gpu", "--random-configs", "3"][..],
             "--random-configs",
+        ),
+        (
+            &["--backend", "gpu", "--full-controls"][..],
+            "--full-controls",
+        ),
+        (&["--tilt-power", "--full-controls"][..], "--full-controls"),
+        (
+            &["--external", "true", "--full-controls"][..],
+            "--full-controls",
         ),
     ] {
         let out = linlight().arg("samplers").args(args).output().unwrap();
