@@ -68,10 +68,10 @@ pub struct Settings {
     pub normalisation_tolerance: f64,
     /// Samples per configuration whose inverse round trip is checked.
     pub round_trips: usize,
-    /// A negative control stops after the chunk of configurations from which on its rejection
-    /// is certain (as many rejections as the most configurations it could still test would
-    /// need), its verdict the same as over every configuration; `false` runs every
-    /// configuration (the share rejected, e.g. `--tilt-power`).
+    /// A negative control stops once the configurations it has run decide its rejection (its
+    /// rejections reach what it would need were every remaining configuration tested): its
+    /// verdict is the one over every configuration, unless a skipped configuration would have
+    /// panicked. `false` runs every configuration (the share rejected, e.g. `--tilt-power`).
     pub controls_until_decided: bool,
 }
 
@@ -1425,7 +1425,7 @@ const CONTROL_CHUNK: usize = 4;
 /// Whether `done` (the first of `total` configurations, in order) decide that `control` is
 /// rejected: its required rejections reach what it would need if every configuration not yet
 /// run were tested. The verdict over all `total` is then the same (`needed` grows with
-/// `tested`, and rejections only add up).
+/// `tested`, and rejections only add up), a panic in a later configuration aside.
 fn rejection_decided(control: &SamplerUnderTest, done: &[ConfigResult], total: usize) -> bool {
     let tested = done.iter().filter(|r| r.outcome == Outcome::Tested).count();
     let rejected = done
