@@ -111,7 +111,6 @@ impl Context<'_> {
                 let xi_b = sampling.mis.then_some((xi[2][k], xi[3][k]));
                 let candidates = prepared.candidates(
                     sampling.mis,
-                    n,
                     radiance,
                     [xi[0][k], xi[1][k]],
                     xi_b,

@@ -143,6 +143,7 @@ impl CylinderView {
     }
 
     /// From f32 scene values.
+    #[inline]
     pub fn from_f32(cylinder: &Cylinder, x: Vec3, n: Vec3) -> Option<Self> {
         Self::new(cylinder, x.as_dvec3(), n.as_dvec3())
     }
@@ -472,6 +473,7 @@ impl CylinderTechnique {
     /// The technique for a surface whose glossy lobe has the LTC matrix `a` in the shading
     /// frame `frame` (columns x̂, ŷ, n; `None`: no lobe). Only [`Self::Ltc`] uses it; where
     /// [`CylinderLtc::new`] refuses A it is [`Self::Projected`].
+    #[inline]
     pub fn prepare_with_lobe(
         self,
         view: &CylinderView,
