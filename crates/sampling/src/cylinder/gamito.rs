@@ -183,6 +183,7 @@ pub struct CylinderGamito {
 }
 
 impl CylinderGamito {
+    #[inline]
     pub fn new(view: &CylinderView) -> Option<Self> {
         let v = view;
         let depth = (v.rho - v.radius) * (v.rho + v.radius) / v.rho;
