@@ -166,6 +166,7 @@ pub struct CosineFrame {
 }
 
 impl CosineFrame {
+    /// The frame of unit `n`.
     #[inline]
     pub fn new(n: Vec3) -> Self {
         let n = n.as_dvec3();
@@ -226,9 +227,9 @@ pub struct PreparedTube {
 
 impl PreparedTube {
     /// The technique of `sampling` prepared for `tube` at point `p` with reflecting normal `n`
-    /// (the normal of the candidates); `lobe`: the shading frame and LTC matrix of the surface's glossy lobe
-    /// ([`ShadingPoint::ltc_lobe`](crate::shading::ShadingPoint::ltc_lobe); only the technique
-    /// `ltc` uses it, which is `projected` without it).
+    /// (the normal of the candidates); `lobe`: the shading frame and LTC matrix of the
+    /// surface's glossy lobe ([`ShadingPoint::ltc_lobe`](crate::shading::ShadingPoint::ltc_lobe);
+    /// only the technique `ltc` uses it, which is `projected` without it).
     #[inline]
     pub fn new(
         tube: &Tube,

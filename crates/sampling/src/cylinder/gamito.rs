@@ -33,8 +33,8 @@
 //! end x looks into). Rejection: the first candidate uses ξ, later ones a PCG32 stream keyed by
 //! the bits of ξ (a deterministic function of ξ). No inverse.
 
-use super::{reject_until_accepted, CylinderSample, CylinderSampler, CylinderView};
 use super::solid_angle::{for_sinh_panels, NodeTerm, PanelTerms};
+use super::{reject_until_accepted, CylinderSample, CylinderSampler, CylinderView};
 use glam::DVec3;
 use linlight_simd::{dispatch, Isa};
 

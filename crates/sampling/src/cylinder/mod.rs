@@ -56,11 +56,8 @@ impl Cylinder {
     pub fn new(p0: DVec3, p1: DVec3, radius: f64) -> Option<Self> {
         let axis = p1 - p0;
         let length = axis.length();
-        let ok = p0.is_finite()
-            && p1.is_finite()
-            && length > 0.0
-            && radius.is_finite()
-            && radius > 0.0;
+        let ok =
+            p0.is_finite() && p1.is_finite() && length > 0.0 && radius.is_finite() && radius > 0.0;
         ok.then_some(Self {
             p0,
             p1,

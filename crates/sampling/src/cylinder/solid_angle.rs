@@ -216,8 +216,8 @@ impl<T: NodeTerm> Kernel for PanelTerms<'_, T> {
     #[inline(always)]
     fn run(self) -> [f64; PANEL_NODES] {
         let (n, mut out) = (self.nodes, [0.0; PANEL_NODES]);
-        for i in 0..PANEL_NODES {
-            out[i] = self.terms.term(n.sinh[i], n.cosh[i], n.wt[i]);
+        for (i, term) in out.iter_mut().enumerate() {
+            *term = self.terms.term(n.sinh[i], n.cosh[i], n.wt[i]);
         }
         out
     }
