@@ -150,33 +150,58 @@ fn outside(prim: &Primitive, ray: &Ray, t: f32) -> bool {
 }
 
 /// A unit direction from the cosine-weighted hemisphere of unit `n` for (u1, u2), and its
-/// density max(0, n·ω)/π per steradian. Shirley and Chiu's concentric map of the square onto
-/// the disk (area-preserving), lifted to the hemisphere, in f64: near n the directions keep
-/// the resolution of u (≈ 1e-7 rad), where the polar map's rings √u1 are 2.4e-4 rad wide at
-/// the first step of an f32 u1, wider than a thin tube seen along n.
+/// density max(0, n·ω)/π per steradian ([`CosineFrame::sample`] in the frame of `n`).
 #[inline]
 pub fn cosine_hemisphere(n: Vec3, u1: f32, u2: f32) -> (DVec3, f32) {
-    let (a, b) = (
-        2.0 * u1.clamp(0.0, 1.0) as f64 - 1.0,
-        2.0 * u2.clamp(0.0, 1.0) as f64 - 1.0,
-    );
-    let (r, phi) = if a == 0.0 && b == 0.0 {
-        (0.0, 0.0)
-    } else if a.abs() > b.abs() {
-        (a, std::f64::consts::FRAC_PI_4 * (b / a))
-    } else {
-        (
-            b,
-            std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (a / b),
-        )
-    };
-    let (s, c) = phi.sin_cos();
-    let (x, y) = (r * c, r * s);
-    let z = (1.0 - x * x - y * y).max(0.0).sqrt();
-    let n = n.as_dvec3();
-    let (t, bt) = n.any_orthonormal_pair();
-    let w = (x * t + y * bt + z * n).normalize();
-    (w, (n.dot(w).max(0.0) * std::f64::consts::FRAC_1_PI) as f32)
+    CosineFrame::new(n).sample(u1, u2)
+}
+
+/// The frame of the cosine-weighted hemisphere of a unit normal n: n in f64 and glam's
+/// orthonormal pair completing it, formed once per shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct CosineFrame {
+    n: DVec3,
+    t: DVec3,
+    bt: DVec3,
+}
+
+impl CosineFrame {
+    /// The frame of unit `n`.
+    #[inline]
+    pub fn new(n: Vec3) -> Self {
+        let n = n.as_dvec3();
+        let (t, bt) = n.any_orthonormal_pair();
+        Self { n, t, bt }
+    }
+
+    /// A unit direction from the cosine-weighted hemisphere of n for (u1, u2), and its density
+    /// max(0, n·ω)/π per steradian. Shirley and Chiu's concentric map of the square onto the
+    /// disk (area-preserving), lifted to the hemisphere, in f64: near n the directions keep the
+    /// resolution of u (≈ 1e-7 rad), where the polar map's rings √u1 are 2.4e-4 rad wide at the
+    /// first step of an f32 u1, wider than a thin tube seen along n.
+    #[inline]
+    pub fn sample(&self, u1: f32, u2: f32) -> (DVec3, f32) {
+        let (a, b) = (
+            2.0 * u1.clamp(0.0, 1.0) as f64 - 1.0,
+            2.0 * u2.clamp(0.0, 1.0) as f64 - 1.0,
+        );
+        let (r, phi) = if a == 0.0 && b == 0.0 {
+            (0.0, 0.0)
+        } else if a.abs() > b.abs() {
+            (a, std::f64::consts::FRAC_PI_4 * (b / a))
+        } else {
+            (
+                b,
+                std::f64::consts::FRAC_PI_2 - std::f64::consts::FRAC_PI_4 * (a / b),
+            )
+        };
+        let (s, c) = phi.sin_cos();
+        let (x, y) = (r * c, r * s);
+        let z = (1.0 - x * x - y * y).max(0.0).sqrt();
+        let (n, t, bt) = (self.n, self.t, self.bt);
+        let w = (x * t + y * bt + z * n).normalize();
+        (w, (n.dot(w).max(0.0) * std::f64::consts::FRAC_1_PI) as f32)
+    }
 }
 
 /// A light sample of one iteration of the tube estimator before visibility: the unit world
@@ -192,15 +217,19 @@ pub struct TubeCandidate {
 /// The cylinder technique prepared at a shading point: `None` where the point sees no front
 /// face or the technique has nothing to sample (no candidates then).
 pub struct PreparedTube {
-    view: CylinderView,
+    /// The technique, which holds the view of the tube from the point.
     technique: PreparedCylinder,
+    /// The reflecting normal.
+    n: Vec3,
+    /// With MIS: what the BSDF-side samples need of the point, formed once for its iterations.
+    bsdf_side: Option<(CosineFrame, AzimuthPretest)>,
 }
 
 impl PreparedTube {
-    /// The technique of `sampling` prepared for `tube` at point `p` with reflecting normal `n`;
-    /// `lobe`: the shading frame and LTC matrix of the surface's glossy lobe
-    /// ([`ShadingPoint::ltc_lobe`](crate::shading::ShadingPoint::ltc_lobe); only the technique
-    /// `ltc` uses it, which is `projected` without it).
+    /// The technique of `sampling` prepared for `tube` at point `p` with reflecting normal `n`
+    /// (the normal of the candidates); `lobe`: the shading frame and LTC matrix of the
+    /// surface's glossy lobe ([`ShadingPoint::ltc_lobe`](crate::shading::ShadingPoint::ltc_lobe);
+    /// only the technique `ltc` uses it, which is `projected` without it).
     #[inline]
     pub fn new(
         tube: &Tube,
@@ -212,7 +241,14 @@ impl PreparedTube {
         let view = CylinderView::from_f32(&tube.cylinder, p, n)?;
         let lobe = lobe.map(|(f, a)| (f.as_dmat3(), a.as_dmat3()));
         let technique = sampling.technique.prepare_with_lobe(&view, lobe)?;
-        Some(Self { view, technique })
+        let bsdf_side = sampling
+            .mis
+            .then(|| (CosineFrame::new(n), AzimuthPretest::new(technique.view())));
+        Some(Self {
+            technique,
+            n,
+            bsdf_side,
+        })
     }
 
     /// One iteration's candidates (module documentation) for the numbers `xi` (emitter sample)
@@ -223,13 +259,12 @@ impl PreparedTube {
     pub fn candidates(
         &self,
         mis: bool,
-        n: Vec3,
         radiance: Vec3,
         xi: [f32; 2],
         xi_b: Option<(f32, f32)>,
         eval: &impl Fn(Vec3) -> Vec3,
     ) -> [Option<TubeCandidate>; 2] {
-        self.weighted(mis, n, xi, xi_b)
+        self.weighted(mis, xi, xi_b)
             .map(|s| s.and_then(|s| s.candidate(radiance, eval(s.w))))
     }
 
@@ -240,11 +275,10 @@ impl PreparedTube {
     pub fn weighted(
         &self,
         mis: bool,
-        n: Vec3,
         xi: [f32; 2],
         xi_b: Option<(f32, f32)>,
     ) -> [Option<TubeSample>; 2] {
-        let (view, technique) = (&self.view, &self.technique);
+        let (technique, n) = (&self.technique, self.n);
         let mut out = [None, None];
         // The emitter sample.
         if let Some(sample) = technique.sample_toward(xi) {
@@ -267,11 +301,15 @@ impl PreparedTube {
         }
         // The BSDF-side sample.
         let Some((u1, u2)) = xi_b else { return out };
-        let (dir, p_b) = cosine_hemisphere(n, u1, u2);
+        let (frame, pretest) = match self.bsdf_side {
+            Some(side) => side,
+            None => (CosineFrame::new(n), AzimuthPretest::new(technique.view())),
+        };
+        let (dir, p_b) = frame.sample(u1, u2);
         if !(p_b > 0.0) {
             return out;
         }
-        if misses_in_azimuth(view, dir) {
+        if pretest.misses(technique.view(), dir) {
             return out;
         }
         let w = dir.as_vec3();
@@ -340,7 +378,7 @@ pub fn estimate(
             continue;
         };
         for c in prepared
-            .candidates(sampling.mis, n, radiance, xi, xi_b, eval)
+            .candidates(sampling.mis, radiance, xi, xi_b, eval)
             .into_iter()
             .flatten()
         {
@@ -392,7 +430,7 @@ pub fn estimate_lanes(
                 continue;
             };
             for s in prepared
-                .weighted(sampling.mis, n, xi, xi_b)
+                .weighted(sampling.mis, xi, xi_b)
                 .into_iter()
                 .flatten()
             {
@@ -425,21 +463,45 @@ fn iteration_numbers(mis: bool, rng: &mut impl Uniforms) -> ([f32; 2], Option<(f
     (xi, xi_b)
 }
 
-/// Whether `dir` misses the visible side by its azimuth α for certain, without the
-/// arctangents of [`CylinderView::hit`] (most BSDF-side samples miss a tube): where the side
-/// spans at most ±45° (R ≤ √(ρ² − R²), so tan α_max ≤ 1), a direction with n·ĉ < 0, or with
-/// |tan α| more than twice tan α_max, has |α| ≥ atan(2 tan α_max) > 1.3 α_max, beyond any
-/// rounding of the angles `hit` compares: `hit` returns `None` for it too. `false` otherwise
-/// (also for NaN).
-#[inline]
+/// Whether `dir` misses the visible side by its azimuth α for certain ([`AzimuthPretest`]).
+#[cfg(test)]
 fn misses_in_azimuth(view: &CylinderView, dir: DVec3) -> bool {
-    let (r, rho) = (view.radius, view.rho);
-    let tangent = ((rho - r) * (rho + r)).sqrt();
-    if !(r <= tangent) {
-        return false;
+    AzimuthPretest::new(view).misses(view, dir)
+}
+
+/// The azimuth pre-test of the BSDF-side samples at one shading point: whether a direction
+/// misses the visible side by its azimuth α for certain, without the arctangents of
+/// [`CylinderView::hit`] (most BSDF-side samples miss a tube): where the side spans at most
+/// ±45° (R ≤ √(ρ² − R²), so tan α_max ≤ 1), a direction with n·ĉ < 0, or with |tan α| more
+/// than twice tan α_max, has |α| ≥ atan(2 tan α_max) > 1.3 α_max, beyond any rounding of the
+/// angles `hit` compares: `hit` returns `None` for it too.
+#[derive(Clone, Copy, Debug)]
+struct AzimuthPretest {
+    /// √(ρ² − R²) where the side spans at most ±45°, NaN (no test) otherwise.
+    tangent: f64,
+}
+
+impl AzimuthPretest {
+    #[inline]
+    fn new(view: &CylinderView) -> Self {
+        let (r, rho) = (view.radius, view.rho);
+        let tangent = ((rho - r) * (rho + r)).sqrt();
+        Self {
+            tangent: if r <= tangent { tangent } else { f64::NAN },
+        }
     }
-    let (dc, dw) = (dir.dot(view.c), dir.dot(view.w));
-    dc < 0.0 || (dc == 0.0 && dw != 0.0) || dw.abs() * tangent > 2.0 * r * dc
+
+    /// Whether `dir` misses the side of `view` (the view of [`Self::new`]) by its azimuth;
+    /// `false` where the test does not apply (also for NaN).
+    #[inline]
+    fn misses(&self, view: &CylinderView, dir: DVec3) -> bool {
+        let tangent = self.tangent;
+        if tangent.is_nan() {
+            return false;
+        }
+        let (dc, dw) = (dir.dot(view.c), dir.dot(view.w));
+        dc < 0.0 || (dc == 0.0 && dw != 0.0) || dw.abs() * tangent > 2.0 * view.radius * dc
+    }
 }
 
 /// A distance along a direction to the visible side in f32; `None` unless positive and finite.

@@ -21,6 +21,7 @@ pub struct CylinderArea {
 }
 
 impl CylinderArea {
+    #[inline]
     pub fn new(view: &CylinderView) -> Option<Self> {
         let area = 2.0 * view.theta_max * view.radius * (view.b - view.a);
         let inv_area = 1.0 / area;

@@ -33,8 +33,10 @@
 //! end x looks into). Rejection: the first candidate uses ξ, later ones a PCG32 stream keyed by
 //! the bits of ξ (a deterministic function of ξ). No inverse.
 
+use super::solid_angle::{for_sinh_panels, NodeTerm, PanelTerms};
 use super::{reject_until_accepted, CylinderSample, CylinderSampler, CylinderView};
 use glam::DVec3;
+use linlight_simd::{dispatch, Isa};
 
 /// Most panels per cap segment of [`gamito_solid_angle`]'s quadrature, 8 Gauss–Legendre nodes
 /// each, and the widest panel in the graded variable t.
@@ -109,20 +111,56 @@ pub fn cap_segment(v: &CylinderView, e: f64) -> f64 {
     let panels = ((t_max / PANEL_WIDTH).ceil() as usize).clamp(1, CAP_PANELS);
     // sin, cos of θ_max/2 (cos θ_max = R/ρ): d − X_arc = 2R sin((θ_max + θ)/2) sin((θ_max − θ)/2).
     let (sm, cm) = (0.5 * theta_max).sin_cos();
+    let terms = CapTerms {
+        theta_s,
+        r,
+        gap,
+        depth,
+        sm,
+        cm,
+        e,
+    };
+    let isa = Isa::detect();
     let mut half = 0.0;
-    super::solid_angle::for_sinh_nodes(t_max, panels, |sinh, cosh, wt| {
+    for_sinh_panels(t_max, panels, |nodes| {
+        for term in dispatch(isa, PanelTerms { terms, nodes }) {
+            half += term;
+        }
+    });
+    2.0 * half
+}
+
+/// The per-node terms of [`cap_segment`]'s rule: what they need of the view and the cap.
+#[derive(Clone, Copy)]
+struct CapTerms {
+    theta_s: f64,
+    r: f64,
+    gap: f64,
+    depth: f64,
+    /// sin and cos of θ_max/2.
+    sm: f64,
+    cm: f64,
+    e: f64,
+}
+
+impl NodeTerm for CapTerms {
+    /// The term of the node t (sinh t, cosh t, weight): weight × dθ/dt × dY/dθ × the
+    /// integrand at Y(θ), θ = θ_s sinh t.
+    #[inline(always)]
+    fn term(&self, sinh: f64, cosh: f64, wt: f64) -> f64 {
+        let (r, e, depth) = (self.r, self.e, self.depth);
         // θ/2 < θ_max/2 < π/4.
-        let (sh, ch) = crate::trig::sin_cos_quarter(0.5 * theta_s * sinh);
+        let (sh, ch) = crate::trig::sin_cos_quarter(0.5 * self.theta_s * sinh);
         let (sin_t, cos_t) = (2.0 * sh * ch, (ch - sh) * (ch + sh));
         let y = r * sin_t;
-        let x = gap + 2.0 * r * sh * sh;
+        let x = self.gap + 2.0 * r * sh * sh;
+        let (sm, cm) = (self.sm, self.cm);
         let d_minus_x = 2.0 * r * (sm * ch + cm * sh) * (sm * ch - cm * sh).max(0.0);
         let q = y * y + e * e;
         let (sx, sd) = ((x * x + q).sqrt(), (depth * depth + q).sqrt());
         let f = e * d_minus_x * (depth + x) / ((depth * sx + x * sd) * sd * sx);
-        half += wt * theta_s * cosh * r * cos_t * f;
-    });
-    2.0 * half
+        wt * self.theta_s * cosh * r * cos_t * f
+    }
 }
 
 /// Most candidates per sample; the acceptance rate Ω/Ω_rect is ≥ 0.39 on the tests'
@@ -145,6 +183,7 @@ pub struct CylinderGamito {
 }
 
 impl CylinderGamito {
+    #[inline]
     pub fn new(view: &CylinderView) -> Option<Self> {
         let v = view;
         let depth = (v.rho - v.radius) * (v.rho + v.radius) / v.rho;

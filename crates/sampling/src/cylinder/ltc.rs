@@ -173,11 +173,13 @@ impl CylinderLtc {
     /// For the LTC matrix `a` of the shading frame `frame` (columns x̂, ŷ, n; world), with the
     /// defensive fraction [`DEFENSIVE`]. `None` if A is singular, ill-conditioned (as the LTC
     /// line sampler refuses it) or not finite, or the section has no mass.
+    #[inline]
     pub fn new(view: &CylinderView, frame: DMat3, a: DMat3) -> Option<Self> {
         Self::with_options(view, frame, a, DEFENSIVE, DEFAULT_ITERATIONS)
     }
 
     /// With a defensive fraction β ∈ [0, 1] and a number of Halley steps of the line samplers.
+    #[inline]
     pub fn with_options(
         view: &CylinderView,
         frame: DMat3,

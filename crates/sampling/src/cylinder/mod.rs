@@ -39,23 +39,32 @@ pub use solid_angle::CylinderSolidAngle;
 
 use glam::{DMat3, DVec3, Vec3};
 
-/// A finite open cylinder (no caps): axis from `p0` to `p1`, radius `radius`.
+/// A finite open cylinder (no caps): axis from `p0` to `p1`, radius `radius` (as
+/// [`Self::new`] made it: the axis is formed there).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cylinder {
     pub p0: DVec3,
     pub p1: DVec3,
     pub radius: f64,
+    /// |p1 − p0| and the unit axis (p1 − p0)/|p1 − p0|, formed once for every view.
+    length: f64,
+    u: DVec3,
 }
 
 impl Cylinder {
     /// `None` unless the ends are finite and distinct and the radius is finite and positive.
     pub fn new(p0: DVec3, p1: DVec3, radius: f64) -> Option<Self> {
-        let ok = p0.is_finite()
-            && p1.is_finite()
-            && (p1 - p0).length() > 0.0
-            && radius.is_finite()
-            && radius > 0.0;
-        ok.then_some(Self { p0, p1, radius })
+        let axis = p1 - p0;
+        let length = axis.length();
+        let ok =
+            p0.is_finite() && p1.is_finite() && length > 0.0 && radius.is_finite() && radius > 0.0;
+        ok.then_some(Self {
+            p0,
+            p1,
+            radius,
+            length,
+            u: axis / length,
+        })
     }
 
     /// From f32 scene values (converted exactly).
@@ -64,7 +73,7 @@ impl Cylinder {
     }
 
     pub fn length(&self) -> f64 {
-        (self.p1 - self.p0).length()
+        self.length
     }
 
     /// Area of the side, 2πRℓ.
@@ -110,9 +119,8 @@ impl CylinderView {
         if !x.is_finite() {
             return None;
         }
-        let axis = cylinder.p1 - cylinder.p0;
-        let length = axis.length();
-        let u = axis / length;
+        let (length, u) = (cylinder.length, cylinder.u);
+        debug_assert!(length == (cylinder.p1 - cylinder.p0).length(), "ends moved");
         let z = (x - cylinder.p0).dot(u);
         let radial = cylinder.p0 + z * u - x;
         let rho = radial.length();
@@ -143,6 +151,7 @@ impl CylinderView {
     }
 
     /// From f32 scene values.
+    #[inline]
     pub fn from_f32(cylinder: &Cylinder, x: Vec3, n: Vec3) -> Option<Self> {
         Self::new(cylinder, x.as_dvec3(), n.as_dvec3())
     }
@@ -472,6 +481,7 @@ impl CylinderTechnique {
     /// The technique for a surface whose glossy lobe has the LTC matrix `a` in the shading
     /// frame `frame` (columns x̂, ŷ, n; `None`: no lobe). Only [`Self::Ltc`] uses it; where
     /// [`CylinderLtc::new`] refuses A it is [`Self::Projected`].
+    #[inline]
     pub fn prepare_with_lobe(
         self,
         view: &CylinderView,

@@ -173,11 +173,13 @@ pub(crate) fn section_nodes(v: &CylinderView) -> [(f64, f64, f64, f64); SECTION_
 }
 
 impl CylinderProjected {
+    #[inline]
     pub fn new(view: &CylinderView) -> Option<Self> {
         Self::with_iterations(view, DEFAULT_ITERATIONS)
     }
 
     /// With a given number of Halley steps of the line sampler (the paper's is 2).
+    #[inline]
     pub fn with_iterations(view: &CylinderView, iterations: u32) -> Option<Self> {
         let v = view;
         let nodes = section_nodes(v);

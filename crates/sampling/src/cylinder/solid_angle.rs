@@ -27,6 +27,7 @@
 
 use super::{reject_until_accepted, CylinderSample, CylinderSampler, CylinderView};
 use glam::DVec3;
+use linlight_simd::{dispatch, Isa, Kernel};
 
 /// Bands of the surface angle per side of the visible arc: the envelope's boxes.
 pub const BANDS: usize = 8;
@@ -69,22 +70,43 @@ fn sinh_cosh(x: f64) -> (f64, f64) {
     (m * (m + 2.0) / e2, 1.0 + m * m / e2)
 }
 
-/// The 8-point Gauss–Legendre rule on `panels` equal panels of t ∈ [0, t_max]: calls
-/// `f(sinh t, cosh t, weight)` once per node. sinh and cosh of the nodes mid ± d come from
-/// those of the panel middles and of the four half-offsets d by the addition theorems (one
-/// `exp_m1` per panel and per offset instead of two functions per node); every term is formed
-/// from values of relative error a few ulps, so sinh t keeps a relative error of a few ulps
-/// times mid/t ≤ 1/(1 − x₄) ≈ 25 at the innermost node.
+/// The nodes of one panel of [`for_sinh_panels`] in the order of the rule's terms: sinh t,
+/// cosh t and the weight of each.
+pub(crate) struct PanelNodes {
+    pub sinh: [f64; PANEL_NODES],
+    pub cosh: [f64; PANEL_NODES],
+    pub wt: [f64; PANEL_NODES],
+}
+
+/// Nodes per panel of [`for_sinh_panels`].
+pub(crate) const PANEL_NODES: usize = 2 * GL8.len();
+
+/// The 8-point Gauss–Legendre rule on `panels` equal panels of t ∈ [0, t_max]: calls `f` once
+/// per panel with its nodes, in the order the rule's terms are summed (per half-offset d, the
+/// node mid − d, then mid + d). sinh and cosh of the nodes mid ± d come from those of the panel
+/// middles and of the four half-offsets d by the addition theorems (one `exp_m1` per panel and
+/// per offset instead of two functions per node); every term is formed from values of relative
+/// error a few ulps, so sinh t keeps a relative error of a few ulps times mid/t ≤ 1/(1 − x₄) ≈
+/// 25 at the innermost node.
 #[inline]
-pub(crate) fn for_sinh_nodes(t_max: f64, panels: usize, mut f: impl FnMut(f64, f64, f64)) {
+pub(crate) fn for_sinh_panels(t_max: f64, panels: usize, mut f: impl FnMut(&PanelNodes)) {
     let panel = t_max / panels as f64;
     let offsets = GL8.map(|(x, wt)| (sinh_cosh(0.5 * panel * x), 0.5 * panel * wt));
+    let mut nodes = PanelNodes {
+        sinh: [0.0; PANEL_NODES],
+        cosh: [0.0; PANEL_NODES],
+        wt: [0.0; PANEL_NODES],
+    };
     for k in 0..panels {
         let (sm, cm) = sinh_cosh((k as f64 + 0.5) * panel);
-        for &((sd, cd), wt) in &offsets {
-            f(sm * cd - cm * sd, cm * cd - sm * sd, wt);
-            f(sm * cd + cm * sd, cm * cd + sm * sd, wt);
+        for (i, &((sd, cd), wt)) in offsets.iter().enumerate() {
+            nodes.sinh[2 * i] = sm * cd - cm * sd;
+            nodes.cosh[2 * i] = cm * cd - sm * sd;
+            nodes.sinh[2 * i + 1] = sm * cd + cm * sd;
+            nodes.cosh[2 * i + 1] = cm * cd + sm * sd;
+            (nodes.wt[2 * i], nodes.wt[2 * i + 1]) = (wt, wt);
         }
+        f(&nodes);
     }
 }
 
@@ -107,24 +129,98 @@ pub(crate) fn solid_angle_of(v: &CylinderView) -> f64 {
     // s_b − s_a: with both ends on one side of x's foot (a b > 0) the two terms nearly cancel
     // far beyond an end; there b√(h² + a²) − a√(h² + b²) = h²(b − a)(b + a)/(b√(h² + a²) +
     // a√(h² + b²)) is formed without cancellation.
-    let (same_sign, ba) = (v.a * v.b > 0.0, v.b - v.a);
+    let terms = OmegaTerms {
+        u_s,
+        gap,
+        sum,
+        gap2,
+        sum2,
+        a2,
+        b2,
+        a: v.a,
+        b: v.b,
+        radius: v.radius,
+    };
+    let isa = Isa::detect();
     let mut omega_half = 0.0;
-    for_sinh_nodes(t_max, panels, |sinh, cosh, wt| {
-        let u = u_s * sinh;
-        let q = u * u;
-        let inv_1q = 1.0 / (1.0 + q);
-        let num = gap2 + sum2 * q;
-        let h2 = num * inv_1q;
-        let jac = v.radius * (gap - sum * q) / num;
-        let (root_a, root_b) = ((h2 + a2).sqrt(), (h2 + b2).sqrt());
-        let ds = if same_sign {
-            h2 * ba * (v.b + v.a) / ((v.b * root_a + v.a * root_b) * root_a * root_b)
-        } else {
-            v.b / root_b - v.a / root_a
-        };
-        omega_half += wt * u_s * cosh * 2.0 * inv_1q * jac * ds;
+    for_sinh_panels(t_max, panels, |nodes| {
+        for term in dispatch(isa, terms.panel(nodes)) {
+            omega_half += term;
+        }
     });
     2.0 * omega_half
+}
+
+/// The per-node terms of [`solid_angle_of`]'s rule: what they need of the view.
+#[derive(Clone, Copy)]
+struct OmegaTerms {
+    u_s: f64,
+    gap: f64,
+    sum: f64,
+    gap2: f64,
+    sum2: f64,
+    a2: f64,
+    b2: f64,
+    a: f64,
+    b: f64,
+    radius: f64,
+}
+
+impl OmegaTerms {
+    fn panel(self, nodes: &PanelNodes) -> PanelTerms<'_, Self> {
+        PanelTerms { terms: self, nodes }
+    }
+}
+
+impl NodeTerm for OmegaTerms {
+    /// The term of the node t (sinh t, cosh t, weight): weight × du/dt × dθ/du × dα/dθ ×
+    /// (s_b − s_a).
+    #[inline(always)]
+    fn term(&self, sinh: f64, cosh: f64, wt: f64) -> f64 {
+        let u = self.u_s * sinh;
+        let q = u * u;
+        let inv_1q = 1.0 / (1.0 + q);
+        let num = self.gap2 + self.sum2 * q;
+        let h2 = num * inv_1q;
+        let jac = self.radius * (self.gap - self.sum * q) / num;
+        let (root_a, root_b) = ((h2 + self.a2).sqrt(), (h2 + self.b2).sqrt());
+        // s_b − s_a: with both ends on one side of x's foot (a b > 0) the two terms nearly
+        // cancel far beyond an end; there b√(h² + a²) − a√(h² + b²) = h²(b − a)(b + a)/(b√(h² +
+        // a²) + a√(h² + b²)) is formed without cancellation.
+        let (a, b) = (self.a, self.b);
+        let ds = if a * b > 0.0 {
+            h2 * (b - a) * (b + a) / ((b * root_a + a * root_b) * root_a * root_b)
+        } else {
+            b / root_b - a / root_a
+        };
+        wt * self.u_s * cosh * 2.0 * inv_1q * jac * ds
+    }
+}
+
+/// One term of a rule in sinh t per node ([`for_sinh_panels`]).
+pub(crate) trait NodeTerm {
+    fn term(&self, sinh: f64, cosh: f64, wt: f64) -> f64;
+}
+
+/// The terms of one panel's nodes, in their order: a [`Kernel`], so that the nodes' arithmetic
+/// (independent of each other) is vectorised for the CPU's instruction set; every term is the
+/// same IEEE operations in the same order as one node at a time, so the bits do not depend on
+/// the instruction set. The caller sums them in order.
+pub(crate) struct PanelTerms<'a, T> {
+    pub terms: T,
+    pub nodes: &'a PanelNodes,
+}
+
+impl<T: NodeTerm> Kernel for PanelTerms<'_, T> {
+    type Output = [f64; PANEL_NODES];
+    #[inline(always)]
+    fn run(self) -> [f64; PANEL_NODES] {
+        let (n, mut out) = (self.nodes, [0.0; PANEL_NODES]);
+        for (i, term) in out.iter_mut().enumerate() {
+            *term = self.terms.term(n.sinh[i], n.cosh[i], n.wt[i]);
+        }
+        out
+    }
 }
 
 impl CylinderSolidAngle {
