@@ -650,7 +650,7 @@ mod tests {
     /// A glossy lobe at x: the GGX LTC table's A for α = 0.25 seen from a view mirrored about
     /// n from the tube's middle (raised to n·v ≥ 0.3), in its shading frame.
     fn glossy_lobe(t: &Tube, x: Vec3, n: Vec3) -> (Mat3, Mat3) {
-        let mid = (0.5 * (t.cylinder.p0 + t.cylinder.p1)).as_vec3();
+        let mid = (0.5 * (t.cylinder.p0() + t.cylinder.p1())).as_vec3();
         let d = (mid - x).normalize();
         let mirror = 2.0 * n.dot(d) * n - d;
         let tangent = mirror - n.dot(mirror) * n;

@@ -88,7 +88,7 @@ fn pass(technique: CylinderTechnique, configurations: &[Configuration]) -> f64 {
 fn line_pass(configurations: &[Configuration]) -> f64 {
     let mut acc = 0.0;
     for c in configurations {
-        let seg = Segment::new(c.cylinder.p0.as_vec3(), c.cylinder.p1.as_vec3());
+        let seg = Segment::new(c.cylinder.p0().as_vec3(), c.cylinder.p1().as_vec3());
         let (x, n): (Vec3, Vec3) = (c.x.as_vec3(), c.n.as_vec3());
         if let Some(s) = Technique::ProjectedSolidAngle.prepare(&seg, x, n) {
             let (dir, p) = s.sample_with_pdf(c.xi[1]);

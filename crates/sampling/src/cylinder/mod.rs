@@ -39,13 +39,12 @@ pub use solid_angle::CylinderSolidAngle;
 
 use glam::{DMat3, DVec3, Vec3};
 
-/// A finite open cylinder (no caps): axis from `p0` to `p1`, radius `radius` (as
-/// [`Self::new`] made it: the axis is formed there).
+/// A finite open cylinder (no caps): axis from `p0` to `p1`, radius `radius`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cylinder {
-    pub p0: DVec3,
-    pub p1: DVec3,
-    pub radius: f64,
+    p0: DVec3,
+    p1: DVec3,
+    radius: f64,
     /// |p1 − p0| and the unit axis (p1 − p0)/|p1 − p0|, formed once for every view.
     length: f64,
     u: DVec3,
@@ -70,6 +69,20 @@ impl Cylinder {
     /// From f32 scene values (converted exactly).
     pub fn from_f32(p0: Vec3, p1: Vec3, radius: f32) -> Option<Self> {
         Self::new(p0.as_dvec3(), p1.as_dvec3(), radius as f64)
+    }
+
+    /// The axis' first end.
+    pub fn p0(&self) -> DVec3 {
+        self.p0
+    }
+
+    /// The axis' second end.
+    pub fn p1(&self) -> DVec3 {
+        self.p1
+    }
+
+    pub fn radius(&self) -> f64 {
+        self.radius
     }
 
     pub fn length(&self) -> f64 {
@@ -120,7 +133,6 @@ impl CylinderView {
             return None;
         }
         let (length, u) = (cylinder.length, cylinder.u);
-        debug_assert!(length == (cylinder.p1 - cylinder.p0).length(), "ends moved");
         let z = (x - cylinder.p0).dot(u);
         let radial = cylinder.p0 + z * u - x;
         let rho = radial.length();
