@@ -423,14 +423,14 @@ impl<S: SpecularSampler> TwoTechniqueLight<S> {
         segment: &Segment,
     ) -> Option<Self> {
         debug_assert!(sp.summarised, "a shading point without its lobe summary");
-        let diffuse = ProjectedSolidAngle::prepare(segment, sp.x, sp.n())?;
+        let (diffuse, line) = ProjectedSolidAngle::prepare_with_whole_frame(segment, sp.x, sp.n())?;
         let k_s = sp
             .lobes
             .specular
             .map_or(DVec3::ZERO, |l| l.weight)
             .as_vec3();
         let specular = sp.ltc.and_then(|(a, rho)| {
-            let s = specular.prepare(segment, sp.x, sp.frame, a)?;
+            let s = specular.prepare_on_line(segment, sp.x, &line?, sp.frame, a)?;
             let w_s = k_s * (rho * s.weight_scale());
             Some((s, w_s))
         });
