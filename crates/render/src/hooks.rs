@@ -30,7 +30,7 @@
 use glam::{DVec3, Mat3, Vec3};
 use linlight_brdf::{Bsdf, Lobes};
 use linlight_sampling::ltc::LtcLine;
-use linlight_sampling::{LineSampler, Prepared, Segment, SpecularSampler, Technique};
+use linlight_sampling::{LineFrame, LineSampler, Prepared, Segment, SpecularSampler, Technique};
 use linlight_simd::{dispatch, get3, set3, splat3, Isa, Kernel, Lanes3};
 
 /// Directions of one [`BsdfModel::eval_lanes`] call: eight f32 lanes (an AVX2 register), the
@@ -65,6 +65,17 @@ pub trait SpecularSampling: Sync {
     /// shading frame (x̂ toward the viewer), `a` maps shading to cosine space (the table's A).
     /// `None`: the lobe is empty on the line (the integrator then samples diffusely only).
     fn prepare(&self, segment: &Segment, x: Vec3, frame: Mat3, a: Mat3) -> Option<Self::Sampler>;
+    /// [`Self::prepare`] with `line` = `LineFrame::new(segment, x)` given (the same sampler).
+    fn prepare_on_line(
+        &self,
+        segment: &Segment,
+        x: Vec3,
+        _line: &LineFrame,
+        frame: Mat3,
+        a: Mat3,
+    ) -> Option<Self::Sampler> {
+        self.prepare(segment, x, frame, a)
+    }
     /// Name recorded in the image metadata (`specular_hook`); `None` for the production LTC.
     fn name(&self) -> Option<String> {
         None
@@ -80,6 +91,17 @@ impl SpecularSampling for Ltc {
     #[inline]
     fn prepare(&self, segment: &Segment, x: Vec3, frame: Mat3, a: Mat3) -> Option<LtcLine> {
         LtcLine::prepare(segment, x, frame, a)
+    }
+    #[inline]
+    fn prepare_on_line(
+        &self,
+        segment: &Segment,
+        x: Vec3,
+        line: &LineFrame,
+        frame: Mat3,
+        a: Mat3,
+    ) -> Option<LtcLine> {
+        LtcLine::on_frame(segment, x, line, frame, a)
     }
 }
 

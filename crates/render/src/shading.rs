@@ -34,7 +34,7 @@ use crate::method::Method;
 use glam::{DVec3, Mat3, Vec3};
 use linlight_brdf::ltc::GgxLtcTable;
 use linlight_brdf::{Bsdf, Lobes};
-use linlight_sampling::batch::{LineProblems, PreparedBatch, BATCH_LANES};
+use linlight_sampling::batch::{PreparedBatch, BATCH_LANES};
 use linlight_sampling::mis::Heuristic;
 use linlight_sampling::noise::Uniforms;
 use linlight_sampling::projected_solid_angle::ProjectedSolidAngle;
@@ -423,14 +423,14 @@ impl<S: SpecularSampler> TwoTechniqueLight<S> {
         segment: &Segment,
     ) -> Option<Self> {
         debug_assert!(sp.summarised, "a shading point without its lobe summary");
-        let diffuse = ProjectedSolidAngle::prepare(segment, sp.x, sp.n())?;
+        let (diffuse, line) = ProjectedSolidAngle::prepare_with_whole_frame(segment, sp.x, sp.n())?;
         let k_s = sp
             .lobes
             .specular
             .map_or(DVec3::ZERO, |l| l.weight)
             .as_vec3();
         let specular = sp.ltc.and_then(|(a, rho)| {
-            let s = specular.prepare(segment, sp.x, sp.frame, a)?;
+            let s = specular.prepare_on_line(segment, sp.x, &line?, sp.frame, a)?;
             let w_s = k_s * (rho * s.weight_scale());
             Some((s, w_s))
         });
@@ -584,23 +584,6 @@ pub fn two_techniques<S: SpecularSampler>(
     total
 }
 
-/// The diffuse technique of `segment` at `sp` prepared on all [`BATCH_LANES`] lanes of a
-/// batch kernel, whose lane i samples ξ_i bit for bit as the scalar
-/// `ProjectedSolidAngle::sample_with_pdf` ([`linlight_sampling::batch`]); `None` unless every
-/// lane is valid (the scalar sampler then samples).
-#[inline]
-fn diffuse_batch(isa: Isa, segment: &Segment, sp: &ShadingPoint) -> Option<PreparedBatch> {
-    let problems = LineProblems {
-        begin: splat3(segment.begin),
-        end: splat3(segment.end),
-        x: splat3(sp.x),
-        n: splat3(sp.n()),
-        xi: [0.0; BATCH_LANES],
-    };
-    let batch = PreparedBatch::prepare(isa, &problems);
-    (batch.mask == (1 << BATCH_LANES) - 1).then_some(batch)
-}
-
 /// f·cos at `sp` (`model`) of each of the (at most 2·[`BATCH_LANES`]) `weighted` samples,
 /// [`EVAL_LANES`] at a time ([`BsdfModel::eval_lanes`]); zero past them.
 #[inline(always)]
@@ -629,17 +612,18 @@ fn eval_weighted<B: BsdfModel>(
 }
 
 /// [`two_techniques`] in chunks of [`BATCH_LANES`] iterations: each chunk draws its ξ_d, ξ_s
-/// in order, samples the diffuse technique for its ξ_d on the lanes of a batch kernel
-/// (`diffuse_batch`), weighs the samples ([`TwoTechniqueLight::weighted_with`]), evaluates the
-/// BSDF (`model` at `sp`) on them [`EVAL_LANES`] at a time ([`BsdfModel::eval_lanes`]), then
-/// shadow-tests and adds the candidates in the order of [`two_techniques`]. The same numbers,
-/// shadow rays, sums and bits.
+/// in order, samples the diffuse technique for its ξ_d on the lanes of a batch kernel (the
+/// prepared `light.diffuse` in every lane, [`PreparedBatch::splat`]: not prepared again),
+/// weighs the samples ([`TwoTechniqueLight::weighted_with`]), evaluates the BSDF (`model` at
+/// `sp`) on them [`EVAL_LANES`] at a time ([`BsdfModel::eval_lanes`]), then shadow-tests and
+/// adds the candidates in the order of [`two_techniques`]. The same numbers, shadow rays, sums
+/// and bits.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn two_techniques_lanes<S: SpecularSampler, B: BsdfModel>(
     light: &TwoTechniqueLight<S>,
     combination: Combination,
-    (k, segment): (Vec3, &Segment),
+    k: Vec3,
     samples: u32,
     rng: &mut impl Uniforms,
     visible: &mut impl FnMut(Vec3, f32) -> bool,
@@ -647,7 +631,7 @@ pub fn two_techniques_lanes<S: SpecularSampler, B: BsdfModel>(
     dropped: &mut u32,
 ) -> Vec3 {
     let isa = Isa::detect();
-    let batch = diffuse_batch(isa, segment, sp);
+    let batch = PreparedBatch::<BATCH_LANES>::splat(&light.diffuse);
     let mut total = Vec3::ZERO;
     let mut left = samples as usize;
     while left > 0 {
@@ -657,19 +641,9 @@ pub fn two_techniques_lanes<S: SpecularSampler, B: BsdfModel>(
         for i in 0..chunk {
             (xi_d[i], xi_s[i]) = (rng.next_f32(), rng.next_f32());
         }
-        let diffuse: [(Vec3, f32); BATCH_LANES] = match &batch {
-            Some(b) => {
-                let s = b.sample_projected_solid_angle(isa, &xi_d);
-                std::array::from_fn(|i| (get3(&s.dir, i), s.pdf[i]))
-            }
-            None => std::array::from_fn(|i| {
-                if i < chunk {
-                    light.diffuse.sample_with_pdf(xi_d[i])
-                } else {
-                    (Vec3::Z, 0.0)
-                }
-            }),
-        };
+        let s = batch.sample_projected_solid_angle(isa, &xi_d);
+        let diffuse: [(Vec3, f32); BATCH_LANES] =
+            std::array::from_fn(|i| (get3(&s.dir, i), s.pdf[i]));
         let mut weighted = [None; 2 * BATCH_LANES];
         let mut len = 0;
         for i in 0..chunk {
@@ -764,7 +738,6 @@ pub fn estimate_resolved<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
                 two_techniques(&light, combination, k, samples, rng, visible, eval, dropped)
             } else {
                 let eval = (pieces.bsdf, sp);
-                let k = (k, segment);
                 two_techniques_lanes(&light, combination, k, samples, rng, visible, eval, dropped)
             }
         }

@@ -448,6 +448,22 @@ impl<const N: usize> PreparedBatch<N> {
         dispatch(isa, Prepare(input))
     }
 
+    /// `sampler` (prepared with the default iterations) in every lane, all lanes valid: what
+    /// [`Self::prepare`] returns for N copies of its problem when it prepares, without
+    /// preparing again. Lane i of [`Self::sample_projected_solid_angle`] then is
+    /// `sampler.sample_with_pdf(xi[i])` bit for bit (the kernel runs the scalar sampler's code
+    /// on these very fields).
+    pub fn splat(sampler: &ProjectedSolidAngle) -> Self {
+        debug_assert_eq!(sampler.iterations, DEFAULT_ITERATIONS);
+        let li = Li2018::on_exact(*sampler);
+        let mut out = Self::default();
+        for i in 0..N {
+            out.store(i, &li);
+        }
+        out.mask = pack([true; N]);
+        out
+    }
+
     /// One sample per lane for `xi` (projected solid angle, two Halley steps): lane i equals
     /// the scalar sampler's `sample_with_pdf(xi[i])`.
     pub fn sample_projected_solid_angle(&self, isa: Isa, xi: &[f32; N]) -> LineSamples<N> {
@@ -973,6 +989,7 @@ mod tests {
     use super::*;
     use crate::rng::Pcg32;
     use crate::{LineSampler, Segment, Technique};
+    use linlight_simd::splat3;
 
     /// Random problems in the benchmark's box plus degenerate lanes of every kind.
     fn batches(count: usize) -> Vec<BatchProblems> {
@@ -1136,6 +1153,46 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A scalar sampler splatted into every lane: the batch that preparing N copies of its
+    /// problem gives, and lane i samples ξ_i as the scalar sampler, bit for bit.
+    #[test]
+    fn splatted_sampler_equals_the_prepared_batch_and_the_scalar_sampler() {
+        let mut splatted = 0;
+        for input in batches(300) {
+            let (begin, end, x, n) = (
+                get3(&input.begin, 0),
+                get3(&input.end, 0),
+                get3(&input.x, 0),
+                get3(&input.n, 0),
+            );
+            let Some(psa) = ProjectedSolidAngle::prepare(&Segment::new(begin, end), x, n) else {
+                continue;
+            };
+            splatted += 1;
+            let batch = PreparedBatch::<BATCH_LANES>::splat(&psa);
+            let copies = LineProblems::<BATCH_LANES> {
+                begin: splat3(begin),
+                end: splat3(end),
+                x: splat3(x),
+                n: splat3(n),
+                xi: [0.0; BATCH_LANES],
+            };
+            for isa in Isa::ALL.into_iter().filter(|isa| isa.supported()) {
+                assert_eq!(PreparedBatch::prepare(isa, &copies), batch, "{isa:?}");
+                let out = batch.sample_projected_solid_angle(isa, &input.xi);
+                for (i, &xi) in input.xi.iter().enumerate() {
+                    let (dir, pdf) = psa.sample_with_pdf(xi);
+                    assert_eq!(
+                        (get3(&out.dir, i), out.pdf[i]),
+                        (dir, pdf),
+                        "{isa:?} lane {i}"
+                    );
+                }
+            }
+        }
+        assert!(splatted > 200, "{splatted} of 300 problems prepared");
     }
 
     /// Li et al. on every lane equals the scalar technique bit for bit, and the batch runs as

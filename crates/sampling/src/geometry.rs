@@ -72,7 +72,7 @@ impl LineFrame {
     /// `MIN_RELATIVE_DISTANCE`·|b|, which left ĉ far from orthogonal to u; and the squares in
     /// |b| leave the f32 range for coordinates beyond ~1e±19.
     pub fn new(segment: &Segment, x: Vec3) -> Option<Self> {
-        Self::build(segment, x, None).map(|(frame, _)| frame)
+        Self::build(segment, x, None).map(|(frame, ..)| frame)
     }
 
     /// `LineFrame::new(segment, x)?.clip_to_horizon(n)` (n unit) in one pass: the endpoints'
@@ -82,7 +82,7 @@ impl LineFrame {
     /// l = σ + ℓ·n·b/(n·b − n·e) (a sum of like-signed terms in the denominator).
     #[inline]
     pub fn clipped(segment: &Segment, x: Vec3, n: Vec3) -> Option<Self> {
-        Self::build(segment, x, Some(n)).map(|(frame, _)| frame)
+        Self::build(segment, x, Some(n)).map(|(frame, ..)| frame)
     }
 
     /// [`Self::clipped`] and the f64 values at its ends that it computed on the way. `n` may be
@@ -94,7 +94,31 @@ impl LineFrame {
         x: Vec3,
         n: Vec3,
     ) -> Option<(Self, EndValues)> {
-        Self::build(segment, x, Some(n))
+        Self::build(segment, x, Some(n)).map(|(frame, ends, _)| (frame, ends))
+    }
+
+    /// [`Self::clipped_with_ends`] and, from the same closest point, the frame of the whole
+    /// segment: bit for bit `Self::new(segment, x)` wherever the clipped frame exists (u, ĉ, d
+    /// do not depend on the horizon; the whole interval is [σ, σ + ℓ]).
+    #[inline]
+    pub(crate) fn clipped_and_whole(
+        segment: &Segment,
+        x: Vec3,
+        n: Vec3,
+    ) -> Option<(Self, EndValues, Option<Self>)> {
+        let (frame, ends, (lb, le)) = Self::build(segment, x, Some(n))?;
+        let (l_begin, l_end) = (lb as f32, le as f32);
+        let whole = (l_begin.is_finite() && l_end.is_finite()).then(|| {
+            let (ends, s_end) = EndValues::with_s_end(l_begin, l_end, frame.d);
+            Self {
+                l_begin,
+                l_end,
+                s_begin: clamp_s(ends.s_b),
+                s_end: clamp_s(s_end),
+                ..frame
+            }
+        });
+        Some((frame, ends, whole.and_then(Self::nonempty)))
     }
 
     /// The scalar constructors: the computation of [`Self::lane`] with early returns. Not a
@@ -102,7 +126,12 @@ impl LineFrame {
     /// the branches the compiler pairs the square roots of |a|² and d² into one packed
     /// instruction, so that u and l wait for d (the frame then takes about 3× as long).
     #[inline(always)]
-    fn build(segment: &Segment, x: Vec3, horizon: Option<Vec3>) -> Option<(Self, EndValues)> {
+    /// Also returns the unclipped interval [σ, σ + ℓ] in f64.
+    fn build(
+        segment: &Segment,
+        x: Vec3,
+        horizon: Option<Vec3>,
+    ) -> Option<(Self, EndValues, (f64, f64))> {
         let b = segment.begin.as_dvec3() - x.as_dvec3();
         let e = segment.end.as_dvec3() - x.as_dvec3();
         // Fraction along the segment where it crosses the horizon, for the end to move. Decided
@@ -161,7 +190,9 @@ impl LineFrame {
             s_begin: clamp_s(ends.s_b),
             s_end: clamp_s(s_end),
         };
-        frame.nonempty().map(|frame| (frame, ends))
+        frame
+            .nonempty()
+            .map(|frame| (frame, ends, (sigma, sigma + length)))
     }
 
     /// The frame as [`Self::new`] / [`Self::clipped`] compute it, without branches (every value
@@ -788,6 +819,36 @@ mod tests {
         let inplane = Segment::new(Vec3::new(-1.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0));
         let fi = LineFrame::new(&inplane, Vec3::ZERO).unwrap();
         assert!(fi.clip_to_horizon(Vec3::Z).is_none());
+    }
+
+    /// The whole frame from the clipped frame's construction is `LineFrame::new` bit for bit,
+    /// and the clipped one `LineFrame::clipped`, over random segments crossing the horizon or
+    /// not and far, near and oblique shading points.
+    #[test]
+    fn clipped_and_whole_equal_their_constructors() {
+        let mut rng = crate::rng::Pcg32::new(5, 11);
+        let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+        let mut both = 0;
+        for _ in 0..20_000 {
+            let scale = 10f32.powf(r(-3.0, 3.0));
+            let seg = Segment::new(
+                Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-1.0, 1.0)) * scale,
+                Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-1.0, 1.0)) * scale,
+            );
+            let x = Vec3::new(r(-0.1, 0.1), r(-0.1, 0.1), r(-0.1, 0.1));
+            let n = Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(0.1, 1.0)) * r(0.5, 2.0);
+            let clipped = LineFrame::clipped(&seg, x, n);
+            match LineFrame::clipped_and_whole(&seg, x, n) {
+                Some((frame, ends, whole)) => {
+                    assert_eq!(Some(frame), clipped);
+                    assert_eq!(ends, EndValues::of(&frame));
+                    assert_eq!(whole, LineFrame::new(&seg, x));
+                    both += whole.is_some() as u32;
+                }
+                None => assert_eq!(clipped, None),
+            }
+        }
+        assert!(both > 10_000, "{both}");
     }
 
     #[test]

@@ -64,7 +64,7 @@ impl Li2018 {
     /// Around a prepared exact sampler: the slope's coefficients of the sampler's (scaled)
     /// normal, which its `inv_psa` refers to (the one construction of `prepare` and `lane`).
     #[inline(always)]
-    fn on_exact(exact: ProjectedSolidAngle) -> Self {
+    pub(crate) fn on_exact(exact: ProjectedSolidAngle) -> Self {
         let frame = &exact.frame;
         let (ns, nt) = frame.normal_coefficients(exact.n);
         Self {

@@ -55,6 +55,18 @@ impl LtcLine {
     /// `shading_frame.transpose() * w`. `None` when the light cannot contribute (clipped away in
     /// either space, degenerate geometry) or A is singular or not finite.
     pub fn prepare(segment: &Segment, x: Vec3, shading_frame: Mat3, a: Mat3) -> Option<Self> {
+        Self::on_frame(segment, x, &LineFrame::new(segment, x)?, shading_frame, a)
+    }
+
+    /// [`Self::prepare`] with `frame` = `LineFrame::new(segment, x)` given (e.g. from
+    /// [`ProjectedSolidAngle::prepare_with_whole_frame`]).
+    pub fn on_frame(
+        segment: &Segment,
+        x: Vec3,
+        frame: &LineFrame,
+        shading_frame: Mat3,
+        a: Mat3,
+    ) -> Option<Self> {
         if !(a.is_finite() && shading_frame.is_finite()) {
             return None;
         }
@@ -69,7 +81,6 @@ impl LtcLine {
         }
         let n = unit_normal(shading_frame.z_axis)?;
         let to_shading = shading_frame.transpose();
-        let frame = LineFrame::new(segment, x)?;
         // (A Fᵀ p)_z = (F · row₂(A)) · p: the cosine-space horizon as a plane in world space.
         let lobe_normal = shading_frame * a.row(2);
         let support = frame.clip_to_horizon(n)?.clip_to_horizon(lobe_normal)?;

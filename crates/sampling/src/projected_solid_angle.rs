@@ -768,6 +768,23 @@ impl ProjectedSolidAngle {
         Self::on_frame_with(frame, ends, n, iterations)
     }
 
+    /// [`Self::prepare`] and the frame of the whole segment from `x` (bit for bit
+    /// `LineFrame::new(segment, x)`; `None` where that is `None`), from one closest-point
+    /// computation: for a technique that clips the line itself (LTC beside this one in the
+    /// two-technique estimator).
+    #[inline]
+    pub fn prepare_with_whole_frame(
+        segment: &Segment,
+        x: Vec3,
+        n: Vec3,
+    ) -> Option<(Self, Option<LineFrame>)> {
+        if !normal_is_valid(n) {
+            return None;
+        }
+        let (frame, ends, whole) = LineFrame::clipped_and_whole(segment, x, n)?;
+        Self::on_frame_with(frame, ends, n, DEFAULT_ITERATIONS).map(|s| (s, whole))
+    }
+
     /// On an already clipped frame (frame clipped to the horizon of n; n of any length that
     /// [`crate::unit_normal`] accepts: debug-asserted in `Self::on_frame_with`, an invalid n
     /// is a caller's bug here; `Self::lane` runs invalid lanes on purpose).
