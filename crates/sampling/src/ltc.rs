@@ -67,6 +67,11 @@ impl LtcLine {
         shading_frame: Mat3,
         a: Mat3,
     ) -> Option<Self> {
+        debug_assert_eq!(
+            Some(*frame),
+            LineFrame::new(segment, x),
+            "not the line's frame"
+        );
         if !(a.is_finite() && shading_frame.is_finite()) {
             return None;
         }
