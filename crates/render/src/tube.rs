@@ -258,27 +258,23 @@ impl PreparedTube {
     #[inline]
     pub fn candidates(
         &self,
-        mis: bool,
         radiance: Vec3,
         xi: [f32; 2],
         xi_b: Option<(f32, f32)>,
         eval: &impl Fn(Vec3) -> Vec3,
     ) -> [Option<TubeCandidate>; 2] {
-        self.weighted(mis, xi, xi_b)
+        self.weighted(xi, xi_b)
             .map(|s| s.and_then(|s| s.candidate(radiance, eval(s.w))))
     }
 
     /// [`Self::candidates`] before the BSDF: the emitter sample and the BSDF-side sample with
     /// the denominators of their contributions, `None` where density, cosine, azimuth or
-    /// distance rule them out.
+    /// distance rule them out. `xi_b` is given exactly when the sampling combines by MIS.
     #[inline]
-    pub fn weighted(
-        &self,
-        mis: bool,
-        xi: [f32; 2],
-        xi_b: Option<(f32, f32)>,
-    ) -> [Option<TubeSample>; 2] {
+    pub fn weighted(&self, xi: [f32; 2], xi_b: Option<(f32, f32)>) -> [Option<TubeSample>; 2] {
         let (technique, n) = (&self.technique, self.n);
+        let mis = self.bsdf_side.is_some();
+        debug_assert_eq!(xi_b.is_some(), mis, "BSDF-side numbers exactly with MIS");
         let mut out = [None, None];
         // The emitter sample.
         if let Some(sample) = technique.sample_toward(xi) {
@@ -300,10 +296,8 @@ impl PreparedTube {
             }
         }
         // The BSDF-side sample.
-        let Some((u1, u2)) = xi_b else { return out };
-        let (frame, pretest) = match self.bsdf_side {
-            Some(side) => side,
-            None => (CosineFrame::new(n), AzimuthPretest::new(technique.view())),
+        let (Some((u1, u2)), Some((frame, pretest))) = (xi_b, self.bsdf_side) else {
+            return out;
         };
         let (dir, p_b) = frame.sample(u1, u2);
         if !(p_b > 0.0) {
@@ -378,7 +372,7 @@ pub fn estimate(
             continue;
         };
         for c in prepared
-            .candidates(sampling.mis, radiance, xi, xi_b, eval)
+            .candidates(radiance, xi, xi_b, eval)
             .into_iter()
             .flatten()
         {
@@ -429,11 +423,7 @@ pub fn estimate_lanes(
             let Some(prepared) = &prepared else {
                 continue;
             };
-            for s in prepared
-                .weighted(sampling.mis, xi, xi_b)
-                .into_iter()
-                .flatten()
-            {
+            for s in prepared.weighted(xi, xi_b).into_iter().flatten() {
                 (w[len], weighted[len]) = (s.w, Some(s));
                 len += 1;
             }

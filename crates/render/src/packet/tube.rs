@@ -109,8 +109,7 @@ impl Context<'_> {
                     None => f * n.dot(w).max(0.0),
                 };
                 let xi_b = sampling.mis.then_some((xi[2][k], xi[3][k]));
-                let candidates =
-                    prepared.candidates(sampling.mis, radiance, [xi[0][k], xi[1][k]], xi_b, &eval);
+                let candidates = prepared.candidates(radiance, [xi[0][k], xi[1][k]], xi_b, &eval);
                 for (lanes, c) in samples.iter_mut().zip(candidates) {
                     if let Some(c) = c {
                         lanes.set(k, c.w, c.dist, c.c);
