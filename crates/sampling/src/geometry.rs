@@ -124,9 +124,9 @@ impl LineFrame {
     /// The scalar constructors: the computation of [`Self::lane`] with early returns. Not a
     /// call of `lane` (whose results it must equal bit for bit, as `crate::batch` tests): without
     /// the branches the compiler pairs the square roots of |a|² and d² into one packed
-    /// instruction, so that u and l wait for d (the frame then takes about 3× as long).
+    /// instruction, so that u and l wait for d (the frame then takes about 3× as long). Also
+    /// returns the unclipped interval [σ, σ + ℓ] in f64.
     #[inline(always)]
-    /// Also returns the unclipped interval [σ, σ + ℓ] in f64.
     fn build(
         segment: &Segment,
         x: Vec3,

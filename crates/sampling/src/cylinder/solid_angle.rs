@@ -126,9 +126,6 @@ pub(crate) fn solid_angle_of(v: &CylinderView) -> f64 {
     let t_max = (2.0 * (v.rho * v.radius / (gap * sum)).sqrt()).asinh();
     let panels = ((t_max / PANEL_WIDTH).ceil() as usize).clamp(1, MAX_PANELS);
     let (gap2, sum2, a2, b2) = (gap * gap, sum * sum, v.a * v.a, v.b * v.b);
-    // s_b − s_a: with both ends on one side of x's foot (a b > 0) the two terms nearly cancel
-    // far beyond an end; there b√(h² + a²) − a√(h² + b²) = h²(b − a)(b + a)/(b√(h² + a²) +
-    // a√(h² + b²)) is formed without cancellation.
     let terms = OmegaTerms {
         u_s,
         gap,
@@ -144,7 +141,7 @@ pub(crate) fn solid_angle_of(v: &CylinderView) -> f64 {
     let isa = Isa::detect();
     let mut omega_half = 0.0;
     for_sinh_panels(t_max, panels, |nodes| {
-        for term in dispatch(isa, terms.panel(nodes)) {
+        for term in dispatch(isa, PanelTerms { terms, nodes }) {
             omega_half += term;
         }
     });
@@ -164,12 +161,6 @@ struct OmegaTerms {
     a: f64,
     b: f64,
     radius: f64,
-}
-
-impl OmegaTerms {
-    fn panel(self, nodes: &PanelNodes) -> PanelTerms<'_, Self> {
-        PanelTerms { terms: self, nodes }
-    }
 }
 
 impl NodeTerm for OmegaTerms {
