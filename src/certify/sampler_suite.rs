@@ -4,7 +4,7 @@
 
 use linlight_verify::cylinder_suite::{self, CylinderReport};
 use linlight_verify::subjects::{certified, negative_controls};
-use linlight_verify::suite::{Outcome, SubjectReport};
+use linlight_verify::suite::SubjectReport;
 use linlight_verify::{run_suite, Settings};
 use serde::{Deserialize, Serialize};
 
@@ -47,11 +47,6 @@ pub struct SuiteSummary {
 }
 
 fn row(r: &SubjectReport) -> SuiteRow {
-    let skipped = r
-        .configs
-        .iter()
-        .filter(|c| c.outcome == Outcome::Decided)
-        .count();
     SuiteRow {
         name: r.name.clone(),
         passed: r.passed,
@@ -60,7 +55,7 @@ fn row(r: &SubjectReport) -> SuiteRow {
             None => r.verdict.clone(),
         },
         failing_configs: r.failing_configs,
-        configurations_run: (skipped > 0).then(|| r.configs.len() - skipped),
+        configurations_run: r.decided_after(),
         worst_p_value: r.worst_p_value,
         seconds: r.elapsed_seconds,
     }

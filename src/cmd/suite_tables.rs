@@ -1,7 +1,7 @@
 //! The sampler suite's report as tables on stdout and as a JSON file, shared by `linlight
 //! samplers`, `samplers --external` and `samplers --backend gpu`.
 
-use linlight_verify::suite::{Outcome, SubjectReport};
+use linlight_verify::suite::SubjectReport;
 use std::process::ExitCode;
 
 fn fmt_opt(v: Option<f64>) -> String {
@@ -86,16 +86,10 @@ pub fn print_controls(rows: &[SubjectReport]) {
         if !required.is_empty() {
             println!("{:<46} must be rejected by: {required}", "");
         }
-        let skipped = c
-            .configs
-            .iter()
-            .filter(|r| r.outcome == Outcome::Decided)
-            .count();
-        if skipped > 0 {
+        if let Some(run) = c.decided_after() {
             println!(
-                "{:<46} decided after {} of {} configurations",
+                "{:<46} decided after {run} of {} configurations",
                 "",
-                c.configs.len() - skipped,
                 c.configs.len()
             );
         }

@@ -370,6 +370,19 @@ pub struct SuiteReport {
     pub elapsed_seconds: f64,
 }
 
+impl SubjectReport {
+    /// The configurations run when some were skipped as [`Outcome::Decided`] (a negative
+    /// control decided early); `None` when every configuration ran.
+    pub fn decided_after(&self) -> Option<usize> {
+        let skipped = self
+            .configs
+            .iter()
+            .filter(|r| r.outcome == Outcome::Decided)
+            .count();
+        (skipped > 0).then(|| self.configs.len() - skipped)
+    }
+}
+
 /// Šidák level and z threshold for m tests at suite-wide α.
 pub fn corrected_levels(alpha: f64, m: usize) -> (f64, f64) {
     let m = m.max(1) as f64;
@@ -1831,6 +1844,8 @@ mod tests {
                 .take_while(|r| r.outcome != Outcome::Decided)
                 .count();
             assert!(b.configs[n..].iter().all(|r| r.outcome == Outcome::Decided));
+            assert_eq!(b.decided_after(), (n < b.configs.len()).then_some(n));
+            assert_eq!(a.decided_after(), None);
             assert!(a.configs.iter().all(|r| r.outcome != Outcome::Decided));
             for (x, y) in a.configs.iter().zip(&b.configs[..n]) {
                 assert_eq!(json(x), json(y), "{}", a.name);
