@@ -33,10 +33,9 @@
 //! end x looks into). Rejection: the first candidate uses ξ, later ones a PCG32 stream keyed by
 //! the bits of ξ (a deterministic function of ξ). No inverse.
 
-use super::solid_angle::{for_sinh_panels, NodeTerm, PanelTerms};
+use super::solid_angle::{sum_sinh_rule, NodeTerm};
 use super::{reject_until_accepted, CylinderSample, CylinderSampler, CylinderView};
 use glam::DVec3;
-use linlight_simd::{dispatch, Isa};
 
 /// Most panels per cap segment of [`gamito_solid_angle`]'s quadrature, 8 Gauss–Legendre nodes
 /// each, and the widest panel in the graded variable t.
@@ -120,14 +119,7 @@ pub fn cap_segment(v: &CylinderView, e: f64) -> f64 {
         cm,
         e,
     };
-    let isa = Isa::detect();
-    let mut half = 0.0;
-    for_sinh_panels(t_max, panels, |nodes| {
-        for term in dispatch(isa, PanelTerms { terms, nodes }) {
-            half += term;
-        }
-    });
-    2.0 * half
+    2.0 * sum_sinh_rule(t_max, panels, terms)
 }
 
 /// The per-node terms of [`cap_segment`]'s rule: what they need of the view and the cap.

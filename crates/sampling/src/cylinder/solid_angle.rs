@@ -138,14 +138,21 @@ pub(crate) fn solid_angle_of(v: &CylinderView) -> f64 {
         b: v.b,
         radius: v.radius,
     };
+    2.0 * sum_sinh_rule(t_max, panels, terms)
+}
+
+/// Σ `terms` over the nodes of [`for_sinh_panels`] (`t_max`, `panels`), panel by panel in the
+/// CPU's widest kernel ([`PanelTerms`]), added in the rule's order.
+#[inline]
+pub(crate) fn sum_sinh_rule<T: NodeTerm + Copy>(t_max: f64, panels: usize, terms: T) -> f64 {
     let isa = Isa::detect();
-    let mut omega_half = 0.0;
+    let mut sum = 0.0;
     for_sinh_panels(t_max, panels, |nodes| {
         for term in dispatch(isa, PanelTerms { terms, nodes }) {
-            omega_half += term;
+            sum += term;
         }
     });
-    2.0 * omega_half
+    sum
 }
 
 /// The per-node terms of [`solid_angle_of`]'s rule: what they need of the view.
