@@ -189,16 +189,15 @@ const PIECES: usize = 32;
 /// rows, each at most that share (a band is at least one row), in order. A pixel's samples do
 /// not depend on the window it is rendered in, so the pasted image is the same.
 fn pieces(strips: &[Strip]) -> Vec<Strip> {
-    let cost = |s: &Strip| s.width * s.height * s.spp as usize;
     let limit = strips
         .iter()
-        .map(cost)
+        .map(samples)
         .sum::<usize>()
         .div_ceil(PIECES)
         .max(1);
     let mut out = Vec::with_capacity(strips.len());
     for s in strips {
-        let bands = cost(s).div_ceil(limit).clamp(1, s.height);
+        let bands = samples(s).div_ceil(limit).clamp(1, s.height);
         let rows = s.height.div_ceil(bands);
         for y in (0..s.height).step_by(rows) {
             out.push(Strip {
@@ -212,6 +211,9 @@ fn pieces(strips: &[Strip]) -> Vec<Strip> {
 }
 
 /// The strips `cells`, rendered as crop windows at their counts ([`pieces`] of them), in order.
+/// Each piece is a job of its own, the largest first: rayon runs an unstolen chunk of several
+/// pieces on one thread, which left a core idle while the other rendered a run of a contact's
+/// costliest bands.
 fn render_strips(
     render: &RenderFn,
     scene: &Scene,
@@ -219,9 +221,14 @@ fn render_strips(
     cells: &[Strip],
     tracked: &(dyn Fn(&AtomicUsize, usize) + Sync),
 ) -> Result<Vec<(Strip, Image)>, RenderError> {
-    pieces(cells)
+    let pieces = pieces(cells);
+    let mut order: Vec<usize> = (0..pieces.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(samples(&pieces[i])));
+    let mut rendered: Vec<(usize, Image)> = order
         .par_iter()
-        .map(|s| {
+        .with_max_len(1)
+        .map(|&i| {
+            let s = &pieces[i];
             let last = AtomicUsize::new(0);
             let img = render(
                 &cropped(scene, s),
@@ -231,9 +238,19 @@ fn render_strips(
                 },
                 &|d, _| tracked(&last, d),
             )?;
-            Ok((*s, img))
+            Ok((i, img))
         })
-        .collect()
+        .collect::<Result<_, RenderError>>()?;
+    rendered.sort_unstable_by_key(|&(i, _)| i);
+    Ok(rendered
+        .into_iter()
+        .map(|(i, img)| (pieces[i], img))
+        .collect())
+}
+
+/// The pixel samples of a strip.
+fn samples(s: &Strip) -> usize {
+    s.width * s.height * s.spp as usize
 }
 
 /// Where no cell is at the base count: the whole window at the base, the cells pasted over it
@@ -434,12 +451,11 @@ mod tests {
         }
         let strips = all_strips(&plan, w, h);
         let pieces = pieces(&strips);
-        let cost = |s: &Strip| s.width * s.height * s.spp as usize;
-        let total: usize = strips.iter().map(cost).sum();
-        assert_eq!(pieces.iter().map(cost).sum::<usize>(), total);
+        let total: usize = strips.iter().map(samples).sum();
+        assert_eq!(pieces.iter().map(samples).sum::<usize>(), total);
         let mut seen = vec![0u32; w * h];
         for p in &pieces {
-            assert!(p.height == 1 || cost(p) <= total.div_ceil(PIECES), "{p:?}");
+            assert!(p.height == 1 || samples(p) <= total.div_ceil(PIECES), "{p:?}");
             for y in p.y..p.y + p.height {
                 for x in p.x..p.x + p.width {
                     assert_eq!(seen[y * w + x], 0);
