@@ -108,6 +108,16 @@ impl Method {
         }
     }
 
+    /// The method whose renders are this one's, bit for bit: MIS with the heuristic of
+    /// [`Heuristic::same_weights_as`] (clamped optimal at v = 0 is balance, at v = 1 weighted);
+    /// every other method is itself.
+    pub fn same_renders_as(self) -> Method {
+        match self {
+            Method::Mis(h) => Method::Mis(h.same_weights_as()),
+            m => m,
+        }
+    }
+
     /// Name for reports: `area`, `ltc`, `mis:balance`, `mis:clamped-optimal=0.5`.
     pub fn name(self) -> String {
         match self {

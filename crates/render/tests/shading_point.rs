@@ -620,3 +620,58 @@ fn light_samples_in_chunks_are_one_sample_calls() {
     }
     assert!(compared > 500, "{compared}");
 }
+
+/// A method and its [`Method::same_renders_as`] (clamped optimal at v = 0 and balance, at
+/// v = 1 and weighted) give the same estimate bit for bit and draw the same numbers, at one
+/// light sample and in chunks, with a visibility test that rejects some samples: certify
+/// reuses the render of one for the other.
+#[test]
+fn methods_of_the_same_weights_estimate_the_same_bits() {
+    let hooks = Hooks::new();
+    let visible = |w: Vec3, _: f32| w.x > -0.3;
+    let pairs: Vec<(Method, Method)> = methods()
+        .into_iter()
+        .map(|m| (m, m.same_renders_as()))
+        .filter(|(m, same)| m != same)
+        .collect();
+    assert_eq!(pairs.len(), 2, "{pairs:?}");
+    let mut nonzero = 0;
+    for (i, case) in cases(0x5a3e).iter().enumerate() {
+        let sp = ShadingPoint::new(&hooks.bsdf, &case.bsdf, Vec3::ZERO, N, case.wi);
+        for &(method, same) in &pairs {
+            for n in [1u32, 2, 8, 9] {
+                let stream = [i as u32, n, 11];
+                let (mut a, mut b) = (CounterRng::new(5, stream), CounterRng::new(5, stream));
+                let (mut dropped_a, mut dropped_b) = (0, 0);
+                let run = |m: Method, rng: &mut CounterRng, dropped: &mut u32| {
+                    estimate_light(
+                        &hooks,
+                        m,
+                        &sp,
+                        &case.segment,
+                        case.k,
+                        n,
+                        rng,
+                        &mut { visible },
+                        dropped,
+                    )
+                };
+                let (ea, eb) = (
+                    run(method, &mut a, &mut dropped_a),
+                    run(same, &mut b, &mut dropped_b),
+                );
+                let bits = |e: Vec3| e.to_array().map(f32::to_bits);
+                assert_eq!(
+                    bits(ea),
+                    bits(eb),
+                    "{} {method} / {same} N = {n}",
+                    case.name
+                );
+                assert_eq!(dropped_a, dropped_b);
+                assert_eq!(a.next_f32(), b.next_f32(), "{} {method} N = {n}", case.name);
+                nonzero += usize::from(ea != Vec3::ZERO);
+            }
+        }
+    }
+    assert!(nonzero > 100, "{nonzero}");
+}

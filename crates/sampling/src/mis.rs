@@ -55,11 +55,19 @@ pub fn weighted_balance(p_s: f32, p_o: f32, w_s: f32, w_o: f32) -> f32 {
 }
 
 /// Clamped optimal heuristic of the paper: (1 − v)·balance + v·weighted balance, with v ∈ [0, 1]
-/// a visibility estimate (0.5 in every experiment of the paper); v is clamped to [0, 1].
+/// a visibility estimate (0.5 in every experiment of the paper); v is clamped to [0, 1]. At
+/// v = 0 it is [`balance`] and at v = 1 [`weighted_balance`], bit for bit (see
+/// [`Heuristic::same_weights_as`]).
 #[inline]
 pub fn clamped_optimal(p_s: f32, p_o: f32, w_s: f32, w_o: f32, v: f32) -> f32 {
     let v = if v >= 0.0 { v.min(1.0) } else { 0.0 }; // NaN → 0
-    (1.0 - v) * balance(p_s, p_o) + v * weighted_balance(p_s, p_o, w_s, w_o)
+    if v == 0.0 {
+        balance(p_s, p_o)
+    } else if v == 1.0 {
+        weighted_balance(p_s, p_o, w_s, w_o)
+    } else {
+        (1.0 - v) * balance(p_s, p_o) + v * weighted_balance(p_s, p_o, w_s, w_o)
+    }
 }
 
 /// A heuristic of the diffuse + specular estimator, chosen at run time (`--mis`).
@@ -105,6 +113,17 @@ impl Heuristic {
             Heuristic::Power => power(p_s, p_o),
             Heuristic::Weighted => weighted_balance(p_s, p_o, w_s, w_o),
             Heuristic::ClampedOptimal(v) => clamped_optimal(p_s, p_o, w_s, w_o, v),
+        }
+    }
+
+    /// The heuristic whose weights this one's are for every input, bit for bit: clamped
+    /// optimal at v = 0 is [`Heuristic::Balance`], at v = 1 [`Heuristic::Weighted`]; every
+    /// other heuristic is itself. Renders of the two are the same image.
+    pub fn same_weights_as(self) -> Heuristic {
+        match self {
+            Heuristic::ClampedOptimal(v) if !(v > 0.0) => Heuristic::Balance,
+            Heuristic::ClampedOptimal(v) if v >= 1.0 => Heuristic::Weighted,
+            h => h,
         }
     }
 
@@ -225,6 +244,42 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// Clamped optimal at v ≤ 0 (or NaN) and v ≥ 1 gives its [`Heuristic::same_weights_as`]'s
+    /// bits on densities and technique weights that include ±0, subnormals, ∞ and NaN.
+    #[test]
+    fn clamped_optimal_ends_are_balance_and_weighted_bit_for_bit() {
+        let values = [
+            -0.0,
+            0.0,
+            1e-45,
+            1e-38,
+            1e-6,
+            0.3,
+            1.0,
+            7.5,
+            1e20,
+            3e38,
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        for v in [-1.0, -0.0, 0.0, f32::NAN, 1.0, 2.0, f32::INFINITY] {
+            let h = Heuristic::ClampedOptimal(v);
+            let same = h.same_weights_as();
+            assert_ne!(same, h, "v = {v}");
+            for &p in &values {
+                for &q in &values {
+                    for (w_s, w_o) in [(0.2, 3.0), (0.0, 0.0), (f32::NAN, 1.0), (1e30, 1e30)] {
+                        let (a, b) = (h.weight(p, q, w_s, w_o), same.weight(p, q, w_s, w_o));
+                        assert_eq!(a.to_bits(), b.to_bits(), "v={v} p={p} q={q} W={w_s},{w_o}");
+                    }
+                }
+            }
+        }
+        for h in Heuristic::ALL {
+            assert_eq!(h.same_weights_as(), h);
         }
     }
 
