@@ -210,6 +210,48 @@ pub trait Subject: Sync {
     fn exact_tubes(&self) -> bool {
         false
     }
+    /// The name of a subject whose render of any scene with any options is this subject's
+    /// render, bit for bit (the same estimator under another name), or None. Where both are
+    /// certified on a scene, this one's rows reuse that subject's budget and render: its pilots
+    /// and render would give the same images.
+    fn same_render_as(&self) -> Option<String> {
+        None
+    }
+    /// The image header entries that name the subject's method (`technique`, `mis`, ...),
+    /// which a render it shares ([`Subject::same_render_as`]) takes in place of the other's.
+    fn header(&self) -> Vec<(&'static str, String)> {
+        Vec::new()
+    }
+}
+
+/// A subject's budget and render of a scene, for the subjects that share it
+/// ([`Subject::same_render_as`]).
+#[derive(Clone)]
+struct SubjectRender {
+    /// The subject that rendered it, and its header entries.
+    subject: String,
+    header: Vec<(&'static str, String)>,
+    image: Image,
+    render_seconds: f64,
+    planned: Planned,
+}
+
+/// The renders of a scene that later subjects share, by the name of the subject that made them.
+type SharedRenders = std::collections::HashMap<String, SubjectRender>;
+
+impl SubjectRender {
+    /// The render under `subject`'s name: its header entries in place of the renderer's.
+    fn relabelled(&self, subject: &dyn Subject) -> SubjectRender {
+        let mut r = self.clone();
+        let extra = &mut r.image.meta.extra;
+        for (key, _) in &self.header {
+            extra.remove(*key);
+        }
+        for (key, value) in subject.header() {
+            extra.insert(key.to_string(), value);
+        }
+        r
+    }
 }
 
 /// A single technique: the [`Method`] subject of that technique.
@@ -273,6 +315,13 @@ impl Subject for Method {
     }
     fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
         linlight_render::packet::applies(scene, &with_method(*self, opts))
+    }
+    fn same_render_as(&self) -> Option<String> {
+        let same = self.same_renders_as();
+        (same.name() != self.name()).then(|| same.name())
+    }
+    fn header(&self) -> Vec<(&'static str, String)> {
+        Method::header(*self)
     }
 }
 
@@ -393,8 +442,14 @@ pub struct Row {
     #[serde(default = "budget::one_light_sample")]
     pub light_samples: u32,
     pub seed: u64,
+    /// Wall seconds of the subject's pilots and of its render (those of [`Row::render_of`]
+    /// where the row shares its render).
     pub pilot_seconds: f64,
     pub render_seconds: f64,
+    /// The subject whose budget and render this row reuses, its estimator being this row's bit
+    /// for bit ([`Subject::same_render_as`]); None: rendered for this row.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render_of: Option<String>,
     /// Of the render against this oracle image.
     pub precision: Precision,
     /// Per channel: relative global difference (A − B)/B and its confidence interval.
@@ -968,6 +1023,7 @@ struct SceneRun<'a> {
 
 /// A subject's budget: the spp (and per-pixel spp), the light samples per camera sample and
 /// the seconds its pilot renders took.
+#[derive(Clone)]
 struct Planned {
     budget: Budget,
     pixel_spp: Option<Vec<u32>>,
@@ -986,9 +1042,18 @@ impl SceneRun<'_> {
         let (reference, live_oracle_seconds) = self.reference(s)?;
         let mut cpu = self.pool.cpu_seconds().map(|_| StageCpu::default());
         let exact = self.stage(&mut cpu, |c| &mut c.exact_image, || self.exact(s))?;
+        // The renders that a later subject reuses ([`Subject::same_render_as`]), by name.
+        let wanted: Vec<String> = subjects.iter().filter_map(|t| t.same_render_as()).collect();
+        let mut shared = SharedRenders::new();
         let mut rows = Vec::new();
         for &subject in subjects {
-            rows.extend(self.subject_rows(s, subject, &reference, exact.as_ref(), &mut cpu)?);
+            let oracles = (&reference, exact.as_ref());
+            let (subject_rows, render) =
+                self.subject_rows(s, subject, oracles, &shared, &mut cpu)?;
+            rows.extend(subject_rows);
+            if let Some(render) = render.filter(|_| wanted.contains(&subject.name())) {
+                shared.insert(subject.name(), render);
+            }
         }
         Ok(SceneReport {
             name: s.name.clone(),
@@ -1110,19 +1175,51 @@ impl SceneRun<'_> {
         Ok(plan)
     }
 
-    /// `subject` on `s`, rendered with its budget, one row per oracle.
+    /// `subject` on `s`, rendered with its budget (or, where `shared` holds the render of its
+    /// [`Subject::same_render_as`], that render under its name), one row per oracle of
+    /// `(reference, exact)`; and the render where this call made it.
     fn subject_rows(
         &self,
         s: &ReferencedScene,
         subject: &dyn Subject,
-        reference: &Image,
-        exact: Option<&Image>,
+        (reference, exact): (&Image, Option<&Image>),
+        shared: &SharedRenders,
         cpu: &mut Option<StageCpu>,
-    ) -> Result<Vec<Row>, Unusable> {
+    ) -> Result<(Vec<Row>, Option<SubjectRender>), Unusable> {
         let name = subject.name();
         (self.events)(Event::Step {
             label: format!("{}: {name}", s.name),
         });
+        let (render, render_of) = match subject.same_render_as().and_then(|of| shared.get(&of)) {
+            Some(r) => (r.relabelled(subject), Some(r.subject.clone())),
+            None => (self.render_subject(s, subject, reference, cpu)?, None),
+        };
+        let mut oracles = vec![("mitsuba", reference)];
+        if let Some(c) = exact {
+            oracles.push((closed_form::oracle_name(c), c));
+        }
+        let rows = self.stage(
+            cpu,
+            |c| &mut c.comparisons,
+            || {
+                let mut rows = Vec::new();
+                for oracle in oracles {
+                    rows.push(self.row(s, &name, &render, oracle, render_of.clone())?);
+                }
+                Ok(rows)
+            },
+        )?;
+        Ok((rows, render_of.is_none().then_some(render)))
+    }
+
+    /// `subject`'s budget from its pilots, and its render of `s` with it.
+    fn render_subject(
+        &self,
+        s: &ReferencedScene,
+        subject: &dyn Subject,
+        reference: &Image,
+        cpu: &mut Option<StageCpu>,
+    ) -> Result<SubjectRender, Unusable> {
         let base = pilot_options(self.opts);
         let planned = self.stage(
             cpu,
@@ -1136,24 +1233,16 @@ impl SceneRun<'_> {
                 |c| &mut c.renders,
                 || self.render_planned(s, subject, &base, &planned),
             )
-            .map_err(|e| render_error(&s.name, &name, e))?;
+            .map_err(|e| render_error(&s.name, &subject.name(), e))?;
         let render_seconds = t.elapsed().as_secs_f64();
         record_inputs(&mut image.meta, &s.scene_file, &s.overrides);
-        let mut oracles = vec![("mitsuba", reference)];
-        if let Some(c) = exact {
-            oracles.push((closed_form::oracle_name(c), c));
-        }
-        self.stage(
-            cpu,
-            |c| &mut c.comparisons,
-            || {
-                let mut rows = Vec::new();
-                for oracle in oracles {
-                    rows.push(self.row(s, &name, (&image, render_seconds), oracle, &planned)?);
-                }
-                Ok(rows)
-            },
-        )
+        Ok(SubjectRender {
+            subject: subject.name(),
+            header: subject.header(),
+            image,
+            render_seconds,
+            planned,
+        })
     }
 
     /// The subject's render of `s` with its planned budget, at certify's seed.
@@ -1179,16 +1268,18 @@ impl SceneRun<'_> {
         )
     }
 
-    /// The row of `image` (subject `name` on `s`, rendered in `render_seconds`) compared with
-    /// one oracle's image `b`, its images written to the report directory if there is one.
+    /// The row of `render` (subject `name` on `s`; `render_of` the subject that made it, if
+    /// another) compared with one oracle's image `b`, its images written to the report
+    /// directory if there is one.
     fn row(
         &self,
         s: &ReferencedScene,
         name: &str,
-        (image, render_seconds): (&Image, f64),
+        render: &SubjectRender,
         (oracle_name, b): (&str, &Image),
-        planned: &Planned,
+        render_of: Option<String>,
     ) -> Result<Row, Unusable> {
+        let (image, planned) = (&render.image, &render.planned);
         let cmp = compare(image, b, self.cfg).map_err(|e| {
             Unusable(format!(
                 "cannot compare {} / {name} with the {oracle_name} image: {e}",
@@ -1205,7 +1296,8 @@ impl SceneRun<'_> {
             light_samples: planned.light_samples,
             seed: self.opts.seed,
             pilot_seconds: planned.pilot_seconds,
-            render_seconds,
+            render_seconds: render.render_seconds,
+            render_of,
             precision: budget::precision(image, b),
             rel_diff,
             rel_ci,
@@ -1242,6 +1334,7 @@ fn pilot_options(opts: &Options) -> RenderOptions {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use linlight_render::Heuristic;
 
     /// A certification's verdicts, budgets and statistics do not depend on the number of
     /// threads (renders, crop windows and exact images are collected in order; the comparisons
@@ -1289,5 +1382,38 @@ mod tests {
             // Neither ran: the suite's pool only started its threads.
             assert!(cpu.sampler_suite + cpu.gpu_kernels < 0.1, "{cpu:?}");
         }
+    }
+
+    /// A subject whose render is another's ([`Subject::same_render_as`]) reuses that render
+    /// where it ran before on the scene, and renders itself where it did not; either way its
+    /// rows are the other's: the same budget and comparison.
+    #[test]
+    fn subjects_of_the_same_render_share_it() {
+        let mut opts = Options::new(Path::new(env!("CARGO_MANIFEST_DIR")));
+        opts.scenes = "glossy-cornell".into();
+        opts.sampler_suite = false;
+        opts.gpu_kernels = false;
+        opts.variant_renders.clear();
+        let methods = [
+            Heuristic::ClampedOptimal(1.0),
+            Heuristic::Balance,
+            Heuristic::Weighted,
+            Heuristic::ClampedOptimal(0.0),
+        ]
+        .map(Method::Mis);
+        let subjects: Vec<&dyn Subject> = methods.iter().map(|m| m as &dyn Subject).collect();
+        let report = run(&opts, &subjects, &|_| {}).expect("usable input");
+        let rows: Vec<&Row> = report.rows().collect();
+        assert_eq!(rows.len(), 4, "one oracle");
+        let of: Vec<Option<&str>> = rows.iter().map(|r| r.render_of.as_deref()).collect();
+        assert_eq!(of, [None, None, None, Some("mis:balance")]);
+        let key = |r: &Row| {
+            let cmp = serde_json::to_string(&r.comparison).expect("serialisable");
+            format!("{:?} {} {cmp}", r.budget, r.light_samples)
+        };
+        // Rendered apart (clamped optimal at v = 1 before weighted) or shared: the same rows.
+        assert_eq!(key(rows[0]), key(rows[2]));
+        assert_eq!(key(rows[1]), key(rows[3]));
+        assert_ne!(key(rows[0]), key(rows[1]));
     }
 }

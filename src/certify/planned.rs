@@ -455,7 +455,10 @@ mod tests {
         assert_eq!(pieces.iter().map(samples).sum::<usize>(), total);
         let mut seen = vec![0u32; w * h];
         for p in &pieces {
-            assert!(p.height == 1 || samples(p) <= total.div_ceil(PIECES), "{p:?}");
+            assert!(
+                p.height == 1 || samples(p) <= total.div_ceil(PIECES),
+                "{p:?}"
+            );
             for y in p.y..p.y + p.height {
                 for x in p.x..p.x + p.width {
                     assert_eq!(seen[y * w + x], 0);

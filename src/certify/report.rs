@@ -104,6 +104,14 @@ pub fn spp_cell(row: &Row) -> String {
     }
 }
 
+/// The row's subject, and the subject whose render it shares ([`Row::render_of`]).
+pub fn subject_cell(row: &Row) -> String {
+    match &row.render_of {
+        Some(of) => format!("{} (render of {of})", row.subject),
+        None => row.subject.clone(),
+    }
+}
+
 /// One line per row, for the terminal.
 pub fn row_line(row: &Row) -> String {
     format!(
@@ -469,7 +477,7 @@ fn markdown_row(row: &Row) -> String {
         .collect();
     format!(
         "| {} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {} | {:.1}% | {:.1} s | {} |\n",
-        row.subject,
+        subject_cell(row),
         row.oracle,
         verdict(row.verdict),
         ch(0),

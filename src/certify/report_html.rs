@@ -548,7 +548,7 @@ fn scene_table(sc: &SceneReport, renders: &BTreeMap<&str, Image>) -> String {
         let _ = write!(
             s,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{rel}</td><td>{}</td><td>{}</td><td>{:.1} s</td><td>{eff}</td><td>{ratio}</td></tr>",
-            esc(&row.subject),
+            esc(&super::report::subject_cell(row)),
             esc(&oracle_label(&row.oracle)),
             if row.passed() {
                 format!("<span class=\"pass\">{:?}</span>", row.verdict)
