@@ -211,9 +211,8 @@ fn pieces(strips: &[Strip]) -> Vec<Strip> {
 }
 
 /// The strips `cells`, rendered as crop windows at their counts ([`pieces`] of them), in order.
-/// Each piece is a job of its own, the largest first: rayon runs an unstolen chunk of several
-/// pieces on one thread, which left a core idle while the other rendered a run of a contact's
-/// costliest bands.
+/// Each piece is a job of its own, the largest first, so that the last job is a small one:
+/// rayon runs a chunk of items that no thread stole on one thread.
 fn render_strips(
     render: &RenderFn,
     scene: &Scene,

@@ -100,8 +100,8 @@ pub(crate) fn render_in_tiles(
         image.tail = Some(vec![[0.0f32; 3]; image.mean.len()]);
         image
     });
-    // One job per tile: rayon runs an unstolen chunk of an iterator on one thread, so with
-    // chunks of several tiles a core idles while the other finishes the last chunk.
+    // One job per tile: rayon runs a chunk of items that no thread stole on one thread, so a
+    // chunk of several tiles can leave the other cores idle at the end of the render.
     tiles.par_iter().with_max_len(1).for_each(|&(tx, ty)| {
         let pixels: Vec<(u32, u32)> = (ty..(ty + TILE).min(h))
             .flat_map(|y| (tx..(tx + TILE).min(w)).map(move |x| (x0 + x, y0 + y)))
