@@ -1336,16 +1336,22 @@ mod tests {
     use super::*;
     use linlight_render::Heuristic;
 
+    /// The committed scene `name` alone: no sampler suite, shader kernels or variant renders.
+    fn scene_only(name: &str) -> Options {
+        let mut opts = Options::new(Path::new(env!("CARGO_MANIFEST_DIR")));
+        opts.scenes = name.into();
+        opts.sampler_suite = false;
+        opts.gpu_kernels = false;
+        opts.variant_renders.clear();
+        opts
+    }
+
     /// A certification's verdicts, budgets and statistics do not depend on the number of
     /// threads (renders, crop windows and exact images are collected in order; the comparisons
     /// are serial), and its CPU time is measured by stage.
     #[test]
     fn results_do_not_depend_on_the_thread_count() {
-        let mut opts = Options::new(Path::new(env!("CARGO_MANIFEST_DIR")));
-        opts.scenes = "floor-tube".into();
-        opts.sampler_suite = false;
-        opts.gpu_kernels = false;
-        opts.variant_renders.clear();
+        let opts = scene_only("floor-tube");
         let subjects: [&dyn Subject; 1] = [&Technique::ProjectedSolidAngle];
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -1389,11 +1395,7 @@ mod tests {
     /// rows are the other's: the same budget and comparison.
     #[test]
     fn subjects_of_the_same_render_share_it() {
-        let mut opts = Options::new(Path::new(env!("CARGO_MANIFEST_DIR")));
-        opts.scenes = "glossy-cornell".into();
-        opts.sampler_suite = false;
-        opts.gpu_kernels = false;
-        opts.variant_renders.clear();
+        let opts = scene_only("glossy-cornell");
         let methods = [
             Heuristic::ClampedOptimal(1.0),
             Heuristic::Balance,
