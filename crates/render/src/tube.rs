@@ -62,7 +62,25 @@ pub struct Tubes {
     pub sampling: TubeSampling,
     /// Whether camera rays see the tubes' radiance (`hide_emitters = false`).
     pub camera_sees: bool,
+    /// A tree over the tubes' boxes when there are more than [`INDEX_TUBES`] ([`Tubes::indexed`]).
+    pub index: Option<TubeIndex>,
 }
+
+/// Above this many tubes a ray's tests go through a [`TubeIndex`] rather than every tube.
+pub const INDEX_TUBES: usize = 16;
+
+/// A BVH over the tubes' boxes and the light index of each of its primitives: the tubes a ray
+/// may meet without testing every one. Queries are conservative (the boxes padded by
+/// [`BOX_PAD`] of the scene's scale), so they find every tube the exact test would hit.
+#[derive(Clone, Debug)]
+pub struct TubeIndex {
+    bvh: crate::bvh::Bvh,
+    light: Vec<usize>,
+    pad: f64,
+}
+
+/// Padding of a tube index's boxes relative to the scene's scale: far above f32 rounding.
+const BOX_PAD: f64 = 1e-5;
 
 impl Tubes {
     /// The tubes of `scene` under `cylinders`: none under [`Cylinders::Line`]; every light with
@@ -103,7 +121,69 @@ impl Tubes {
             tubes,
             sampling,
             camera_sees: !scene.integrator.hide_emitters,
+            index: None,
         }
+        .indexed()
+    }
+
+    /// With an index over the tubes where there are more than [`INDEX_TUBES`] and every one has
+    /// finite bounds; without one otherwise.
+    pub fn indexed(mut self) -> Self {
+        let tubes: Vec<(usize, &Tube)> = self
+            .tubes
+            .iter()
+            .enumerate()
+            .filter_map(|(j, t)| Some((j, t.as_ref()?)))
+            .collect();
+        self.index = None;
+        if tubes.len() <= INDEX_TUBES {
+            return self;
+        }
+        let scale = tubes.iter().fold(0.0f64, |m, (_, t)| {
+            let b = t.prim.bounds();
+            m.max(b.min.abs().max_element() as f64)
+                .max(b.max.abs().max_element() as f64)
+        });
+        let light: Vec<usize> = tubes.iter().map(|&(j, _)| j).collect();
+        let bvh = crate::bvh::Bvh::build(tubes.iter().map(|(_, t)| t.prim.clone()).collect());
+        if bvh.len() == light.len() && scale.is_finite() {
+            self.index = Some(TubeIndex {
+                bvh,
+                light,
+                pad: BOX_PAD * (scale + 1.0),
+            });
+        }
+        self
+    }
+
+    /// Calls `visit(j, tube)` for the tubes `ray` may meet in (t_min, t_max): every tube
+    /// without an index, in light order; with one, a superset of those it meets, in no order,
+    /// until `visit` returns true.
+    #[inline]
+    fn visit(&self, ray: &Ray, mut visit: impl FnMut(usize, &Tube) -> bool) {
+        let Some(index) = &self.index else {
+            for (j, t) in self.tubes.iter().enumerate() {
+                if let Some(t) = t {
+                    if visit(j, t) {
+                        return;
+                    }
+                }
+            }
+            return;
+        };
+        let done = std::cell::Cell::new(false);
+        let segment = PaddedSegment::new(ray, index.pad);
+        index.bvh.visit_overlapping(
+            |lo, hi| !done.get() && segment.meets(lo, hi),
+            |k, _| {
+                let j = index.light[k as usize];
+                if !done.get() {
+                    if let Some(t) = &self.tubes[j] {
+                        done.set(visit(j, t));
+                    }
+                }
+            },
+        );
     }
 
     /// Whether any light is a tube.
@@ -117,24 +197,78 @@ impl Tubes {
 
     /// The closest tube `ray` meets in (t_min, t_max): its distance, light index and whether
     /// the ray meets its outer (emitting) side.
+    /// Of tubes at the same distance, the first light's (as a test of every tube in light
+    /// order gives, each shortening the ray to its hit).
     pub fn closest(&self, ray: &Ray) -> Option<(f32, usize, bool)> {
         let mut best: Option<(f32, usize, bool)> = None;
-        let mut r = *ray;
-        for (j, tube) in self.tubes.iter().enumerate() {
-            let Some(tube) = tube else { continue };
-            if let Some((t, _, _)) = tube.prim.intersect(&r) {
-                r.t_max = t;
-                best = Some((t, j, outside(&tube.prim, &r, t)));
+        self.visit(ray, |j, tube| {
+            // Up to and including the best distance so far, for the tie rule.
+            let mut r = *ray;
+            if let Some((t, _, _)) = best {
+                r.t_max = t.next_up();
             }
-        }
+            if let Some((t, _, _)) = tube.prim.intersect(&r) {
+                if best.is_none_or(|(b, k, _)| t < b || (t == b && j < k)) {
+                    best = Some((t, j, outside(&tube.prim, &r, t)));
+                }
+            }
+            false
+        });
         best
     }
 
     /// Whether a tube other than light `except`'s meets `ray` in (t_min, t_max).
     pub fn occluded(&self, ray: &Ray, except: usize) -> bool {
-        self.tubes.iter().enumerate().any(|(j, t)| {
-            j != except && t.as_ref().is_some_and(|t| t.prim.intersect(ray).is_some())
-        })
+        let mut hit = false;
+        self.visit(ray, |j, t| {
+            hit = j != except && t.prim.intersect(ray).is_some();
+            hit
+        });
+        hit
+    }
+}
+
+/// A ray's interval (t_min, t_max), widened by a spatial padding, for conservative box tests.
+struct PaddedSegment {
+    o: DVec3,
+    inv_d: DVec3,
+    t_min: f64,
+    t_max: f64,
+    pad: f64,
+}
+
+impl PaddedSegment {
+    fn new(ray: &Ray, pad: f64) -> Self {
+        let d = ray.d.as_dvec3();
+        // The spatial padding as a distance along the ray.
+        let t_pad = pad / d.length();
+        Self {
+            o: ray.o.as_dvec3(),
+            inv_d: d.recip(),
+            t_min: ray.t_min as f64 - t_pad,
+            t_max: ray.t_max as f64 + t_pad,
+            pad,
+        }
+    }
+
+    /// Whether the widened interval of the ray meets the box [lo, hi] grown by the padding
+    /// (slabs; an axis the ray runs along constrains nothing unless the origin lies outside).
+    fn meets(&self, lo: Vec3, hi: Vec3) -> bool {
+        let (lo, hi) = (lo.as_dvec3() - self.pad, hi.as_dvec3() + self.pad);
+        let (mut near, mut far) = (self.t_min, self.t_max);
+        for a in 0..3 {
+            let inv = self.inv_d[a];
+            if inv.is_infinite() || inv.is_nan() {
+                if self.o[a] < lo[a] || self.o[a] > hi[a] {
+                    return false;
+                }
+                continue;
+            }
+            let (t0, t1) = ((lo[a] - self.o[a]) * inv, (hi[a] - self.o[a]) * inv);
+            near = near.max(t0.min(t1));
+            far = far.min(t0.max(t1));
+        }
+        near <= far
     }
 }
 
@@ -637,6 +771,60 @@ mod tests {
         v
     }
 
+    /// The index finds what testing every tube finds: the same closest tube (distance, light,
+    /// side) and the same occlusion, on rays from a grid of origins through a field of 40
+    /// crossing tubes (shadow segments and rays to infinity), many grazing or touching them.
+    #[test]
+    fn the_index_answers_as_every_tube_does() {
+        let mut rng = CounterRng::camera_sample(9, 0, 0, 0);
+        let mut u = || rng.next_f32();
+        let tubes: Vec<Option<Tube>> = (0..40)
+            .map(|_| {
+                let p0 = Vec3::new(4.0 * u() - 2.0, 4.0 * u() - 2.0, 1.0 + u());
+                let p1 = p0 + Vec3::new(2.0 * u() - 1.0, 2.0 * u() - 1.0, 0.5 * u() - 0.25);
+                Some(tube(p0, p1, 0.2 * u() * u() + 1e-4, 1.0))
+            })
+            .collect();
+        let all = Tubes {
+            tubes,
+            sampling: TubeSampling::default(),
+            camera_sees: true,
+            index: None,
+        };
+        let indexed = all.clone().indexed();
+        assert!(indexed.index.is_some());
+        let (mut hits, mut blocked) = (0, 0);
+        for i in 0..20_000u32 {
+            let mut rng = CounterRng::camera_sample(11, 0, i, 0);
+            let mut u = || rng.next_f32();
+            let o = Vec3::new(6.0 * u() - 3.0, 6.0 * u() - 3.0, 3.0 * u() - 0.5);
+            // Toward a point on some tube's axis (a hit or a near miss), or anywhere.
+            let target = match all.tubes[i as usize % 40].as_ref() {
+                Some(t) if i % 3 != 0 => {
+                    let (a, b) = (t.cylinder.p0().as_vec3(), t.cylinder.p1().as_vec3());
+                    a + u() * (b - a) + 0.3 * (Vec3::new(u(), u(), u()) - 0.5)
+                }
+                _ => Vec3::new(6.0 * u() - 3.0, 6.0 * u() - 3.0, 3.0 * u()),
+            };
+            let d = target - o;
+            let t_max = if i % 2 == 0 { 1.0 } else { f32::INFINITY };
+            let ray = Ray {
+                o,
+                d,
+                t_min: 1e-4,
+                t_max,
+            };
+            let closest = all.closest(&ray);
+            assert_eq!(indexed.closest(&ray), closest, "ray {i}");
+            let except = i as usize % 41; // 40: no tube excepted
+            let occluded = all.occluded(&ray, except);
+            assert_eq!(indexed.occluded(&ray, except), occluded, "ray {i}");
+            hits += usize::from(closest.is_some());
+            blocked += usize::from(occluded);
+        }
+        assert!(hits > 5_000 && blocked > 5_000, "{hits} {blocked}");
+    }
+
     /// A glossy lobe at x: the GGX LTC table's A for α = 0.25 seen from a view mirrored about
     /// n from the tube's middle (raised to n·v ≥ 0.3), in its shading frame.
     fn glossy_lobe(t: &Tube, x: Vec3, n: Vec3) -> (Mat3, Mat3) {
@@ -778,6 +966,7 @@ mod tests {
             tubes: vec![Some(t.clone()), Some(other)],
             sampling: TubeSampling::default(),
             camera_sees: false,
+            index: None,
         };
         let (mut checked, mut grazing) = (0, 0);
         for i in 0..2000u32 {
