@@ -491,18 +491,30 @@ fn packet_kernel(
     let one = rs.chooses_one(ctx.opts.lights);
     let kept = ctx.kept_blocks();
     let words = &primary.words;
+    // More lights than the blocks kept: the last further block drawn, all lanes at once.
+    let further = std::cell::Cell::new(None::<(usize, [[u32; PACKET_LANES]; 4])>);
     let number = |dim: usize| -> [f32; PACKET_LANES] {
-        if dim / 4 < kept {
+        let b = dim / 4;
+        if b < kept {
             // SAFETY: blocks below `kept` were written (`primary_kernel`).
-            let block = unsafe { words[dim / 4].assume_init_ref() };
-            block[dim % 4].map(unit_f32)
-        } else {
-            // More lights than the blocks kept: this dimension lane by lane.
-            std::array::from_fn(|k| {
-                let id = [packet.sample[k], packet.index[k], pass];
-                unit_f32(CounterRng::at(ctx.opts.seed, id, dim as u64))
-            })
+            let block = unsafe { words[b].assume_init_ref() };
+            return block[dim % 4].map(unit_f32);
         }
+        let block = match further.get() {
+            Some((held, block)) if held == b => block,
+            _ => {
+                let block = CounterRng::camera_sample_block(
+                    ctx.opts.seed,
+                    pass,
+                    &packet.index,
+                    &packet.sample,
+                    b as u32,
+                );
+                further.set(Some((b, block)));
+                block
+            }
+        };
+        block[dim % 4].map(unit_f32)
     };
     let rays = &primary.rays;
     let hits = rs.bvh.intersect_lanes(rays, active);

@@ -206,6 +206,50 @@ fn exact_tubes_equal_the_scalar_path() {
     assert_eq!(renders, 6 * (4 * 2 + 3 * 2));
 }
 
+/// With more lights than the numbers the packet draws ahead (`kept_blocks`), `every` draws the
+/// further dimensions block by block: nine lights (two-tubes' and seven shifted copies), as
+/// exact tubes with MIS and as lines, every selection, every kernel, equal the scalar path bit
+/// for bit.
+#[test]
+fn images_with_many_lights_equal_the_scalar_path() {
+    use crate::options::TubeSampling;
+    use glam::Vec3;
+    use linlight_sampling::cylinder::CylinderTechnique;
+    let mut scene = scene("two-tubes", 8);
+    let base = scene.lights.clone();
+    for i in 0..7 {
+        let mut l = base[i % base.len()].clone();
+        let shift = Vec3::new(0.05, 0.03, -0.02) * (i + 1) as f32;
+        (l.begin, l.end) = (l.begin + shift, l.end + shift);
+        scene.lights.push(l);
+    }
+    assert_eq!(scene.lights.len(), 9);
+    let exact = Cylinders::Exact(TubeSampling {
+        technique: CylinderTechnique::Projected,
+        mis: true,
+    });
+    for cylinders in [exact, Cylinders::Line] {
+        for lights in LightSelection::ALL {
+            let opts = RenderOptions {
+                spp: 5,
+                seed: 3,
+                lights,
+                cylinders,
+                ..Default::default()
+            };
+            assert!(applies(&scene, &opts));
+            let scalar = render_scalar(&scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
+            for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
+                let batched = render_isa(&scene, &opts, isa, &|_, _| {}).unwrap();
+                assert!(
+                    bits(&batched) == bits(&scalar),
+                    "{cylinders:?}, {lights}, {isa:?}"
+                );
+            }
+        }
+    }
+}
+
 /// Exact tubes take the packets only with every light a tube and one light sample; a scene
 /// that mixes a tube and a light of radius 0 (a line) renders on the scalar path, and
 /// `render_isa` refuses it.
