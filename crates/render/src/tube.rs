@@ -70,8 +70,8 @@ pub struct Tubes {
 pub const INDEX_TUBES: usize = 16;
 
 /// A BVH over the tubes' boxes and the light index of each of its primitives: the tubes a ray
-/// may meet without testing every one. Queries are conservative (the boxes padded by
-/// [`BOX_PAD`] of the scene's scale), so they find every tube the exact test would hit.
+/// may meet without testing every one. Queries are conservative (the boxes padded by 1e-5 of
+/// the scene's scale), so they find every tube the exact test would hit.
 #[derive(Clone, Debug)]
 pub struct TubeIndex {
     bvh: crate::bvh::Bvh,
@@ -196,9 +196,9 @@ impl Tubes {
     }
 
     /// The closest tube `ray` meets in (t_min, t_max): its distance, light index and whether
-    /// the ray meets its outer (emitting) side.
-    /// Of tubes at the same distance, the first light's (as a test of every tube in light
-    /// order gives, each shortening the ray to its hit).
+    /// the ray meets its outer (emitting) side. Of tubes at the same distance, the first
+    /// light's (as a test of every tube in light order gives, each shortening the ray to its
+    /// hit).
     pub fn closest(&self, ray: &Ray) -> Option<(f32, usize, bool)> {
         let mut best: Option<(f32, usize, bool)> = None;
         self.visit(ray, |j, tube| {
@@ -772,8 +772,8 @@ mod tests {
     }
 
     /// The index finds what testing every tube finds: the same closest tube (distance, light,
-    /// side) and the same occlusion, on rays from a grid of origins through a field of 40
-    /// crossing tubes (shadow segments and rays to infinity), many grazing or touching them.
+    /// side) and the same occlusion, on rays from random origins through a field of 40
+    /// crossing tubes (shadow segments and rays to infinity), many aimed near their axes.
     #[test]
     fn the_index_answers_as_every_tube_does() {
         let mut rng = CounterRng::camera_sample(9, 0, 0, 0);
