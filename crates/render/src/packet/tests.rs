@@ -22,6 +22,18 @@ fn bits(img: &Image) -> Vec<u32> {
         .collect()
 }
 
+/// The render of every kernel this CPU runs (the baseline always: CPUs without AVX) equals
+/// the scalar path's bit for bit, header included (`what` names the case); the scalar image.
+fn assert_kernels_equal_scalar(scene: &Scene, opts: &RenderOptions, what: &str) -> Image {
+    let scalar = render_scalar(scene, opts, &Hooks::new(), &|_, _| {}).unwrap();
+    for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
+        let batched = render_isa(scene, opts, isa, &|_, _| {}).unwrap();
+        assert!(bits(&batched) == bits(&scalar), "{what}, {isa:?}");
+        assert_eq!(batched.meta, scalar.meta, "{what}, {isa:?}");
+    }
+    scalar
+}
+
 /// Every committed scene (Lambertian, glossy, mixed), every method, every kernel the CPU
 /// runs: the image equals the scalar path's bit for bit (means, variances, tail shares,
 /// header), with spp not a multiple of the packet (packets span pixels) and with passes.
@@ -102,16 +114,8 @@ fn images_equal_the_scalar_path() {
                     noise: Default::default(),
                     cylinders: crate::options::Cylinders::Line,
                 };
-                let scalar = render_scalar(&scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
-                // Every kernel this CPU runs (the baseline always: CPUs without AVX).
-                for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
-                    let batched = render_isa(&scene, &opts, isa, &|_, _| {}).unwrap();
-                    assert!(
-                        bits(&batched) == bits(&scalar),
-                        "{name}, {technique}, {lights}, {isa:?}, {spp} spp × {passes}"
-                    );
-                    assert_eq!(batched.meta, scalar.meta, "{name}, {technique}");
-                }
+                let what = format!("{name}, {technique}, {lights}, {spp} spp × {passes}");
+                assert_kernels_equal_scalar(&scene, &opts, &what);
                 if lights == LightSelection::One && scene.lights.len() == 2 {
                     two_light_renders += 1;
                 }
@@ -188,16 +192,9 @@ fn exact_tubes_equal_the_scalar_path() {
                         cylinders: Cylinders::Exact(sampling),
                     };
                     assert!(applies(scene, &opts), "{name}");
-                    let scalar = render_scalar(scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
+                    let what = format!("{name}, {sampling:?}, {lights}, {spp} spp × {passes}");
+                    let scalar = assert_kernels_equal_scalar(scene, &opts, &what);
                     assert_eq!(scalar.meta.extra["cylinders"], "exact");
-                    for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
-                        let batched = render_isa(scene, &opts, isa, &|_, _| {}).unwrap();
-                        assert!(
-                            bits(&batched) == bits(&scalar),
-                            "{name}, {sampling:?}, {lights}, {isa:?}, {spp} spp × {passes}"
-                        );
-                        assert_eq!(batched.meta, scalar.meta, "{name}, {sampling:?}");
-                    }
                     renders += 1;
                 }
             }
@@ -238,14 +235,7 @@ fn images_with_many_lights_equal_the_scalar_path() {
                 ..Default::default()
             };
             assert!(applies(&scene, &opts));
-            let scalar = render_scalar(&scene, &opts, &Hooks::new(), &|_, _| {}).unwrap();
-            for isa in Isa::ALL.into_iter().filter(|i| i.supported()) {
-                let batched = render_isa(&scene, &opts, isa, &|_, _| {}).unwrap();
-                assert!(
-                    bits(&batched) == bits(&scalar),
-                    "{cylinders:?}, {lights}, {isa:?}"
-                );
-            }
+            assert_kernels_equal_scalar(&scene, &opts, &format!("{cylinders:?}, {lights}"));
         }
     }
 }
