@@ -62,18 +62,19 @@ pub struct Tubes {
     pub sampling: TubeSampling,
     /// Whether camera rays see the tubes' radiance (`hide_emitters = false`).
     pub camera_sees: bool,
-    /// A tree over the tubes' boxes when there are more than [`INDEX_TUBES`] ([`Tubes::indexed`]).
-    pub index: Option<TubeIndex>,
+    /// A tree over the tubes' boxes when there are more than [`INDEX_TUBES`]; private, so that
+    /// only [`Tubes::indexed`] sets it (after a change of `tubes`, call it again).
+    index: Option<TubeIndex>,
 }
 
-/// Above this many tubes a ray's tests go through a [`TubeIndex`] rather than every tube.
+/// Above this many tubes a ray's tests go through a BVH over the tubes rather than every tube.
 pub const INDEX_TUBES: usize = 16;
 
 /// A BVH over the tubes' boxes and the light index of each of its primitives: the tubes a ray
 /// may meet without testing every one. Queries are conservative (the boxes padded by 1e-5 of
 /// the scene's scale), so they find every tube the exact test would hit.
 #[derive(Clone, Debug)]
-pub struct TubeIndex {
+struct TubeIndex {
     bvh: crate::bvh::Bvh,
     light: Vec<usize>,
     pad: f64,
@@ -161,6 +162,12 @@ impl Tubes {
     /// until `visit` returns true.
     #[inline]
     fn visit(&self, ray: &Ray, mut visit: impl FnMut(usize, &Tube) -> bool) {
+        debug_assert!(
+            self.index
+                .as_ref()
+                .is_none_or(|i| i.light.iter().all(|&j| j < self.tubes.len())),
+            "a tube index of other tubes: call `indexed` after changing `tubes`"
+        );
         let Some(index) = &self.index else {
             for (j, t) in self.tubes.iter().enumerate() {
                 if let Some(t) = t {
