@@ -403,7 +403,9 @@ impl LightTree {
 }
 
 /// The nodes of L lanes, field by field (what [`importance`] reads), so that it runs over the
-/// lanes as vector operations.
+/// lanes as vector operations. Each array on its own cache line(s): 16 lanes are one
+/// register, which a misaligned spill or reload would split.
+#[repr(C, align(64))]
 struct NodeLanes<const L: usize> {
     centre: Lanes3<f32, L>,
     r2: [f32; L],
@@ -412,7 +414,8 @@ struct NodeLanes<const L: usize> {
     segment: Option<SegmentLanes<L>>,
 }
 
-/// The [`SegmentBound`]s of L lanes, field by field.
+/// The [`SegmentBound`]s of L lanes, field by field, aligned as [`NodeLanes`].
+#[repr(C, align(64))]
 struct SegmentLanes<const L: usize> {
     begin: Lanes3<f32, L>,
     axis: Lanes3<f32, L>,

@@ -183,6 +183,7 @@ pub type Vec3x8 = Vec3xN<BATCH_LANES>;
 /// projected solid angle and Li et al. do not normalise it, their arithmetic being homogeneous
 /// in n, see `ProjectedSolidAngle::lane`) for the primary sample `xi[i]` (clamped to [0, 1]).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))] // each lane array from a cache line's start (see `Pending`)
 pub struct LineProblems<const N: usize> {
     pub begin: Vec3xN<N>,
     pub end: Vec3xN<N>,
@@ -209,6 +210,7 @@ impl<const N: usize> Default for LineProblems<N> {
 /// Samples of N lanes. Lanes outside `mask` (no contribution: the light is degenerate, below
 /// the horizon or seen from on its line) hold zeros.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))] // each lane array from a cache line's start (see `Pending`)
 pub struct LineSamples<const N: usize> {
     /// Unit direction toward the line.
     pub dir: Vec3xN<N>,
@@ -384,6 +386,7 @@ fn slice<const ONE_LOOP: bool>(inputs: &[BatchProblems], outputs: &mut [BatchSam
 /// outside `mask` hold meaningless values. The sample kernel is one loop over the N lanes: with
 /// 16 lanes on AVX-512 its f32 half (start value, Halley steps, direction) fills one zmm.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))] // each lane array from a cache line's start (see `Pending`)
 pub struct PreparedBatch<const N: usize = BATCH_LANES> {
     u: Vec3xN<N>,
     c_hat: Vec3xN<N>,
@@ -572,8 +575,10 @@ fn psa_sample_kernel<const N: usize>(prepared: &PreparedBatch<N>, xi: &[f32; N])
 /// a fresh sin/cos of its sample (`PsaCore::solve_rotated_lane`: in the ξ guard or after a long
 /// last step, rare), which is then evaluated only if some lane of the batch needs it, instead of
 /// in every lane (a sin/cos on the lane's dependency chain). Bitwise what
-/// the scalar [`LineSampler::sample_with_pdf`] returns.
+/// the scalar [`LineSampler::sample_with_pdf`] returns. The f32 arrays first, from a cache
+/// line's start: 16 lanes are one register, which a misaligned store or load would split.
 #[derive(Clone, Copy)]
+#[repr(C, align(64))]
 struct Pending<const N: usize> {
     /// sin φ, cos φ, n·ω at the sample (rotated by the last step).
     s: [f32; N],
@@ -581,7 +586,6 @@ struct Pending<const N: usize> {
     n_dot_w: [f32; N],
     /// τ to evaluate afresh where `fresh`.
     tau: [f32; N],
-    fresh: [bool; N],
     // What `PsaCore::at` and the direction need.
     s_b: [f32; N],
     c_b: [f32; N],
@@ -591,6 +595,7 @@ struct Pending<const N: usize> {
     c_hat: Vec3xN<N>,
     d: [f32; N],
     inv_psa: [f32; N],
+    fresh: [bool; N],
     ok: [bool; N],
 }
 
@@ -755,6 +760,7 @@ pub fn sample_clipped_solid_angle_packet(
 /// hold meaningless values. The sample kernel is one loop over the N lanes (its arcs are f64:
 /// eight lanes per zmm whatever N is).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))] // each lane array from a cache line's start (see `Pending`)
 pub struct ClippedBatch<const N: usize = BATCH_LANES> {
     u: Vec3xN<N>,
     c_hat: Vec3xN<N>,
