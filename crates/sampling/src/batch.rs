@@ -183,7 +183,7 @@ pub type Vec3x8 = Vec3xN<BATCH_LANES>;
 /// projected solid angle and Li et al. do not normalise it, their arithmetic being homogeneous
 /// in n, see `ProjectedSolidAngle::lane`) for the primary sample `xi[i]` (clamped to [0, 1]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(64))] // each lane array from a cache line's start (see `Pending`)
+#[repr(C, align(64))] // 16-lane arrays then fill whole cache lines (see `Pending`)
 pub struct LineProblems<const N: usize> {
     pub begin: Vec3xN<N>,
     pub end: Vec3xN<N>,
@@ -210,7 +210,7 @@ impl<const N: usize> Default for LineProblems<N> {
 /// Samples of N lanes. Lanes outside `mask` (no contribution: the light is degenerate, below
 /// the horizon or seen from on its line) hold zeros.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(64))] // each lane array from a cache line's start (see `Pending`)
+#[repr(C, align(64))] // 16-lane arrays then fill whole cache lines (see `Pending`)
 pub struct LineSamples<const N: usize> {
     /// Unit direction toward the line.
     pub dir: Vec3xN<N>,
@@ -386,7 +386,7 @@ fn slice<const ONE_LOOP: bool>(inputs: &[BatchProblems], outputs: &mut [BatchSam
 /// outside `mask` hold meaningless values. The sample kernel is one loop over the N lanes: with
 /// 16 lanes on AVX-512 its f32 half (start value, Halley steps, direction) fills one zmm.
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(64))] // each lane array from a cache line's start (see `Pending`)
+#[repr(C, align(64))] // 16-lane arrays then fill whole cache lines (see `Pending`)
 pub struct PreparedBatch<const N: usize = BATCH_LANES> {
     u: Vec3xN<N>,
     c_hat: Vec3xN<N>,
@@ -760,7 +760,7 @@ pub fn sample_clipped_solid_angle_packet(
 /// hold meaningless values. The sample kernel is one loop over the N lanes (its arcs are f64:
 /// eight lanes per zmm whatever N is).
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(64))] // each lane array from a cache line's start (see `Pending`)
+#[repr(C, align(64))] // 16-lane arrays then fill whole cache lines (see `Pending`)
 pub struct ClippedBatch<const N: usize = BATCH_LANES> {
     u: Vec3xN<N>,
     c_hat: Vec3xN<N>,
