@@ -599,6 +599,35 @@ struct Pending<const N: usize> {
     ok: [bool; N],
 }
 
+// Every f32 array of a 16-lane `Pending` starts on a cache line (a field of another size, as
+// the bools, goes after them).
+const _: () = {
+    use std::mem::offset_of;
+    type P = Pending<PACKET_LANES>;
+    let arrays = [
+        offset_of!(P, s),
+        offset_of!(P, t),
+        offset_of!(P, n_dot_w),
+        offset_of!(P, tau),
+        offset_of!(P, s_b),
+        offset_of!(P, c_b),
+        offset_of!(P, p0),
+        offset_of!(P, p1),
+        offset_of!(P, u),
+        offset_of!(P, c_hat),
+        offset_of!(P, d),
+        offset_of!(P, inv_psa),
+    ];
+    let mut i = 0;
+    while i < arrays.len() {
+        assert!(
+            arrays[i] % 64 == 0,
+            "a lane array of `Pending` off a cache line"
+        );
+        i += 1;
+    }
+};
+
 impl<const N: usize> Default for Pending<N> {
     fn default() -> Self {
         let zero = [0.0; N];
