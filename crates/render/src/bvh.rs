@@ -13,7 +13,7 @@
 //! cornell-tube shadow rays differently (its box test is not made conservative), and it needs
 //! glam 0.33–0.34 besides the workspace's 0.30.
 
-use crate::shapes::{intersect_triangle_edges, Aabb, Hit, Primitive, Ray};
+use crate::shapes::{intersect_triangle_lane, Aabb, Hit, Primitive, Ray};
 use kernels::Kernel;
 
 mod kernels;
@@ -804,10 +804,18 @@ impl Bvh {
     }
 
     /// Intersection of primitive `i` (in BVH order) with `ray`, as [`Primitive::intersect`].
+    /// Triangles take the branch-free test: which of a leaf's conditions fails varies from
+    /// ray to ray, so the early outs of [`crate::shapes::intersect_triangle_edges`] are
+    /// mispredicted.
     #[inline(always)]
     fn intersect_prim(&self, i: usize, ray: &Ray) -> Option<(f32, f32, f32)> {
         match self.isect[i] {
-            Isect::Triangle { v0, e1, e2 } => intersect_triangle_edges(ray, v0, e1, e2),
+            Isect::Triangle { v0, e1, e2 } => {
+                let (o, d) = (ray.o, ray.d);
+                let (t, b1, b2, hit) =
+                    intersect_triangle_lane(o, d, ray.t_min, ray.t_max, v0, e1, e2);
+                hit.then_some((t, b1, b2))
+            }
             Isect::Sphere { .. } | Isect::Other => self.primitive(i as u32).intersect(ray),
         }
     }
