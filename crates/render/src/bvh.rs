@@ -913,11 +913,13 @@ impl Bvh {
         #[cfg(target_arch = "x86_64")]
         {
             use linlight_simd::Isa;
-            #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+            #[target_feature(
+                enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+            )]
             unsafe fn avx512(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
                 bvh.occluded_walk::<kernels::Avx512>(lanes, active)
             }
-            #[target_feature(enable = "avx2,fma")]
+            #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
             unsafe fn avx2(bvh: &Bvh, lanes: &RayLanes, active: u32) -> u32 {
                 bvh.occluded_walk::<kernels::Avx2>(lanes, active)
             }
@@ -1036,11 +1038,13 @@ impl Bvh {
         #[cfg(target_arch = "x86_64")]
         {
             use linlight_simd::Isa;
-            #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+            #[target_feature(
+                enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+            )]
             unsafe fn avx512(bvh: &Bvh, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
                 bvh.intersect_walk::<kernels::Avx512>(lanes, active, out)
             }
-            #[target_feature(enable = "avx2,fma")]
+            #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
             unsafe fn avx2(bvh: &Bvh, lanes: &RayLanes, active: u32, out: &mut PacketHits) {
                 bvh.intersect_walk::<kernels::Avx2>(lanes, active, out)
             }

@@ -5,9 +5,12 @@
 pub enum Isa {
     /// The target's baseline (SSE2 on x86-64, or any other architecture).
     Baseline,
-    /// x86-64 with AVX2 and FMA.
+    /// x86-64 with AVX2 and FMA, and the bit instructions every such CPU has (BMI1, BMI2,
+    /// LZCNT, POPCNT: lane masks are counted and scanned with them). Kernels for it are
+    /// compiled with `#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]`.
     Avx2,
-    /// x86-64 with AVX-512 (F, VL, DQ, BW).
+    /// [`Isa::Avx2`] and AVX-512 (F, VL, DQ, BW): `#[target_feature(enable =
+    /// "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]`.
     Avx512,
 }
 
@@ -31,6 +34,10 @@ impl Isa {
             Isa::Avx2 => {
                 std::arch::is_x86_feature_detected!("avx2")
                     && std::arch::is_x86_feature_detected!("fma")
+                    && std::arch::is_x86_feature_detected!("bmi1")
+                    && std::arch::is_x86_feature_detected!("bmi2")
+                    && std::arch::is_x86_feature_detected!("lzcnt")
+                    && std::arch::is_x86_feature_detected!("popcnt")
             }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => {
@@ -88,11 +95,13 @@ pub trait Kernel {
 pub fn dispatch<K: Kernel>(isa: Isa, kernel: K) -> K::Output {
     #[cfg(target_arch = "x86_64")]
     {
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         unsafe fn avx512<K: Kernel>(kernel: K) -> K::Output {
             kernel.run()
         }
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         unsafe fn avx2<K: Kernel>(kernel: K) -> K::Output {
             kernel.run()
         }

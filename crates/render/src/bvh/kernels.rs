@@ -358,34 +358,44 @@ mod x86 {
         type V = __m512;
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         fn ld(a: &[f32; PACKET]) -> V {
             // SAFETY: 16 floats.
             unsafe { _mm512_loadu_ps(a.as_ptr()) }
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         fn arr(v: V) -> [f32; PACKET] {
             // SAFETY: same size, every bit pattern valid.
             unsafe { std::mem::transmute::<V, [f32; PACKET]>(v) }
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         fn splat(x: f32) -> V {
             _mm512_set1_ps(x)
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         fn negate(x: V) -> V {
             _mm512_xor_ps(x, splat(-0.0))
         }
 
         /// a·b + c·d + e·f summed left to right, as `Vec3::dot` (no FMA).
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         #[allow(clippy::too_many_arguments)]
         fn dot(a: V, b: V, c: V, d: V, e: V, f: V) -> V {
             _mm512_add_ps(
@@ -396,7 +406,9 @@ mod x86 {
 
         /// a·b − c·d, one component of `Vec3::cross`.
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         fn cross1(a: V, b: V, c: V, d: V) -> V {
             _mm512_sub_ps(_mm512_mul_ps(a, b), _mm512_mul_ps(c, d))
         }
@@ -404,7 +416,9 @@ mod x86 {
         /// Smallest element of each of 16 vectors at once (a transposing butterfly: 15
         /// minima, 30 shuffles): element 4(s mod 4) + s/4 of the result is the minimum of v[s].
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         fn min16(v: [V; 16]) -> [f32; PACKET] {
             // v[2j] in 128-bit blocks 0–1, v[2j+1] in 2–3, each folded in half.
             let c: [V; 8] = std::array::from_fn(|j| {
@@ -439,7 +453,9 @@ mod x86 {
 
         /// Smallest element of v.
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         fn hmin(v: V) -> f32 {
             let m = _mm256_min_ps(_mm512_castps512_ps256(v), _mm512_extractf32x8_ps::<1>(v));
             let m = _mm_min_ps(_mm256_castps256_ps128(m), _mm256_extractf128_ps::<1>(m));
@@ -448,7 +464,9 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         pub(super) fn packet(lanes: &RayLanes, active: u32) -> RayPacket<'_> {
             let on = active as __mmask16;
             let inf = splat(f32::INFINITY);
@@ -488,7 +506,9 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         pub(super) fn box_hits(p: &RayPacket, node: &Node, lane: usize) -> (u32, f32) {
             let mut t0 = ld(&p.t_min);
             let mut t1 = ld(&p.t_max);
@@ -513,7 +533,9 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         pub(super) fn box_mask_coherent(p: &RayPacket, node: &Node, lane: usize) -> u32 {
             let mut t0 = ld(&p.t_min);
             let mut t1 = ld(&p.t_max);
@@ -534,7 +556,9 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         pub(super) fn triangle(
             lanes: &RayLanes,
             t_min: &[f32; PACKET],
@@ -582,7 +606,9 @@ mod x86 {
 
         /// Out of line, compiled for this extension (see [`sphere_lanes`]).
         #[inline(never)]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         pub(super) fn sphere(
             lanes: &RayLanes,
             t_min: &[f32; PACKET],
@@ -594,7 +620,9 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         pub(super) fn take_closest(
             best: &mut PacketHits,
             t_max: &mut [f32; PACKET],
@@ -642,7 +670,9 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         pub(super) fn take_nearer(best: &mut PacketHits, (t, b1, b2, hits): &LaneHits, prim: u32) {
             let take = *hits as __mmask16;
             // SAFETY: 16 lanes in each array.
@@ -662,7 +692,9 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+        #[target_feature(
+            enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+        )]
         pub(super) fn max(a: &[f32; PACKET]) -> f32 {
             -hmin(negate(ld(a)))
         }
@@ -675,47 +707,47 @@ mod x86 {
 
         /// Lanes h·8 .. h·8 + 8 of a.
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn ld(a: &[f32; PACKET], h: usize) -> V {
             // SAFETY: h ∈ {0, 1}, 8 floats from 8h.
             unsafe { _mm256_loadu_ps(a.as_ptr().add(8 * h)) }
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn arr(v: [V; 2]) -> [f32; PACKET] {
             // SAFETY: same size, every bit pattern valid.
             unsafe { std::mem::transmute::<[V; 2], [f32; PACKET]>(v) }
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn splat(x: f32) -> V {
             _mm256_set1_ps(x)
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn negate(x: V) -> V {
             _mm256_xor_ps(x, splat(-0.0))
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn flip_all() -> __m256i {
             _mm256_set1_epi32(-1)
         }
 
         /// Bits of the sign of every lane.
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn bits(m: V) -> u32 {
             _mm256_movemask_ps(m) as u32
         }
 
         /// Lane k of half h: all ones iff bit 8h + k of `mask` is set.
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn lane_mask(mask: u32, h: usize) -> V {
             let b = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
             let m = _mm256_and_si256(_mm256_set1_epi32((mask >> (8 * h)) as i32), b);
@@ -723,7 +755,7 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         #[allow(clippy::too_many_arguments)]
         fn dot(a: V, b: V, c: V, d: V, e: V, f: V) -> V {
             _mm256_add_ps(
@@ -733,7 +765,7 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn cross1(a: V, b: V, c: V, d: V) -> V {
             _mm256_sub_ps(_mm256_mul_ps(a, b), _mm256_mul_ps(c, d))
         }
@@ -742,7 +774,7 @@ mod x86 {
         /// minima): element 8(s / 8) + 4(s mod 2) + (s mod 8) / 2 of the result is the
         /// minimum of v[s].
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn min16(v: [V; 16]) -> [f32; PACKET] {
             // Half h of c[j]: v[2j + h], four partial minima.
             let c: [V; 8] = std::array::from_fn(|j| {
@@ -774,7 +806,7 @@ mod x86 {
 
         /// Smallest element of v.
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         fn hmin(v: V) -> f32 {
             let m = _mm_min_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
             let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
@@ -782,7 +814,7 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         pub(super) fn packet(lanes: &RayLanes, active: u32) -> RayPacket<'_> {
             let inf = splat(f32::INFINITY);
             let on = [lane_mask(active, 0), lane_mask(active, 1)];
@@ -836,7 +868,7 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         pub(super) fn box_hits(p: &RayPacket, node: &Node, lane: usize) -> (u32, f32) {
             let mut mask = 0u32;
             let mut entry = splat(f32::INFINITY);
@@ -866,7 +898,7 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         pub(super) fn box_mask_coherent(p: &RayPacket, node: &Node, lane: usize) -> u32 {
             let mut mask = 0u32;
             for h in 0..2 {
@@ -891,7 +923,7 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         pub(super) fn triangle(
             lanes: &RayLanes,
             t_min: &[f32; PACKET],
@@ -948,7 +980,7 @@ mod x86 {
 
         /// Out of line, compiled for this extension (see [`sphere_lanes`]).
         #[inline(never)]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         pub(super) fn sphere(
             lanes: &RayLanes,
             t_min: &[f32; PACKET],
@@ -960,7 +992,7 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         pub(super) fn take_closest(
             best: &mut PacketHits,
             t_max: &mut [f32; PACKET],
@@ -1024,7 +1056,7 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         pub(super) fn take_nearer(best: &mut PacketHits, (t, b1, b2, hits): &LaneHits, prim: u32) {
             let i = _mm256_set1_ps(f32::from_bits(prim));
             for h in 0..2 {
@@ -1049,7 +1081,7 @@ mod x86 {
         }
 
         #[inline]
-        #[target_feature(enable = "avx2,fma")]
+        #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
         pub(super) fn max(a: &[f32; PACKET]) -> f32 {
             -hmin(_mm256_min_ps(negate(ld(a, 0)), negate(ld(a, 1))))
         }
@@ -1066,7 +1098,7 @@ mod tests {
             {
                 use linlight_simd::Isa;
                 if Isa::Avx512.supported() {
-                    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+                    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
                     unsafe fn run() {
                         $check::<Avx512>();
                     }
@@ -1074,7 +1106,7 @@ mod tests {
                     unsafe { run() };
                 }
                 if Isa::Avx2.supported() {
-                    #[target_feature(enable = "avx2,fma")]
+                    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
                     unsafe fn run() {
                         $check::<Avx2>();
                     }

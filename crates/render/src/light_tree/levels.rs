@@ -135,8 +135,10 @@ mod avx512 {
     /// the next have them (lanes gathered lane by lane below).
     ///
     /// # Safety
-    /// The CPU runs AVX-512 (F, VL, DQ, BW) and AVX2 with FMA.
-    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+    /// The CPU runs [`Isa::Avx512`](linlight_simd::Isa::Avx512) (`Isa::supported`).
+    #[target_feature(
+        enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+    )]
     pub(in super::super) unsafe fn sample(
         tree: &LightTree,
         x: &[[f32; LANES]; 3],
