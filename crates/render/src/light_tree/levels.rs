@@ -14,8 +14,8 @@ pub(super) const MAX_NODES: usize = 64;
 #[derive(Clone, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub(super) struct Level {
-    /// centre x, y, z, r², weight; a leaf's segment begin x, y, z, axis x, y, z, length, h²
-    /// floor (unused for interior nodes).
+    /// centre x, y, z, r², weight; a leaf's segment begin x, y, z, unit axis x, y, z, length,
+    /// h² floor (unused for interior nodes).
     fields: [[f32; MAX_NODES]; FIELDS],
     /// The node's left child (its right one is next; a leaf's is itself).
     left: [u32; MAX_NODES],
@@ -51,9 +51,9 @@ impl Level {
                 s.begin[0],
                 s.begin[1],
                 s.begin[2],
-                s.axis[0],
-                s.axis[1],
-                s.axis[2],
+                s.unit_axis[0],
+                s.unit_axis[1],
+                s.unit_axis[2],
                 s.length,
                 s.h2_floor,
             ];
@@ -108,7 +108,7 @@ mod avx512 {
                     field(level, 6, index),
                     field(level, 7, index),
                 ],
-                axis: [
+                unit_axis: [
                     field(level, 8, index),
                     field(level, 9, index),
                     field(level, 10, index),
@@ -136,9 +136,7 @@ mod avx512 {
     ///
     /// # Safety
     /// The CPU runs [`Isa::Avx512`](linlight_simd::Isa::Avx512) (`Isa::supported`).
-    #[target_feature(
-        enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
-    )]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
     pub(in super::super) unsafe fn sample(
         tree: &LightTree,
         x: &[[f32; LANES]; 3],
