@@ -136,12 +136,14 @@ fn solid_angle_per_radius(segment: &SegmentBound, x: [f32; 3]) -> f32 {
 
 /// One step of the walk down from a node with children importances `il`, `ir`: the
 /// probability p of the left child, and whether ξ `u` goes left, u rescaled to [0, 1) on that
-/// side and the pmf times that side's probability.
+/// side and the pmf times that side's probability. The choice u < p is tested as
+/// u·(il + ir) < il: the division's latency stays off the chain from one level's choice to the
+/// next (where the two tests differ by rounding, the clamp keeps u in [0, 1]).
 #[inline(always)]
 fn step(il: f32, ir: f32, u: f64, pmf: f64) -> (bool, f64, f64) {
     let (il, ir) = (il as f64, ir as f64);
     let p = il / (il + ir);
-    let left = u < p;
+    let left = u * (il + ir) < il;
     // Left: u/p ≥ 0, so clamping to [0, 1] is min(·, 1). Right: (u − p)/(1 − p).
     let (above, share) = if left { (u, p) } else { (u - p, 1.0 - p) };
     (left, (above / share).clamp(0.0, 1.0), pmf * share)
