@@ -130,8 +130,8 @@ fn solid_angle_per_radius(segment: &SegmentBound, x: [f32; 3]) -> f32 {
     let l1 = dot(a, unit);
     let l2 = l1 + length;
     let h2 = (dot(a, a) - l1 * l1).max(segment.h2_floor);
-    let (r2, r1) = ((h2 + l2 * l2).sqrt(), (h2 + l1 * l1).sqrt());
-    2.0 * (l2 * r1 - l1 * r2) / (h2.sqrt() * r2 * r1)
+    let (root2, root1) = ((h2 + l2 * l2).sqrt(), (h2 + l1 * l1).sqrt());
+    2.0 * (l2 * root1 - l1 * root2) / (h2.sqrt() * root2 * root1)
 }
 
 /// One step of the walk down from a node with children importances `il`, `ir`: the
@@ -800,7 +800,7 @@ mod tests {
         for _ in 0..20_000 {
             let (a, b) = (v(&mut rng, 4.0), v(&mut rng, 4.0));
             let leaf = rng.unit() < 0.5;
-            let node = leaf_node(a, b, leaf, &mut rng);
+            let node = node_over(a, b, leaf, &mut rng);
             let x = v(&mut rng, 6.0);
             let n = v(&mut rng, 1.0).try_normalize().unwrap_or(Vec3::Z);
             let got = importance(&node, leaf, x.into(), n.into()) as f64;
@@ -844,7 +844,7 @@ mod tests {
 
     /// A node over segment a → b: a leaf (K of 0.1–1.1), or an interior node with the box
     /// of the segment grown by up to 1 on each side and weight 2Φ of 1–11.
-    fn leaf_node(a: Vec3, b: Vec3, leaf: bool, rng: &mut Mix) -> Node {
+    fn node_over(a: Vec3, b: Vec3, leaf: bool, rng: &mut Mix) -> Node {
         let k = Vec3::splat(0.1 + rng.unit());
         let grow = Vec3::splat(rng.unit());
         let mut node = super::leaf(a.min(b) - grow, a.max(b) + grow, &Segment::new(a, b), k, 0);
