@@ -142,8 +142,9 @@ fn solid_angle_per_radius(segment: &SegmentBound, x: [f32; 3]) -> f32 {
 #[inline(always)]
 fn step(il: f32, ir: f32, u: f64, pmf: f64) -> (bool, f64, f64) {
     let (il, ir) = (il as f64, ir as f64);
-    let p = il / (il + ir);
-    let left = u * (il + ir) < il;
+    let sum = il + ir;
+    let p = il / sum;
+    let left = u * sum < il;
     // Left: u/p ≥ 0, so clamping to [0, 1] is min(·, 1). Right: (u − p)/(1 − p).
     let (above, share) = if left { (u, p) } else { (u - p, 1.0 - p) };
     (left, (above / share).clamp(0.0, 1.0), pmf * share)
