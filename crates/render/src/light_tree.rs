@@ -15,7 +15,8 @@
 //! limit is the interior nodes' 2L·sin θ/d²). A tube radiates all around its axis, so there is
 //! no emission cone to bound (pbrt's θ_o, θ_e).
 //!
-//! Unbiasedness: every light has p_j > 0 at every shading point. cos θ' is floored at
+//! Unbiasedness: every light has p_j > 0 at every shading point (to the resolution of ξ_c,
+//! below). cos θ' is floored at
 //! [`COS_FLOOR`]: a node wholly below the horizon keeps a tiny probability instead of none, so
 //! the walk never stops without a light and every light sample draws the same numbers (the
 //! choice ξ_c, then the light's) whatever the shading point. A light below the horizon
@@ -23,10 +24,15 @@
 //! sample. The estimator divides light j's K by p_j(x, n) ([`LightTree::sample`]); its
 //! expectation is Σ_j p_j·E_j/p_j = Σ_j E_j, the expectation of `every`.
 //!
-//! ξ_c is one uniform; after each choice it is rescaled to [0, 1) on the chosen side (in f64:
-//! with 24-bit ξ and depth D, the selection frequencies equal the pmf returned to within
-//! D·2⁻⁵² relative rounding per step, and within 2⁻²⁴ of the lattice spacing of ξ).
-//! [`LightTree::pmf`] recomputes the same products in the same order, bit for bit.
+//! ξ_c is one uniform on a lattice of spacing 2⁻²⁴. At a node it goes left when
+//! u·I_right < (1 − u)·I_left, and is then rescaled to [0, 1) on the chosen side, in f32 (as
+//! pbrt-v4 does): each rescaling rounds to 2⁻²⁴ relative, finer than the spacing of the values
+//! u takes there (the lattice stretched by 1/share at every level above), so the selection
+//! frequencies equal the pmf to within that lattice. The pmf is the product, in f64, of the
+//! shares p = I_left/(I_left + I_right) (f32) and 1 − p on the path: a node's two shares sum to
+//! 1 exactly. A side whose importance the f32 sum absorbs (below 2⁻²⁴ of the other's, which no
+//! lattice ξ_c could reach either) has share 0 and is never taken. [`LightTree::pmf`]
+//! recomputes the same products in the same order, bit for bit.
 
 use crate::light::Light;
 use glam::Vec3;
@@ -95,26 +101,43 @@ fn importance(node: &Node, leaf: bool, x: [f32; 3], n: [f32; 3]) -> f32 {
     // Outside the sphere (d² > r²), with ‖n‖ = 1 and t = n·(c − x): cos θ = t/d, cos θ_b =
     // √(d² − r²)/d and sin θ_b = r/d, so cos(θ − θ_b) = (t·√(d² − r²) + √((d² − t²)·r²))/d²,
     // and θ ≤ θ_b iff t ≥ √(d² − r²): two square roots and one division.
-    let s1 = (dist2 - r2).max(0.0).sqrt();
-    let s2 = ((dist2 - nd * nd) * r2).max(0.0).sqrt();
-    let inv = 1.0 / dist2.max(r2).max(f32::MIN_POSITIVE);
-    // 1 when x is inside the bounding sphere (every direction may reach it) or n inside the
-    // cone of the sphere.
-    let cos_bound = if dist2 <= r2 || nd >= s1 {
-        1.0
-    } else {
-        (nd * s1 + s2) * inv
-    };
+    let s1 = max(dist2 - r2, 0.0).sqrt();
+    let s2 = max((dist2 - nd * nd) * r2, 0.0).sqrt();
+    let inv = 1.0 / max(max(dist2, r2), f32::MIN_POSITIVE);
     let reach = if leaf {
         -node.weight * solid_angle_per_radius(&node.segment, x)
     } else {
         node.weight * inv
     };
-    let i = reach * cos_bound.max(COS_FLOOR);
-    if i.is_finite() {
-        i.max(f32::MIN_POSITIVE)
+    // Clamped (NaN and ∞ to the largest) while the cone's roots are computed: the importance
+    // is positive, and below f32::MAX / 2.
+    let reach = max(min(reach, f32::MAX / 4.0), f32::MIN_POSITIVE / COS_FLOOR);
+    // cos θ′ = 1 when x is inside the bounding sphere (every direction may reach it) or n
+    // inside the cone of the sphere; the rest of the product is taken before the last root.
+    if dist2 <= r2 || nd >= s1 {
+        reach
     } else {
-        f32::MAX
+        max((nd * s1 + s2) * (reach * inv), COS_FLOOR * reach)
+    }
+}
+
+/// a if a > b, else b (b where a is NaN): one instruction on x86 (`f32::max` takes three).
+#[inline(always)]
+fn max(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// a if a < b, else b (b where a is NaN).
+#[inline(always)]
+fn min(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
     }
 }
 
@@ -129,25 +152,46 @@ fn solid_angle_per_radius(segment: &SegmentBound, x: [f32; 3]) -> f32 {
     let a = [b[0] - x[0], b[1] - x[1], b[2] - x[2]];
     let l1 = dot(a, unit);
     let l2 = l1 + length;
-    let h2 = (dot(a, a) - l1 * l1).max(segment.h2_floor);
+    let h2 = max(dot(a, a) - l1 * l1, segment.h2_floor);
     let (root2, root1) = ((h2 + l2 * l2).sqrt(), (h2 + l1 * l1).sqrt());
     2.0 * (l2 * root1 - l1 * root2) / (h2.sqrt() * root2 * root1)
 }
 
-/// One step of the walk down from a node with children importances `il`, `ir`: the
-/// probability p of the left child, and whether ξ `u` goes left, u rescaled to [0, 1) on that
-/// side and the pmf times that side's probability. The choice u < p is tested as
-/// u·(il + ir) < il: the division's latency stays off the chain from one level's choice to the
-/// next (where the two tests differ by rounding, the clamp keeps u in [0, 1]).
+/// One step of the walk down from a node with children importances `il`, `ir`: whether ξ `u`
+/// goes left (u·ir < (1 − u)·il: u·(il + ir) < il but for rounding, with neither the sum's nor
+/// a division's latency on the chain from one level's choice to the next), u rescaled to
+/// [0, 1) on that side (one division on the chain of u), and [`p_left`]. Never a side of share
+/// 0.
 #[inline(always)]
-fn step(il: f32, ir: f32, u: f64, pmf: f64) -> (bool, f64, f64) {
-    let (il, ir) = (il as f64, ir as f64);
+fn step(il: f32, ir: f32, u: f32) -> (bool, f32, f32) {
     let sum = il + ir;
-    let p = il / sum;
-    let left = u * sum < il;
-    // Left: u/p ≥ 0, so clamping to [0, 1] is min(·, 1). Right: (u − p)/(1 − p).
-    let (above, share) = if left { (u, p) } else { (u - p, 1.0 - p) };
-    (left, (above / share).clamp(0.0, 1.0), pmf * share)
+    let left = (u * ir < (1.0 - u) * il || sum == il) && sum != ir;
+    let (start, width) = if left { (0.0, il) } else { (il, ir) };
+    let u_next = min(max((u * sum - start) / width, 0.0), 1.0);
+    (left, u_next, p_left(il, ir))
+}
+
+/// The probability of the left child, il/(il + ir) in f32: exactly 1 (0) where the sum absorbs
+/// ir (il).
+#[inline(always)]
+fn p_left(il: f32, ir: f32) -> f32 {
+    let sum = il + ir;
+    if sum == ir {
+        0.0
+    } else {
+        il / sum
+    }
+}
+
+/// The probability of the side taken, `left` of the left one's `p`, in f64 (p + (1 − p) = 1
+/// exactly).
+#[inline(always)]
+fn share(left: bool, p: f32) -> f64 {
+    if left {
+        p as f64
+    } else {
+        1.0 - p as f64
+    }
 }
 
 /// A binary tree over a scene's light segments (see the module documentation). Empty for no
@@ -284,12 +328,12 @@ impl LightTree {
 
     /// The probability of going left at interior node `node` from (x, n).
     #[inline]
-    fn p_left(&self, node: &Node, x: Vec3, n: Vec3) -> f64 {
+    fn node_p_left(&self, node: &Node, x: Vec3, n: Vec3) -> f32 {
         let [il, ir] = node.children.map(|c| {
             let child = &self.nodes[c as usize];
-            importance(child, child.is_leaf(), x.into(), n.into()) as f64
+            importance(child, child.is_leaf(), x.into(), n.into())
         });
-        il / (il + ir)
+        p_left(il, ir)
     }
 
     /// The light chosen by ξ_c ∈ [0, 1) at shading point `x` with unit normal `n`, and its
@@ -359,31 +403,14 @@ impl LightTree {
         xi: &[f32; L],
         children: impl Fn(usize, &[u32; L], bool) -> Children<L>,
     ) -> ([u32; L], [f64; L]) {
-        let mut node = [0u32; L];
-        let mut u = xi.map(|v| (v as f64).clamp(0.0, 1.0));
-        let mut pmf = [1.0f64; L];
-        let mut done = [self.nodes[0].is_leaf(); L];
+        let mut walk = Walk::start(self, xi);
         for level in 0..self.depth {
             // Children at depth level + 1: leaves among them from the shallowest leaf's depth.
             let leaves = level + 1 >= self.shallowest;
-            let (left, right, l, r) = children(level as usize, &node, leaves);
-            let il = l.importance(x, n);
-            let ir = r.importance(x, n);
-            for k in 0..L {
-                let (go_left, u_next, pmf_next) = step(il[k], ir[k], u[k], pmf[k]);
-                let walks = !done[k];
-                u[k] = if walks { u_next } else { u[k] };
-                pmf[k] = if walks { pmf_next } else { pmf[k] };
-                // Bitwise selects: written with `if`, the compiler selects the arrays'
-                // addresses and gathers from them.
-                let m = (go_left as u32).wrapping_neg();
-                let next = left[k] & m | right[k] & !m;
-                let weight = l.weight[k].to_bits() & m | r.weight[k].to_bits() & !m;
-                node[k] = if walks { next } else { node[k] };
-                done[k] = done[k] || weight >> 31 != 0;
-            }
+            let c = children(level as usize, &walk.node, leaves);
+            walk.level(c, x, n);
         }
-        (node.map(|i| self.light[i as usize]), pmf)
+        walk.end(self)
     }
 
     /// p_j(x, n): the probability that [`Self::sample`] chooses light `j` at (x, n).
@@ -392,18 +419,68 @@ impl LightTree {
         let mut pmf = 1.0f64;
         let mut node = 0;
         for d in 0..depth {
-            let p = self.p_left(&self.nodes[node], x, n);
+            let p = self.node_p_left(&self.nodes[node], x, n);
             let [l, r] = self.nodes[node].children;
-            if bits >> d & 1 == 0 {
-                pmf *= p;
-                node = l as usize;
-            } else {
-                pmf *= 1.0 - p;
-                node = r as usize;
-            }
+            let left = bits >> d & 1 == 0;
+            pmf *= share(left, p);
+            node = if left { l } else { r } as usize;
         }
         debug_assert!(self.nodes[node].is_leaf() && self.light[node] as usize == j);
         pmf
+    }
+}
+
+/// The state of L lanes' walk down the tree.
+struct Walk<const L: usize> {
+    node: [u32; L],
+    u: [f32; L],
+    pmf: [f64; L],
+    done: [bool; L],
+}
+
+impl<const L: usize> Walk<L> {
+    #[inline(always)]
+    fn start(tree: &LightTree, xi: &[f32; L]) -> Self {
+        Self {
+            node: [0; L],
+            u: xi.map(|v| v.clamp(0.0, 1.0)),
+            pmf: [1.0; L],
+            done: [tree.nodes[0].is_leaf(); L],
+        }
+    }
+
+    /// One level down, from the children of the lanes' nodes.
+    #[inline(always)]
+    fn level(&mut self, (left, right, l, r): Children<L>, x: &Lanes3<f32, L>, n: &Lanes3<f32, L>) {
+        let il = l.importance(x, n);
+        let ir = r.importance(x, n);
+        // Per lane: the probability of the side taken is p (left) or 1 − p; 1 (p = 1, left)
+        // for lanes that stay.
+        let mut p = [0.0f32; L];
+        let mut lefts = [0u32; L];
+        for k in 0..L {
+            let (go_left, u_next, p_left) = step(il[k], ir[k], self.u[k]);
+            let walks = !self.done[k];
+            p[k] = if walks { p_left } else { 1.0 };
+            lefts[k] = (go_left || !walks) as u32;
+            self.u[k] = if walks { u_next } else { self.u[k] };
+            // Bitwise selects: written with `if`, the compiler selects the arrays'
+            // addresses and gathers from them.
+            let m = (go_left as u32).wrapping_neg();
+            let next = left[k] & m | right[k] & !m;
+            let weight = l.weight[k].to_bits() & m | r.weight[k].to_bits() & !m;
+            self.node[k] = if walks { next } else { self.node[k] };
+            self.done[k] = self.done[k] || weight >> 31 != 0;
+        }
+        // Apart from the f32 step: f64 lanes are half as many per vector.
+        for k in 0..L {
+            self.pmf[k] *= share(lefts[k] != 0, p[k]);
+        }
+    }
+
+    #[inline(always)]
+    fn end(self, tree: &LightTree) -> ([u32; L], [f64; L]) {
+        (self.node.map(|i| tree.light[i as usize]), self.pmf)
     }
 }
 
@@ -853,6 +930,41 @@ mod tests {
             node.weight = 1.0 + 10.0 * rng.unit();
         }
         node
+    }
+
+    /// The step's choice splits [0, 1) at p: on a lattice of 2¹⁶ values u, the number going
+    /// left is p·2¹⁶ to within one lattice point (the f32 rounding of the test), for importance
+    /// ratios from 1 to 10⁻⁷ each way; every u is rescaled into [0, 1] and takes a side of
+    /// positive share; a side absorbed by the sum has share exactly 0 and is never taken.
+    #[test]
+    fn a_step_splits_at_p() {
+        const N: u32 = 1 << 16;
+        let mut rng = Mix(23);
+        for case in 0..200 {
+            let il = 10f32.powf(7.0 * rng.unit() - 3.5) * (0.5 + rng.unit());
+            let ir = 10f32.powf(7.0 * rng.unit() - 3.5) * (0.5 + rng.unit());
+            let p = p_left(il, ir);
+            let mut left = 0u32;
+            for k in 0..N {
+                let (go_left, u, q) = step(il, ir, k as f32 / N as f32);
+                assert_eq!(q.to_bits(), p.to_bits());
+                assert!((0.0..=1.0).contains(&u), "case {case}: u = {u}");
+                assert!(share(go_left, p) > 0.0, "case {case}: a side of share 0");
+                left += go_left as u32;
+            }
+            let want = p as f64 * N as f64;
+            assert!(
+                (left as f64 - want).abs() <= 1.0 + 1e-3,
+                "case {case} ({il}, {ir}): {left} left, p·N = {want}"
+            );
+        }
+        for (il, ir, goes_left) in [(1.0, 1e-9, true), (1e-9, 1.0, false)] {
+            let p = p_left(il, ir);
+            assert_eq!(p, if goes_left { 1.0 } else { 0.0 });
+            for k in 0..N {
+                assert_eq!(step(il, ir, k as f32 / N as f32).0, goes_left);
+            }
+        }
     }
 
     /// Near lights are preferred: on the floor under one of 64 equal tubes, that tube is the
