@@ -12,10 +12,14 @@ use linlight_sampling::batch::{self, LineProblems, LineSamples};
 use linlight_sampling::Technique;
 use linlight_simd::{get3, splat3, Aligned, PACKET_LANES};
 
-/// The [`LightRow`] of every light of `rs` chosen with its probability (K/p).
-pub(super) fn light_rows(rs: &RenderScene) -> Vec<LightRow> {
+/// The [`LightRow`] of every light of `rs`: with K/p, p its probability under `selection`
+/// `one`; with K under `tree` (the lanes scale it by 1/p), and `every`.
+pub(super) fn light_rows(rs: &RenderScene, selection: LightSelection) -> Vec<LightRow> {
     (rs.lights.iter().enumerate())
-        .map(|(j, light)| light.row(rs.k_over_probability(j)))
+        .map(|(j, light)| match selection {
+            LightSelection::One => light.row(rs.k_over_probability(j)),
+            _ => light.row(light.k()),
+        })
         .collect()
 }
 
@@ -116,17 +120,32 @@ impl<'a> Context<'a> {
             let (chosen, pmf) = rs
                 .tree
                 .sample_lanes(self.isa, &shading.p, &shading.n, &xi_c);
-            let mut light = [0u32; PACKET_LANES];
+            // Each lane's row with K times 1/p rounded to f32 (`Light::k_over_pmf`), all lanes
+            // at once; zero in the lanes without a shading point.
             let mut rows = [[0.0f32; PACKET_LANES]; 9];
-            let mut m = shading.active;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let j = chosen[k] as usize;
-                light[k] = chosen[k];
-                let kp = rs.lights[j].k_over_pmf(pmf[k]);
-                for (r, v) in rs.lights[j].row(kp).into_iter().enumerate() {
-                    rows[r][k] = v;
+            for (k, &j) in chosen.iter().enumerate() {
+                for (rows, &v) in rows.iter_mut().zip(&self.light_rows[j as usize]) {
+                    rows[k] = v;
+                }
+            }
+            let mut scale = [0.0f32; PACKET_LANES];
+            for (s, &p) in scale.iter_mut().zip(&pmf) {
+                *s = (1.0 / p) as f32;
+            }
+            for rows in &mut rows[ROW_K..ROW_K + 3] {
+                for (v, &s) in rows.iter_mut().zip(&scale) {
+                    *v *= s;
+                }
+            }
+            let mut on = [0u32; PACKET_LANES];
+            let mut light = [0u32; PACKET_LANES];
+            for k in 0..PACKET_LANES {
+                on[k] = (shading.active >> k & 1).wrapping_neg();
+                light[k] = chosen[k] & on[k];
+            }
+            for rows in &mut rows {
+                for (v, &m) in rows.iter_mut().zip(&on) {
+                    *v = f32::from_bits(v.to_bits() & m);
                 }
             }
             return LightLanes {

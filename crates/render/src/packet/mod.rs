@@ -182,7 +182,7 @@ pub fn render_isa(
             1
         },
         tubes,
-        light_rows: light_rows(&rs),
+        light_rows: light_rows(&rs, opts.lights),
     };
     let mut image = render_in_tiles(
         &rs,
