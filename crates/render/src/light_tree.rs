@@ -435,7 +435,8 @@ struct Walk<const L: usize> {
     node: [u32; L],
     u: [f32; L],
     pmf: [f64; L],
-    done: [bool; L],
+    /// All ones in the lanes at a leaf.
+    done: [u32; L],
 }
 
 impl<const L: usize> Walk<L> {
@@ -445,7 +446,7 @@ impl<const L: usize> Walk<L> {
             node: [0; L],
             u: xi.map(|v| v.clamp(0.0, 1.0)),
             pmf: [1.0; L],
-            done: [tree.nodes[0].is_leaf(); L],
+            done: [(tree.nodes[0].is_leaf() as u32).wrapping_neg(); L],
         }
     }
 
@@ -460,17 +461,19 @@ impl<const L: usize> Walk<L> {
         let mut lefts = [0u32; L];
         for k in 0..L {
             let (go_left, u_next, p_left) = step(il[k], ir[k], self.u[k]);
-            let walks = !self.done[k];
+            let walks = self.done[k] == 0;
             p[k] = if walks { p_left } else { 1.0 };
             lefts[k] = (go_left || !walks) as u32;
-            self.u[k] = if walks { u_next } else { self.u[k] };
-            // Bitwise selects: written with `if`, the compiler selects the arrays'
-            // addresses and gathers from them.
+            // Bitwise selects: written with `if`, the compiler stores u with a mask, and
+            // selects the arrays' addresses and gathers from them.
+            self.u[k] = f32::from_bits(
+                u_next.to_bits() & !self.done[k] | self.u[k].to_bits() & self.done[k],
+            );
             let m = (go_left as u32).wrapping_neg();
             let next = left[k] & m | right[k] & !m;
             let weight = l.weight[k].to_bits() & m | r.weight[k].to_bits() & !m;
-            self.node[k] = if walks { next } else { self.node[k] };
-            self.done[k] = self.done[k] || weight >> 31 != 0;
+            self.node[k] = next & !self.done[k] | self.node[k] & self.done[k];
+            self.done[k] |= ((weight as i32) >> 31) as u32;
         }
         // Apart from the f32 step: f64 lanes are half as many per vector.
         for k in 0..L {
