@@ -103,15 +103,16 @@ fn importance(node: &Node, leaf: bool, x: [f32; 3], n: [f32; 3]) -> f32 {
     // and θ ≤ θ_b iff t ≥ √(d² − r²): two square roots and one division.
     let s1 = max(dist2 - r2, 0.0).sqrt();
     let s2 = max((dist2 - nd * nd) * r2, 0.0).sqrt();
-    let inv = 1.0 / max(max(dist2, r2), f32::MIN_POSITIVE);
+    let inv = 1.0 / max(max(dist2, r2), 1.0 / LIMIT);
     let reach = if leaf {
         -node.weight * solid_angle_per_radius(&node.segment, x)
     } else {
         node.weight * inv
     };
-    // Clamped (NaN and ∞ to the largest) while the cone's roots are computed: the importance
-    // is positive, and below f32::MAX / 2.
-    let reach = max(min(reach, f32::MAX / 4.0), f32::MIN_POSITIVE / COS_FLOOR);
+    // Clamped (NaN and ∞ to the largest) while the cone's roots are computed. With reach and
+    // 1/d² at most LIMIT, and t·√(d² − r²) + √((d² − t²)·r²) ≤ 2d² outside the sphere, the
+    // importance is positive and at most 2·LIMIT.
+    let reach = max(min(reach, LIMIT), f32::MIN_POSITIVE / COS_FLOOR);
     // cos θ′ = 1 when x is inside the bounding sphere (every direction may reach it) or n
     // inside the cone of the sphere; the rest of the product is taken before the last root.
     if dist2 <= r2 || nd >= s1 {
@@ -120,6 +121,10 @@ fn importance(node: &Node, leaf: bool, x: [f32; 3], n: [f32; 3]) -> f32 {
         max((nd * s1 + s2) * (reach * inv), COS_FLOOR * reach)
     }
 }
+
+/// The largest reach and 1/d² of an importance, 2⁶⁰ (far beyond a scene's: d below a
+/// nanometre, or a power 10¹⁸ times a metre's): products and sums of importances stay finite.
+const LIMIT: f32 = (1u64 << 60) as f32;
 
 /// a if a > b, else b (b where a is NaN): one instruction on x86 (`f32::max` takes three).
 #[inline(always)]
@@ -933,6 +938,34 @@ mod tests {
             node.weight = 1.0 + 10.0 * rng.unit();
         }
         node
+    }
+
+    /// Extreme nodes and shading points (a 10⁻¹³-long segment of huge K next to x, an interior
+    /// node of weight 10³⁰ at x, points 10³⁰ away, a zero normal): every importance is positive
+    /// and at most 2⁶¹, so that two children's p is a probability.
+    #[test]
+    fn importance_is_positive_and_bounded_on_extremes() {
+        let tiny = Segment::new(Vec3::ZERO, Vec3::new(1e-13, 0.0, 0.0));
+        let leaf = super::leaf(tiny.begin, tiny.end, &tiny, Vec3::splat(1e30), 0);
+        let mut heavy = node_over(Vec3::ZERO, Vec3::X, false, &mut Mix(3));
+        heavy.weight = 1e30;
+        let points = [
+            Vec3::new(5e-14, 1e-14, 0.0),
+            Vec3::ZERO,
+            Vec3::new(0.5, 0.0, 0.0),
+            Vec3::splat(1e30),
+            Vec3::splat(-1e30),
+        ];
+        for (node, is_leaf) in [(leaf, true), (heavy, false)] {
+            for x in points {
+                for n in [Vec3::Z, -Vec3::Z, Vec3::ZERO] {
+                    let i = importance(&node, is_leaf, x.into(), n.into());
+                    assert!(i > 0.0 && i <= 2.0 * LIMIT, "{i} at {x}, {n}");
+                    let p = p_left(i, i);
+                    assert!((0.0..=1.0).contains(&p), "p = {p}");
+                }
+            }
+        }
     }
 
     /// The step's choice splits [0, 1) at p: on a lattice of 2¹⁶ values u, the number going

@@ -12,8 +12,9 @@ use linlight_sampling::batch::{self, LineProblems, LineSamples};
 use linlight_sampling::Technique;
 use linlight_simd::{get3, splat3, Aligned, PACKET_LANES};
 
-/// The [`LightRow`] of every light of `rs`: with K/p, p its probability under `selection`
-/// `one`; with K under `tree` (the lanes scale it by 1/p), and `every`.
+/// The [`LightRow`] of every light of `rs` for a lane that chooses it: with K/p under
+/// `selection` `one` (p its probability), with K otherwise (`tree` scales it by each lane's
+/// 1/p).
 pub(super) fn light_rows(rs: &RenderScene, selection: LightSelection) -> Vec<LightRow> {
     (rs.lights.iter().enumerate())
         .map(|(j, light)| match selection {

@@ -219,7 +219,7 @@ struct Context<'a> {
     per_light: usize,
     /// Every light is an exact tube ([`tube`]).
     tubes: bool,
-    /// Per light j, what a lane that chooses it (`--lights one`) samples: [`LightRow`].
+    /// Per light j, what a lane that chooses it samples ([`light_rows`]).
     light_rows: Vec<LightRow>,
 }
 
