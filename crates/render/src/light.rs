@@ -60,11 +60,11 @@ impl Light {
         self.k * inverse_probability
     }
 
-    /// K/p of this light chosen with probability `pmf` (the light tree's, in f64): K times 1/p
-    /// rounded to f32 once, on both render paths.
+    /// K/p of this light chosen with probability `pmf` (the light tree's, in f64): K times
+    /// [`inverse_pmf`], on both render paths.
     #[inline(always)]
     pub fn k_over_pmf(&self, pmf: f64) -> Vec3 {
-        self.k * (1.0 / pmf) as f32
+        self.k_over_probability(inverse_pmf(pmf))
     }
 
     /// The sampler of `technique` for this light seen from `x` with unit normal `n` (the
@@ -88,6 +88,12 @@ impl Light {
         }
         row
     }
+}
+
+/// 1/p of a light tree's pmf, rounded to f32 once: what K is multiplied by.
+#[inline(always)]
+pub fn inverse_pmf(pmf: f64) -> f32 {
+    (1.0 / pmf) as f32
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 
 use super::shading::ShadingLanes;
 use super::{Context, Lanes3};
-use crate::light::{Light, LightRow, ROW_BEGIN, ROW_END, ROW_K};
+use crate::light::{inverse_pmf, Light, LightRow, ROW_BEGIN, ROW_END, ROW_K};
 use crate::light_choice::LightSelection;
 use crate::render_scene::RenderScene;
 use glam::Vec3;
@@ -121,8 +121,8 @@ impl<'a> Context<'a> {
             let (chosen, pmf) = rs
                 .tree
                 .sample_lanes(self.isa, &shading.p, &shading.n, &xi_c);
-            // Each lane's row with K times 1/p rounded to f32 (`Light::k_over_pmf`), all lanes
-            // at once; zero in the lanes without a shading point.
+            // Each lane's row with K/p as `Light::k_over_pmf` takes it, all lanes at once; zero
+            // in the lanes without a shading point.
             let mut rows = [[0.0f32; PACKET_LANES]; 9];
             for (k, &j) in chosen.iter().enumerate() {
                 for (rows, &v) in rows.iter_mut().zip(&self.light_rows[j as usize]) {
@@ -131,7 +131,7 @@ impl<'a> Context<'a> {
             }
             let mut scale = [0.0f32; PACKET_LANES];
             for (s, &p) in scale.iter_mut().zip(&pmf) {
-                *s = (1.0 / p) as f32;
+                *s = inverse_pmf(p);
             }
             for rows in &mut rows[ROW_K..ROW_K + 3] {
                 for (v, &s) in rows.iter_mut().zip(&scale) {
