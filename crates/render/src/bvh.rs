@@ -203,12 +203,21 @@ struct RayBoxes {
 impl RayBoxes {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
-        let inv = ray.d.recip();
-        let sign = |v: f32| v.is_sign_negative() as usize;
-        let s = [sign(inv.x), sign(inv.y), sign(inv.z)];
+        Self::with_inv(ray, ray.d.recip().to_array())
+    }
+
+    /// [`Self::new`] with `inv` = 1 / `ray.d`, computed by the caller.
+    #[inline(always)]
+    fn with_inv(ray: &Ray, inv: [f32; 3]) -> Self {
+        debug_assert!(
+            (0..3).all(|a| inv[a].to_bits() == (1.0 / ray.d[a]).to_bits() || inv[a].is_nan()),
+            "inv {inv:?} is not 1 / {}",
+            ray.d
+        );
+        let s = inv.map(|v| v.is_sign_negative() as usize);
         Self {
             o: ray.o.to_array(),
-            inv: inv.to_array(),
+            inv,
             near: std::array::from_fn(|a| s[a] * 3 + a),
             far: std::array::from_fn(|a| (1 - s[a]) * 3 + a),
         }
@@ -638,6 +647,9 @@ fn active_t_max(lanes: &RayLanes, active: u32) -> [f32; PACKET] {
     })
 }
 
+/// 1 / d per axis and lane of a packet's rays.
+type Inv = [[f32; PACKET]; 3];
+
 /// A pending subtree of a packet walk: parent node, slot, rays, entry distance.
 type PacketEntry = (u32, u32, u32, f32);
 
@@ -860,18 +872,20 @@ impl Bvh {
         hit
     }
 
-    /// The rays of `mask` occluded within the subtree of node `node`, walked ray by ray.
+    /// The rays of `mask` occluded within the subtree of node `node`, walked ray by ray; `inv`
+    /// holds their 1 / d (the packet's, computed once).
     #[inline(never)]
-    fn occluded_rays(&self, lanes: &RayLanes, mask: u32, node: u32) -> u32 {
+    fn occluded_rays(&self, lanes: &RayLanes, inv: &Inv, mask: u32, node: u32) -> u32 {
         let mut occluded = 0u32;
         let mut m = mask;
         while m != 0 {
             let k = m.trailing_zeros() as usize;
             m &= m - 1;
             let mut ray = lanes.get(k);
+            let rb = RayBoxes::with_inv(&ray, std::array::from_fn(|a| inv[a][k]));
             let mut hit = false;
             let start = (node, 0, ray.t_min);
-            self.traverse_from::<STACK>(&mut ray, start, |bvh, i, ray| {
+            self.traverse_from::<STACK>(&mut ray, &rb, start, |bvh, i, ray| {
                 hit = bvh.intersect_prim(i as usize, ray).is_some();
                 hit
             });
@@ -945,7 +959,16 @@ impl Bvh {
         let small = self.nodes.len() <= INTERVAL_NODES;
         let few = if small { 0 } else { FEW_RAYS };
         if active.count_ones() <= few {
-            return self.occluded_rays(lanes, active, 0);
+            let mut inv = [[0.0; PACKET]; 3];
+            let mut m = active;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                for a in 0..3 {
+                    inv[a][k] = 1.0 / lanes.d[a][k];
+                }
+            }
+            return self.occluded_rays(lanes, &inv, active, 0);
         }
         let mut packet = K::packet(lanes, active);
         packet.rays_too = !small;
@@ -985,7 +1008,7 @@ impl Bvh {
             let (child, count) = (node.child[lane as usize], node.count[lane as usize]);
             if count == 0 {
                 if mask.count_ones() <= few {
-                    occluded |= self.occluded_rays(lanes, mask, child);
+                    occluded |= self.occluded_rays(lanes, &packet.inv, mask, child);
                 } else {
                     expand = Some((child, mask));
                 }
@@ -1091,7 +1114,7 @@ impl Bvh {
         let mut packet = K::packet(lanes, active);
         packet.rays_too = !small;
         if active.count_ones() <= few {
-            self.intersect_rays(lanes, active, 0, &mut packet.t_max, out);
+            self.intersect_rays(lanes, &packet.inv, active, 0, &mut packet.t_max, out);
             return;
         }
         let mut stack = stack::<PacketEntry, 64>();
@@ -1149,7 +1172,7 @@ impl Bvh {
             let (child, count) = (node.child[lane], node.count[lane]);
             if count == 0 {
                 if mask.count_ones() <= few {
-                    self.intersect_rays(lanes, mask, child, &mut packet.t_max, out);
+                    self.intersect_rays(lanes, &packet.inv, mask, child, &mut packet.t_max, out);
                 } else {
                     expand = Some((child, mask));
                 }
@@ -1174,11 +1197,13 @@ impl Bvh {
     }
 
     /// The closest hits of the rays of `mask` within the subtree of node `node`, walked ray by
-    /// ray from their current best hits in `out` and intervals up to `t_max` (both updated).
+    /// ray from their current best hits in `out` and intervals up to `t_max` (both updated);
+    /// `inv` holds their 1 / d.
     #[inline(never)]
     fn intersect_rays(
         &self,
         lanes: &RayLanes,
+        inv: &Inv,
         mask: u32,
         node: u32,
         t_max: &mut [f32; PACKET],
@@ -1192,9 +1217,10 @@ impl Bvh {
                 t_max: t_max[k],
                 ..lanes.get(k)
             };
+            let rb = RayBoxes::with_inv(&ray, std::array::from_fn(|a| inv[a][k]));
             let mut best = (out.t[k], out.prim[k], out.b1[k], out.b2[k]);
             let start = (node, 0, ray.t_min);
-            self.traverse_from::<STACK>(&mut ray, start, |bvh, i, ray| {
+            self.traverse_from::<STACK>(&mut ray, &rb, start, |bvh, i, ray| {
                 if let Some((t, b1, b2)) = bvh.intersect_prim(i as usize, ray) {
                     if replaces(t, i, best.0, best.1) {
                         ray.t_max = t.next_up();
@@ -1345,7 +1371,7 @@ impl Bvh {
         visit: impl FnMut(&Self, u32, &mut Ray) -> bool,
     ) {
         let start = (0, 0, ray.t_min);
-        self.traverse_from::<N>(ray, start, visit)
+        self.traverse_from::<N>(ray, &RayBoxes::new(ray), start, visit)
     }
 
     /// [`Self::traverse`] of the subtree `start` (a pending entry: node or leaf range).
@@ -1353,13 +1379,13 @@ impl Bvh {
     fn traverse_from<const N: usize>(
         &self,
         ray: &mut Ray,
+        rb: &RayBoxes,
         start: Entry,
         mut visit: impl FnMut(&Self, u32, &mut Ray) -> bool,
     ) {
         if self.nodes.is_empty() {
             return;
         }
-        let rb = RayBoxes::new(ray);
         let mut stack = stack::<Entry, N>();
         let mut spill: Vec<Entry> = Vec::new();
         let mut sp = 0usize;
