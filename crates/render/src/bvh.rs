@@ -765,6 +765,13 @@ impl Bvh {
         }
     }
 
+    /// Whether the tree has more than `INTERVAL_NODES` (1024) nodes: its packet walks test
+    /// boxes ray by ray and leave the subtrees that few rays enter to one-ray walks, so
+    /// packets whose rays lie close together cost less.
+    pub fn is_large(&self) -> bool {
+        self.nodes.len() > INTERVAL_NODES
+    }
+
     pub fn primitive(&self, i: u32) -> &Primitive {
         &self.prims[self.order[i as usize] as usize]
     }
@@ -964,8 +971,8 @@ impl Bvh {
             while m != 0 {
                 let k = m.trailing_zeros() as usize;
                 m &= m - 1;
-                for a in 0..3 {
-                    inv[a][k] = 1.0 / lanes.d[a][k];
+                for (row, d) in inv.iter_mut().zip(&lanes.d) {
+                    row[k] = 1.0 / d[k];
                 }
             }
             return self.occluded_rays(lanes, &inv, active, 0);

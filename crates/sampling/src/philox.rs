@@ -156,6 +156,25 @@ impl CounterRng {
         out.map(|w| unsafe { std::mem::transmute::<[u64; 8], [u32; 16]>(w) })
     }
 
+    /// Words 4·`block` … 4·`block` + 3 of the camera-sample streams of pixel `pixel` for
+    /// 2·P samples at once, two per 64-bit word: the low and the high half of `sample[i]` are
+    /// two sample indices, and those halves of `out[j][i]` their word j (as
+    /// [`Self::camera_sample_block`]; P/8 independent chains fill a caller's 512-bit vectors).
+    #[inline(always)]
+    pub fn camera_sample_pairs<const P: usize>(
+        seed: u64,
+        pass: u32,
+        pixel: u32,
+        sample: [u64; P],
+        block: u32,
+    ) -> [[u64; P]; 4] {
+        let splat = |c: u32| [c as u64 * 0x1_0000_0001; P];
+        philox4x32_10_pairs(
+            [splat(block), sample, splat(pixel), splat(pass)],
+            key_of(seed),
+        )
+    }
+
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         if self.next >= 4 {
@@ -272,6 +291,23 @@ mod tests {
                 }
                 for w in &words {
                     assert_eq!(w[i], rng.next_u32(), "block {block}, lane {i}");
+                }
+            }
+            // Pairs: both halves of every word, 2·32 samples of one pixel.
+            let pairs: [u64; 32] =
+                std::array::from_fn(|i| (3 * i as u64) | (3 * i as u64 + 1) << 32);
+            let words = CounterRng::camera_sample_pairs(0xDEAD_BEEF_0123, 4, 1234, pairs, block);
+            for (i, &pair) in pairs.iter().enumerate() {
+                for h in 0..2 {
+                    let sample = (pair >> (32 * h)) as u32;
+                    let mut rng = CounterRng::camera_sample(0xDEAD_BEEF_0123, 4, 1234, sample);
+                    for _ in 0..4 * block {
+                        rng.next_u32();
+                    }
+                    for w in &words {
+                        let word = (w[i] >> (32 * h)) as u32;
+                        assert_eq!(word, rng.next_u32(), "block {block}, sample {sample}");
+                    }
                 }
             }
         }

@@ -31,16 +31,17 @@
 //! scalar code.
 //!
 //! Same estimator, same numbers, same image: lane k is camera sample (pixel, sample) of the
-//! tile in the scalar path's order, draws the numbers of its own Philox stream in the scalar
-//! order (film position, then one per light — two on non-Lambertian surfaces under LTC and
-//! MIS — or, choosing one light per light sample, the choice ξ_c and the chosen light's one or
-//! two; then the visible lines'), and every step is the scalar step's arithmetic (the batch
-//! kernels and packet walks equal their scalar forms bit for bit, ties of the closest hit
-//! included; a light's samples are summed per lane as the scalar estimator sums them), so an
-//! image equals the one of the scalar reference path ([`crate::integrator::render_scalar`] with the
-//! same method and light selection) bit for bit — tests below check it on every committed
-//! scene, method and light selection. Pixels accumulate their samples in the same order
-//! (Welford in f64).
+//! tile in the scalar path's order (or, on large scenes, a pixel's samples ranked by film
+//! position, `packet::order`), draws the numbers of its own Philox stream in the scalar order
+//! (film position, then one per light — two on non-Lambertian surfaces under LTC and MIS — or,
+//! choosing one light per light sample, the choice ξ_c and the chosen light's one or two; then
+//! the visible lines'), and every step is the scalar step's arithmetic (the batch kernels and
+//! packet walks equal their scalar forms bit for bit, ties of the closest hit included; a
+//! light's samples are summed per lane as the scalar estimator sums them), so an image equals
+//! the one of the scalar reference path ([`crate::integrator::render_scalar`] with the same
+//! method and light selection) bit for bit — tests below check it on every committed scene,
+//! method and light selection. Pixels accumulate their samples in the same order, sample by
+//! sample (Welford in f64), ranked or not.
 //!
 //! Two packets of a tile pass are in flight: while packet i is shaded, the numbers and camera
 //! rays of packet i + 1 (`Primary`) are computed, so that their serial chains (Philox's
@@ -70,6 +71,7 @@ use linlight_simd::{dispatch, get3, set3, Aligned, Isa, Kernel, PACKET_LANES};
 
 use contributions::{glossy_contributions, lambert_contributions};
 use lights::light_rows;
+use order::SampleOrder;
 use primary::{primary_kernel, Packet, Primary};
 use shading::{shading_points, ShadingLanes};
 use shadow::shadow_rays;
@@ -183,6 +185,7 @@ pub fn render_isa(
         },
         tubes,
         light_rows: light_rows(&rs, opts.lights),
+        reorder: order::pays(&rs.bvh, u64::from(w) * u64::from(h)),
     };
     let mut image = render_in_tiles(
         &rs,
@@ -221,14 +224,17 @@ struct Context<'a> {
     tubes: bool,
     /// Per light j, what a lane that chooses it samples ([`light_rows`]).
     light_rows: Vec<LightRow>,
+    /// Tile passes take a pixel's samples in film-position order ([`order`]).
+    reorder: bool,
 }
 
 /// A 3-vector in each of the [`PACKET_LANES`] lanes of a packet.
 type Lanes3 = linlight_simd::Lanes3<f32, PACKET_LANES>;
 
 impl<'a> Context<'a> {
-    /// One pass over the pixels of a tile (full-film coordinates): their camera samples in the
-    /// scalar order (pixel by pixel, sample by sample), `PACKET_LANES` at a time, pushed into `acc`.
+    /// One pass over the pixels of a tile (full-film coordinates): their camera samples pixel
+    /// by pixel, a pixel's samples in index order or ranked by film position ([`order`]),
+    /// `PACKET_LANES` at a time, pushed into `acc` in the scalar order (sample by sample).
     fn tile_pass(
         &self,
         pixels: &[(u32, u32)],
@@ -251,7 +257,12 @@ impl<'a> Context<'a> {
         );
         let [mut packet, mut next] = packets.each_mut();
         let [mut primary, mut next_primary] = primaries.each_mut();
-        let fill = |packet: &mut Packet, start: usize| {
+        let mut order = if self.reorder {
+            SampleOrder::new(spp)
+        } else {
+            None
+        };
+        let fill = |packet: &mut Packet, start: usize, order: &mut Option<SampleOrder>| {
             let len = PACKET_LANES.min(total - start);
             dispatch(
                 self.isa,
@@ -260,10 +271,11 @@ impl<'a> Context<'a> {
                     pixels,
                     spp_width: (spp, self.full_width),
                     start_len: (start, len),
+                    order: order.as_mut().map(|o| (o, self.opts.seed, pass)),
                 },
             );
         };
-        fill(packet, 0);
+        fill(packet, 0, &mut order);
         dispatch(
             self.isa,
             PrimaryRays {
@@ -278,7 +290,7 @@ impl<'a> Context<'a> {
             let next_start = start + packet.len;
             let more = next_start < total;
             if more {
-                fill(next, next_start);
+                fill(next, next_start, &mut order);
             }
             let current = (&*packet, &*primary);
             let mut radiance = dispatch(
@@ -300,6 +312,7 @@ impl<'a> Context<'a> {
                     acc,
                     packet,
                     total: &radiance.total,
+                    order: order.as_mut().map(|o| (o, start)),
                 },
             );
             start = next_start;
@@ -397,29 +410,41 @@ struct Accumulate<'a> {
     acc: &'a mut [Welford],
     packet: &'a Packet,
     total: &'a Lanes3,
+    /// The tile pass's sample order and the packet's first rank, if it reorders.
+    order: Option<(&'a mut SampleOrder, usize)>,
 }
 
 impl Kernel for Accumulate<'_> {
     type Output = ();
     #[inline(always)]
     fn run(self) {
-        accumulate_kernel(self.acc, self.packet, self.total)
+        match self.order {
+            Some((order, start)) => order.accumulate(self.acc, self.packet, self.total, start),
+            None => accumulate_kernel(self.acc, self.packet, self.total),
+        }
     }
 }
 
-/// [`fill_kernel`]: the camera samples of a packet.
+/// [`fill_kernel`]: the camera samples of a packet, in the tile pass's sample order.
 struct FillPacket<'a> {
     packet: &'a mut Packet,
     pixels: &'a [(u32, u32)],
     spp_width: (usize, u32),
     start_len: (usize, usize),
+    /// The tile pass's sample order, seed and pass, if it reorders.
+    order: Option<(&'a mut SampleOrder, u64, u32)>,
 }
 
 impl Kernel for FillPacket<'_> {
     type Output = ();
     #[inline(always)]
     fn run(self) {
-        fill_kernel(self.packet, self.pixels, self.spp_width, self.start_len)
+        fill_kernel(self.packet, self.pixels, self.spp_width, self.start_len);
+        if let Some((order, seed, pass)) = self.order {
+            let (pixels, width) = (self.pixels, self.spp_width.1);
+            let index = |p: usize| pixels[p].1.wrapping_mul(width).wrapping_add(pixels[p].0);
+            order.apply(self.packet, index, seed, pass);
+        }
     }
 }
 
@@ -606,6 +631,7 @@ fn packet_kernel(
 
 mod contributions;
 mod lights;
+mod order;
 mod primary;
 mod scalar;
 mod shading;
