@@ -19,8 +19,8 @@ use linlight_simd::PACKET_LANES;
 /// Fewest samples per pixel and pass that are reordered: at least two packets per pixel.
 const MIN_SPP: usize = 2 * PACKET_LANES;
 
-/// Most samples per pixel and pass that are reordered: the order's buffers take 44 bytes per
-/// sample (3 MiB per worker thread at 2¹⁶).
+/// Most samples per pixel and pass that are reordered: the order's buffers take about 48 bytes
+/// per sample (3 MiB per worker thread at 2¹⁶).
 const MAX_SPP: usize = 1 << 16;
 
 /// Fewest primitives per rendered pixel for which ranking pays ([`pays`]).
@@ -224,8 +224,8 @@ mod tests {
             let b = CounterRng::camera_sample_block(7, 2, &[1234; PACKET_LANES], &sample, 0);
             (unit_f32(b[0][0]), unit_f32(b[1][0]))
         };
-        // Mean bounding-box area of a packet's positions: 1/6 of the pixel for sixteen
-        // uniform points, here a few cells of 1/256.
+        // Mean bounding-box area of a packet's positions: about (15/17)² ≈ 0.78 of the pixel
+        // for sixteen uniform points (index order), here a few cells of 1/256.
         let packets = samples.chunks(PACKET_LANES);
         let area: f32 = packets
             .map(|p| {
