@@ -485,14 +485,19 @@ fn accumulate_kernel(acc: &mut [Welford], packet: &Packet, total: &Lanes3) {
         };
         let pixel = packet.pixel[k];
         let mut w = acc[pixel];
-        #[allow(clippy::needless_range_loop)] // lane j of the three channel arrays
         for j in k..end {
-            // One 4-wide push (B again in the unused lane): the bits of `push` of the three.
-            let b = total[2][j];
-            w.push_quad([total[0][j], total[1][j], b, b].map(|c| c as f64));
+            w.push_quad(radiance_quad(total, j).map(|c| c as f64));
         }
         acc[pixel] = w;
     }
+}
+
+/// Lane k's radiance as a quad for [`Welford::push_quad`], B again in the unused lane: one
+/// 4-wide push has the bits of `push` of the three channels.
+#[inline(always)]
+fn radiance_quad(total: &Lanes3, k: usize) -> [f32; 4] {
+    let b = total[2][k];
+    [total[0][k], total[1][k], b, b]
 }
 
 /// Radiance of the camera samples of `packet` (see the module documentation) from its

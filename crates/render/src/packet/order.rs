@@ -10,7 +10,7 @@
 //! order, as the scalar path pushes it — the same bits.
 
 use super::primary::Packet;
-use super::Lanes3;
+use super::{radiance_quad, Lanes3};
 use crate::bvh::Bvh;
 use crate::film::Welford;
 use linlight_sampling::philox::{unit_f32, CounterRng};
@@ -47,7 +47,7 @@ pub(super) struct SampleOrder {
     ranked: [usize; 2],
     /// Slot s, rank r: the sample index at `s · spp + r`.
     samples: Vec<u32>,
-    /// Slot s, sample i: its radiance (R, G, B, B) at `s · spp + i`.
+    /// Slot s, sample i: its radiance quad (`radiance_quad`) at `s · spp + i`.
     held: Vec<[f32; 4]>,
     /// Scratch of `rank`: each sample's cell, and the cells' counts.
     cell: Vec<u32>,
@@ -184,18 +184,15 @@ impl SampleOrder {
         start: usize,
     ) {
         let spp = self.spp;
-        #[allow(clippy::needless_range_loop)] // lane k of the packet's and the channels' arrays
         for k in 0..packet.len {
             let at = (packet.pixel[k] & 1) * spp + packet.sample[k] as usize;
-            let b = total[2][k];
-            self.held[at] = [total[0][k], total[1][k], b, b];
+            self.held[at] = radiance_quad(total, k);
         }
         let done = start / spp..(start + packet.len) / spp;
         for (pixel, acc) in done.clone().zip(&mut acc[done]) {
             let slot = pixel & 1;
             let mut w = *acc;
             for x in &self.held[slot * spp..(slot + 1) * spp] {
-                // As `accumulate_kernel`: the bits of the scalar path's `push`.
                 w.push_quad(x.map(|c| c as f64));
             }
             *acc = w;
