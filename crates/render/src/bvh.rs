@@ -1788,7 +1788,7 @@ fn best_split(items: &[Box3], bounds: &Box3, cbounds: &Box3) -> Option<(usize, u
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use linlight_sampling::rng::Pcg32;
 
@@ -2015,7 +2015,8 @@ mod tests {
         assert!(hits > total / 5 && hits < total, "{hits}/{total}");
     }
 
-    fn occlusion_soup(count: u32, size: f32) -> Bvh {
+    /// `count` random triangles of edge up to `size` in the unit cube and a sphere beside it.
+    pub(crate) fn occlusion_soup(count: u32, size: f32) -> Bvh {
         let mut rng = Pcg32::new(3, 9);
         let mut r3 = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
         let mut prims = triangle_soup(&mut r3, count, size);

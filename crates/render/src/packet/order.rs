@@ -239,4 +239,17 @@ mod tests {
         assert!(SampleOrder::new(MIN_SPP - 1).is_none());
         assert!(SampleOrder::new(MAX_SPP + 1).is_none());
     }
+
+    /// Ranking pays on a large tree with at least two primitives per pixel, not on a small
+    /// tree or a large one spread over more pixels.
+    #[test]
+    fn ranks_large_trees_of_many_primitives_per_pixel() {
+        use crate::bvh::tests::occlusion_soup;
+        let (large, small) = (occlusion_soup(3000, 0.05), occlusion_soup(300, 0.05));
+        assert!(large.is_large() && !small.is_large());
+        let per_pixel = large.len() as u64 / PRIMITIVES_PER_PIXEL;
+        assert!(pays(&large, per_pixel));
+        assert!(!pays(&large, per_pixel + 1));
+        assert!(!pays(&small, 1));
+    }
 }

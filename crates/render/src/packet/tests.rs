@@ -22,6 +22,26 @@ fn bits(img: &Image) -> Vec<u32> {
         .collect()
 }
 
+/// One light sample per camera sample, white noise, lights as lines.
+fn line_options(
+    spp: u32,
+    passes: u32,
+    seed: u64,
+    method: Method,
+    lights: LightSelection,
+) -> RenderOptions {
+    RenderOptions {
+        spp,
+        passes,
+        seed,
+        method,
+        light_samples: 1,
+        lights,
+        noise: Default::default(),
+        cylinders: crate::options::Cylinders::Line,
+    }
+}
+
 /// The render of every kernel this CPU runs (the baseline always: CPUs without AVX) equals
 /// the scalar path's bit for bit, header included (`what` names the case); the scalar image.
 fn assert_kernels_equal_scalar(scene: &Scene, opts: &RenderOptions, what: &str) -> Image {
@@ -104,16 +124,7 @@ fn images_equal_the_scalar_path() {
             .flat_map(|&m| LightSelection::ALL.map(|l| (m, l)))
         {
             for (spp, passes) in [(5, 1), (16, 2)] {
-                let opts = RenderOptions {
-                    spp,
-                    passes,
-                    seed: 3,
-                    method: technique,
-                    light_samples: 1,
-                    lights,
-                    noise: Default::default(),
-                    cylinders: crate::options::Cylinders::Line,
-                };
+                let opts = line_options(spp, passes, 3, technique, lights);
                 let what = format!("{name}, {technique}, {lights}, {spp} spp × {passes}");
                 assert_kernels_equal_scalar(&scene, &opts, &what);
                 if lights == LightSelection::One && scene.lights.len() == 2 {
@@ -134,8 +145,8 @@ fn images_equal_the_scalar_path() {
 }
 
 /// A pixel's samples taken in film-position order (`order`, forced on these small scenes), so
-/// that packets hold other samples than in index order: at 40 spp (one, two or three pixels
-/// per packet), every committed scene and light selection, the projected solid angle (batch
+/// that packets hold other samples than in index order: at 40 spp (packets of one pixel or of
+/// two), every committed scene and light selection, the projected solid angle (batch
 /// lanes) and MIS (lanes sampled with the scalar code), two passes and the visible tube; the
 /// image equals the scalar path's bit for bit.
 #[test]
@@ -161,16 +172,7 @@ fn reordered_samples_equal_the_scalar_path() {
             .iter()
             .flat_map(|&m| LightSelection::ALL.map(|l| (m, l)))
         {
-            let opts = RenderOptions {
-                spp: 40,
-                passes: 2,
-                seed: 5,
-                method,
-                light_samples: 1,
-                lights,
-                noise: Default::default(),
-                cylinders: crate::options::Cylinders::Line,
-            };
+            let opts = line_options(40, 2, 5, method, lights);
             let what = format!("{name}, {method}, {lights}, 40 spp × 2");
             assert_kernels_equal_scalar(&scene, &opts, &what);
         }
