@@ -147,32 +147,24 @@ impl CounterRng {
         // does not matter (`philox4x32_10_pairs` treats both halves alike).
         // SAFETY: 64 bytes reinterpreted; every bit pattern is a valid [u64; 8].
         let pairs = |x: &[u32; 16]| -> [u64; 8] { unsafe { std::mem::transmute(*x) } };
-        let splat = |c: u32| [c as u64 * 0x1_0000_0001; 8];
-        let out = philox4x32_10_pairs(
-            [splat(block), pairs(sample), pairs(pixel), splat(pass)],
-            key_of(seed),
-        );
+        let out = Self::camera_sample_pairs(seed, pass, pairs(pixel), pairs(sample), block);
         // SAFETY: as above, back (every bit pattern is a valid [u32; 16]).
         out.map(|w| unsafe { std::mem::transmute::<[u64; 8], [u32; 16]>(w) })
     }
 
-    /// Words 4·`block` … 4·`block` + 3 of the camera-sample streams of pixel `pixel` for
-    /// 2·P samples at once, two per 64-bit word: the low and the high half of `sample[i]` are
-    /// two sample indices, and those halves of `out[j][i]` their word j (as
-    /// [`Self::camera_sample_block`]; P/8 independent chains fill a caller's 512-bit vectors).
+    /// [`Self::camera_sample_block`] for 2·P lanes, two per 64-bit word: the low and the high
+    /// half of `pixel[i]` and `sample[i]` are two lanes' pixel and sample indices, and those
+    /// halves of `out[j][i]` their word j (P/8 independent chains fill 512-bit vectors).
     #[inline(always)]
     pub fn camera_sample_pairs<const P: usize>(
         seed: u64,
         pass: u32,
-        pixel: u32,
+        pixel: [u64; P],
         sample: [u64; P],
         block: u32,
     ) -> [[u64; P]; 4] {
         let splat = |c: u32| [c as u64 * 0x1_0000_0001; P];
-        philox4x32_10_pairs(
-            [splat(block), sample, splat(pixel), splat(pass)],
-            key_of(seed),
-        )
+        philox4x32_10_pairs([splat(block), sample, pixel, splat(pass)], key_of(seed))
     }
 
     #[inline]
@@ -296,7 +288,8 @@ mod tests {
             // Pairs: both halves of every word, 2·32 samples of one pixel.
             let pairs: [u64; 32] =
                 std::array::from_fn(|i| (3 * i as u64) | (3 * i as u64 + 1) << 32);
-            let words = CounterRng::camera_sample_pairs(0xDEAD_BEEF_0123, 4, 1234, pairs, block);
+            let pixel = [1234 * 0x1_0000_0001; 32];
+            let words = CounterRng::camera_sample_pairs(0xDEAD_BEEF_0123, 4, pixel, pairs, block);
             for (i, &pair) in pairs.iter().enumerate() {
                 for h in 0..2 {
                     let sample = (pair >> (32 * h)) as u32;

@@ -119,7 +119,8 @@ impl SampleOrder {
                 *pair = s(2 * i) | s(2 * i + 1) << 32;
             }
             // Block 0, words 0 and 1: the film position (as `primary_kernel` draws it).
-            let block = CounterRng::camera_sample_pairs(seed, pass, index, pairs, 0);
+            let pixel = [u64::from(index) * 0x1_0000_0001; CHUNK / 2];
+            let block = CounterRng::camera_sample_pairs(seed, pass, pixel, pairs, 0);
             let mut cells = [0u32; CHUNK];
             for (i, pair) in cells.chunks_exact_mut(2).enumerate() {
                 for (h, cell) in pair.iter_mut().enumerate() {
