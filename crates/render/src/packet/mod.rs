@@ -441,9 +441,7 @@ impl Kernel for FillPacket<'_> {
     fn run(self) {
         fill_kernel(self.packet, self.pixels, self.spp_width, self.start_len);
         if let Some((order, seed, pass)) = self.order {
-            let (pixels, width) = (self.pixels, self.spp_width.1);
-            let index = |p: usize| pixels[p].1.wrapping_mul(width).wrapping_add(pixels[p].0);
-            order.apply(self.packet, index, seed, pass);
+            order.apply(self.packet, seed, pass);
         }
     }
 }

@@ -152,20 +152,13 @@ impl SampleOrder {
     }
 
     /// Turn the ranks that [`Packet::fill`] put into `packet.sample` into sample indices.
-    /// `index(pixel)`: a tile pixel's full-film index.
     #[inline(always)]
-    pub(super) fn apply(
-        &mut self,
-        packet: &mut Packet,
-        index: impl Fn(usize) -> u32,
-        seed: u64,
-        pass: u32,
-    ) {
+    pub(super) fn apply(&mut self, packet: &mut Packet, seed: u64, pass: u32) {
         for k in 0..PACKET_LANES {
             let pixel = packet.pixel[k];
             let slot = pixel & 1;
             if self.ranked[slot] != pixel {
-                self.rank(pixel, index(pixel), seed, pass);
+                self.rank(pixel, packet.index[k], seed, pass);
             }
             let rank = packet.sample[k] as usize;
             debug_assert!(rank < self.spp, "rank {rank} of {} samples", self.spp);
