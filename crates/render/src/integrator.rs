@@ -251,10 +251,11 @@ fn tube_radiance<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
         _ => None,
     };
     // The scene's full BVH: the shadow culling assumes targets on the light's segment.
+    let bvh: &crate::bvh::Bvh = &scene.bvh;
     let visible = |j: usize| {
         move |w: Vec3, dist: f32| {
             shadow_ray_to(sp, sp.p + dist * w)
-                .is_some_and(|shadow| !scene.bvh.occluded(&shadow) && !tubes.occluded(&shadow, j))
+                .is_some_and(|shadow| !bvh.occluded(&shadow) && !tubes.occluded(&shadow, j))
         }
     };
     let light_samples = opts.light_samples;
@@ -349,9 +350,25 @@ pub fn render_scalar<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
     check_options(opts)?;
+    let window = window(scene)?;
+    let rs = RenderScene::with_cylinders(scene, opts.cylinders)?;
+    render_scalar_window(scene, &rs, window, opts, hooks, progress)
+}
+
+/// [`render_scalar`] of the pixels `window` = (x0, y0, w, h) of `scene`'s film (a valid window)
+/// with `rs`, its render scene with `opts.cylinders` ([`RenderScene::sharing`]).
+pub(crate) fn render_scalar_window<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
+    scene: &Scene,
+    rs: &RenderScene,
+    window: (u32, u32, u32, u32),
+    opts: &RenderOptions,
+    hooks: &Hooks<D, S, B>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    check_options(opts)?;
     let mut image = with_resolved!(hooks, opts.method, |r| render_tiles(
-        scene, opts, r, progress
-    ))?;
+        scene, rs, window, opts, r, progress
+    ));
     let mut entries = Vec::new();
     if let (Some(t), Method::Technique(_)) = (&hooks.technique, opts.method) {
         entries.push(("technique", t.name()));
@@ -361,20 +378,20 @@ pub fn render_scalar<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     Ok(image)
 }
 
-/// The image of [`render_scalar`] with the pieces resolved; its header holds only the pixels'
-/// entries ([`pixel_entries`]).
+/// The image of [`render_scalar_window`] with the pieces resolved; its header holds only the
+/// pixels' entries ([`pixel_entries`]).
 fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &Scene,
+    rs: &RenderScene,
+    (x0, y0, w, h): (u32, u32, u32, u32),
     opts: &RenderOptions,
     pieces: Resolved<T, S, B>,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<Image, RenderError> {
-    let (x0, y0, w, h) = window(scene)?;
-    let rs = RenderScene::with_cylinders(scene, opts.cylinders)?;
+) -> Image {
     let full_width = scene.sensor.film.width;
     let noise = NoiseSource::new(opts.noise, opts.seed, opts.spp);
     let mut image = render_in_tiles(
-        &rs,
+        rs,
         opts,
         (x0, y0, w, h),
         progress,
@@ -383,15 +400,15 @@ fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
                 // < 2^32: checked by `window`.
                 let index = fy.wrapping_mul(full_width).wrapping_add(fx);
                 single[i] =
-                    render_pixel_pass(&rs, opts, &noise, pieces, fx, fy, index, pass, &seen[i]);
+                    render_pixel_pass(rs, opts, &noise, pieces, fx, fy, index, pass, &seen[i]);
             }
         },
     );
     image.meta = Metadata {
-        extra: pixel_entries(scene, &rs, (x0, y0, w, h)),
+        extra: pixel_entries(scene, rs, (x0, y0, w, h)),
         ..Default::default()
     };
-    Ok(image)
+    image
 }
 
 /// The camera samples of one pixel (full-film coordinates) in one pass; `seen`: the lines the

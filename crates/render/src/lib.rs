@@ -41,5 +41,5 @@ pub use light_choice::LightSelection;
 pub use linlight_sampling::mis::Heuristic;
 pub use method::Method;
 pub use options::{Cylinders, RenderError, RenderOptions, TubeSampling};
-pub use render::render;
+pub use render::{render, Prepared};
 pub use render_scene::RenderScene;

@@ -2,7 +2,7 @@
 
 use crate::light_choice::LightSelection;
 use crate::method::Method;
-use crate::scene::Scene;
+use crate::scene::{CropWindow, Film, Scene};
 use linlight_sampling::cylinder::CylinderTechnique;
 use linlight_sampling::noise::Noise;
 
@@ -140,8 +140,17 @@ impl std::fmt::Display for RenderError {
 impl std::error::Error for RenderError {}
 
 /// Pixel window actually rendered: the crop, or the whole film.
-pub(crate) fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError> {
+pub(crate) fn window(scene: &Scene) -> Result<Window, RenderError> {
     let film = &scene.sensor.film;
+    window_of(film, film.crop)
+}
+
+/// Pixels of a film rendered: x0, y0 (full-film), width, height.
+pub(crate) type Window = (u32, u32, u32, u32);
+
+/// The pixels of `film` that `crop` (None: the whole film) renders, or why it cannot be
+/// rendered.
+pub(crate) fn window_of(film: &Film, crop: Option<CropWindow>) -> Result<Window, RenderError> {
     if film.width == 0 || film.height == 0 {
         return Err(RenderError::Scene(format!(
             "film has zero size ({}x{})",
@@ -155,7 +164,7 @@ pub(crate) fn window(scene: &Scene) -> Result<(u32, u32, u32, u32), RenderError>
             film.width, film.height
         )));
     }
-    match film.crop {
+    match crop {
         None => Ok((0, 0, film.width, film.height)),
         Some(c) => {
             let fits = c.width > 0

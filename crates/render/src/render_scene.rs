@@ -15,18 +15,20 @@ use crate::shapes::Primitive;
 use crate::tube::Tubes;
 use crate::visible_line::VisibleLines;
 use glam::Vec3;
+use std::sync::Arc;
 
 /// The numbers a camera sample draws first: its film position (x, y in the pixel).
 pub const FILM_POSITION_NUMBERS: usize = 2;
 
-/// Everything the integrator needs, prepared from a [`crate::scene::Scene`].
+/// Everything the integrator needs, prepared from a [`crate::scene::Scene`]. The acceleration
+/// structures are shared by its clones and by [`RenderScene::sharing`]'s.
 #[derive(Clone, Debug)]
 pub struct RenderScene {
     pub camera: Camera,
-    pub bvh: Bvh,
+    pub bvh: Arc<Bvh>,
     /// The shadow BVH of each light ([`crate::shadow_culling`]): shadow rays toward light j
     /// walk `shadows` with `bvh` as the fallback; same answers as `bvh`.
-    pub shadows: ShadowCulling,
+    pub shadows: Arc<ShadowCulling>,
     /// Per `Scene::shapes` entry: its BSDF and flip_normals.
     pub surfaces: Vec<(Bsdf, bool)>,
     /// Per `Scene::shapes` entry: f = ρ/π when its BSDF is Lambertian (`Bsdf::lambertian`), the
@@ -187,16 +189,47 @@ impl RenderScene {
 
     /// [`RenderScene::new`] with the lights' cylinders rendered as `cylinders` says.
     pub fn with_cylinders(scene: &Scene, cylinders: Cylinders) -> Result<Self, RenderError> {
-        let tubes = Tubes::new(scene, cylinders);
         window(scene)?;
-        let camera = Camera::new(&scene.sensor).ok_or_else(|| {
-            RenderError::Scene(
-                "unusable perspective sensor (field of view outside (0°, 180°) or singular \
-                 to_world)"
-                    .into(),
-            )
-        })?;
+        let camera = camera(scene)?;
         let prims = primitives(scene);
+        let lights: Vec<Light> = scene.lights.iter().map(Light::of).collect();
+        let shadows = Arc::new(ShadowCulling::new(&prims, &lights));
+        let bvh = Arc::new(Bvh::build(prims));
+        Ok(Self::around(scene, cylinders, camera, lights, bvh, shadows))
+    }
+
+    /// The render scene of `scene`, the scene this one was built from or that scene with
+    /// another crop window, with `cylinders`: this one's acceleration structures, shared, and
+    /// the rest (the lights, tubes and visible lines, and a count of dropped samples of its own)
+    /// anew. Equal to [`RenderScene::with_cylinders`]`(scene, cylinders)`.
+    pub fn sharing(&self, scene: &Scene, cylinders: Cylinders) -> Result<Self, RenderError> {
+        debug_assert!(
+            scene.shapes.len() == self.surfaces.len() && scene.lights.len() == self.lights.len(),
+            "a render scene shared with another scene"
+        );
+        window(scene)?;
+        let lights = scene.lights.iter().map(Light::of).collect();
+        let (bvh, shadows) = (Arc::clone(&self.bvh), Arc::clone(&self.shadows));
+        Ok(Self::around(
+            scene,
+            cylinders,
+            camera(scene)?,
+            lights,
+            bvh,
+            shadows,
+        ))
+    }
+
+    /// The render scene of `scene` with `cylinders` around its acceleration structures.
+    fn around(
+        scene: &Scene,
+        cylinders: Cylinders,
+        camera: Camera,
+        lights: Vec<Light>,
+        bvh: Arc<Bvh>,
+        shadows: Arc<ShadowCulling>,
+    ) -> Self {
+        let tubes = Tubes::new(scene, cylinders);
         // The integrator flips the shading frame toward the viewer only for a `twosided` at the
         // top (the loader allows it nowhere else); one nested in a blend would be shaded as
         // one-sided from below.
@@ -204,7 +237,6 @@ impl RenderScene {
             scene.shapes.iter().all(|s| !nested_two_sided(&s.bsdf)),
             "twosided is supported only as the outermost BSDF"
         );
-        let lights: Vec<Light> = scene.lights.iter().map(Light::of).collect();
         let visible = if scene.integrator.hide_emitters {
             VisibleLines::default()
         } else {
@@ -216,14 +248,14 @@ impl RenderScene {
             VisibleLines::new(&camera, &lines)
         };
         let weights: Vec<f32> = scene.lights.iter().map(|l| l.sampling_weight).collect();
-        Ok(Self {
+        Self {
             tree: LightTree::new(&lights),
             tubes,
             visible,
             dropped: Default::default(),
             camera,
-            shadows: ShadowCulling::new(&prims, &lights),
-            bvh: Bvh::build(prims),
+            shadows,
+            bvh,
             surfaces: (scene.shapes.iter())
                 .map(|s| (s.bsdf.clone(), s.flip_normals))
                 .collect(),
@@ -234,8 +266,19 @@ impl RenderScene {
                 .collect(),
             lights,
             choice: LightChoice::new(&weights),
-        })
+        }
     }
+}
+
+/// The camera of a scene's sensor.
+fn camera(scene: &Scene) -> Result<Camera, RenderError> {
+    Camera::new(&scene.sensor).ok_or_else(|| {
+        RenderError::Scene(
+            "unusable perspective sensor (field of view outside (0°, 180°) or singular \
+             to_world)"
+                .into(),
+        )
+    })
 }
 
 /// The primitives of a scene's shapes, in the shapes' order: a mesh's triangles (those with

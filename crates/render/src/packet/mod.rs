@@ -143,6 +143,13 @@ pub fn render_isa(
     isa: Isa,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
+    check(scene, opts)?;
+    let rs = RenderScene::with_cylinders(scene, opts.cylinders)?;
+    render_window(scene, &rs, window(scene)?, opts, isa, progress)
+}
+
+/// The options and scene errors of [`render_isa`].
+fn check(scene: &Scene, opts: &RenderOptions) -> Result<(), RenderError> {
     check_options(opts)?;
     if !renders(opts) {
         return Err(RenderError::Options(format!(
@@ -158,13 +165,25 @@ pub fn render_isa(
             "the packet renderer draws exact tubes only when every light is one".into(),
         ));
     }
-    let (x0, y0, w, h) = window(scene)?;
-    let rs = RenderScene::with_cylinders(scene, opts.cylinders)?;
+    Ok(())
+}
+
+/// [`render_isa`] of the pixels `(x0, y0, w, h)` of `scene`'s film (a valid window) with `rs`,
+/// its render scene with `opts.cylinders` ([`RenderScene::sharing`]).
+pub(crate) fn render_window(
+    scene: &Scene,
+    rs: &RenderScene,
+    (x0, y0, w, h): (u32, u32, u32, u32),
+    opts: &RenderOptions,
+    isa: Isa,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Image, RenderError> {
+    check(scene, opts)?;
     let tubes = rs.tubes.any();
     let technique = lambert_technique(opts.method);
     let combination = Combination::of(opts.method);
     let ctx = Context {
-        rs: &rs,
+        rs,
         opts,
         isa: if isa.supported() { isa } else { Isa::Baseline },
         full_width: scene.sensor.film.width,
@@ -184,11 +203,11 @@ pub fn render_isa(
             1
         },
         tubes,
-        light_rows: light_rows(&rs, opts.lights),
+        light_rows: light_rows(rs, opts.lights),
         reorder: order::pays(&rs.bvh, u64::from(w) * u64::from(h)),
     };
     let mut image = render_in_tiles(
-        &rs,
+        rs,
         opts,
         (x0, y0, w, h),
         progress,
@@ -197,7 +216,7 @@ pub fn render_isa(
     image.meta = metadata(
         opts,
         scene,
-        pixel_entries(scene, &rs, (x0, y0, w, h)),
+        pixel_entries(scene, rs, (x0, y0, w, h)),
         Vec::new(),
     );
     Ok(image)
