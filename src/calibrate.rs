@@ -13,7 +13,7 @@
 use linlight_imagefile::Image;
 use linlight_render::scene::Scene;
 use linlight_render::xml::load_scene;
-use linlight_render::{render, LightSelection, Method, RenderOptions};
+use linlight_render::{LightSelection, Method, Prepared, RenderOptions};
 use linlight_sampling::mis::Heuristic;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Verdict};
@@ -258,26 +258,31 @@ fn calibrate_family(
     let started = Instant::now();
     let (mut at_budget, mut at_low) = (Tally::default(), Tally::default());
     let quiet = |_: usize, _: usize| {};
+    // The scene built once for all its renders.
+    let prepared = Prepared::new(scene).map_err(|e| render_error("the scene", e))?;
+    let crop = scene.sensor.film.crop;
     for k in 0..opts.pairs as u64 {
         let base = 1_000_003 * (k + 1);
-        let b = render(
-            scene,
-            &options(
-                family.method,
-                opts.reference_spp,
-                opts.reference_passes,
-                base,
-            ),
-            &quiet,
-        )
-        .map_err(|e| render_error("reference", e))?;
+        let b = prepared
+            .render(
+                crop,
+                &options(
+                    family.method,
+                    opts.reference_spp,
+                    opts.reference_passes,
+                    base,
+                ),
+                &quiet,
+            )
+            .map_err(|e| render_error("reference", e))?;
         let seed = base + 1;
-        let pilot = render(
-            scene,
-            &options(family.method, opts.budget.pilot_spp, 1, pilot_seed(seed)),
-            &quiet,
-        )
-        .map_err(|e| render_error("pilot", e))?;
+        let pilot = prepared
+            .render(
+                crop,
+                &options(family.method, opts.budget.pilot_spp, 1, pilot_seed(seed)),
+                &quiet,
+            )
+            .map_err(|e| render_error("pilot", e))?;
         let (
             Budget {
                 spp,
@@ -291,7 +296,7 @@ fn calibrate_family(
             .map_err(|e| Unusable(format!("budget of {}: {e}", family.name)))?;
         // As certify renders: per-tile counts where the plan has them.
         let a = planned::render(
-            &|s, o, p| render(s, o, p),
+            &|c, o, p| prepared.render(c, o, p),
             scene,
             &options(family.method, spp, 1, seed),
             pixel_spp.as_deref(),
@@ -301,7 +306,8 @@ fn calibrate_family(
         // The samples a render costs: per pixel on average (the per-tile budget gives the
         // pixels of hard tiles more than `spp`).
         at_budget.add(&a, &b, pixel_spp_mean.round() as u32, &opts.compare)?;
-        let low = render(scene, &options(family.method, LOW_SPP, 1, base + 2), &quiet)
+        let low = prepared
+            .render(crop, &options(family.method, LOW_SPP, 1, base + 2), &quiet)
             .map_err(|e| render_error("256 spp", e))?;
         at_low.add(&low, &b, LOW_SPP, &opts.compare)?;
         progress(k as usize + 1, opts.pairs);

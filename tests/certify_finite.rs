@@ -9,8 +9,8 @@ mod power;
 use linlight::certify::matrix::{ExactTubes, FINITE_SUBJECTS};
 use linlight::certify::{self, Subject};
 use linlight_imagefile::Image;
-use linlight_render::scene::Scene;
-use linlight_render::{Cylinders, RenderError, RenderOptions};
+use linlight_render::scene::CropWindow;
+use linlight_render::{Cylinders, Prepared, RenderError, RenderOptions};
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::Verdict;
 use power::{assert_rejected, certify_with, options};
@@ -27,7 +27,8 @@ impl Subject for LineLimit {
     }
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
@@ -36,7 +37,7 @@ impl Subject for LineLimit {
             cylinders: Cylinders::Line,
             ..*opts
         };
-        linlight_render::render(scene, &o, progress)
+        scene.render(crop, &o, progress)
     }
     fn exact_tubes(&self) -> bool {
         true
@@ -58,11 +59,12 @@ impl Subject for Divided {
     }
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        let mut img = self.subject.render(scene, opts, progress)?;
+        let mut img = self.subject.render(scene, crop, opts, progress)?;
         let k = 1.0 / self.divisor;
         for (m, v) in img.mean.iter_mut().zip(img.var.iter_mut()) {
             *m = m.map(|c| c * k);

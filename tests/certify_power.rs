@@ -8,8 +8,8 @@ mod power;
 use glam::Vec3;
 use linlight::certify::{self, Subject};
 use linlight_imagefile::Image;
-use linlight_render::scene::Scene;
-use linlight_render::{Hooks, LightSampling, LightSelection, RenderError, RenderOptions};
+use linlight_render::scene::CropWindow;
+use linlight_render::{Hooks, LightSampling, LightSelection, Prepared, RenderError, RenderOptions};
 use linlight_sampling::area::Area;
 use linlight_sampling::li2018::Li2018;
 use linlight_sampling::{LineFrame, LineSampler, Segment, Technique};
@@ -53,19 +53,16 @@ impl Subject for Scaled {
     }
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        let mut img = self.technique.render(scene, opts, progress)?;
+        let mut img = self.technique.render(scene, crop, opts, progress)?;
         let k = self.factor;
         // Certify renders the cells of tiles that need more samples as crop windows of the
         // (uncropped) scene: the region is in film coordinates.
-        let (ox, oy) = scene
-            .sensor
-            .film
-            .crop
-            .map_or((0, 0), |c| (c.offset_x as usize, c.offset_y as usize));
+        let (ox, oy) = crop.map_or((0, 0), |c| (c.offset_x as usize, c.offset_y as usize));
         let inside = |fx: usize, fy: usize| {
             self.region.is_none_or(|r| {
                 (r.x..r.x + r.width).contains(&fx) && (r.y..r.y + r.height).contains(&fy)

@@ -9,8 +9,8 @@ use common::{root, scratch};
 use linlight::certify::budget::BudgetRule;
 use linlight::certify::{self, Options, Oracle, Subject};
 use linlight_imagefile::Image;
-use linlight_render::scene::Scene;
-use linlight_render::{render, RenderError, RenderOptions};
+use linlight_render::scene::CropWindow;
+use linlight_render::{Prepared, RenderError, RenderOptions};
 use linlight_sampling::Technique;
 
 /// The production technique under another name: its images are identical to the original's.
@@ -22,7 +22,8 @@ impl Subject for Twin {
     }
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
@@ -30,7 +31,7 @@ impl Subject for Twin {
             method: Technique::ProjectedSolidAngle.into(),
             ..*opts
         };
-        render(scene, &opts, progress)
+        scene.render(crop, &opts, progress)
     }
 }
 

@@ -20,9 +20,9 @@
 
 use super::Subject;
 use linlight_imagefile::Image;
-use linlight_render::scene::Scene;
+use linlight_render::scene::{CropWindow, Scene};
 use linlight_render::{options::cylinder_technique, TubeSampling};
-use linlight_render::{render, Cylinders, Heuristic, Method, RenderError, RenderOptions};
+use linlight_render::{Cylinders, Heuristic, Method, Prepared, RenderError, RenderOptions};
 use linlight_sampling::cylinder::CylinderTechnique;
 use linlight_sampling::Technique;
 
@@ -132,16 +132,6 @@ pub fn finite_subjects(scene: &Scene) -> Vec<ExactTubes> {
     v
 }
 
-impl ExactTubes {
-    /// The render options of this subject from certify's.
-    pub fn options(&self, opts: &RenderOptions) -> RenderOptions {
-        RenderOptions {
-            cylinders: Cylinders::Exact(self.0),
-            ..*opts
-        }
-    }
-}
-
 impl std::str::FromStr for ExactTubes {
     type Err = String;
     /// `exact:T` (MIS balance, `linlight render`'s default) or `exact:T:mis=balance|off`.
@@ -166,6 +156,16 @@ impl std::str::FromStr for ExactTubes {
     }
 }
 
+impl ExactTubes {
+    /// The render options of this subject from certify's.
+    pub fn options(&self, opts: &RenderOptions) -> RenderOptions {
+        RenderOptions {
+            cylinders: Cylinders::Exact(self.0),
+            ..*opts
+        }
+    }
+}
+
 impl Subject for ExactTubes {
     fn name(&self) -> String {
         let t = self.0.technique.name();
@@ -177,11 +177,12 @@ impl Subject for ExactTubes {
     }
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        render(scene, &self.options(opts), progress)
+        scene.render(crop, &self.options(opts), progress)
     }
     fn exact_tubes(&self) -> bool {
         true

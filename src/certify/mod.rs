@@ -41,8 +41,10 @@ pub mod scenes;
 pub mod shard;
 
 use linlight_imagefile::Image;
-use linlight_render::scene::Scene;
-use linlight_render::{record_inputs, render, LightSelection, Method, RenderError, RenderOptions};
+use linlight_render::scene::{CropWindow, Scene};
+use linlight_render::{
+    record_inputs, LightSelection, Method, Prepared, RenderError, RenderOptions,
+};
 use linlight_sampling::noise::Noise;
 use linlight_sampling::Technique;
 use linlight_verify::image_stats::{compare, CompareConfig, Comparison, Verdict};
@@ -130,14 +132,14 @@ impl Subject for VariantRender {
             format!("{} ({} noise)", self.technique.name(), self.noise.name())
         }
     }
-    /// With blue noise `opts.spp` samples in total, split over [`NOISE_PASSES`] passes.
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        render(scene, &self.options(opts), progress)
+        scene.render(crop, &self.options(opts), progress)
     }
     /// White-noise renders of a batch technique with one light sample take the packets (the
     /// one-light renders: lanes choosing different lights in one packet).
@@ -148,7 +150,7 @@ impl Subject for VariantRender {
 
 impl VariantRender {
     /// The options of its render from certify's: its technique, noise and light selection;
-    /// with blue noise the same total samples split over [`NOISE_PASSES`] passes.
+    /// with blue noise `opts.spp` samples in total, split over [`NOISE_PASSES`] passes.
     fn options(&self, opts: &RenderOptions) -> RenderOptions {
         let total = opts.spp as u64 * opts.passes as u64;
         let passes = if self.noise == Noise::White {
@@ -191,10 +193,12 @@ pub enum Oracle {
 /// Something that renders a scene: a technique, or (in tests) a deliberately wrong variant.
 pub trait Subject: Sync {
     fn name(&self) -> String;
-    /// Render `scene` with `opts` (its `method` field is the subject's business).
+    /// Render the window `crop` of `scene`'s film (full-film pixels; None: the whole film) with
+    /// `opts` (its `method` field is the subject's business), as [`Prepared::render`] does.
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError>;
@@ -261,11 +265,12 @@ impl Subject for Technique {
     }
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        Method::from(*self).render(scene, opts, progress)
+        Method::from(*self).render(scene, crop, opts, progress)
     }
     fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
         Method::from(*self).renders_in_packets(scene, opts)
@@ -307,11 +312,12 @@ impl Subject for Method {
     }
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        render(scene, &with_method(*self, opts), progress)
+        scene.render(crop, &with_method(*self, opts), progress)
     }
     fn renders_in_packets(&self, scene: &Scene, opts: &RenderOptions) -> bool {
         linlight_render::packet::applies(scene, &with_method(*self, opts))
@@ -489,7 +495,8 @@ pub struct SceneReport {
 pub struct StageCpu {
     /// The exact image (closed form or line quadrature), where the scene has one.
     pub exact_image: f64,
-    /// The pilot renders that set the budgets.
+    /// The pilot renders that set the budgets, and the scene's acceleration structures (built
+    /// once for every render of the scene).
     pub pilots: f64,
     /// The renders at the budget (crop windows of the per-tile budget included).
     pub renders: f64,
@@ -1045,11 +1052,15 @@ impl SceneRun<'_> {
         // The renders that a later subject reuses ([`Subject::same_render_as`]), by name.
         let wanted: Vec<String> = subjects.iter().filter_map(|t| t.same_render_as()).collect();
         let mut shared = SharedRenders::new();
+        // Built once for every subject's pilots and renders.
+        let prepared = self
+            .stage(&mut cpu, |c| &mut c.pilots, || Prepared::new(&s.scene))
+            .map_err(|e| Unusable(format!("cannot render {}: {e}", s.name)))?;
         let mut rows = Vec::new();
         for &subject in subjects {
             let oracles = (&reference, exact.as_ref());
             let (subject_rows, render) =
-                self.subject_rows(s, subject, oracles, &shared, &mut cpu)?;
+                self.subject_rows(&prepared, s, subject, oracles, &shared, &mut cpu)?;
             rows.extend(subject_rows);
             if let Some(render) = render.filter(|_| wanted.contains(&subject.name())) {
                 shared.insert(subject.name(), render);
@@ -1125,6 +1136,7 @@ impl SceneRun<'_> {
     /// at N per camera sample, kept if the cost model says so.
     fn plan(
         &self,
+        prepared: &Prepared,
         s: &ReferencedScene,
         subject: &dyn Subject,
         reference: &Image,
@@ -1134,7 +1146,7 @@ impl SceneRun<'_> {
         let planned = |rule: &BudgetRule, base: &RenderOptions| {
             let t = Instant::now();
             let pilot = subject
-                .render(&s.scene, base, &|_, _| {})
+                .render(prepared, s.scene.sensor.film.crop, base, &|_, _| {})
                 .map_err(|e| render_error(&s.name, &name, e))?;
             let seconds = t.elapsed().as_secs_f64();
             let (budget, pixel_spp) = rule.plan(&pilot, reference, self.cfg).map_err(|e| {
@@ -1180,6 +1192,7 @@ impl SceneRun<'_> {
     /// `(reference, exact)`; and the render where this call made it.
     fn subject_rows(
         &self,
+        prepared: &Prepared,
         s: &ReferencedScene,
         subject: &dyn Subject,
         (reference, exact): (&Image, Option<&Image>),
@@ -1192,7 +1205,10 @@ impl SceneRun<'_> {
         });
         let (render, render_of) = match subject.same_render_as().and_then(|of| shared.get(&of)) {
             Some(r) => (r.relabelled(subject), Some(r.subject.clone())),
-            None => (self.render_subject(s, subject, reference, cpu)?, None),
+            None => (
+                self.render_subject(prepared, s, subject, reference, cpu)?,
+                None,
+            ),
         };
         let mut oracles = vec![("mitsuba", reference)];
         if let Some(c) = exact {
@@ -1215,6 +1231,7 @@ impl SceneRun<'_> {
     /// `subject`'s budget from its pilots, and its render of `s` with it.
     fn render_subject(
         &self,
+        prepared: &Prepared,
         s: &ReferencedScene,
         subject: &dyn Subject,
         reference: &Image,
@@ -1224,14 +1241,14 @@ impl SceneRun<'_> {
         let planned = self.stage(
             cpu,
             |c| &mut c.pilots,
-            || self.plan(s, subject, reference, &base),
+            || self.plan(prepared, s, subject, reference, &base),
         )?;
         let t = Instant::now();
         let mut image = self
             .stage(
                 cpu,
                 |c| &mut c.renders,
-                || self.render_planned(s, subject, &base, &planned),
+                || self.render_planned(prepared, s, subject, &base, &planned),
             )
             .map_err(|e| render_error(&s.name, &subject.name(), e))?;
         let render_seconds = t.elapsed().as_secs_f64();
@@ -1248,6 +1265,7 @@ impl SceneRun<'_> {
     /// The subject's render of `s` with its planned budget, at certify's seed.
     fn render_planned(
         &self,
+        prepared: &Prepared,
         s: &ReferencedScene,
         subject: &dyn Subject,
         base: &RenderOptions,
@@ -1255,7 +1273,7 @@ impl SceneRun<'_> {
     ) -> Result<Image, RenderError> {
         let tiles = |done: usize, total: usize| (self.events)(Event::Tiles { done, total });
         planned::render(
-            &|scene, o, p| subject.render(scene, o, p),
+            &|crop, o, p| subject.render(prepared, crop, o, p),
             &s.scene,
             &RenderOptions {
                 spp: planned.budget.spp,

@@ -20,8 +20,14 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// shifted by 8) are unions of 8×8 cells, so the budget's counts are constant on a cell.
 pub const CELL: usize = 8;
 
-/// How a subject renders a scene (its `render`).
-pub type RenderFn<'a> = dyn Fn(&Scene, &RenderOptions, &(dyn Fn(usize, usize) + Sync)) -> Result<Image, RenderError>
+/// How a subject renders windows of the scene: `render(crop, opts, progress)` renders the
+/// scene's film cropped to `crop` (full-film pixels) with `opts`, as
+/// [`linlight_render::Prepared::render`].
+pub type RenderFn<'a> = dyn Fn(
+        Option<CropWindow>,
+        &RenderOptions,
+        &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Image, RenderError>
     + Sync
     + 'a;
 
@@ -76,24 +82,22 @@ fn all_strips(pixel_spp: &[u32], width: usize, height: usize) -> Vec<Strip> {
     out
 }
 
-/// `scene` cropped to the window `s` (window coordinates of `scene`'s own window).
-fn cropped(scene: &Scene, s: &Strip) -> Scene {
+/// The crop window of the strip `s` (window coordinates of `scene`'s own window).
+fn cropped(scene: &Scene, s: &Strip) -> CropWindow {
     let (x0, y0) = scene
         .sensor
         .film
         .crop
         .map_or((0, 0), |c| (c.offset_x, c.offset_y));
-    let mut scene = scene.clone();
-    scene.sensor.film.crop = Some(CropWindow {
+    CropWindow {
         offset_x: x0 + s.x as u32,
         offset_y: y0 + s.y as u32,
         width: s.width as u32,
         height: s.height as u32,
-    });
-    scene
+    }
 }
 
-/// Render with `render` at `opts.spp` (one pass), then the cells whose pixels need more of
+/// Render `scene` with `render` at `opts.spp` (one pass), then the cells whose pixels need more of
 /// `pixel_spp` (row-major over the scene's window; None: nothing more) at that count.
 /// `progress(done, total)` counts camera samples of all of it.
 pub fn render(
@@ -104,7 +108,7 @@ pub fn render(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
     let Some(plan) = pixel_spp else {
-        return render(scene, opts, progress);
+        return render(scene.sensor.film.crop, opts, progress);
     };
     let film = &scene.sensor.film;
     let (w, h) = film
@@ -150,7 +154,9 @@ pub fn render(
         progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
     };
     let last = AtomicUsize::new(0);
-    let mut image = render(scene, &header_opts, &|d, _| tracked(&last, d))?;
+    let mut image = render(scene.sensor.film.crop, &header_opts, &|d, _| {
+        tracked(&last, d)
+    })?;
     let crops = render_strips(render, scene, opts, &cells, &tracked)?;
     // The header of a render at the base count, with the window's own entries.
     let base = crops
@@ -230,7 +236,7 @@ fn render_strips(
             let s = &pieces[i];
             let last = AtomicUsize::new(0);
             let img = render(
-                &cropped(scene, s),
+                Some(cropped(scene, s)),
                 &RenderOptions {
                     spp: s.spp,
                     ..*opts
@@ -276,7 +282,7 @@ fn render_over_base(
         progress(done.fetch_add(step, Ordering::Relaxed) + step, total);
     };
     let last = AtomicUsize::new(0);
-    let mut image = render(scene, opts, &|d, _| tracked(&last, d))?;
+    let mut image = render(scene.sensor.film.crop, opts, &|d, _| tracked(&last, d))?;
     let crops = render_strips(render, scene, opts, &strips, &tracked)?;
     let mut counts = vec![image.meta.spp.min(u32::MAX as u64) as u32; w * h];
     let dropped = dropped_samples(&image);
@@ -368,9 +374,11 @@ mod tests {
             }
         }
         plan[20 * w + 3] = 16; // sets the cell (0, 16)
-        let render_fn = |s: &Scene, o: &RenderOptions, p: &(dyn Fn(usize, usize) + Sync)| {
-            linlight_render::render(s, o, p)
-        };
+        let prepared = linlight_render::Prepared::new(&scene).unwrap();
+        let render_fn =
+            |c: Option<CropWindow>, o: &RenderOptions, p: &(dyn Fn(usize, usize) + Sync)| {
+                prepared.render(c, o, p)
+            };
         let last = std::sync::Mutex::new((0, 0));
         let img = render(&render_fn, &scene, &opts, Some(&plan), &|d, t| {
             *last.lock().unwrap() = (d, t);
@@ -428,9 +436,11 @@ mod tests {
         for y in 0..h {
             plan[y * w + 20] = 8 + 4 * (y / 8) as u32;
         }
-        let render_fn = |s: &Scene, o: &RenderOptions, p: &(dyn Fn(usize, usize) + Sync)| {
-            linlight_render::render(s, o, p)
-        };
+        let prepared = linlight_render::Prepared::new(&scene).unwrap();
+        let render_fn =
+            |c: Option<CropWindow>, o: &RenderOptions, p: &(dyn Fn(usize, usize) + Sync)| {
+                prepared.render(c, o, p)
+            };
         let img = render(&render_fn, &scene, &opts, Some(&plan), &|_, _| {}).unwrap();
         let over_base =
             render_over_base(&render_fn, &scene, &opts, &plan, (w, h), &|_, _| {}).unwrap();

@@ -8,8 +8,8 @@
 use linlight::certify::{self, matrix, Options, Oracle, Report, Subject};
 use linlight_imagefile::Image;
 use linlight_render::hooks::{BsdfModel, LightSampling, SpecularSampling};
-use linlight_render::scene::Scene;
-use linlight_render::{render_scalar, Hooks, Method, RenderError, RenderOptions};
+use linlight_render::scene::CropWindow;
+use linlight_render::{Hooks, Method, Prepared, RenderError, RenderOptions};
 use linlight_verify::image_stats::Verdict;
 use std::path::Path;
 
@@ -82,12 +82,13 @@ impl<D: LightSampling, S: SpecularSampling, B: BsdfModel> Subject for Hooked<D, 
     }
     fn render(
         &self,
-        scene: &Scene,
+        scene: &Prepared,
+        crop: Option<CropWindow>,
         opts: &RenderOptions,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Image, RenderError> {
-        render_scalar(
-            scene,
+        scene.render_scalar(
+            crop,
             &RenderOptions {
                 method: self.method,
                 ..*opts
