@@ -30,7 +30,7 @@ use crate::hooks::{
 };
 use crate::light::Light;
 use crate::method::Method;
-use crate::options::{check_options, window, RenderError, RenderOptions};
+use crate::options::{check_options, window, RenderError, RenderOptions, Window};
 use crate::ray_offset::shadow_ray_to;
 use crate::render_scene::{reflecting_normal, RenderScene};
 use crate::scene::{Rgb, Scene};
@@ -360,7 +360,7 @@ pub fn render_scalar<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
 pub(crate) fn render_scalar_window<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &Scene,
     rs: &RenderScene,
-    window: (u32, u32, u32, u32),
+    window: Window,
     opts: &RenderOptions,
     hooks: &Hooks<D, S, B>,
     progress: &(dyn Fn(usize, usize) + Sync),
@@ -383,7 +383,7 @@ pub(crate) fn render_scalar_window<D: LightSampling, S: SpecularSampling, B: Bsd
 fn render_tiles<T: LightSampling, S: SpecularSampling, B: BsdfModel>(
     scene: &Scene,
     rs: &RenderScene,
-    (x0, y0, w, h): (u32, u32, u32, u32),
+    (x0, y0, w, h): Window,
     opts: &RenderOptions,
     pieces: Resolved<T, S, B>,
     progress: &(dyn Fn(usize, usize) + Sync),

@@ -50,11 +50,6 @@ impl<'s> Prepared<'s> {
         Ok(Self { scene, rs })
     }
 
-    /// The scene prepared.
-    pub fn scene(&self) -> &'s Scene {
-        self.scene
-    }
-
     /// [`render`] of the scene with its film cropped to `crop` (full-film pixels; None: the
     /// whole film, whatever the scene's own crop).
     pub fn render(

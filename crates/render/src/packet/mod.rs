@@ -58,7 +58,7 @@ use crate::film::Welford;
 use crate::frame::{metadata, pixel_entries, render_in_tiles};
 use crate::light::LightRow;
 use crate::method::Method;
-use crate::options::{check_options, window, Cylinders, RenderError, RenderOptions};
+use crate::options::{check_options, window, Cylinders, RenderError, RenderOptions, Window};
 use crate::render_scene::RenderScene;
 use crate::scene::Scene;
 use crate::shading::{lambert_technique, Combination};
@@ -169,16 +169,17 @@ fn check(scene: &Scene, opts: &RenderOptions) -> Result<(), RenderError> {
 }
 
 /// [`render_isa`] of the pixels `(x0, y0, w, h)` of `scene`'s film (a valid window) with `rs`,
-/// its render scene with `opts.cylinders` ([`RenderScene::sharing`]).
+/// its render scene with `opts.cylinders` ([`RenderScene::sharing`]), for options that pass
+/// [`check`].
 pub(crate) fn render_window(
     scene: &Scene,
     rs: &RenderScene,
-    (x0, y0, w, h): (u32, u32, u32, u32),
+    (x0, y0, w, h): Window,
     opts: &RenderOptions,
     isa: Isa,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    check(scene, opts)?;
+    debug_assert!(check(scene, opts).is_ok(), "{opts:?}");
     let tubes = rs.tubes.any();
     let technique = lambert_technique(opts.method);
     let combination = Combination::of(opts.method);
