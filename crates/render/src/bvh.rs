@@ -965,20 +965,11 @@ impl Bvh {
         // interval tests, then ray by ray for the boxes they pass.
         let small = self.nodes.len() <= INTERVAL_NODES;
         let few = if small { 0 } else { FEW_RAYS };
-        if active.count_ones() <= few {
-            let mut inv = [[0.0; PACKET]; 3];
-            let mut m = active;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                for (row, d) in inv.iter_mut().zip(&lanes.d) {
-                    row[k] = 1.0 / d[k];
-                }
-            }
-            return self.occluded_rays(lanes, &inv, active, 0);
-        }
         let mut packet = K::packet(lanes, active);
         packet.rays_too = !small;
+        if active.count_ones() <= few {
+            return self.occluded_rays(lanes, &packet.inv, active, 0);
+        }
         let mut occluded = 0u32;
         let mut stack = stack::<PacketEntry, 64>();
         let mut spill: Vec<PacketEntry> = Vec::new();
