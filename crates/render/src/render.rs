@@ -5,7 +5,7 @@
 //! [`crate::integrator`] (the scalar path, any hooks) and [`crate::packet`] (ray packets).
 
 use crate::hooks::{BsdfModel, Hooks, LightSampling, SpecularSampling};
-use crate::integrator::{render_scalar, render_scalar_window};
+use crate::integrator::render_scalar_window;
 use crate::options::{check_options, window_of, Cylinders, RenderError, RenderOptions, Window};
 use crate::render_scene::RenderScene;
 use crate::scene::{CropWindow, Scene};
@@ -18,18 +18,18 @@ use linlight_simd::Isa;
 ///
 /// Where it applies ([`crate::packet::applies`]: one light sample, white noise, and a batch
 /// technique or a scene with Lambertian surfaces, or exact tubes as every light) the packet
-/// renderer renders, whose images
-/// equal those of the scalar path [`render_scalar`]`(scene, opts, &Hooks::new(), …)` bit for
-/// bit; the scalar path renders everything else.
+/// renderer renders, whose images equal those of the scalar path
+/// [`crate::integrator::render_scalar`]`(scene, opts, &Hooks::new(), …)` bit for bit; the
+/// scalar path renders everything else. A scene rendered more than once is [`Prepared`] once
+/// instead.
 pub fn render(
     scene: &Scene,
     opts: &RenderOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Image, RenderError> {
-    if crate::packet::applies(scene, opts) {
-        return crate::packet::render(scene, opts, progress);
-    }
-    render_scalar(scene, opts, &Hooks::new(), progress)
+    // Options no render can use are refused before the scene is built.
+    check_options(opts)?;
+    Prepared::new(scene)?.render(scene.sensor.film.crop, opts, progress)
 }
 
 /// A scene with its acceleration structures built once ([`RenderScene`]), for any number of
@@ -65,7 +65,8 @@ impl<'s> Prepared<'s> {
         crate::packet::render_window(self.scene, &rs, window, opts, Isa::detect(), progress)
     }
 
-    /// [`render_scalar`] of the scene with its film cropped to `crop` (None: the whole film).
+    /// [`crate::integrator::render_scalar`] of the scene with its film cropped to `crop` (None:
+    /// the whole film).
     pub fn render_scalar<D: LightSampling, S: SpecularSampling, B: BsdfModel>(
         &self,
         crop: Option<CropWindow>,
@@ -93,6 +94,7 @@ impl<'s> Prepared<'s> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::integrator::render_scalar;
     use crate::options::TubeSampling;
     use crate::scene_builder::{floor, light, scene, sensor};
     use crate::LightSelection;
@@ -106,6 +108,17 @@ mod tests {
         let mut s = scene.clone();
         s.sensor.film.crop = crop;
         s
+    }
+
+    /// The render of `scene` by the renderer's own entry point (packets where they apply,
+    /// else the scalar path), each building its render scene itself.
+    fn unprepared(scene: &Scene, opts: &RenderOptions) -> Image {
+        let quiet = |_: usize, _: usize| {};
+        if crate::packet::applies(scene, opts) {
+            crate::packet::render(scene, opts, &quiet).unwrap()
+        } else {
+            render_scalar(scene, opts, &Hooks::new(), &quiet).unwrap()
+        }
     }
 
     /// The options a prepared scene is rendered with below: the packets, the scalar path
@@ -145,8 +158,8 @@ mod tests {
     }
 
     /// Every committed scene and a finite-tube scene, each prepared once: its renders of two
-    /// windows at the same time, and of the whole film, equal `render` of the scene cropped to
-    /// them, bit for bit and headers included, with every option set.
+    /// windows at the same time, and of the whole film, equal the unprepared render of the
+    /// scene cropped to them, bit for bit and headers included, with every option set.
     #[test]
     fn prepared_windows_equal_renders_of_the_cropped_scene() {
         let res = [("res".to_string(), "24".to_string())];
@@ -179,7 +192,7 @@ mod tests {
                     || rayon::join(|| at(windows[1]), || at(windows[2])),
                 );
                 for (got, crop) in [a, b, c].iter().zip(windows) {
-                    let want = render(&cropped(&sc, crop), &o, &quiet).unwrap();
+                    let want = unprepared(&cropped(&sc, crop), &o);
                     assert_eq!(*got, want, "{} {o:?} {crop:?}", path.display());
                 }
             }
@@ -216,10 +229,7 @@ mod tests {
             || prepared.render(None, &o(16), &quiet).unwrap(),
             || prepared.render(None, &o(64), &quiet).unwrap(),
         );
-        let (want_a, want_b) = (
-            render(&s, &o(16), &quiet).unwrap(),
-            render(&s, &o(64), &quiet).unwrap(),
-        );
+        let (want_a, want_b) = (unprepared(&s, &o(16)), unprepared(&s, &o(64)));
         assert!(dropped(&want_a) > 0 && dropped(&want_b) > dropped(&want_a));
         assert_eq!(
             (dropped(&a), dropped(&b)),
