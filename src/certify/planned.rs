@@ -83,7 +83,7 @@ fn all_strips(pixel_spp: &[u32], width: usize, height: usize) -> Vec<Strip> {
 }
 
 /// The crop window of the strip `s` (window coordinates of `scene`'s own window).
-fn cropped(scene: &Scene, s: &Strip) -> CropWindow {
+fn crop_window(scene: &Scene, s: &Strip) -> CropWindow {
     let (x0, y0) = scene
         .sensor
         .film
@@ -236,7 +236,7 @@ fn render_strips(
             let s = &pieces[i];
             let last = AtomicUsize::new(0);
             let img = render(
-                Some(cropped(scene, s)),
+                Some(crop_window(scene, s)),
                 &RenderOptions {
                     spp: s.spp,
                     ..*opts
